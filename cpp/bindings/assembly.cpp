@@ -1,0 +1,95 @@
+#include "convert.hpp"
+#include "pipeflex/assembly/model.hpp"
+
+#include <pybind11/stl.h>
+
+namespace py = pybind11;
+using namespace pipeflex;
+using namespace pipeflex::bindings;
+
+namespace {
+
+py::tuple triplets_to_numpy(const Triplets& t) {
+    return py::make_tuple(py::array_t<int>(t.rows.size(), t.rows.data()),
+                          py::array_t<int>(t.cols.size(), t.cols.data()),
+                          py::array_t<double>(t.values.size(), t.values.data()));
+}
+
+}  // namespace
+
+void bind_assembly(py::module_& m) {
+    py::class_<Model>(m, "Model")
+        .def(py::init<>())
+        .def("add_node",
+             [](Model& md, const Eigen::Vector3d& x) {
+                 md.positions.push_back(to_vec3(x));
+                 return md.n_nodes() - 1;
+             })
+        .def("add_pipe",
+             [](Model& md, int p, int q, const PipeElementData& d) {
+                 md.pipes.push_back({p, q, d});
+                 return static_cast<int>(md.pipes.size()) - 1;
+             })
+        .def("add_load",
+             [](Model& md, int node, const Eigen::Vector3d& f, const Eigen::Vector3d& mo,
+                const Eigen::Vector3d& ff, const Eigen::Vector3d& fm) {
+                 md.loads.push_back({node, to_vec3(f), to_vec3(mo), to_vec3(ff), to_vec3(fm)});
+             })
+        .def("add_mass",
+             [](Model& md, int node, double mass, const Eigen::Vector3d& inertia) {
+                 md.masses.push_back({node, mass, to_vec3(inertia)});
+             })
+        .def("set_bases", [](Model& md, const std::vector<Eigen::MatrixXd>& b) { md.bases = b; })
+        .def("finalize", &Model::finalize)
+        .def_property_readonly("n_nodes", &Model::n_nodes)
+        .def_readonly("n_dofs", &Model::n_dofs)
+        .def_readonly("first_dof", &Model::first_dof)
+        .def_property_readonly("n_pipes", [](const Model& md) { return md.pipes.size(); })
+        .def("pipe", [](const Model& md, int i) { return md.pipes.at(i).data; })
+        .def("pipe_nodes", [](const Model& md, int i) { return py::make_tuple(md.pipes.at(i).p, md.pipes.at(i).q); });
+
+    py::class_<State>(m, "State")
+        .def(py::init<const Model&>())
+        .def_property(
+            "q", [](State& s) -> Eigen::Ref<Eigen::VectorXd> { return s.q; },
+            [](State& s, const Eigen::VectorXd& x) { s.q = x; }, py::return_value_policy::reference_internal)
+        .def_property(
+            "v", [](State& s) -> Eigen::Ref<Eigen::VectorXd> { return s.v; },
+            [](State& s, const Eigen::VectorXd& x) { s.v = x; }, py::return_value_policy::reference_internal)
+        .def_property(
+            "a", [](State& s) -> Eigen::Ref<Eigen::VectorXd> { return s.a; },
+            [](State& s, const Eigen::VectorXd& x) { s.a = x; }, py::return_value_policy::reference_internal)
+        .def("frame", [](const State& s, int i) { return from_mat3(s.frames.at(i)); })
+        .def("set_frame", [](State& s, int i, const RowMat3& R) { s.frames.at(i) = to_mat3(R); })
+        .def("rotation", [](const State& s, int i) { return from_mat3(s.rotation(i)); })
+        .def("rebase", &State::rebase, py::arg("max_angle"))
+        .def("copy", [](const State& s) { return State(s); });
+
+    m.def(
+        "assemble",
+        [](const Model& md, const State& s, const LoadState& load, double lf, double wK, double wC,
+           double wM, bool matrix) {
+            Eigen::VectorXd r;
+            Triplets t;
+            {
+                py::gil_scoped_release release;
+                assemble(md, s, load, lf, wK, wC, wM, &r, matrix ? &t : nullptr);
+            }
+            if (!matrix) return py::make_tuple(r, py::none());
+            return py::make_tuple(r, triplets_to_numpy(t));
+        },
+        py::arg("model"), py::arg("state"), py::arg("load"), py::arg("load_factor"), py::arg("wK"),
+        py::arg("wC"), py::arg("wM"), py::arg("matrix") = true,
+        "Reduced residual and weighted tangent triplets (rows, cols, values).");
+    m.def("external_forces", &external_forces);
+    m.def("add_increment", [](const Model& md, State& s, const Eigen::VectorXd& dz, const std::string& which) {
+        Eigen::VectorXd& x = which == "q" ? s.q : which == "v" ? s.v : s.a;
+        add_increment(md, x, dz);
+    });
+    m.def("reduce", &reduce);
+    m.def("energies", [](const Model& md, const State& s) {
+        double t, u;
+        energies(md, s, &t, &u);
+        return py::make_tuple(t, u);
+    });
+}

@@ -1,0 +1,87 @@
+#include "convert.hpp"
+#include "pipeflex/core/rotation.hpp"
+#include "pipeflex/elements/pipe_beam3d.hpp"
+
+#include <stdexcept>
+
+namespace py = pybind11;
+using namespace pipeflex;
+using namespace pipeflex::bindings;
+
+namespace {
+
+using Vec12 = Eigen::Matrix<double, 12, 1>;
+using Mat12 = Eigen::Matrix<double, 12, 12, Eigen::RowMajor>;
+
+NodeFrames frames(const RowMat3& p, const RowMat3& q) { return {to_mat3(p), to_mat3(q)}; }
+
+}  // namespace
+
+void bind_elements(py::module_& m) {
+    py::class_<PipeElementData>(m, "PipeElementData")
+        .def(py::init<>())
+        .def_readwrite("l0", &PipeElementData::l0)
+        .def_readwrite("EA", &PipeElementData::EA)
+        .def_readwrite("GJ", &PipeElementData::GJ)
+        .def_readwrite("EIy", &PipeElementData::EIy)
+        .def_readwrite("EIz", &PipeElementData::EIz)
+        .def_readwrite("Phi_y", &PipeElementData::Phi_y)
+        .def_readwrite("Phi_z", &PipeElementData::Phi_z)
+        .def_readwrite("strain0", &PipeElementData::strain0)
+        .def_property(
+            "offset_p", [](const PipeElementData& d) { return from_mat3(d.offset_p); },
+            [](PipeElementData& d, const RowMat3& a) { d.offset_p = to_mat3(a); })
+        .def_property(
+            "offset_q", [](const PipeElementData& d) { return from_mat3(d.offset_q); },
+            [](PipeElementData& d, const RowMat3& a) { d.offset_q = to_mat3(a); })
+        .def_readwrite("pipe_mass", &PipeElementData::pipe_mass)
+        .def_readwrite("fluid_mass", &PipeElementData::fluid_mass)
+        .def_readwrite("kv", &PipeElementData::kv)
+        .def_readwrite("rotary_inertia", &PipeElementData::rotary_inertia)
+        .def_readwrite("flow_factor", &PipeElementData::flow_factor)
+        .def_readwrite("fluid_end_terms", &PipeElementData::fluid_end_terms);
+
+    py::class_<LoadState>(m, "LoadState")
+        .def(py::init<>())
+        .def_readwrite("mass_flow", &LoadState::mass_flow)
+        .def_readwrite("mass_flow_rate", &LoadState::mass_flow_rate)
+        .def_readwrite("gravity", &LoadState::gravity)
+        .def_readwrite("gravity_factor", &LoadState::gravity_factor);
+
+    m.def(
+        "pipe_tangent",
+        [](const PipeElementData& d, const RowMat3& fp, const RowMat3& fq, const LoadState& load,
+           const Vec12& q, const Vec12& v, const Vec12& a, double wK, double wC, double wM) {
+            Vec12 r;
+            Mat12 J;
+            pipe_tangent(d, frames(fp, fq), load, q.data(), v.data(), a.data(), wK, wC, wM, r.data(), J.data());
+            return py::make_tuple(r, J);
+        },
+        py::arg("data"), py::arg("frame_p"), py::arg("frame_q"), py::arg("load"), py::arg("q"),
+        py::arg("v"), py::arg("a"), py::arg("wK"), py::arg("wC"), py::arg("wM"),
+        "Element residual r (12) and weighted tangent wK dr/dq + wC dr/dv + wM M (12x12).");
+    m.def(
+        "pipe_mass_matrix",
+        [](const PipeElementData& d, const RowMat3& fp, const RowMat3& fq, const Vec12& q) {
+            Mat12 M;
+            pipe_mass_matrix(d, frames(fp, fq), q.data(), M.data());
+            return M;
+        },
+        py::arg("data"), py::arg("frame_p"), py::arg("frame_q"), py::arg("q"));
+    m.def(
+        "pipe_strains",
+        [](const PipeElementData& d, const RowMat3& fp, const RowMat3& fq, const Vec12& q) {
+            Eigen::Matrix<double, 6, 1> e;
+            pipe_strains(d, frames(fp, fq), q.data(), e.data());
+            return e;
+        },
+        py::arg("data"), py::arg("frame_p"), py::arg("frame_q"), py::arg("q"));
+    m.def(
+        "rotation_exp",
+        [](const Eigen::Vector3d& phi) { return from_mat3(rotation_exp(to_vec3(phi))); },
+        py::arg("phi"), "exp(skew(phi)) for a rotation vector phi [rad].");
+    m.def(
+        "rotation_jacobian",
+        [](const Eigen::Vector3d& phi) { return from_mat3(rotation_jacobian(to_vec3(phi))); },
+        py::arg("phi"), "Left Jacobian T(phi): omega = T(phi) phi_dot.");
+}

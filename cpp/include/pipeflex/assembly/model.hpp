@@ -1,0 +1,82 @@
+// Model (immutable after construction), State (mutable) and the assembler.
+//
+// Every node carries 6 coordinates [x (3) m, phi (3) rad]; supports are linear
+// constraints on them, eliminated through a per-node basis T_n (6 x k_n): the free
+// (reduced) coordinates z give dq_n = T_n dz_n. The assembler evaluates
+//     R(z) = T^T [ sum_e r_e(q, q_dot, q_ddot) - lambda f_ext(q) ]
+// and the weighted tangent J = wK dR/dq + wC dR/dq_dot + wM dR/dq_ddot (reduced), one
+// routine for static (1, 0, 0), linearisation (one weight at a time) and time stepping.
+#pragma once
+
+#include "pipeflex/elements/pipe_beam3d.hpp"
+
+#include <Eigen/Core>
+#include <stdexcept>
+#include <vector>
+
+namespace pipeflex {
+
+struct PipeElement {
+    int p = 0, q = 0;  // node indices (flow from p to q)
+    PipeElementData data;
+};
+
+// Nodal load: dead force/moment in global axes, follower force/moment in the node frame.
+struct NodalLoad {
+    int node = 0;
+    Vec3<double> force{}, moment{};                  // [N], [N m] dead
+    Vec3<double> follower_force{}, follower_moment{};  // [N], [N m] in the node frame
+};
+
+// Concentrated mass at a node: mass [kg] and rotary inertia [kg m^2] in the node frame.
+struct NodalMass {
+    int node = 0;
+    double mass = 0.0;
+    Vec3<double> inertia{};
+};
+
+struct Model {
+    std::vector<Vec3<double>> positions;  // reference node positions [m]
+    std::vector<PipeElement> pipes;
+    std::vector<NodalLoad> loads;
+    std::vector<NodalMass> masses;
+    std::vector<Eigen::MatrixXd> bases;  // T_n (6 x k_n) per node
+    std::vector<int> first_dof;          // first reduced coordinate of each node
+    int n_dofs = 0;
+
+    int n_nodes() const { return static_cast<int>(positions.size()); }
+    void finalize();  // numbers the reduced coordinates; checks consistency
+};
+
+struct State {
+    Eigen::VectorXd q, v, a;              // 6 per node: positions, rotation vectors
+    std::vector<Mat3<double>> frames;     // reference rotation of each node
+
+    explicit State(const Model& m);
+    // Re-base the rotation of every node whose |phi| exceeds max_angle [rad].
+    int rebase(double max_angle);
+    // Nodal rotation matrix R = exp(phi) R_ref.
+    Mat3<double> rotation(int node) const;
+};
+
+struct Triplets {
+    std::vector<int> rows, cols;
+    std::vector<double> values;
+    void clear() { rows.clear(); cols.clear(); values.clear(); }
+};
+
+// Reduced residual (size n_dofs) and, if J is not null, the weighted tangent.
+void assemble(const Model& model, const State& state, const LoadState& load, double load_factor,
+              double wK, double wC, double wM, Eigen::VectorXd* residual, Triplets* J);
+
+// Full (6 per node) generalised force of the external nodal loads at load factor 1.
+Eigen::VectorXd external_forces(const Model& model, const State& state);
+
+// Add the reduced increment dz to the coordinates (q <- q + T dz).
+void add_increment(const Model& model, Eigen::Ref<Eigen::VectorXd> full, const Eigen::VectorXd& dz);
+Eigen::VectorXd reduce(const Model& model, const Eigen::VectorXd& full);  // T^T f
+
+// Energies [J]: kinetic, elastic; potential of gravity is separate.
+void energies(const Model& model, const State& state, double* kinetic, double* elastic);
+
+}  // namespace pipeflex

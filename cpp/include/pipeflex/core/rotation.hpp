@@ -1,0 +1,86 @@
+// Rotation parameterisation: nodal rotation R = exp(skew(phi)) * R_ref.
+//
+// phi [rad] is a rotation vector in global (spatial) components, measured from a
+// per-node reference rotation R_ref that the analyses re-base (R_ref <- R, phi <- 0)
+// whenever |phi| grows past pi, so rotations are unlimited. The spatial angular
+// velocity is omega = T(phi) phi_dot with the left Jacobian
+//     T(phi) = I + a(theta) skew(phi) + b(theta) skew(phi)^2,
+//     a = (1 - cos theta)/theta^2,  b = (theta - sin theta)/theta^3,  theta = |phi|.
+// Near theta = 0 the coefficients use their Taylor series in theta^2, so the functions
+// are smooth (and differentiable by Dual numbers) at phi = 0.
+#pragma once
+
+#include "pipeflex/core/dual.hpp"
+#include "pipeflex/core/small_matrix.hpp"
+
+#include <cmath>
+
+namespace pipeflex {
+
+template <class S> Mat3<S> skew(const Vec3<S>& w) {
+    Mat3<S> r;
+    r(0, 0) = S(0.0); r(0, 1) = -w[2]; r(0, 2) = w[1];
+    r(1, 0) = w[2]; r(1, 1) = S(0.0); r(1, 2) = -w[0];
+    r(2, 0) = -w[1]; r(2, 1) = w[0]; r(2, 2) = S(0.0);
+    return r;
+}
+
+// Coefficients s = sin(t)/t, a = (1-cos t)/t^2, b = (t-sin t)/t^3 as functions of t^2.
+template <class S> void rotation_coefficients(const S& t2, S& s, S& a, S& b) {
+    using std::cos; using std::sin; using std::sqrt;
+    if (value_of(t2) < 1e-2) {
+        // Series to t^8: truncation error below 1e-17 for t^2 < 1e-2.
+        s = 1.0 - t2 * (1.0 / 6 - t2 * (1.0 / 120 - t2 * (1.0 / 5040 - t2 / 362880.0)));
+        a = 0.5 - t2 * (1.0 / 24 - t2 * (1.0 / 720 - t2 * (1.0 / 40320 - t2 / 3628800.0)));
+        b = 1.0 / 6 - t2 * (1.0 / 120 - t2 * (1.0 / 5040 - t2 * (1.0 / 362880 - t2 / 39916800.0)));
+    } else {
+        const S t = sqrt(t2);
+        const S st = sin(t);
+        s = st / t;
+        a = (1.0 - cos(t)) / t2;
+        b = (t - st) / (t2 * t);
+    }
+}
+
+
+// exp(skew(phi)).
+template <class S> Mat3<S> rotation_exp(const Vec3<S>& phi) {
+    S s, a, b;
+    rotation_coefficients(dot(phi, phi), s, a, b);
+    Mat3<S> W = skew(phi);
+    Mat3<S> W2 = W * W;
+    Mat3<S> r;
+    for (int i = 0; i < 9; ++i) r.c[i] = s * W.c[i] + a * W2.c[i];
+    for (int i = 0; i < 3; ++i) r(i, i) += 1.0;
+    return r;
+}
+
+// Left Jacobian T(phi): omega = T(phi) phi_dot, delta_theta = T(phi) delta_phi.
+template <class S> Mat3<S> rotation_jacobian(const Vec3<S>& phi) {
+    S s, a, b;
+    rotation_coefficients(dot(phi, phi), s, a, b);
+    Mat3<S> W = skew(phi);
+    Mat3<S> W2 = W * W;
+    Mat3<S> r;
+    for (int i = 0; i < 9; ++i) r.c[i] = a * W.c[i] + b * W2.c[i];
+    for (int i = 0; i < 3; ++i) r(i, i) += 1.0;
+    return r;
+}
+
+// d/dt[T(phi)] phi_dot: the part of the angular velocity's rate omega_dot = T phi_ddot +
+// d/dt[T] phi_dot that does not involve phi_ddot, by one nested forward derivative.
+template <class S> Vec3<S> convective_angular_acceleration(const Vec3<S>& phi, const Vec3<S>& phid) {
+    using D = Dual<S, 1>;
+    Vec3<D> p;
+    for (int i = 0; i < 3; ++i) {
+        p[i] = D(phi[i]);
+        p[i].d[0] = phid[i];
+    }
+    const Mat3<D> T = rotation_jacobian(p);
+    Vec3<S> out;
+    for (int i = 0; i < 3; ++i)
+        out[i] = T(i, 0).d[0] * phid[0] + T(i, 1).d[0] * phid[1] + T(i, 2).d[0] * phid[2];
+    return out;
+}
+
+}  // namespace pipeflex

@@ -1,0 +1,80 @@
+// Two-node 3D pipe/beam element with internal mass flow (seed 000, Meijaard & Hakvoort).
+//
+// Element coordinates q = [x^p, phi^p, x^q, phi^q] (12): nodal positions x [m] and
+// spatial rotation vectors phi [rad] relative to the nodes' reference rotations.
+// The element residual is
+//     r(q, q_dot, q_ddot) = M(q) q_ddot + f_in(q, q_dot) + f_fluid(q, q_dot)
+//                           + D(q)^T sigma(q) - f_gravity(q)
+// so the equations of motion are sum_e r_e = external nodal loads. Inertia: Hermite
+// interpolation of the centre line (eqs. 9-14) with the cross-section rotary inertia
+// lumped at the nodes; fluid (eqs. 15-20): entrainment, relative (mdot_dot), Coriolis
+// and centripetal terms in their unsplit form, which equals eqs. 19-20 plus their
+// split-off end terms (so a kink automatically receives the forces of eqs. 21-22 and a
+// free outlet none). Elastic: generalised strains eqs. 1-2, constitutive eqs. 6-7.
+#pragma once
+
+#include "pipeflex/core/dual.hpp"
+#include "pipeflex/core/rotation.hpp"
+#include "pipeflex/core/small_matrix.hpp"
+
+#include <array>
+
+namespace pipeflex {
+
+struct PipeElementData {
+    double l0 = 1.0;              // l0 [m] reference (arc) length
+    double EA = 0.0;              // E A_p [N] axial stiffness
+    double GJ = 0.0;              // k_x G I_p [N m^2] torsional stiffness
+    double EIy = 0.0;             // E I_y [N m^2] bending stiffness about local y
+    double EIz = 0.0;             // E I_z [N m^2] bending stiffness about local z
+    double Phi_y = 0.0;           // Phi_y [-] shear flexibility factor of eq. 7 (0: rigid in shear)
+    double Phi_z = 0.0;           // Phi_z [-]
+    std::array<double, 6> strain0{};  // eps^0 [m] stress-free generalised strains
+    Mat3<double> offset_p{};      // end triad at p in the frame of node p
+    Mat3<double> offset_q{};      // end triad at q in the frame of node q
+    double pipe_mass = 0.0;       // rho_p A_p [kg/m]
+    double fluid_mass = 0.0;      // rho_f A_f [kg/m]
+    double kv = 1.0;              // k_v [-] momentum-flux correction factor (eq. 18)
+    std::array<double, 3> rotary_inertia{};  // [kg m] mass moments of inertia per length
+                                             // about local x, y, z (lumped at the nodes)
+    double flow_factor = 1.0;     // [-] element mass flow = flow_factor * model mass flow
+    bool fluid_end_terms = true;  // false: the split form of eqs. 19-20 (for checks)
+};
+
+// Time-dependent loading shared by all elements of a model.
+struct LoadState {
+    double mass_flow = 0.0;       // mdot [kg/s]
+    double mass_flow_rate = 0.0;  // d(mdot)/dt [kg/s^2]
+    std::array<double, 3> gravity{};  // g [m/s^2]
+    double gravity_factor = 1.0;  // [-] multiplier (load stepping)
+};
+
+// Reference rotations of the element's two nodes (row-major 3x3 each).
+struct NodeFrames {
+    Mat3<double> p, q;
+};
+
+// Element residual on scalar type S; acc is the acceleration q_ddot (12).
+template <class S>
+void pipe_residual(const PipeElementData& e, const NodeFrames& ref, const LoadState& load,
+                   const S* q, const S* v, const double* acc, S* r);
+
+// Residual (r, 12) and the weighted tangent J = wK dr/dq + wC dr/dq_dot + wM M
+// (row-major 12x12). Either output may be null.
+void pipe_tangent(const PipeElementData& e, const NodeFrames& ref, const LoadState& load,
+                  const double* q, const double* v, const double* acc, double wK, double wC,
+                  double wM, double* r, double* J);
+
+// Mass matrix M(q) (row-major 12x12).
+void pipe_mass_matrix(const PipeElementData& e, const NodeFrames& ref, const double* q,
+                      double* M);
+
+// Generalised strains minus their stress-free values, eps - eps^0 (6) [m].
+void pipe_strains(const PipeElementData& e, const NodeFrames& ref, const double* q,
+                  double* strain);
+
+// Kinetic energy [J] (pipe and fluid carried along, rotary inertia) and elastic energy [J].
+void pipe_energies(const PipeElementData& e, const NodeFrames& ref, const double* q,
+                   const double* v, double* kinetic, double* elastic);
+
+}  // namespace pipeflex

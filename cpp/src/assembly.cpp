@@ -1,0 +1,283 @@
+#include "pipeflex/assembly/model.hpp"
+
+#include <cmath>
+#include <string>
+
+namespace pipeflex {
+namespace {
+
+Vec3<double> node_vec(const Eigen::VectorXd& x, int node, int off) {
+    return {{x[6 * node + off], x[6 * node + off + 1], x[6 * node + off + 2]}};
+}
+
+NodeFrames frames_of(const State& s, const PipeElement& el) { return {s.frames[el.p], s.frames[el.q]}; }
+
+void gather(const Eigen::VectorXd& x, int p, int q, double* out) {
+    for (int i = 0; i < 6; ++i) {
+        out[i] = x[6 * p + i];
+        out[6 + i] = x[6 * q + i];
+    }
+}
+
+// Generalised force of a nodal load (to be subtracted) on the node's 6 coordinates,
+// templated so that the follower terms are differentiated by Dual numbers.
+template <class S>
+void load_force(const NodalLoad& l, const Mat3<double>& frame, const Vec3<S>& phi, S* f) {
+    const Mat3<S> R = rotation_exp(phi) * promote<S>(frame);
+    const Mat3<S> T = rotation_jacobian(phi);
+    const Vec3<S> F = promote<S>(l.force) + R * promote<S>(l.follower_force);
+    const Vec3<S> M = promote<S>(l.moment) + R * promote<S>(l.follower_moment);
+    const Vec3<S> m = tmul(T, M);
+    for (int i = 0; i < 3; ++i) {
+        f[i] = F[i];
+        f[3 + i] = m[i];
+    }
+}
+
+// Nodal mass residual m (x_ddot - g) and rotary d/dt(J w) mapped by T^T.
+template <class S>
+void mass_residual(const NodalMass& nm, const Mat3<double>& frame, const LoadState& load,
+                   const S* q, const S* v, const double* a, S* r) {
+    const Vec3<S> phi = {{q[3], q[4], q[5]}}, phid = {{v[3], v[4], v[5]}};
+    for (int i = 0; i < 3; ++i) r[i] = S(nm.mass * (a[i] - load.gravity[i] * load.gravity_factor));
+    const Mat3<S> R = rotation_exp(phi) * promote<S>(frame);
+    const Mat3<S> T = rotation_jacobian(phi);
+    const Vec3<S> w = T * phid;
+    const Vec3<S> al = T * promote<S>(Vec3<double>{{a[3], a[4], a[5]}}) +
+                       convective_angular_acceleration(phi, phid);
+    const Vec3<S> wb = tmul(R, w), ab = tmul(R, al);
+    Vec3<S> jw, ja;
+    for (int i = 0; i < 3; ++i) {
+        jw[i] = nm.inertia[i] * wb[i];
+        ja[i] = nm.inertia[i] * ab[i];
+    }
+    const Vec3<S> m = tmul(T, R * ja + cross(w, R * jw));
+    for (int i = 0; i < 3; ++i) r[3 + i] = m[i];
+}
+
+// Scatter a full 6-per-node block pair (rows of node a, cols of node b) into the reduced
+// triplets: T_a^T B T_b.
+void scatter_block(const Model& m, int na, int nb, const double* blk, int ld, Triplets* J) {
+    const Eigen::MatrixXd& Ta = m.bases[na];
+    const Eigen::MatrixXd& Tb = m.bases[nb];
+    if (Ta.cols() == 0 || Tb.cols() == 0) return;
+    Eigen::Matrix<double, 6, 6> B;
+    for (int i = 0; i < 6; ++i)
+        for (int j = 0; j < 6; ++j) B(i, j) = blk[ld * i + j];
+    const Eigen::MatrixXd R = Ta.transpose() * B * Tb;
+    for (int i = 0; i < R.rows(); ++i)
+        for (int j = 0; j < R.cols(); ++j) {
+            J->rows.push_back(m.first_dof[na] + i);
+            J->cols.push_back(m.first_dof[nb] + j);
+            J->values.push_back(R(i, j));
+        }
+}
+
+void scatter_vector(const Model& m, int n, const double* f, Eigen::VectorXd* r) {
+    const Eigen::MatrixXd& T = m.bases[n];
+    for (int j = 0; j < T.cols(); ++j) {
+        double s = 0.0;
+        for (int i = 0; i < 6; ++i) s += T(i, j) * f[i];
+        (*r)[m.first_dof[n] + j] += s;
+    }
+}
+
+}  // namespace
+
+void Model::finalize() {
+    const int n = n_nodes();
+    if (static_cast<int>(bases.size()) != n) {
+        bases.assign(n, Eigen::MatrixXd::Identity(6, 6));
+    }
+    first_dof.assign(n, 0);
+    int k = 0;
+    for (int i = 0; i < n; ++i) {
+        if (bases[i].rows() != 6) throw std::invalid_argument("basis of node " + std::to_string(i) + " must have 6 rows");
+        first_dof[i] = k;
+        k += static_cast<int>(bases[i].cols());
+    }
+    n_dofs = k;
+    auto check_node = [n](int i, const char* what) {
+        if (i < 0 || i >= n)
+            throw std::invalid_argument(std::string(what) + " refers to node " + std::to_string(i) +
+                                        ", but the model has nodes 0.." + std::to_string(n - 1));
+    };
+    for (const auto& e : pipes) {
+        check_node(e.p, "pipe element");
+        check_node(e.q, "pipe element");
+        if (!(e.data.l0 > 0.0)) throw std::invalid_argument("pipe element length l0 must be > 0");
+    }
+    // Elements are stress-free as built: eps^0 = eps(reference configuration).
+    const NodeFrames identity{promote<double>(Mat3<double>{{1, 0, 0, 0, 1, 0, 0, 0, 1}}),
+                              promote<double>(Mat3<double>{{1, 0, 0, 0, 1, 0, 0, 0, 1}})};
+    for (auto& e : pipes) {
+        double qe[12] = {};
+        for (int k = 0; k < 3; ++k) {
+            qe[k] = positions[e.p][k];
+            qe[6 + k] = positions[e.q][k];
+        }
+        e.data.strain0 = {};
+        pipe_strains(e.data, identity, qe, e.data.strain0.data());
+    }
+    for (const auto& l : loads) check_node(l.node, "nodal load");
+    for (const auto& m : masses) check_node(m.node, "nodal mass");
+}
+
+State::State(const Model& m)
+    : q(Eigen::VectorXd::Zero(6 * m.n_nodes())),
+      v(Eigen::VectorXd::Zero(6 * m.n_nodes())),
+      a(Eigen::VectorXd::Zero(6 * m.n_nodes())),
+      frames(m.n_nodes()) {
+    for (int i = 0; i < m.n_nodes(); ++i) {
+        for (int k = 0; k < 3; ++k) {
+            q[6 * i + k] = m.positions[i][k];
+            frames[i](k, k) = 1.0;
+        }
+    }
+}
+
+Mat3<double> State::rotation(int node) const {
+    return rotation_exp(node_vec(q, node, 3)) * frames[node];
+}
+
+int State::rebase(double max_angle) {
+    int count = 0;
+    for (int i = 0; i < static_cast<int>(frames.size()); ++i) {
+        const Vec3<double> phi = node_vec(q, i, 3);
+        if (std::sqrt(dot(phi, phi)) <= max_angle) continue;
+        // The angular velocity and acceleration are kept; their coordinates change.
+        const Mat3<double> T = rotation_jacobian(phi);
+        const Vec3<double> phid = node_vec(v, i, 3);
+        const Vec3<double> w = T * phid;
+        const Vec3<double> wd = T * node_vec(a, i, 3) + convective_angular_acceleration(phi, phid);
+        frames[i] = rotation_exp(phi) * frames[i];
+        for (int k = 0; k < 3; ++k) {  // at phi = 0: T = I and the convective part vanishes
+            q[6 * i + 3 + k] = 0.0;
+            v[6 * i + 3 + k] = w[k];
+            a[6 * i + 3 + k] = wd[k];
+        }
+        ++count;
+    }
+    return count;
+}
+
+void assemble(const Model& model, const State& state, const LoadState& load, double load_factor,
+              double wK, double wC, double wM, Eigen::VectorXd* residual, Triplets* J) {
+    if (residual != nullptr) residual->setZero(model.n_dofs);
+    if (J != nullptr) J->clear();
+    double qe[12], ve[12], ae[12], re[12], Je[144];
+    for (const auto& el : model.pipes) {
+        gather(state.q, el.p, el.q, qe);
+        gather(state.v, el.p, el.q, ve);
+        gather(state.a, el.p, el.q, ae);
+        pipe_tangent(el.data, frames_of(state, el), load, qe, ve, ae, wK, wC, wM, re,
+                     J != nullptr ? Je : nullptr);
+        if (residual != nullptr) {
+            scatter_vector(model, el.p, re, residual);
+            scatter_vector(model, el.q, re + 6, residual);
+        }
+        if (J != nullptr) {
+            const int nodes[2] = {el.p, el.q};
+            for (int a = 0; a < 2; ++a)
+                for (int b = 0; b < 2; ++b) scatter_block(model, nodes[a], nodes[b], Je + 72 * a + 6 * b, 12, J);
+        }
+    }
+    for (const auto& nm : model.masses) {
+        const int n = nm.node;
+        using D = Dual<double, 6>;
+        D qd[6], vd[6], rd[6];
+        for (int i = 0; i < 6; ++i) {
+            qd[i] = D(state.q[6 * n + i]);
+            qd[i].d[i] = wK;
+            vd[i] = D(state.v[6 * n + i]);
+            vd[i].d[i] = wC;
+        }
+        mass_residual(nm, state.frames[n], load, qd, vd, state.a.data() + 6 * n, rd);
+        double rv[6], blk[36];
+        for (int i = 0; i < 6; ++i) {
+            rv[i] = rd[i].v;
+            for (int j = 0; j < 6; ++j) blk[6 * i + j] = rd[i].d[j];
+        }
+        if (wM != 0.0) {
+            // Mass matrix: m I and T^T R J R^T T.
+            const Mat3<double> R = state.rotation(n);
+            const Mat3<double> T = rotation_jacobian(node_vec(state.q, n, 3));
+            const Mat3<double> RT = transpose(R) * T;
+            Mat3<double> Jb{};
+            for (int i = 0; i < 3; ++i) Jb(i, i) = nm.inertia[i];
+            const Mat3<double> Mr = transpose(RT) * (Jb * RT);
+            for (int i = 0; i < 3; ++i) {
+                blk[6 * i + i] += wM * nm.mass;
+                for (int j = 0; j < 3; ++j) blk[6 * (3 + i) + 3 + j] += wM * Mr(i, j);
+            }
+        }
+        if (residual != nullptr) scatter_vector(model, n, rv, residual);
+        if (J != nullptr) scatter_block(model, n, n, blk, 6, J);
+    }
+    if (load_factor != 0.0) {
+        for (const auto& l : model.loads) {
+            const int n = l.node;
+            using D = Dual<double, 3>;
+            Vec3<D> phi;
+            for (int i = 0; i < 3; ++i) phi[i] = D(state.q[6 * n + 3 + i], i);
+            D f[6];
+            load_force(l, state.frames[n], phi, f);
+            double rv[6], blk[36] = {};
+            for (int i = 0; i < 6; ++i) {
+                rv[i] = -load_factor * f[i].v;
+                for (int j = 0; j < 3; ++j) blk[6 * i + 3 + j] = -load_factor * wK * f[i].d[j];
+            }
+            if (residual != nullptr) scatter_vector(model, n, rv, residual);
+            if (J != nullptr && wK != 0.0) scatter_block(model, n, n, blk, 6, J);
+        }
+    }
+}
+
+Eigen::VectorXd external_forces(const Model& model, const State& state) {
+    Eigen::VectorXd f = Eigen::VectorXd::Zero(6 * model.n_nodes());
+    for (const auto& l : model.loads) {
+        double fl[6];
+        load_force<double>(l, state.frames[l.node], node_vec(state.q, l.node, 3), fl);
+        for (int i = 0; i < 6; ++i) f[6 * l.node + i] += fl[i];
+    }
+    return f;
+}
+
+void add_increment(const Model& model, Eigen::Ref<Eigen::VectorXd> full, const Eigen::VectorXd& dz) {
+    for (int n = 0; n < model.n_nodes(); ++n) {
+        const Eigen::MatrixXd& T = model.bases[n];
+        if (T.cols() == 0) continue;
+        full.segment<6>(6 * n) += T * dz.segment(model.first_dof[n], T.cols());
+    }
+}
+
+Eigen::VectorXd reduce(const Model& model, const Eigen::VectorXd& full) {
+    Eigen::VectorXd r = Eigen::VectorXd::Zero(model.n_dofs);
+    for (int n = 0; n < model.n_nodes(); ++n) scatter_vector(model, n, full.data() + 6 * n, &r);
+    return r;
+}
+
+void energies(const Model& model, const State& state, double* kinetic, double* elastic) {
+    double T = 0.0, U = 0.0;
+    double qe[12], ve[12];
+    for (const auto& el : model.pipes) {
+        gather(state.q, el.p, el.q, qe);
+        gather(state.v, el.p, el.q, ve);
+        double t, u;
+        pipe_energies(el.data, frames_of(state, el), qe, ve, &t, &u);
+        T += t;
+        U += u;
+    }
+    for (const auto& nm : model.masses) {
+        const int n = nm.node;
+        const Vec3<double> xd = node_vec(state.v, n, 0);
+        const Vec3<double> w = rotation_jacobian(node_vec(state.q, n, 3)) * node_vec(state.v, n, 3);
+        const Vec3<double> wb = tmul(state.rotation(n), w);
+        T += 0.5 * nm.mass * dot(xd, xd);
+        for (int i = 0; i < 3; ++i) T += 0.5 * nm.inertia[i] * wb[i] * wb[i];
+    }
+    *kinetic = T;
+    *elastic = U;
+}
+
+}  // namespace pipeflex

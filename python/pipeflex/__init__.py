@@ -1,0 +1,16 @@
+"""pipeflex: flexible multibody dynamics of beams and fluid-conveying pipes.
+
+SI units throughout. See ``docs/`` for the theory, conventions and user guide.
+"""
+from . import scenes
+from .analysis import (CriticalFlow, EigenResult, Linearization, StaticResult, critical_mass_flow,
+                       eigenvalues, linearize, stability, static_equilibrium)
+from .errors import ConvergenceError
+from .model import Model, ModelBuilder
+from .sections import PipeSection
+
+__version__ = "0.1.0"
+
+__all__ = ["scenes", "CriticalFlow", "EigenResult", "Linearization", "StaticResult",
+           "critical_mass_flow", "eigenvalues", "linearize", "stability", "static_equilibrium",
+           "ConvergenceError", "Model", "ModelBuilder", "PipeSection"]

@@ -1,0 +1,8 @@
+"""Analyses as free functions of a model and a state."""
+from .critical import CriticalFlow, critical_mass_flow
+from .eigen import EigenResult, eigenvalues, stability
+from .linearize import Linearization, linearize
+from .static import StaticResult, static_equilibrium
+
+__all__ = ["CriticalFlow", "critical_mass_flow", "EigenResult", "eigenvalues", "stability",
+           "Linearization", "linearize", "StaticResult", "static_equilibrium"]

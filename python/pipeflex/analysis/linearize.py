@@ -1,0 +1,47 @@
+"""Linearisation M dq_ddot + C dq_dot + K dq = 0 about a state."""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Optional
+
+import scipy.sparse as sp
+
+from .. import _checks
+from ._assembly import residual_and_tangent
+
+
+@dataclass(frozen=True)
+class Linearization:
+    """Sparse (CSC) matrices of the linearised equations in the reduced coordinates.
+
+    ``M`` [kg, kg m, kg m^2] mass, ``C`` damping/gyroscopic (Coriolis of the flow
+    included), ``K`` stiffness (elastic, geometric, follower and fluid centripetal terms).
+    The rotation coordinates are spatial rotation increments [rad] about the state.
+    """
+
+    M: sp.csc_matrix
+    C: sp.csc_matrix
+    K: sp.csc_matrix
+    mass_flow: float
+    state: object
+
+
+def linearize(model, state=None, *, mass_flow: Optional[float] = None) -> Linearization:
+    """Linearise the equations of motion about ``state`` (default: reference configuration).
+
+    The state's rotations are first re-based (phi = 0), so the rotation increments are
+    small rotations about the current orientation.
+
+    Args:
+        model: the model.
+        state: state to linearise about (positions, velocities, accelerations); not modified.
+        mass_flow: mdot [kg/s] (default the model's).
+    """
+    s = model.initial_state() if state is None else state.copy()
+    s.rebase(0.0)
+    mdot = model.mass_flow if mass_flow is None else _checks.finite("mass_flow", mass_flow)
+    load = model.load_state(mass_flow=mdot)
+    _, K = residual_and_tangent(model, s, load, wK=1.0, wC=0.0, wM=0.0)
+    _, C = residual_and_tangent(model, s, load, load_factor=0.0, wK=0.0, wC=1.0, wM=0.0)
+    _, M = residual_and_tangent(model, s, load, load_factor=0.0, wK=0.0, wC=0.0, wM=1.0)
+    return Linearization(M, C, K, mdot, s)

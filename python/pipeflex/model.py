@@ -1,0 +1,398 @@
+"""Model building: nodes, pipe/beam elements, supports, loads.
+
+A :class:`ModelBuilder` collects the description; :meth:`ModelBuilder.build` checks it
+and returns an immutable :class:`Model`. Analyses are free functions of a model and a
+state (see :mod:`pipeflex.analysis`). Conventions (DOF order, signs, units) are in
+``docs/conventions.md``: every node has the coordinates ``[x, y, z, phi_x, phi_y,
+phi_z]``, positions in m and a spatial rotation vector in rad.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Iterable, List, Optional, Sequence, Tuple
+
+import numpy as np
+import scipy.sparse as sp
+
+from . import _checks, _core
+from .sections import PipeSection
+
+COMPONENTS = ("ux", "uy", "uz", "rx", "ry", "rz")
+
+
+def _triad(tangent: np.ndarray, up: Optional[np.ndarray]) -> np.ndarray:
+    """Orthonormal triad [e_x, e_y, e_z] (columns): e_x along the tangent, e_z towards ``up``."""
+    ex = tangent / np.linalg.norm(tangent)
+    if up is None:
+        up = np.array([0.0, 0.0, 1.0]) if abs(ex[2]) < 0.9 else np.array([0.0, 1.0, 0.0])
+    ez = up - np.dot(up, ex) * ex
+    n = np.linalg.norm(ez)
+    if n < 1e-9:
+        raise ValueError(f"up vector {up} is parallel to the element axis {ex}")
+    ez /= n
+    ey = np.cross(ez, ex)
+    return np.column_stack([ex, ey, ez])
+
+
+@dataclass(frozen=True)
+class ElementInfo:
+    """What the builder recorded of an element (for plotting and post-processing)."""
+
+    nodes: Tuple[int, int]
+    section: PipeSection
+    length: float
+    flow_factor: float
+
+
+class ModelBuilder:
+    """Collects nodes, elements, supports and loads; :meth:`build` returns a :class:`Model`.
+
+    Example::
+
+        b = ModelBuilder()
+        n0 = b.add_node((0, 0, 0)); n1 = b.add_node((1, 0, 0))
+        b.add_pipe(n0, n1, PipeSection(EI=10.0, pipe_mass=8.0, fluid_mass=2.0))
+        b.clamp(n0)
+        model = b.build(mass_flow=5.0)
+    """
+
+    def __init__(self) -> None:
+        self._positions: List[np.ndarray] = []
+        self._elements: List[dict] = []
+        self._constraints: dict = {}
+        self._loads: List[dict] = []
+        self._masses: List[dict] = []
+        self._gravity = np.zeros(3)
+
+    # -- nodes and elements -------------------------------------------------------
+    def add_node(self, position: Sequence[float]) -> int:
+        """Add a node at ``position`` [m]; returns its index."""
+        self._positions.append(_checks.vector3("position", position))
+        return len(self._positions) - 1
+
+    def _node(self, name: str, i) -> int:
+        if isinstance(i, bool) or not isinstance(i, (int, np.integer)) or not 0 <= i < len(self._positions):
+            raise ValueError(f"{name} refers to node {i!r}, but the model has nodes 0..{len(self._positions) - 1}")
+        return int(i)
+
+    def add_pipe(self, p: int, q: int, section: PipeSection, *, up: Optional[Sequence[float]] = None,
+                 tangent_p: Optional[Sequence[float]] = None, tangent_q: Optional[Sequence[float]] = None,
+                 length: Optional[float] = None, flow_factor: float = 1.0,
+                 fluid_end_terms: bool = True) -> int:
+        """Add a two-node pipe/beam element from node ``p`` (inlet) to node ``q`` (outlet).
+
+        Args:
+            p, q: node indices; the fluid flows from p to q.
+            section: cross-section and masses (:class:`PipeSection`).
+            up: vector [-] that fixes the local z axis (projected normal to the element
+                axis); default global z (global y for a vertical element).
+            tangent_p, tangent_q: centre-line tangents at the ends of an initially curved
+                element (default: the chord). The element is stress-free as built.
+            length: l0 [m] reference (arc) length; default the chord length. Give the arc
+                length for a curved element.
+            flow_factor: [-] this element's mass flow as a multiple of the model's
+                (1: in series with the flow, 0: no flow, -1: reversed).
+            fluid_end_terms: keep the split-off end terms of eqs. 19-20 of seed 000
+                (default). ``False`` gives the paper's split form, to which the kink
+                forces of eqs. 21-22 (:meth:`add_load`) must then be added by hand.
+        """
+        p = self._node("p", p)
+        q = self._node("q", q)
+        if p == q:
+            raise ValueError(f"a pipe element needs two different nodes, got p = q = {p}")
+        if not isinstance(section, PipeSection):
+            raise ValueError("section must be a pipeflex.PipeSection")
+        chord = self._positions[q] - self._positions[p]
+        lc = float(np.linalg.norm(chord))
+        if lc <= 0.0:
+            raise ValueError(f"element {p}->{q} has zero length: nodes {p} and {q} coincide")
+        l0 = lc if length is None else _checks.positive("length", length)
+        if l0 < lc * (1 - 1e-12):
+            raise ValueError(f"length l0 = {l0} must not be shorter than the chord {lc}")
+        up_v = None if up is None else _checks.unit_vector("up", up)
+        tp = chord if tangent_p is None else _checks.unit_vector("tangent_p", tangent_p)
+        tq = chord if tangent_q is None else _checks.unit_vector("tangent_q", tangent_q)
+        self._elements.append(dict(p=p, q=q, section=section, l0=l0, Ep=_triad(tp, up_v),
+                                   Eq=_triad(tq, up_v), flow_factor=_checks.finite("flow_factor", flow_factor),
+                                   fluid_end_terms=bool(fluid_end_terms)))
+        return len(self._elements) - 1
+
+    def add_line(self, start: int, end: Sequence[float], n_elements: int, section: PipeSection,
+                 **options) -> List[int]:
+        """A straight pipe from node ``start`` to the point ``end`` [m] in ``n_elements``
+        equal elements; returns the node indices along it (``start`` first)."""
+        start = self._node("start", start)
+        n = _checks.positive_int("n_elements", n_elements)
+        x0, x1 = self._positions[start], _checks.vector3("end", end)
+        nodes = [start]
+        for k in range(1, n + 1):
+            nodes.append(self.add_node(x0 + (x1 - x0) * k / n))
+            self.add_pipe(nodes[-2], nodes[-1], section, **options)
+        return nodes
+
+    def add_arc(self, start: int, *, center: Sequence[float], angle: float, normal: Sequence[float],
+                n_elements: int, section: PipeSection, **options) -> List[int]:
+        """A circular arc of curved elements from node ``start`` about ``center`` [m],
+        turning by ``angle`` [rad] about the unit ``normal`` (right-hand rule). The local z
+        axes are set along the normal. Returns the node indices (``start`` first)."""
+        start = self._node("start", start)
+        n = _checks.positive_int("n_elements", n_elements)
+        c = _checks.vector3("center", center)
+        k = _checks.unit_vector("normal", normal)
+        angle = _checks.finite("angle", angle)
+        r0 = self._positions[start] - c
+        if abs(np.dot(r0, k)) > 1e-9 * max(1.0, np.linalg.norm(r0)):
+            raise ValueError("the start node must lie in the plane through center normal to `normal`")
+        R = float(np.linalg.norm(r0))
+        if R <= 0 or angle == 0:
+            raise ValueError("arc radius and angle must be non-zero")
+        dth = angle / n
+
+        def rot(th):
+            K = np.array([[0, -k[2], k[1]], [k[2], 0, -k[0]], [-k[1], k[0], 0]])
+            return np.eye(3) + np.sin(th) * K + (1 - np.cos(th)) * K @ K
+
+        nodes = [start]
+        sgn = np.sign(angle)
+        for i in range(1, n + 1):
+            nodes.append(self.add_node(c + rot(dth * i) @ r0))
+            tp = sgn * np.cross(k, rot(dth * (i - 1)) @ r0)
+            tq = sgn * np.cross(k, rot(dth * i) @ r0)
+            self.add_pipe(nodes[-2], nodes[-1], section, up=k, tangent_p=tp, tangent_q=tq,
+                          length=R * abs(dth), **options)
+        return nodes
+
+    # -- supports -------------------------------------------------------------------
+    def _constrain(self, node: int, rows: Iterable[np.ndarray]) -> None:
+        self._constraints.setdefault(node, []).extend(np.asarray(r, float) for r in rows)
+
+    def fix(self, node: int, components: Iterable[str]) -> None:
+        """Fix coordinates of a node by name: any of ``ux uy uz rx ry rz``."""
+        node = self._node("node", node)
+        comps = list(components)
+        for c in comps:
+            if c not in COMPONENTS:
+                raise ValueError(f"unknown component {c!r}; use one of {COMPONENTS}")
+        self._constrain(node, [np.eye(6)[COMPONENTS.index(c)] for c in comps])
+
+    def clamp(self, node: int) -> None:
+        """Fix position and orientation of a node."""
+        self.fix(node, COMPONENTS)
+
+    def pin(self, node: int) -> None:
+        """Fix the position of a node; its rotation stays free."""
+        self.fix(node, ("ux", "uy", "uz"))
+
+    def hinge(self, node: int, axis: Sequence[float]) -> None:
+        """Fix the position; allow rotation only about the fixed global ``axis``."""
+        node = self._node("node", node)
+        a = _checks.unit_vector("axis", axis)
+        self.pin(node)
+        perp = np.linalg.svd(a.reshape(1, 3))[2][1:]
+        self._constrain(node, [np.concatenate([np.zeros(3), r]) for r in perp])
+
+    def axial_support(self, node: int, direction: Sequence[float]) -> None:
+        """Prevent the node from moving along the global ``direction``."""
+        node = self._node("node", node)
+        d = _checks.unit_vector("direction", direction)
+        self._constrain(node, [np.concatenate([d, np.zeros(3)])])
+
+    def fix_rotation(self, node: int, axis: Sequence[float]) -> None:
+        """Prevent rotation of the node about the global ``axis``."""
+        node = self._node("node", node)
+        a = _checks.unit_vector("axis", axis)
+        self._constrain(node, [np.concatenate([np.zeros(3), a])])
+
+    # -- loads and masses -------------------------------------------------------------
+    def add_load(self, node: int, *, force: Sequence[float] = (0.0, 0.0, 0.0),
+                 moment: Sequence[float] = (0.0, 0.0, 0.0), follower: bool = False) -> None:
+        """Nodal force [N] and moment [N m]; dead (global axes) or, with ``follower=True``,
+        given in the node's frame and turning with it (the frame is the global one in the
+        reference configuration)."""
+        node = self._node("node", node)
+        f = _checks.vector3("force", force)
+        m = _checks.vector3("moment", moment)
+        z = np.zeros(3)
+        self._loads.append(dict(node=node, f=z if follower else f, m=z if follower else m,
+                                ff=f if follower else z, fm=m if follower else z))
+
+    def add_point_mass(self, node: int, mass: float, inertia: Sequence[float] = (0.0, 0.0, 0.0)) -> None:
+        """Concentrated mass [kg] and principal rotary inertia [kg m^2] (node frame)."""
+        node = self._node("node", node)
+        self._masses.append(dict(node=node, mass=_checks.non_negative("mass", mass),
+                                 inertia=np.array([_checks.non_negative(f"inertia[{i}]", x)
+                                                   for i, x in enumerate(inertia)])))
+
+    def set_gravity(self, g: Sequence[float]) -> None:
+        """Gravitational acceleration vector g [m/s^2], e.g. ``(0, 0, -9.81)``."""
+        self._gravity = _checks.vector3("gravity", g)
+
+    # -- build -------------------------------------------------------------------------
+    def build(self, *, mass_flow: float = 0.0) -> "Model":
+        """Check the description and return an immutable :class:`Model`.
+
+        Args:
+            mass_flow: mdot [kg/s] prescribed mass flow (analyses may override it).
+        """
+        mdot = _checks.finite("mass_flow", mass_flow)
+        if not self._elements:
+            raise ValueError("the model has no elements")
+        if not self._constraints:
+            raise ValueError("the model has no supports: add clamp/pin/hinge/fix so it cannot drift")
+        used = {e["p"] for e in self._elements} | {e["q"] for e in self._elements}
+        loose = sorted(set(range(len(self._positions))) - used)
+        if loose:
+            raise ValueError(f"nodes {loose} are not connected to any element")
+        for e in self._elements:
+            if mdot != 0.0 and e["flow_factor"] != 0.0 and e["section"].fluid_mass <= 0.0:
+                raise ValueError(f"element {e['p']}->{e['q']} carries a mass flow but its fluid_mass is 0")
+        core = _core.Model()
+        for x in self._positions:
+            core.add_node(x)
+        infos = []
+        for e in self._elements:
+            core.add_pipe(e["p"], e["q"], self._element_data(e))
+            infos.append(ElementInfo((e["p"], e["q"]), e["section"], e["l0"], e["flow_factor"]))
+        for ld in self._loads:
+            core.add_load(ld["node"], ld["f"], ld["m"], ld["ff"], ld["fm"])
+        for m in self._masses:
+            core.add_mass(m["node"], m["mass"], m["inertia"])
+        bases = [self._basis(i) for i in range(len(self._positions))]
+        core.set_bases(bases)
+        core.finalize()
+        model = Model(core, np.array(self._positions), tuple(infos), bases, mdot, self._gravity.copy())
+        return model
+
+    def _basis(self, node: int) -> np.ndarray:
+        rows = self._constraints.get(node, [])
+        if not rows:
+            return np.eye(6)
+        C = np.array(rows)
+        unit = np.all(np.isclose(np.abs(C), 0) | np.isclose(np.abs(C), 1), axis=1) & (np.count_nonzero(C, axis=1) == 1)
+        if np.all(unit):  # plain fixed components: keep the coordinate axes as the basis
+            fixed = set(np.argmax(np.abs(C), axis=1))
+            return np.eye(6)[:, [i for i in range(6) if i not in fixed]]
+        _, s, vt = np.linalg.svd(C)
+        rank = int(np.sum(s > 1e-10 * s[0]))
+        T = vt[rank:].T
+        T[np.abs(T) < 1e-15] = 0.0
+        return T
+
+    @staticmethod
+    def _element_data(e: dict) -> "_core.PipeElementData":
+        s: PipeSection = e["section"]
+        l0 = e["l0"]
+        d = _core.PipeElementData()
+        d.l0 = l0
+        d.EA, d.GJ, d.EIy, d.EIz = s.EA, s.GJ, s.EI, s.EIz
+        # eq. 7: Phi_z = 12 E I_y / (G A k_z l0^2), Phi_y = 12 E I_z / (G A k_y l0^2)
+        d.Phi_z = 0.0 if s.GAz is None else 12.0 * s.EI / (s.GAz * l0**2)
+        d.Phi_y = 0.0 if s.GAy is None else 12.0 * s.EIz / (s.GAy * l0**2)
+        d.offset_p, d.offset_q = e["Ep"], e["Eq"]
+        d.pipe_mass, d.fluid_mass, d.kv = s.pipe_mass, s.fluid_mass, s.kv
+        d.rotary_inertia = list(s.rotary_inertia)
+        d.flow_factor = e["flow_factor"]
+        d.fluid_end_terms = e["fluid_end_terms"]
+        return d
+
+
+class Model:
+    """An immutable model: the compiled core model plus what Python needs to know.
+
+    Attributes:
+        n_nodes, n_dofs: number of nodes and of free (reduced) coordinates.
+        positions: (n_nodes, 3) reference node positions [m].
+        elements: per-element :class:`ElementInfo`.
+        mass_flow: default prescribed mass flow mdot [kg/s].
+        gravity: g [m/s^2].
+    """
+
+    def __init__(self, core, positions, elements, bases, mass_flow, gravity):
+        self._core = core
+        self.positions = positions
+        self.positions.flags.writeable = False
+        self.elements = elements
+        self.mass_flow = mass_flow
+        self.gravity = gravity
+        self.gravity.flags.writeable = False
+        self.n_nodes = core.n_nodes
+        self.n_dofs = core.n_dofs
+        rows, cols, vals = [], [], []
+        labels = []
+        for n, T in enumerate(bases):
+            f = core.first_dof[n]
+            for j in range(T.shape[1]):
+                nz = np.nonzero(T[:, j])[0]
+                labels.append((n, COMPONENTS[nz[0]] if len(nz) == 1 else "combined"))
+                for i in nz:
+                    rows.append(6 * n + i)
+                    cols.append(f + j)
+                    vals.append(T[i, j])
+        #: sparse (6 n_nodes x n_dofs) map from reduced increments to nodal coordinates
+        self.basis = sp.csr_matrix((vals, (rows, cols)), shape=(6 * self.n_nodes, self.n_dofs))
+        #: (node, component) of each reduced coordinate
+        self.dof_labels = tuple(labels)
+
+    @property
+    def core(self):
+        """The compiled model (read-only use)."""
+        return self._core
+
+    def initial_state(self) -> "_core.State":
+        """The reference configuration at rest (positions, zero rotations and velocities)."""
+        return _core.State(self._core)
+
+    def load_state(self, *, mass_flow: Optional[float] = None, mass_flow_rate: float = 0.0,
+                   gravity_factor: float = 1.0) -> "_core.LoadState":
+        """Loading for the assembler: mdot [kg/s] (default the model's), d(mdot)/dt [kg/s^2]."""
+        ls = _core.LoadState()
+        ls.mass_flow = self.mass_flow if mass_flow is None else _checks.finite("mass_flow", mass_flow)
+        ls.mass_flow_rate = _checks.finite("mass_flow_rate", mass_flow_rate)
+        ls.gravity = list(self.gravity)
+        ls.gravity_factor = gravity_factor
+        return ls
+
+    def node_dofs(self, node: int) -> np.ndarray:
+        """Indices of the reduced coordinates that belong to ``node``."""
+        return np.array([i for i, (n, _) in enumerate(self.dof_labels) if n == node], dtype=int)
+
+    def dof_index(self, node: int, component: str) -> int:
+        """Reduced index of a node's coordinate (``ux`` ... ``rz``); ValueError if fixed."""
+        for i, lab in enumerate(self.dof_labels):
+            if lab == (node, component):
+                return i
+        raise ValueError(f"node {node} has no free coordinate {component!r}")
+
+    @property
+    def total_length(self) -> float:
+        """Sum of the elements' reference lengths [m]."""
+        return float(sum(e.length for e in self.elements))
+
+    @property
+    def total_mass(self) -> float:
+        """Pipe + fluid mass of all elements [kg] (point masses not included)."""
+        return float(sum(e.length * (e.section.pipe_mass + e.section.fluid_mass) for e in self.elements))
+
+    def force_scale(self, *, mass_flow: Optional[float] = None) -> float:
+        """A force level [N] of the model, to judge residuals: the largest of EI/l0^2 of
+        the elements, the weight, the nodal loads and the fluid momentum flux P."""
+        mdot = self.mass_flow if mass_flow is None else mass_flow
+        f = max(max(e.section.EI, e.section.EIz) / e.length**2 for e in self.elements)
+        f = max(f, self.total_mass * float(np.linalg.norm(self.gravity)))
+        f = max(f, float(np.abs(_core.external_forces(self._core, self.initial_state())).max(initial=0.0)))
+        for e in self.elements:
+            if e.section.fluid_mass > 0:
+                f = max(f, e.section.kv * (e.flow_factor * mdot) ** 2 / e.section.fluid_mass)
+        return f
+
+    def flow_scale(self) -> float:
+        """mdot_ref = (pi / L) sqrt(rho_f A_f EI / k_v) [kg/s] with the flow-carrying
+        elements' total length L and mean properties: a natural unit of mass flow."""
+        els = [e for e in self.elements if e.flow_factor != 0 and e.section.fluid_mass > 0]
+        if not els:
+            raise ValueError("the model has no element that carries fluid")
+        L = sum(e.length for e in els)
+        mf = sum(e.length * e.section.fluid_mass for e in els) / L
+        EI = sum(e.length * min(e.section.EI, e.section.EIz) for e in els) / L
+        kv = sum(e.length * e.section.kv for e in els) / L
+        return float(np.pi / L * np.sqrt(mf * EI / kv))

@@ -1,0 +1,40 @@
+"""Element-level helpers for the tests: build an element and evaluate it."""
+import numpy as np
+
+import pipeflex as pf
+from pipeflex import _core
+
+
+def element(kind="straight", *, shear=False, rotary=False, fluid_end_terms=True):
+    """Element data of a straight or curved (quarter arc) pipe element, stress-free as built."""
+    sec = pf.PipeSection(EI=7.0, EIz=11.0, EA=3e3, GJ=5.0, GAy=900.0 if shear else None,
+                         GAz=700.0 if shear else None, pipe_mass=1.3, fluid_mass=0.7, kv=1.1,
+                         rotary_inertia=(0.02, 0.01, 0.015) if rotary else (0, 0, 0))
+    b = pf.ModelBuilder()
+    n0 = b.add_node((0.1, -0.2, 0.3))
+    if kind == "straight":
+        b.add_line(n0, (1.1, 0.3, 0.5), 1, sec, fluid_end_terms=fluid_end_terms)
+    else:
+        b.add_arc(n0, center=(0.1, 0.8, 0.3), angle=np.pi / 2, normal=(0, 0, 1), n_elements=1, section=sec,
+                  fluid_end_terms=fluid_end_terms)
+    b.clamp(n0)
+    model = b.build()
+    x = model.positions
+    q = np.concatenate([x[0], np.zeros(3), x[1], np.zeros(3)])
+    return model.core.pipe(0), q
+
+
+def load(mass_flow=0.0, mass_flow_rate=0.0, gravity=(0.0, 0.0, 0.0)):
+    ls = _core.LoadState()
+    ls.mass_flow, ls.mass_flow_rate, ls.gravity = mass_flow, mass_flow_rate, list(gravity)
+    return ls
+
+
+def residual(data, q, v, a, ld, frames=(np.eye(3), np.eye(3))):
+    r, _ = _core.pipe_tangent(data, frames[0], frames[1], ld, q, v, a, 0.0, 0.0, 0.0)
+    return r
+
+
+def tangent(data, q, v, a, ld, wK, wC, wM, frames=(np.eye(3), np.eye(3))):
+    _, J = _core.pipe_tangent(data, frames[0], frames[1], ld, q, v, a, wK, wC, wM)
+    return J
