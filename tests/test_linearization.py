@@ -65,3 +65,42 @@ def test_free_vibration_of_cantilever_without_flow():
     exact = 1.8751040687**2 * np.sqrt(10.0 / 10.0)
     assert w[0] == pytest.approx(exact, rel=1e-6)  # discretisation error ~1e-7 at 16 elements
     assert pf.stability(pf.eigenvalues(lin)) == "stable"
+
+
+def _u_tube(rotary):
+    sec = pf.PipeSection.tube(outer_diameter=0.0508, inner_diameter=0.0472, E=208e9, G=80e9,
+                              density=8027.0, fluid_density=1000.0, rotary_inertia=rotary)
+    b = pf.ModelBuilder()
+    inlet = b.add_node((0.0, 0.0, 0.0))
+    leg = b.add_line(inlet, (0.0, 0.45, 0.0), 2, sec)
+    b.add_arc(leg[-1], center=(0.15, 0.45, 0.0), angle=-np.pi, normal=(0, 0, 1), n_elements=12, section=sec)
+    b.clamp(inlet)
+    return b.build(mass_flow=2.0)
+
+
+def test_massless_coordinates_are_condensed_not_spurious():
+    """Without rotary inertia a curved pipe's torsion-about-tangent coordinates carry no
+    mass. They must not produce eigenvalues: the spectrum equals the limit of a model with
+    rotary inertia, whose lowest frequencies differ only by that inertia's small effect."""
+    e0 = pf.eigenvalues(pf.linearize(_u_tube(False)))
+    e1 = pf.eigenvalues(pf.linearize(_u_tube(True)))
+    assert pf.stability(e0) == "stable"
+    assert len(e0.values) < len(e1.values)        # massless coordinates dropped
+    w0, w1 = np.sort(e0.frequencies)[:6], np.sort(e1.frequencies)[:6]
+    assert e0.frequencies.max() < 1e8  # axial modes reach 2.5e6 rad/s; spurious ones were ~1e11
+    assert np.allclose(w0, w1, rtol=1e-3)          # rotary inertia of a thin tube: tiny
+    assert np.all(w1 <= w0 * (1 + 1e-12))          # added inertia lowers frequencies
+
+
+def test_generalized_path_when_damping_acts_on_massless_coordinates():
+    from pipeflex.analysis.eigen import Block, block_eigenvalues
+
+    # x1 has mass, x2 none, and a damper acts on x2: lambda^2 m + ... reduces to one
+    # first-order plus one second-order equation (3 finite eigenvalues).
+    K = np.array([[3.0, -1.0], [-1.0, 2.0]])
+    C = np.array([[0.0, 0.0], [0.0, 0.5]])
+    M = np.array([[1.0, 0.0], [0.0, 0.0]])
+    lam, noise, _, _ = block_eigenvalues(Block(np.arange(2), K, C, M))
+    assert len(lam) == 3
+    for l in lam:
+        assert abs(np.linalg.det(l * l * M + l * C + K)) < 1e-9 * (1 + abs(l)) ** 3

@@ -130,25 +130,68 @@ def _sign_similarity(a: Block, b: Block):
 def block_eigenvalues(b: Block, *, vectors: bool = False):
     """Finite eigenvalues, their round-off bounds and (top-half) eigenvectors of one block.
 
+    Coordinates without mass (the null space of M, e.g. the torsion of a pipe without
+    rotary inertia) carry no dynamics: when C does not act on them they are condensed
+    out exactly (Schur complement of K), which avoids the defective mu = 0 pairs they
+    would otherwise add; else the generalised (QZ) eigen-problem is solved.
+    Returns ``(lam, noise, V, negative)`` with ``negative`` the number of negative
+    stiffness eigenvalues of the condensed coordinates.
+    """
+    n = len(b.dofs)
+    K, C, M = b.K, b.C, b.M
+    if not np.any(M) and not np.any(C):
+        return np.zeros(0, complex), np.zeros(0), np.zeros((n, 0), complex), _negative(K)
+    if _regular(M):
+        lam, noise, V = _companion(K, C, M, vectors)
+        return lam, noise, V, 0
+    w, Q = np.linalg.eigh(0.5 * (M + M.T))
+    zero = w <= 1e-12 * w.max()
+    Q0, Qm = Q[:, zero], Q[:, ~zero]
+    c_scale = max(np.abs(C).max(), 1e-300)
+    if np.abs(Q0.T @ C).max() > 1e-12 * c_scale or np.abs(C @ Q0).max() > 1e-12 * c_scale:
+        lam, noise, V = _generalized(K, C, M, vectors)
+        return lam, noise, V, 0
+    K00 = Q0.T @ K @ Q0
+    S = np.linalg.solve(K00, Q0.T @ K @ Qm)
+    Kc = Qm.T @ K @ Qm - (Qm.T @ K @ Q0) @ S
+    lam, noise, Y = _companion(Kc, Qm.T @ C @ Qm, np.diag(w[~zero]), vectors)
+    V = (Qm - Q0 @ S) @ Y if vectors else None
+    return lam, noise, V, _negative(K00)
+
+
+def _regular(M) -> bool:
+    """Cheap test (Cholesky) that a mass matrix is positive definite and well conditioned."""
+    try:
+        L = np.linalg.cholesky(M)
+    except np.linalg.LinAlgError:
+        return False
+    d = np.diag(L) ** 2
+    return bool(d.min() > 1e-12 * np.abs(M).max())
+
+
+def _negative(K) -> int:
+    ev = np.linalg.eigvals(K).real
+    return int(np.sum(ev < -1e-12 * max(1e-300, np.abs(ev).max())))
+
+
+def _companion(K, C, M, vectors):
+    """Inverted companion form mu^2 K x + mu C x + M x = 0 (M regular), lambda = 1/mu.
+
     Backward-stable eigensolvers perturb mu by about eps ||A||; mapped to lambda = 1/mu
     that is eps ||A|| |lambda|^2, large for the high modes when K is nearly singular.
     """
-    n = len(b.dofs)
-    if not np.any(b.M) and not np.any(b.C):
-        return np.zeros(0, complex), np.zeros(0), np.zeros((n, 0), complex)
-    scale_k = np.max(np.abs(b.K)) if np.any(b.K) else 1.0
-    scale_m = np.max(np.abs(b.M)) if np.any(b.M) else scale_k
+    n = K.shape[0]
+    scale_k = np.max(np.abs(K)) if np.any(K) else 1.0
+    scale_m = np.max(np.abs(M))
     sigma = 0.0
-    K, C = b.K, b.C
     lu = sla.lu_factor(K, check_finite=False)
     u = np.abs(np.diag(lu[0]))
     if u.min() <= 1e-12 * u.max():
         # Singular stiffness (rigid-body motion or exactly critical): shift lambda.
         sigma = 1e-2 * np.sqrt(scale_k / scale_m)
-        K = b.K + sigma * b.C + sigma**2 * b.M
-        C = b.C + 2 * sigma * b.M
+        K, C = K + sigma * C + sigma**2 * M, C + 2 * sigma * M
         lu = sla.lu_factor(K, check_finite=False)
-    X = sla.lu_solve(lu, b.M, check_finite=False)
+    X = sla.lu_solve(lu, M, check_finite=False)
     Y = sla.lu_solve(lu, C, check_finite=False)
     A = np.block([[np.zeros((n, n)), np.eye(n)], [-X, -Y]])
     if vectors:
@@ -159,8 +202,23 @@ def block_eigenvalues(b: Block, *, vectors: bool = False):
     finite = np.abs(mu) > 1e-10 * big
     lam = sigma + 1.0 / mu[finite]
     noise = 1e3 * np.finfo(float).eps * np.linalg.norm(A, 1) * np.abs(lam - sigma) ** 2
-    vec = V[:n, finite] if vectors else None
-    return lam, noise, vec
+    return lam, noise, (V[:n, finite] if vectors else None)
+
+
+def _generalized(K, C, M, vectors):
+    """QZ on the companion pencil [[0, I], [-K, -C]] - lambda [[I, 0], [0, M]]."""
+    n = K.shape[0]
+    A = np.block([[np.zeros((n, n)), np.eye(n)], [-K, -C]])
+    B = np.block([[np.eye(n), np.zeros((n, n))], [np.zeros((n, n)), M]])
+    if vectors:
+        ab, V = sla.eig(A, B, homogeneous_eigvals=True)
+    else:
+        ab, V = sla.eig(A, B, right=False, homogeneous_eigvals=True), None
+    alpha, beta = ab
+    finite = np.abs(beta) > 1e-12 * np.abs(alpha)
+    lam = alpha[finite] / beta[finite]
+    noise = 1e3 * np.finfo(float).eps * (np.linalg.norm(A, 1) + np.linalg.norm(B, 1) * np.abs(lam))
+    return lam, noise, (V[:n, finite] if vectors else None)
 
 
 def eigenvalues(lin, *, vectors: bool = False) -> EigenResult:
@@ -185,11 +243,10 @@ def eigen_from_blocks(blocks, n, *, vectors=False) -> EigenResult:
                 lam, noise, V = lam_a, noise_a, (None if V_a is None else d[:, None] * V_a)
                 break
         else:
-            lam, noise, V = block_eigenvalues(b, vectors=vectors)
+            lam, noise, V, negative = block_eigenvalues(b, vectors=vectors)
+            static_negative += negative
             solved.append((b, lam, noise, V))
         if len(lam) == 0:
-            ev = np.linalg.eigvals(b.K)
-            static_negative += int(np.sum(ev.real < -1e-12 * max(1e-300, np.abs(ev).max())))
             continue
         vals.append(lam)
         noises.append(noise)
