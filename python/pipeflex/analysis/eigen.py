@@ -37,7 +37,7 @@ class EigenResult:
     """Finite eigenvalues lambda [1/s] (complex; Im = angular frequency [rad/s]).
 
     Attributes:
-        values: eigenvalues sorted by |Im| then Re.
+        values: eigenvalues sorted by abs(Im) then Re.
         vectors: (n_dofs, k) complex mode shapes (columns) if requested, else None.
         block_of: index of the block each eigenvalue belongs to.
         static_negative: number of negative stiffness eigenvalues in massless blocks.
@@ -53,7 +53,7 @@ class EigenResult:
 
     @property
     def frequencies(self) -> np.ndarray:
-        """Angular frequencies |Im lambda| [rad/s] of the eigenvalues with Im >= 0."""
+        """Angular frequencies abs(Im lambda) [rad/s] of the eigenvalues with Im >= 0."""
         return np.abs(self.values[self.values.imag >= 0].imag)
 
     def growth(self) -> float:
