@@ -61,3 +61,57 @@ def test_mechanism_is_reported_as_singular():
     model = b.build()
     with pytest.raises(pf.ConvergenceError, match="load factor.*singular"):
         pf.static_equilibrium(model, max_bisections=1)
+
+
+def test_self_weight_deflection():
+    """Cantilever under its own weight: tip deflection q L^4 / (8 EI) (small load)."""
+    EI, L, m, g = 50.0, 1.0, 0.2, 9.81
+    b = pf.ModelBuilder()
+    n0 = b.add_node((0, 0, 0))
+    nodes = b.add_line(n0, (L, 0, 0), 8, pf.PipeSection(EI=EI, pipe_mass=m * 0.75, fluid_mass=m * 0.25, EA=1e10))
+    b.clamp(n0)
+    b.set_gravity((0.0, 0.0, -g * 1e-4))
+    st = pf.static_equilibrium(b.build()).state
+    w = st.q[6 * nodes[-1] + 2]
+    assert w == pytest.approx(-m * g * 1e-4 * L**4 / (8 * EI), rel=1e-5)
+
+
+def test_shear_flexible_cantilever_adds_shear_deflection():
+    """Timoshenko cantilever with a tip force: P L^3 / (3 EI) + P L / (k G A), exact for
+    the element's shear factors (eq. 7)."""
+    EI, GA, L, P = 2.0, 30.0, 1.0, 1e-6
+    b = pf.ModelBuilder()
+    n0 = b.add_node((0, 0, 0))
+    nodes = b.add_line(n0, (L, 0, 0), 3, pf.PipeSection(EI=EI, GAy=GA, GAz=GA, pipe_mass=1.0, EA=1e10))
+    b.clamp(n0)
+    b.add_load(nodes[-1], force=(0.0, P, P))
+    st = pf.static_equilibrium(b.build()).state
+    exact = P * L**3 / (3 * EI) + P * L / GA
+    assert st.q[6 * nodes[-1] + 1] == pytest.approx(exact, rel=1e-6)
+    assert st.q[6 * nodes[-1] + 2] == pytest.approx(exact, rel=1e-6)
+
+
+def test_tip_torque_twists_by_TL_over_GJ():
+    GJ, L, T = 4.0, 2.0, 1e-5
+    b = pf.ModelBuilder()
+    n0 = b.add_node((0, 0, 0))
+    nodes = b.add_line(n0, (L, 0, 0), 2, pf.PipeSection(EI=1.0, GJ=GJ, pipe_mass=1.0))
+    b.clamp(n0)
+    b.add_load(nodes[-1], moment=(T, 0.0, 0.0))
+    st = pf.static_equilibrium(b.build()).state
+    assert st.q[6 * nodes[-1] + 3] == pytest.approx(T * L / GJ, rel=1e-6)
+
+
+def test_pressure_coupling_stiffens_axially():
+    from pipeflex.sections import pressure_coupling_factor
+
+    kw = dict(outer_diameter=0.0508, inner_diameter=0.0472, E=208e9, G=80e9, density=8027.0, fluid_density=1000.0)
+    plain = pf.PipeSection.tube(**kw)
+    coupled = pf.PipeSection.tube(**kw, fluid_bulk_modulus=2.2e9)
+    nu = 208 / 160 - 1
+    t, r = 0.0018, 0.0245
+    d = 5 - 4 * nu + 2 * 208e9 * t / (2.2e9 * r)
+    assert coupled.EA / plain.EA == pytest.approx(1 / (1 - (1 - 2 * nu) ** 2 / d), rel=1e-12)
+    # an incompressible fluid in a thin tube of an incompressible material adds nothing
+    assert pressure_coupling_factor(E=1.0, G=1.0 / 3.0, wall=1.0, radius=1.0, bulk_modulus=1e300) == pytest.approx(1.0)
+    assert coupled.EA > plain.EA

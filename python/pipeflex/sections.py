@@ -68,7 +68,8 @@ class PipeSection:
     @classmethod
     def tube(cls, *, outer_diameter: float, inner_diameter: float, E: float, G: float,
              density: float, fluid_density: float = 0.0, kv: float = 1.0,
-             shear: bool = False, rotary_inertia: bool = False) -> "PipeSection":
+             shear: bool = False, rotary_inertia: bool = False,
+             fluid_bulk_modulus: Optional[float] = None) -> "PipeSection":
         """Thin or thick circular tube.
 
         Args:
@@ -78,6 +79,12 @@ class PipeSection:
             kv: momentum-flux factor [-].
             shear: include shear flexibility (shear coefficient of a thin tube, 0.5).
             rotary_inertia: lump the cross-section's rotary inertia at the nodes.
+            fluid_bulk_modulus: K [Pa] of the fluid. If given, the pressure coupling of
+                eq. 8 of seed 000 is included: with the flow prescribed (no fluid
+                accumulates, eps_7 = 0) the enclosed fluid resists the Poisson change of
+                the bore, which stiffens the pipe axially to
+                EA / (1 - (1 - 2 nu)^2 / (5 - 4 nu + 2 E t / (K r))),
+                nu = E/(2G) - 1, t the wall thickness, r the mean radius.
         """
         Do = _checks.positive("outer_diameter", outer_diameter)
         Di = _checks.non_negative("inner_diameter", inner_diameter)
@@ -91,7 +98,29 @@ class PipeSection:
         Af = math.pi / 4 * Di**2
         I = math.pi / 64 * (Do**4 - Di**4)
         k_shear = 0.5 if Di > 0 else 0.9
-        return cls(EI=E * I, EA=E * A, GJ=G * 2 * I,
+        EA = E * A
+        if fluid_bulk_modulus is not None:
+            EA = E * A * pressure_coupling_factor(E=E, G=G, wall=(Do - Di) / 2, radius=(Do + Di) / 4,
+                                                  bulk_modulus=_checks.positive("fluid_bulk_modulus",
+                                                                                fluid_bulk_modulus))
+        return cls(EI=E * I, EA=EA, GJ=G * 2 * I,
                    GAy=k_shear * G * A if shear else None, GAz=k_shear * G * A if shear else None,
                    pipe_mass=rho * A, fluid_mass=rho_f * Af, kv=kv,
                    rotary_inertia=(2 * rho * I, rho * I, rho * I) if rotary_inertia else (0.0, 0.0, 0.0))
+
+
+def pressure_coupling_factor(*, E: float, G: float, wall: float, radius: float, bulk_modulus: float) -> float:
+    """Axial stiffening factor [-] of a fluid-filled thin tube with no fluid accumulation.
+
+    From eq. 8 of seed 000, [eps1, eps7] = l0/(E A) [[1, c], [c, d]] [sigma1, sigma7] with
+    c = 1 - 2 nu, d = 5 - 4 nu + 2 E t / (K r): setting eps7 = 0 eliminates the fluid
+    force sigma7 = -c sigma1 / d and leaves eps1 = l0 (1 - c^2/d) sigma1 / (E A).
+
+    Args:
+        E, G: moduli of the wall [Pa]; wall: t [m]; radius: r [m] mean radius;
+        bulk_modulus: K [Pa] of the fluid.
+    """
+    nu = E / (2.0 * G) - 1.0
+    c = 1.0 - 2.0 * nu
+    d = 5.0 - 4.0 * nu + 2.0 * E * wall / (bulk_modulus * radius)
+    return 1.0 / (1.0 - c * c / d)
