@@ -4,7 +4,8 @@ SI units throughout. See ``docs/`` for the theory, conventions and user guide.
 """
 from . import scenes
 from .analysis import (CriticalFlow, EigenResult, Linearization, StaticResult, critical_mass_flow,
-                       eigenvalues, linearize, stability, static_equilibrium)
+                       eigenvalues, linearize, simulate, stability, static_equilibrium,
+                       TransientResult, SteadyRotation, steady_rotation)
 from .errors import ConvergenceError
 from .model import Model, ModelBuilder
 from .sections import PipeSection
@@ -12,5 +13,6 @@ from .sections import PipeSection
 __version__ = "0.1.0"
 
 __all__ = ["scenes", "CriticalFlow", "EigenResult", "Linearization", "StaticResult",
-           "critical_mass_flow", "eigenvalues", "linearize", "stability", "static_equilibrium",
+           "critical_mass_flow", "eigenvalues", "linearize", "simulate", "stability", "static_equilibrium",
+           "TransientResult", "SteadyRotation", "steady_rotation",
            "ConvergenceError", "Model", "ModelBuilder", "PipeSection"]

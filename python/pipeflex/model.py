@@ -34,6 +34,20 @@ def _triad(tangent: np.ndarray, up: Optional[np.ndarray]) -> np.ndarray:
     return np.column_stack([ex, ey, ez])
 
 
+def _strain_free_length(chord: np.ndarray, Ep: np.ndarray, Eq: np.ndarray) -> float:
+    """l0 with eps_1 = 0 (eq. 1) for end triads Ep, Eq (columns e_x, e_y, e_z) and a chord:
+    eps_1 = l - l0 + l0 c with c = (2c3^2 + c3 c4 + 2c4^2 + 2c5^2 + c5 c6 + 2c6^2)/30, where
+    c_k = eps_bar_k / l0 depend on the directions only."""
+    lc = float(np.linalg.norm(chord))
+    el = chord / lc
+    c3, c4 = -el @ Ep[:, 2], el @ Eq[:, 2]
+    c5, c6 = el @ Ep[:, 1], -el @ Eq[:, 1]
+    c = (2 * c3**2 + c3 * c4 + 2 * c4**2 + 2 * c5**2 + c5 * c6 + 2 * c6**2) / 30.0
+    if c >= 1.0:
+        raise ValueError("element end tangents turn too far from the chord for one element")
+    return lc / (1.0 - c)
+
+
 @dataclass(frozen=True)
 class ElementInfo:
     """What the builder recorded of an element (for plotting and post-processing)."""
@@ -88,8 +102,12 @@ class ModelBuilder:
                 axis); default global z (global y for a vertical element).
             tangent_p, tangent_q: centre-line tangents at the ends of an initially curved
                 element (default: the chord). The element is stress-free as built.
-            length: l0 [m] reference (arc) length; default the chord length. Give the arc
-                length for a curved element.
+            length: l0 [m] reference length. Default: the chord for a straight element;
+                for a curved one the length at which the axial strain eps_1 of eq. 1
+                vanishes in the stress-free shape (seed 000: sigma_1 has no eps_1^0, "an
+                initial elongation can be taken into account by modifying l0"); for a
+                circular arc of angle t this is the chord / (1 - sin^2(t/2)/6), within
+                (t/2)^4/90 of the arc length.
             flow_factor: [-] this element's mass flow as a multiple of the model's
                 (1: in series with the flow, 0: no flow, -1: reversed).
             fluid_end_terms: keep the split-off end terms of eqs. 19-20 of seed 000
@@ -106,14 +124,14 @@ class ModelBuilder:
         lc = float(np.linalg.norm(chord))
         if lc <= 0.0:
             raise ValueError(f"element {p}->{q} has zero length: nodes {p} and {q} coincide")
-        l0 = lc if length is None else _checks.positive("length", length)
-        if l0 < lc * (1 - 1e-12):
-            raise ValueError(f"length l0 = {l0} must not be shorter than the chord {lc}")
         up_v = None if up is None else _checks.unit_vector("up", up)
         tp = chord if tangent_p is None else _checks.unit_vector("tangent_p", tangent_p)
         tq = chord if tangent_q is None else _checks.unit_vector("tangent_q", tangent_q)
-        self._elements.append(dict(p=p, q=q, section=section, l0=l0, Ep=_triad(tp, up_v),
-                                   Eq=_triad(tq, up_v), flow_factor=_checks.finite("flow_factor", flow_factor),
+        Ep, Eq = _triad(tp, up_v), _triad(tq, up_v)
+        l0 = _strain_free_length(chord, Ep, Eq) if length is None else _checks.positive("length", length)
+        if l0 < lc * (1 - 1e-12):
+            raise ValueError(f"length l0 = {l0} must not be shorter than the chord {lc}")
+        self._elements.append(dict(p=p, q=q, section=section, l0=l0, Ep=Ep, Eq=Eq, flow_factor=_checks.finite("flow_factor", flow_factor),
                                    fluid_end_terms=bool(fluid_end_terms)))
         return len(self._elements) - 1
 
@@ -158,8 +176,7 @@ class ModelBuilder:
             nodes.append(self.add_node(c + rot(dth * i) @ r0))
             tp = sgn * np.cross(k, rot(dth * (i - 1)) @ r0)
             tq = sgn * np.cross(k, rot(dth * i) @ r0)
-            self.add_pipe(nodes[-2], nodes[-1], section, up=k, tangent_p=tp, tangent_q=tq,
-                          length=R * abs(dth), **options)
+            self.add_pipe(nodes[-2], nodes[-1], section, up=k, tangent_p=tp, tangent_q=tq, **options)
         return nodes
 
     # -- supports -------------------------------------------------------------------

@@ -1,6 +1,8 @@
 """The seeds' test problems as ready-made models (defaults are the seeds' values)."""
 from __future__ import annotations
 
+import numpy as np
+
 from . import _checks
 from .model import Model, ModelBuilder
 from .sections import PipeSection
@@ -48,3 +50,44 @@ def cantilever_pipe(*, n_elements: int, length: float = 1.0, EI: float = 10.0, p
     b.add_line(n0, (L, 0.0, 0.0), n_elements, sec)
     b.clamp(n0)
     return b.build(mass_flow=mass_flow)
+
+
+#: Bending stiffness [N m^2] standing in for a rigid sprinkler pipe (10^6 x the stiffest
+#: flexible case): its steady speed then differs from the rigid limit by ~1e-8.
+RIGID_EI = 1e9
+#: Axial stiffness [N] of the sprinkler pipe: practically inextensible (the centrifugal
+#: tension of ~10 N strains it by ~1e-9).
+SPRINKLER_EA = 4e9
+
+
+def sprinkler(*, EI: float, n_elements: int = 8, mass_flow: float = 10.0, radius: float = 0.5,
+              pipe_mass: float = 0.5, fluid_mass: float = 1.0, kv: float = 1.0, rigid: bool = False,
+              suck: bool = False, polar_inertia: float = 1e-4) -> Model:
+    """Semicircular pipe rotating about its inlet, a garden sprinkler (seed 000, section
+    3.3, Figs. 4-5).
+
+    The inlet node sits at the origin on a hinge about global z; the semicircle of radius
+    R lies in the xy plane with its centre at (R, 0, 0), leaving the inlet along +y and
+    ending at (2R, 0, 0) pointing along -y. With ``suck=True`` the flow is reversed: the
+    pipe draws fluid from a still reservoir at its free end (mdot < 0 in the elements),
+    and the inlet force of eq. 22 acts at that end (see the notebook).
+
+    Args:
+        EI: bending stiffness [N m^2] (ignored if ``rigid``).
+        n_elements: curved elements. mass_flow: mdot [kg/s]. radius: R [m].
+        pipe_mass: rho_p A_p [kg/m]. fluid_mass: rho_f A_f [kg/m]. kv: [-].
+        rigid: use EI = RIGID_EI (a practically rigid pipe).
+        suck: reverse the flow (the pipe sucks from a still reservoir).
+        polar_inertia: rho I_p [kg m] rotary inertia per length about the pipe axis; it
+            makes the mass matrix regular and does not enter the planar motion.
+    """
+    R = _checks.positive("radius", radius)
+    EI = RIGID_EI if rigid else _checks.positive("EI", EI)
+    sec = PipeSection(EI=EI, EA=SPRINKLER_EA, GJ=EI / 1.3, pipe_mass=pipe_mass, fluid_mass=fluid_mass, kv=kv,
+                      rotary_inertia=(_checks.non_negative("polar_inertia", polar_inertia), 0.0, 0.0))
+    b = ModelBuilder()
+    n0 = b.add_node((0.0, 0.0, 0.0))
+    b.add_arc(n0, center=(R, 0.0, 0.0), angle=-np.pi, normal=(0.0, 0.0, 1.0), n_elements=n_elements,
+              section=sec, flow_factor=-1.0 if suck else 1.0)
+    b.hinge(n0, (0.0, 0.0, 1.0))
+    return b.build(mass_flow=_checks.finite("mass_flow", mass_flow))

@@ -1,0 +1,521 @@
+#include "pipeflex/solvers/transient.hpp"
+
+#include "pipeflex/elements/hermite.hpp"
+
+#include <Eigen/Dense>
+#include <ida/ida.h>
+#include <nvector/nvector_serial.h>
+#include <sunlinsol/sunlinsol_band.h>
+#include <sunmatrix/sunmatrix_band.h>
+
+#include <algorithm>
+#include <cmath>
+#include <memory>
+#include <sstream>
+
+namespace pipeflex {
+
+double TimeTable::at(double time) const {
+    if (t.empty()) return 0.0;
+    if (time <= t.front()) return value.front();
+    if (time >= t.back()) return value.back();
+    const auto it = std::upper_bound(t.begin(), t.end(), time);
+    const std::size_t k = static_cast<std::size_t>(it - t.begin());
+    const double s = (time - t[k - 1]) / (t[k] - t[k - 1]);
+    return value[k - 1] + s * (value[k] - value[k - 1]);
+}
+
+double TimeTable::rate(double time) const {
+    if (t.size() < 2 || time < t.front() || time >= t.back()) return 0.0;
+    const auto it = std::upper_bound(t.begin(), t.end(), time);
+    const std::size_t k = static_cast<std::size_t>(it - t.begin());
+    return (value[k] - value[k - 1]) / (t[k] - t[k - 1]);
+}
+
+double gravity_potential(const Model& model, const State& s, const LoadState& load) {
+    double V = 0.0;
+    Vec3<double> g;
+    for (int i = 0; i < 3; ++i) g[i] = load.gravity[i] * load.gravity_factor;
+    for (const auto& el : model.pipes) {
+        const double m = (el.data.pipe_mass + el.data.fluid_mass) * el.data.l0;
+        const Mat3<double> Ep = s.rotation(el.p) * el.data.offset_p;
+        const Mat3<double> Eq = s.rotation(el.q) * el.data.offset_q;
+        const double l0 = el.data.l0;
+        Vec3<double> xp{{s.q[6 * el.p], s.q[6 * el.p + 1], s.q[6 * el.p + 2]}};
+        Vec3<double> xq{{s.q[6 * el.q], s.q[6 * el.q + 1], s.q[6 * el.q + 2]}};
+        const Vec3<double> a[4] = {xp, l0 * Ep.col(0), xq, l0 * Eq.col(0)};
+        for (int i = 0; i < 4; ++i) V -= m * hermite::load[i] * dot(g, a[i]);
+    }
+    for (const auto& nm : model.masses) {
+        Vec3<double> x{{s.q[6 * nm.node], s.q[6 * nm.node + 1], s.q[6 * nm.node + 2]}};
+        V -= nm.mass * dot(g, x);
+    }
+    return V;
+}
+
+namespace {
+
+// Shared machinery: reduced <-> full coordinates around a base state, residuals,
+// tangents, outputs and energy bookkeeping.
+class System {
+   public:
+    System(const Model& m, State& s, const LoadState& load, const TimeTable& flow, const TransientOptions& o)
+        : model(m), state(s), base_load(load), flow(flow), opt(o), n(m.n_dofs), base_q(s.q) {}
+
+    const Model& model;
+    State& state;
+    LoadState base_load;
+    const TimeTable& flow;
+    const TransientOptions& opt;
+    int n;
+    Eigen::VectorXd base_q;
+    double fluid_work = 0.0, load_work = 0.0, last_power_t = 0.0, last_fluid_power = 0.0,
+           last_load_power = 0.0;
+
+    LoadState load_at(double t) const {
+        LoadState l = base_load;
+        l.mass_flow = flow.at(t);
+        l.mass_flow_rate = flow.rate(t);
+        return l;
+    }
+
+    Eigen::VectorXd full(const Eigen::VectorXd& z) const {
+        Eigen::VectorXd f = Eigen::VectorXd::Zero(6 * model.n_nodes());
+        add_increment(model, f, z);
+        return f;
+    }
+
+    void set(const Eigen::VectorXd& z, const Eigen::VectorXd& v, const Eigen::VectorXd& a) {
+        state.q = base_q;
+        add_increment(model, state.q, z);
+        state.v = full(v);
+        state.a = full(a);
+    }
+
+    Eigen::VectorXd residual(double t) const {
+        Eigen::VectorXd r;
+        assemble(model, state, load_at(t), 1.0, 0.0, 0.0, 0.0, &r, nullptr);
+        return r;
+    }
+
+    // Re-base the frames (nodes with |phi| > angle); returns the new reduced velocity and
+    // acceleration and resets the base so that z = 0.
+    int rebase(double angle, Eigen::VectorXd& v, Eigen::VectorXd& a) {
+        const int k = state.rebase(angle);
+        base_q = state.q;
+        v = reduce(model, state.v);
+        a = reduce(model, state.a);
+        return k;
+    }
+
+    void check_finite(double t, double h, const Eigen::VectorXd& z) const {
+        const double lim = opt.divergence_limit * opt.length_scale;
+        for (int i = 0; i < z.size(); ++i) {
+            if (!std::isfinite(z[i]) || std::abs(z[i]) > lim) {
+                std::ostringstream os;
+                os << "the motion diverged at t = " << t << " s (step " << h << " s): coordinate " << i
+                   << " reached " << z[i] << " (limit " << lim << ")";
+                throw SolverError(os.str());
+            }
+        }
+    }
+
+    // Power of the fluid forces and of the external loads on the structure [W].
+    void powers(double t, double* fluid, double* loads) const {
+        LoadState with = load_at(t), without = with;
+        without.mass_flow = 0.0;
+        without.mass_flow_rate = 0.0;
+        Eigen::VectorXd r1, r0, rl;
+        assemble(model, state, with, 0.0, 0.0, 0.0, 0.0, &r1, nullptr);
+        assemble(model, state, without, 0.0, 0.0, 0.0, 0.0, &r0, nullptr);
+        const Eigen::VectorXd vz = reduce(model, state.v);
+        *fluid = -vz.dot(r1 - r0);
+        *loads = vz.dot(reduce(model, external_forces(model, state)));
+    }
+
+    void start_work(double t) {
+        powers(t, &last_fluid_power, &last_load_power);
+        last_power_t = t;
+    }
+
+    // Trapezoidal accumulation of the work from the last step to time t (current state).
+    void accumulate_work(double t) {
+        double pf, pl;
+        powers(t, &pf, &pl);
+        const double dt = t - last_power_t;
+        fluid_work += 0.5 * dt * (pf + last_fluid_power);
+        load_work += 0.5 * dt * (pl + last_load_power);
+        last_fluid_power = pf;
+        last_load_power = pl;
+        last_power_t = t;
+    }
+
+    void record(double t, TransientOutput& out, double fw, double lw) const {
+        out.t.push_back(t);
+        const int N = model.n_nodes();
+        for (int i = 0; i < N; ++i) {
+            const Vec3<double> phi{{state.q[6 * i + 3], state.q[6 * i + 4], state.q[6 * i + 5]}};
+            const Vec3<double> phid{{state.v[6 * i + 3], state.v[6 * i + 4], state.v[6 * i + 5]}};
+            const Vec3<double> w = rotation_jacobian(phi) * phid;
+            const Mat3<double> R = state.rotation(i);
+            for (int k = 0; k < 3; ++k) {
+                out.x.push_back(state.q[6 * i + k]);
+                out.xd.push_back(state.v[6 * i + k]);
+                out.w.push_back(w[k]);
+            }
+            for (int k = 0; k < 9; ++k) out.R.push_back(R.c[k]);
+        }
+        double T, U;
+        energies(model, state, &T, &U);
+        out.kinetic.push_back(T);
+        out.elastic.push_back(U);
+        out.gravity_potential.push_back(gravity_potential(model, state, load_at(t)));
+        out.fluid_work.push_back(fw);
+        out.load_work.push_back(lw);
+    }
+
+    // Initial acceleration from M a = -R(q, v, 0); M must be regular.
+    Eigen::VectorXd initial_acceleration(double t) {
+        state.a.setZero();
+        const Eigen::VectorXd r = residual(t);
+        Triplets trip;
+        assemble(model, state, load_at(t), 1.0, 0.0, 0.0, 1.0, nullptr, &trip);
+        Eigen::MatrixXd M = Eigen::MatrixXd::Zero(n, n);
+        for (std::size_t k = 0; k < trip.values.size(); ++k) M(trip.rows[k], trip.cols[k]) += trip.values[k];
+        Eigen::LDLT<Eigen::MatrixXd> ldlt(0.5 * (M + M.transpose()));
+        const Eigen::VectorXd d = ldlt.vectorD();
+        if (ldlt.info() != Eigen::Success || d.minCoeff() <= 1e-12 * d.cwiseAbs().maxCoeff()) {
+            throw SolverError(
+                "the mass matrix is singular: some coordinates have no inertia (e.g. torsion or "
+                "rotation about the pipe axis without rotary inertia). Give the sections "
+                "rotary_inertia, or constrain those coordinates.");
+        }
+        return ldlt.solve(-r);
+    }
+};
+
+Eigen::MatrixXd dense(const Triplets& t, int n) {
+    Eigen::MatrixXd A = Eigen::MatrixXd::Zero(n, n);
+    for (std::size_t k = 0; k < t.values.size(); ++k) A(t.rows[k], t.cols[k]) += t.values[k];
+    return A;
+}
+
+std::string fmt(double x) {
+    std::ostringstream os;
+    os.precision(6);
+    os << x;
+    return os.str();
+}
+
+// ---------------------------------------------------------------- IDA ----------------
+
+struct IdaData {
+    System* sys;
+    Eigen::VectorXd z, v, zd, vd;
+    long jacobians = 0;
+    std::string error;
+};
+
+void unpack(const double* y, Eigen::VectorXd& z, Eigen::VectorXd& v, int n) {
+    for (int i = 0; i < n; ++i) {
+        z[i] = y[2 * i];
+        v[i] = y[2 * i + 1];
+    }
+}
+
+int ida_residual(sunrealtype t, N_Vector yy, N_Vector yp, N_Vector rr, void* user) {
+    auto* d = static_cast<IdaData*>(user);
+    System& s = *d->sys;
+    const int n = s.n;
+    unpack(NV_DATA_S(yy), d->z, d->v, n);
+    unpack(NV_DATA_S(yp), d->zd, d->vd, n);
+    double* r = NV_DATA_S(rr);
+    for (int i = 0; i < n; ++i)
+        if (!std::isfinite(d->z[i]) || !std::isfinite(d->v[i])) return 1;  // recoverable
+    try {
+        s.set(d->z, d->v, d->vd);
+        const Eigen::VectorXd R = s.residual(t);
+        for (int i = 0; i < n; ++i) {
+            r[2 * i] = d->zd[i] - d->v[i];
+            r[2 * i + 1] = R[i];
+            if (!std::isfinite(R[i])) return 1;
+        }
+    } catch (const std::exception& e) {
+        d->error = e.what();
+        return -1;
+    }
+    return 0;
+}
+
+int ida_jacobian(sunrealtype t, sunrealtype cj, N_Vector yy, N_Vector yp, N_Vector, SUNMatrix J, void* user,
+                 N_Vector, N_Vector, N_Vector) {
+    auto* d = static_cast<IdaData*>(user);
+    System& s = *d->sys;
+    const int n = s.n;
+    ++d->jacobians;
+    unpack(NV_DATA_S(yy), d->z, d->v, n);
+    unpack(NV_DATA_S(yp), d->zd, d->vd, n);
+    s.set(d->z, d->v, d->vd);
+    Triplets K, CM;
+    const LoadState load = s.load_at(t);
+    assemble(s.model, s.state, load, 1.0, 1.0, 0.0, 0.0, nullptr, &K);
+    assemble(s.model, s.state, load, 1.0, 0.0, 1.0, cj, nullptr, &CM);
+    SUNMatZero(J);
+    for (int i = 0; i < n; ++i) {
+        SM_ELEMENT_B(J, 2 * i, 2 * i) = cj;
+        SM_ELEMENT_B(J, 2 * i, 2 * i + 1) = -1.0;
+    }
+    for (std::size_t k = 0; k < K.values.size(); ++k) SM_ELEMENT_B(J, 2 * K.rows[k] + 1, 2 * K.cols[k]) += K.values[k];
+    for (std::size_t k = 0; k < CM.values.size(); ++k)
+        SM_ELEMENT_B(J, 2 * CM.rows[k] + 1, 2 * CM.cols[k] + 1) += CM.values[k];
+    return 0;
+}
+
+template <class T, void (*Free)(T)>
+struct Handle {
+    T p;
+    ~Handle() {
+        if (p) Free(p);
+    }
+};
+void free_ida(void* p) { IDAFree(&p); }
+void free_ctx(SUNContext c) { SUNContext_Free(&c); }
+
+// Half bandwidth of the reduced tangent pattern.
+int bandwidth(const Model& model, const State& state, const LoadState& load) {
+    Triplets t;
+    assemble(model, state, load, 1.0, 1.0, 1.0, 1.0, nullptr, &t);
+    int b = 0;
+    for (std::size_t k = 0; k < t.rows.size(); ++k) b = std::max(b, std::abs(t.rows[k] - t.cols[k]));
+    return b;
+}
+
+}  // namespace
+
+TransientOutput integrate_ida(const Model& model, State& state, const LoadState& load, const TimeTable& mass_flow,
+                              const std::vector<double>& times, const TransientOptions& opt,
+                              const ProgressFn& progress) {
+    TransientOutput out;
+    if (times.empty()) return out;
+    System sys(model, state, load, mass_flow, opt);
+    const int n = sys.n;
+    double t = times.front();
+    IdaData data{&sys, Eigen::VectorXd::Zero(n), Eigen::VectorXd::Zero(n), Eigen::VectorXd::Zero(n),
+                 Eigen::VectorXd::Zero(n), 0, {}};
+
+    SUNContext ctx = nullptr;
+    if (SUNContext_Create(nullptr, &ctx) != 0) throw SolverError("SUNDIALS: could not create a context");
+    Handle<SUNContext, free_ctx> ctx_guard{ctx};
+    const int N = 2 * n;
+    std::unique_ptr<_generic_N_Vector, void (*)(N_Vector)> yy(N_VNew_Serial(N, ctx), N_VDestroy);
+    std::unique_ptr<_generic_N_Vector, void (*)(N_Vector)> yp(N_VNew_Serial(N, ctx), N_VDestroy);
+    const int b = 2 * bandwidth(model, state, sys.load_at(t)) + 1;
+    std::unique_ptr<_generic_SUNMatrix, void (*)(SUNMatrix)> A(SUNBandMatrix(N, b, b, ctx), SUNMatDestroy);
+    std::unique_ptr<_generic_SUNLinearSolver, int (*)(SUNLinearSolver)> LS(SUNLinSol_Band(yy.get(), A.get(), ctx),
+                                                                          SUNLinSolFree);
+    void* mem = IDACreate(ctx);
+    if (mem == nullptr) throw SolverError("SUNDIALS: IDACreate failed");
+    Handle<void*, free_ida> mem_guard{mem};
+
+    // Consistent initial values: z = 0 at the base, v from the state, v_dot from M a = -R.
+    Eigen::VectorXd v = reduce(model, state.v), a;
+    sys.rebase(0.0, v, a);
+    sys.set(Eigen::VectorXd::Zero(n), v, Eigen::VectorXd::Zero(n));
+    a = sys.initial_acceleration(t);
+    auto load_y = [&](const Eigen::VectorXd& vv, const Eigen::VectorXd& aa) {
+        double* y = NV_DATA_S(yy.get());
+        double* p = NV_DATA_S(yp.get());
+        for (int i = 0; i < n; ++i) {
+            y[2 * i] = 0.0;
+            y[2 * i + 1] = vv[i];
+            p[2 * i] = vv[i];
+            p[2 * i + 1] = aa[i];
+        }
+    };
+    load_y(v, a);
+    auto check = [&](int flag, const char* what) {
+        if (flag < 0) throw SolverError(std::string("SUNDIALS: ") + what + " failed (flag " + std::to_string(flag) + ")");
+    };
+    check(IDAInit(mem, ida_residual, t, yy.get(), yp.get()), "IDAInit");
+    check(IDASStolerances(mem, opt.rtol, opt.atol), "IDASStolerances");
+    check(IDASetUserData(mem, &data), "IDASetUserData");
+    check(IDASetLinearSolver(mem, LS.get(), A.get()), "IDASetLinearSolver");
+    check(IDASetJacFn(mem, ida_jacobian), "IDASetJacFn");
+    check(IDASetMaxNumSteps(mem, opt.max_steps), "IDASetMaxNumSteps");
+    check(IDASetMaxOrd(mem, opt.max_order), "IDASetMaxOrd");
+    check(IDASetStopTime(mem, times.back()), "IDASetStopTime");
+
+    sys.set(Eigen::VectorXd::Zero(n), v, a);
+    sys.start_work(t);
+    sys.record(t, out, 0.0, 0.0);
+    std::size_t next = 1;
+    double prev_t = t, prev_fw = 0.0, prev_lw = 0.0;
+    Eigen::VectorXd z(n);
+    N_Vector dky = N_VNew_Serial(N, ctx);
+    std::unique_ptr<_generic_N_Vector, void (*)(N_Vector)> dky_guard(dky, N_VDestroy);
+    while (next < times.size()) {
+        double tret = 0.0;
+        const int flag = IDASolve(mem, times.back(), &tret, yy.get(), yp.get(), IDA_ONE_STEP);
+        if (flag < 0) {
+            double h = 0.0, tc = 0.0;
+            IDAGetLastStep(mem, &h);
+            IDAGetCurrentTime(mem, &tc);
+            std::string why = data.error.empty() ? IDAGetReturnFlagName(flag) : data.error;
+            throw SolverError("IDA failed at t = " + fmt(tc) + " s (last step " + fmt(h) + " s): " + why +
+                              ". The motion may diverge or the tolerances be too tight.");
+        }
+        ++out.steps;
+        unpack(NV_DATA_S(yy.get()), data.z, data.v, n);
+        unpack(NV_DATA_S(yp.get()), data.zd, data.vd, n);
+        sys.check_finite(tret, tret - prev_t, data.z);
+        sys.set(data.z, data.v, data.vd);
+        sys.accumulate_work(tret);
+        // outputs inside (prev_t, tret], interpolated by IDA; work linearly
+        while (next < times.size() && times[next] <= tret + 1e-14 * std::max(1.0, std::abs(tret))) {
+            const double to = std::min(times[next], tret);
+            check(IDAGetDky(mem, to, 0, dky), "IDAGetDky");
+            Eigen::VectorXd zo(n), vo(n), ao(n), dummy(n);
+            unpack(NV_DATA_S(dky), zo, vo, n);
+            check(IDAGetDky(mem, to, 1, dky), "IDAGetDky");
+            unpack(NV_DATA_S(dky), dummy, ao, n);
+            sys.set(zo, vo, ao);
+            const double s = tret > prev_t ? (to - prev_t) / (tret - prev_t) : 1.0;
+            sys.record(to, out, prev_fw + s * (sys.fluid_work - prev_fw), prev_lw + s * (sys.load_work - prev_lw));
+            if (progress) progress(to);
+            ++next;
+        }
+        prev_t = tret;
+        prev_fw = sys.fluid_work;
+        prev_lw = sys.load_work;
+        // re-base rotations that grew large, then restart IDA from the same motion
+        sys.set(data.z, data.v, data.vd);
+        bool big = false;
+        for (int i = 0; i < model.n_nodes() && !big; ++i) {
+            const Vec3<double> phi{{state.q[6 * i + 3], state.q[6 * i + 4], state.q[6 * i + 5]}};
+            big = std::sqrt(dot(phi, phi)) > opt.rebase_angle;
+        }
+        if (big && next < times.size()) {
+            Eigen::VectorXd vv, aa;
+            out.rebases += sys.rebase(opt.rebase_angle, vv, aa);
+            load_y(vv, aa);
+            check(IDAReInit(mem, tret, yy.get(), yp.get()), "IDAReInit");
+        }
+    }
+    long nni = 0;
+    IDAGetNumNonlinSolvIters(mem, &nni);
+    out.newton_iterations = nni;
+    out.jacobians = data.jacobians;
+    long nef = 0;
+    IDAGetNumErrTestFails(mem, &nef);
+    out.failed_steps = nef;
+    long ncf = 0;
+    IDAGetNumNonlinSolvConvFails(mem, &ncf);
+    out.convergence_failures = ncf;
+    return out;
+}
+
+// ------------------------------------------------------- generalised-alpha ------------
+
+TransientOutput integrate_generalized_alpha(const Model& model, State& state, const LoadState& load,
+                                            const TimeTable& mass_flow, const std::vector<double>& times,
+                                            const TransientOptions& opt, const ProgressFn& progress) {
+    TransientOutput out;
+    if (times.empty()) return out;
+    System sys(model, state, load, mass_flow, opt);
+    const int n = sys.n;
+    const double rho = opt.rho_inf;
+    const double am = (2.0 * rho - 1.0) / (rho + 1.0), af = rho / (rho + 1.0);
+    const double gamma = 0.5 + af - am, beta = 0.25 * (gamma + 0.5) * (gamma + 0.5);
+
+    double t = times.front();
+    Eigen::VectorXd v = reduce(model, state.v), a;
+    sys.rebase(0.0, v, a);
+    sys.set(Eigen::VectorXd::Zero(n), v, Eigen::VectorXd::Zero(n));
+    a = sys.initial_acceleration(t);
+    Eigen::VectorXd pa = a;  // pseudo-acceleration
+    sys.set(Eigen::VectorXd::Zero(n), v, a);
+    sys.start_work(t);
+    sys.record(t, out, 0.0, 0.0);
+
+    double h = opt.step;
+    Eigen::PartialPivLU<Eigen::MatrixXd> lu;
+    bool fresh = false;  // is lu the iteration matrix for the current step size?
+    double lu_step = -1.0;
+    for (std::size_t next = 1; next < times.size(); ++next) {
+        while (t < times[next] - 1e-14 * std::max(1.0, std::abs(t))) {
+            const double hs = std::min(h, times[next] - t);
+            const double tn = t + hs;
+            const double bp = hs * hs * beta * (1.0 - af) / (1.0 - am);
+            const double gp = hs * gamma * (1.0 - af) / (1.0 - am);
+            Eigen::VectorXd an = a, pan, zn, vn;
+            auto update = [&]() {
+                pan = ((1.0 - af) * an + af * a - am * pa) / (1.0 - am);
+                zn = hs * v + hs * hs * ((0.5 - beta) * pa + beta * pan);
+                vn = v + hs * ((1.0 - gamma) * pa + gamma * pan);
+            };
+            update();
+            bool ok = false;
+            double rnorm = 0.0, prev = 0.0;
+            int it = 0;
+            // Modified Newton: the factorised iteration matrix is kept across iterations and
+            // steps while the corrections contract fast; it is rebuilt otherwise.
+            if (lu_step != hs) fresh = false;
+            for (it = 1; it <= opt.max_newton; ++it) {
+                sys.set(zn, vn, an);
+                Eigen::VectorXd r;
+                if (!fresh) {
+                    Triplets J;
+                    assemble(model, state, sys.load_at(tn), 1.0, bp, gp, 1.0, &r, &J);
+                    lu.compute(dense(J, n));
+                    fresh = true;
+                    lu_step = hs;
+                    ++out.jacobians;
+                } else {
+                    assemble(model, state, sys.load_at(tn), 1.0, 0.0, 0.0, 0.0, &r, nullptr);
+                }
+                rnorm = r.norm();
+                if (!std::isfinite(rnorm)) break;
+                const Eigen::VectorXd da = lu.solve(-r);
+                an += da;
+                update();
+                ++out.newton_iterations;
+                const double corr = bp * da.lpNorm<Eigen::Infinity>();
+                if (corr <= opt.newton_tol * opt.length_scale) {
+                    ok = true;
+                    break;
+                }
+                if (it > 1 && corr > 0.25 * prev) fresh = false;  // slow contraction: refresh
+                prev = corr;
+            }
+            if (it > 3) fresh = false;
+            if (!ok) {
+                ++out.convergence_failures;
+                fresh = false;
+                h = 0.5 * hs;
+                if (h < opt.min_step) {
+                    throw SolverError("generalised-alpha failed at t = " + fmt(t) + " s: Newton did not converge "
+                                      "with step " + fmt(hs) + " s (residual " + fmt(rnorm) + " after " +
+                                      std::to_string(it - 1) + " iterations); the motion may diverge");
+                }
+                continue;
+            }
+            sys.set(zn, vn, an);
+            sys.check_finite(tn, hs, zn);
+            sys.accumulate_work(tn);
+            // accept: re-base every node to phi = 0, carrying the pseudo-acceleration's
+            // offset from the true acceleration over
+            const Eigen::VectorXd offset = pan - an;
+            out.rebases += sys.rebase(0.0, v, a);
+            pa = a + offset;
+            t = tn;
+            ++out.steps;
+            if (h < opt.step) h = std::min(opt.step, 2.0 * h);
+        }
+        sys.set(Eigen::VectorXd::Zero(n), v, a);
+        sys.record(t, out, sys.fluid_work, sys.load_work);
+        if (progress) progress(t);
+    }
+    return out;
+}
+
+}  // namespace pipeflex

@@ -1,0 +1,220 @@
+"""Time integration: ``simulate(model, t_end, integrator="ida" | "generalized_alpha")``.
+
+Both integrators run in the C++ core on the element residuals and their analytic
+(automatic-differentiation) tangents; see ``docs/theory.md``.
+"""
+from __future__ import annotations
+
+import json
+import time as _time
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Optional, Sequence, Tuple, Union
+
+import numpy as np
+
+from .. import _checks, _core
+from ..errors import ConvergenceError
+
+INTEGRATORS = ("ida", "generalized_alpha")
+_OPTIONS = {
+    "ida": {"rtol", "atol", "rebase_angle", "max_steps", "max_order"},
+    "generalized_alpha": {"step", "rho_inf", "newton_tol", "max_newton", "min_step", "max_steps"},
+}
+
+
+@dataclass
+class TransientResult:
+    """Motion at the output times; arrays are numpy, SI units.
+
+    Attributes:
+        t: (nt,) output times [s].
+        x: (nt, N, 3) node positions [m]; R: (nt, N, 3, 3) node rotation matrices.
+        xd: (nt, N, 3) node velocities [m/s]; omega: (nt, N, 3) spatial angular velocities [rad/s].
+        kinetic, elastic, gravity_potential: (nt,) energies [J].
+        fluid_work: (nt,) work done by the fluid forces on the structure since t[0] [J]
+            (momentum flux in and out, Coriolis and centripetal forces).
+        load_work: (nt,) work of the nodal loads [J].
+        stats: integrator statistics (steps, Newton iterations, Jacobians, re-basings,
+            failed steps, wall time [s]).
+        metadata: integrator, options and model description.
+    """
+
+    t: np.ndarray
+    x: np.ndarray
+    R: np.ndarray
+    xd: np.ndarray
+    omega: np.ndarray
+    kinetic: np.ndarray
+    elastic: np.ndarray
+    gravity_potential: np.ndarray
+    fluid_work: np.ndarray
+    load_work: np.ndarray
+    stats: dict = field(default_factory=dict)
+    metadata: dict = field(default_factory=dict)
+
+    _ARRAYS = ("t", "x", "R", "xd", "omega", "kinetic", "elastic", "gravity_potential", "fluid_work", "load_work")
+
+    @property
+    def energy(self) -> np.ndarray:
+        """Mechanical energy T + U + V_g [J]."""
+        return self.kinetic + self.elastic + self.gravity_potential
+
+    def energy_balance(self) -> np.ndarray:
+        """E(t) - E(0) - W_fluid(t) - W_loads(t) [J]: zero up to the integration error."""
+        return self.energy - self.energy[0] - self.fluid_work - self.load_work
+
+    def angle(self, node: int, axis: Sequence[float] = (0.0, 0.0, 1.0)) -> np.ndarray:
+        """Unwrapped rotation angle [rad] of a node about a fixed ``axis`` (for planar
+        rotation about that axis, e.g. a hinge), from the rotation matrices."""
+        k = _checks.unit_vector("axis", axis)
+        ref = np.linalg.svd(k.reshape(1, 3))[2][1]  # a vector normal to the axis
+        rot = self.R[:, node] @ self.R[0, node].T @ ref
+        ang = np.arctan2(np.einsum("j,ij->i", k, np.cross(ref, rot)), rot @ ref)
+        return np.unwrap(ang)
+
+    def save(self, path: Union[str, Path]) -> None:
+        """Write to ``.npz`` (arrays) with the stats and metadata as JSON, losslessly."""
+        np.savez(path, **{k: getattr(self, k) for k in self._ARRAYS},
+                 stats=json.dumps(self.stats), metadata=json.dumps(self.metadata))
+
+    @classmethod
+    def load(cls, path: Union[str, Path]) -> "TransientResult":
+        """Read a result written by :meth:`save`."""
+        with np.load(path) as f:
+            arrays = {k: f[k] for k in cls._ARRAYS}
+            return cls(**arrays, stats=json.loads(str(f["stats"])), metadata=json.loads(str(f["metadata"])))
+
+
+def _flow_table(model, mass_flow) -> "_core.TimeTable":
+    tab = _core.TimeTable()
+    if mass_flow is None:
+        mass_flow = model.mass_flow
+    if np.isscalar(mass_flow):
+        v = _checks.finite("mass_flow", mass_flow)
+        tab.t, tab.value = [0.0], [v]
+        return tab
+    try:
+        ts, vs = (np.asarray(a, float) for a in mass_flow)
+    except (TypeError, ValueError):
+        raise ValueError("mass_flow must be a number [kg/s] or a pair (times [s], values [kg/s])") from None
+    if ts.ndim != 1 or ts.shape != vs.shape or len(ts) < 1 or not np.all(np.isfinite(ts)) or not np.all(np.isfinite(vs)):
+        raise ValueError("mass_flow table: times and values must be finite 1D arrays of equal length")
+    if np.any(np.diff(ts) <= 0):
+        raise ValueError("mass_flow table: times must increase strictly")
+    tab.t, tab.value = list(ts), list(vs)
+    return tab
+
+
+def simulate(model, t_end: float, *, integrator: str = "ida", state=None, t_start: float = 0.0,
+             n_outputs: int = 201, times: Optional[Sequence[float]] = None,
+             mass_flow: Union[None, float, Tuple[Sequence[float], Sequence[float]]] = None,
+             progress: Optional[bool] = None, **options) -> TransientResult:
+    """Integrate the equations of motion from ``state`` over [t_start, t_end].
+
+    Args:
+        model: the model.
+        t_end: final time [s] (> t_start).
+        integrator: ``"ida"`` (SUNDIALS IDA, variable-order variable-step BDF with error
+            control) or ``"generalized_alpha"`` (second order, numerical damping set by
+            ``rho_inf``; fixed step, halved when Newton fails).
+        state: initial state (default: the reference configuration at rest); not modified.
+        t_start: initial time [s].
+        n_outputs: number of equally spaced output times (ignored if ``times`` is given).
+        times: output times [s], increasing, from t_start to t_end.
+        mass_flow: mdot [kg/s], constant, or a table ``(times [s], values [kg/s])``
+            interpolated linearly (its slope gives the relative-acceleration term).
+            Default: the model's.
+        progress: show a progress bar (default: only when the run is expected to take
+            more than a few seconds — i.e. when tqdm is available and t_end is long).
+        **options: for ``ida``: ``rtol`` (1e-6), ``atol`` (1e-8), ``rebase_angle`` [rad]
+            (1.0), ``max_steps``; for ``generalized_alpha``: ``step`` [s] (1e-3),
+            ``rho_inf`` (0.9, in [0, 1]), ``newton_tol`` (1e-10), ``max_newton`` (12),
+            ``min_step`` [s], ``max_steps``.
+
+    Raises:
+        ValueError: bad time span, tolerances, unknown integrator or option, a singular
+            mass matrix (coordinates without inertia).
+        ConvergenceError: a failed step or a diverging motion, with the time and step.
+    """
+    if integrator not in INTEGRATORS:
+        raise ValueError(f"unknown integrator {integrator!r}; choose from {INTEGRATORS}")
+    unknown = set(options) - _OPTIONS[integrator]
+    if unknown:
+        raise ValueError(f"unknown option(s) {sorted(unknown)} for integrator {integrator!r}; "
+                         f"valid: {sorted(_OPTIONS[integrator])}")
+    t0 = _checks.finite("t_start", t_start)
+    t1 = _checks.finite("t_end", t_end)
+    if t1 <= t0:
+        raise ValueError(f"t_end must be > t_start, got t_end = {t1}, t_start = {t0}")
+    if times is None:
+        times = np.linspace(t0, t1, _checks.positive_int("n_outputs", n_outputs) + (n_outputs == 1))
+    else:
+        times = np.asarray(times, float)
+        if times.ndim != 1 or len(times) < 2 or not np.all(np.isfinite(times)) or np.any(np.diff(times) <= 0):
+            raise ValueError("times must be a finite, strictly increasing sequence of at least 2 values [s]")
+        if abs(times[0] - t0) > 0 or times[-1] > t1 + 1e-12 * max(1.0, abs(t1)):
+            raise ValueError("times must start at t_start and end at or before t_end")
+    opt = _core.TransientOptions()
+    for name in ("rtol", "atol", "step", "min_step", "newton_tol"):
+        if name in options:
+            setattr(opt, name, _checks.positive(name, options[name]))
+    if "rho_inf" in options:
+        rho = _checks.finite("rho_inf", options["rho_inf"])
+        if not 0.0 <= rho <= 1.0:
+            raise ValueError(f"rho_inf must be in [0, 1], got {rho}")
+        opt.rho_inf = rho
+    if "rebase_angle" in options:
+        ang = _checks.positive("rebase_angle", options["rebase_angle"])
+        if ang > 3.0:
+            raise ValueError(f"rebase_angle must be <= 3 rad (the rotation vector is singular at 2 pi), got {ang}")
+        opt.rebase_angle = ang
+    if "max_order" in options:
+        k = _checks.positive_int("max_order", options["max_order"])
+        if k > 5:
+            raise ValueError(f"max_order must be 1..5 (BDF orders), got {k}")
+        opt.max_order = k
+    for name in ("max_newton", "max_steps"):
+        if name in options:
+            setattr(opt, name, _checks.positive_int(name, options[name]))
+    if integrator == "generalized_alpha" and opt.step > (t1 - t0):
+        opt.step = t1 - t0
+    opt.length_scale = max(float(np.ptp(model.positions, axis=0).max()), 1e-3)
+    st = (model.initial_state() if state is None else state).copy()
+    load = model.load_state()
+    flow = _flow_table(model, mass_flow)
+
+    bar = None
+    if progress or (progress is None and (t1 - t0) > 5.0):
+        try:
+            from tqdm.auto import tqdm
+
+            bar = tqdm(total=t1 - t0, unit="s", desc=f"simulate ({integrator})", leave=False)
+        except ImportError:
+            bar = None
+    last = [t0]
+
+    def tick(t):
+        bar.update(t - last[0])
+        last[0] = t
+
+    run = _core.integrate_ida if integrator == "ida" else _core.integrate_generalized_alpha
+    wall = _time.perf_counter()
+    try:
+        out = run(model.core, st, load, flow, list(times), opt, tick if bar is not None else None)
+    except _core.SolverError as e:
+        msg = str(e)
+        if msg.startswith("the mass matrix is singular"):
+            raise ValueError(msg) from None
+        raise ConvergenceError(msg) from None
+    finally:
+        if bar is not None:
+            bar.close()
+    wall = _time.perf_counter() - wall
+    stats = {k: int(out.pop(k)) for k in ("steps", "newton_iterations", "jacobians", "rebases", "failed_steps",
+                                               "convergence_failures")}
+    stats["wall_time"] = wall
+    meta = {"integrator": integrator, "options": {k: float(v) for k, v in options.items()},
+            "t_start": t0, "t_end": t1, "n_nodes": model.n_nodes, "n_dofs": model.n_dofs,
+            "mass_flow": [list(flow.t), list(flow.value)]}
+    return TransientResult(**out, stats=stats, metadata=meta)
