@@ -92,7 +92,6 @@ def test_massless_coordinates_are_condensed_not_spurious():
     w0, w1 = np.sort(e0.frequencies)[:6], np.sort(e1.frequencies)[:6]
     assert e0.frequencies.max() < 1e8  # axial modes reach 2.5e6 rad/s; spurious ones were ~1e11
     assert np.allclose(w0, w1, rtol=1e-6)
-    assert np.all(w1 <= w0 * (1 + 1e-12))          # added inertia lowers frequencies
 
 
 def test_generalized_path_when_damping_acts_on_massless_coordinates():
