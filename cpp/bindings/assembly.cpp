@@ -46,6 +46,10 @@ void bind_assembly(py::module_& m) {
         .def_readonly("first_dof", &Model::first_dof)
         .def_property_readonly("n_pipes", [](const Model& md) { return md.pipes.size(); })
         .def("pipe", [](const Model& md, int i) { return md.pipes.at(i).data; })
+        .def("set_end_terms", [](Model& md, int i, bool p, bool q) {
+            md.pipes.at(i).data.end_terms_p = p;
+            md.pipes.at(i).data.end_terms_q = q;
+        })
         .def("pipe_nodes", [](const Model& md, int i) { return py::make_tuple(md.pipes.at(i).p, md.pipes.at(i).q); });
 
     py::class_<State>(m, "State")

@@ -39,7 +39,8 @@ void bind_elements(py::module_& m) {
         .def_readwrite("kv", &PipeElementData::kv)
         .def_readwrite("rotary_inertia", &PipeElementData::rotary_inertia)
         .def_readwrite("flow_factor", &PipeElementData::flow_factor)
-        .def_readwrite("fluid_end_terms", &PipeElementData::fluid_end_terms);
+        .def_readwrite("end_terms_p", &PipeElementData::end_terms_p)
+        .def_readwrite("end_terms_q", &PipeElementData::end_terms_q);
 
     py::class_<LoadState>(m, "LoadState")
         .def(py::init<>())

@@ -175,11 +175,9 @@ void pipe_residual(const PipeElementData& e, const NodeFrames& ref, const LoadSt
             F[i] += (P / l0 * hermite::second[i][j]) * a[j];
         }
     }
-    if (!e.fluid_end_terms) {
-        // Remove the split-off end terms of eqs. 19-20 (their sum is eqs. 21-22).
-        F[0] += mdot * vxp + P * exp_;
-        F[2] += -(mdot * vxq + P * exq);
-    }
+    // Remove split-off end terms of eqs. 19-20 where asked (their sum is eqs. 21-22).
+    if (!e.end_terms_p) F[0] += mdot * vxp + P * exp_;
+    if (!e.end_terms_q) F[2] += -(mdot * vxq + P * exq);
     add_to(f, F[0]);
     add_to(f + 3, l0 * cross(exp_, F[1]));
     add_to(f + 6, F[2]);

@@ -240,6 +240,23 @@ class ModelBuilder:
                                  inertia=np.array([_checks.non_negative(f"inertia[{i}]", x)
                                                    for i, x in enumerate(inertia)])))
 
+    def reservoir_inlet(self, node: int) -> None:
+        """Mark ``node`` as an inlet fed from a still reservoir (seed 000, end of 2.2).
+
+        The fluid there is accelerated by suction from rest, not by the pipe: the inlet
+        end term of the element that starts at ``node`` (in the flow direction) is
+        cancelled by the additional force of eq. 22 with opposite sign.
+        """
+        node = self._node("node", node)
+        found = False
+        for e in self._elements:
+            inlet = e["p"] if e["flow_factor"] >= 0 else e["q"]
+            if inlet == node:
+                e.setdefault("reservoir", set()).add(node)
+                found = True
+        if not found:
+            raise ValueError(f"node {node} is not the inlet of any flow-carrying element")
+
     def set_gravity(self, g: Sequence[float]) -> None:
         """Gravitational acceleration vector g [m/s^2], e.g. ``(0, 0, -9.81)``."""
         self._gravity = _checks.vector3("gravity", g)
@@ -309,7 +326,8 @@ class ModelBuilder:
         d.pipe_mass, d.fluid_mass, d.kv = s.pipe_mass, s.fluid_mass, s.kv
         d.rotary_inertia = list(s.rotary_inertia)
         d.flow_factor = e["flow_factor"]
-        d.fluid_end_terms = e["fluid_end_terms"]
+        d.end_terms_p = e["fluid_end_terms"] and e["p"] not in e.get("reservoir", ())
+        d.end_terms_q = e["fluid_end_terms"] and e["q"] not in e.get("reservoir", ())
         return d
 
 

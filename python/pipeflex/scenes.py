@@ -69,8 +69,8 @@ def sprinkler(*, EI: float, n_elements: int = 8, mass_flow: float = 10.0, radius
     The inlet node sits at the origin on a hinge about global z; the semicircle of radius
     R lies in the xy plane with its centre at (R, 0, 0), leaving the inlet along +y and
     ending at (2R, 0, 0) pointing along -y. With ``suck=True`` the flow is reversed: the
-    pipe draws fluid from a still reservoir at its free end (mdot < 0 in the elements),
-    and the inlet force of eq. 22 acts at that end (see the notebook).
+    pipe draws fluid from a still reservoir at its free end (the elements' flow_factor is
+    -1), where :meth:`ModelBuilder.reservoir_inlet` applies the additional inlet force.
 
     Args:
         EI: bending stiffness [N m^2] (ignored if ``rigid``).
@@ -87,7 +87,9 @@ def sprinkler(*, EI: float, n_elements: int = 8, mass_flow: float = 10.0, radius
                       rotary_inertia=(_checks.non_negative("polar_inertia", polar_inertia), 0.0, 0.0))
     b = ModelBuilder()
     n0 = b.add_node((0.0, 0.0, 0.0))
-    b.add_arc(n0, center=(R, 0.0, 0.0), angle=-np.pi, normal=(0.0, 0.0, 1.0), n_elements=n_elements,
-              section=sec, flow_factor=-1.0 if suck else 1.0)
+    nodes = b.add_arc(n0, center=(R, 0.0, 0.0), angle=-np.pi, normal=(0.0, 0.0, 1.0), n_elements=n_elements,
+                      section=sec, flow_factor=-1.0 if suck else 1.0)
     b.hinge(n0, (0.0, 0.0, 1.0))
+    if suck:
+        b.reservoir_inlet(nodes[-1])
     return b.build(mass_flow=_checks.finite("mass_flow", mass_flow))

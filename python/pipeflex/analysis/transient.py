@@ -18,8 +18,9 @@ from ..errors import ConvergenceError
 
 INTEGRATORS = ("ida", "generalized_alpha")
 _OPTIONS = {
-    "ida": {"rtol", "atol", "rebase_angle", "max_steps", "max_order"},
-    "generalized_alpha": {"step", "rho_inf", "newton_tol", "max_newton", "min_step", "max_steps"},
+    "ida": {"rtol", "atol", "rebase_angle", "max_steps", "max_order", "divergence_limit"},
+    "generalized_alpha": {"step", "rho_inf", "newton_tol", "max_newton", "min_step", "max_steps",
+                          "divergence_limit"},
 }
 
 
@@ -130,7 +131,9 @@ def simulate(model, t_end: float, *, integrator: str = "ida", state=None, t_star
         **options: for ``ida``: ``rtol`` (1e-6), ``atol`` (1e-8), ``rebase_angle`` [rad]
             (1.0), ``max_steps``; for ``generalized_alpha``: ``step`` [s] (1e-3),
             ``rho_inf`` (0.9, in [0, 1]), ``newton_tol`` (1e-10), ``max_newton`` (12),
-            ``min_step`` [s], ``max_steps``.
+            ``min_step`` [s], ``max_steps``. Both: ``divergence_limit`` (1e3): a node
+            farther than this many model sizes from its reference position stops the run
+            with :class:`ConvergenceError`.
 
     Raises:
         ValueError: bad time span, tolerances, unknown integrator or option, a singular
@@ -156,7 +159,7 @@ def simulate(model, t_end: float, *, integrator: str = "ida", state=None, t_star
         if abs(times[0] - t0) > 0 or times[-1] > t1 + 1e-12 * max(1.0, abs(t1)):
             raise ValueError("times must start at t_start and end at or before t_end")
     opt = _core.TransientOptions()
-    for name in ("rtol", "atol", "step", "min_step", "newton_tol"):
+    for name in ("rtol", "atol", "step", "min_step", "newton_tol", "divergence_limit"):
         if name in options:
             setattr(opt, name, _checks.positive(name, options[name]))
     if "rho_inf" in options:

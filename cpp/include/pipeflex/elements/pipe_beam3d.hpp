@@ -38,7 +38,11 @@ struct PipeElementData {
     std::array<double, 3> rotary_inertia{};  // [kg m] mass moments of inertia per length
                                              // about local x, y, z (lumped at the nodes)
     double flow_factor = 1.0;     // [-] element mass flow = flow_factor * model mass flow
-    bool fluid_end_terms = true;  // false: the split form of eqs. 19-20 (for checks)
+    // End terms of eqs. 19-20 at p and q (true: unsplit form). Dropping one gives the
+    // split form there: e.g. an inlet fed from a still reservoir, where suction, not the
+    // pipe, accelerates the fluid (the additional force of seed 000 cancels the term).
+    bool end_terms_p = true;
+    bool end_terms_q = true;
 };
 
 // Time-dependent loading shared by all elements of a model.

@@ -41,12 +41,13 @@ struct TransientOptions {
     double step = 1e-3;         // generalised-alpha step h [s] (the largest step)
     double min_step = 1e-12;    // generalised-alpha: smallest step before giving up [s]
     double rho_inf = 0.9;       // generalised-alpha spectral radius at infinity
-    double newton_tol = 1e-10;  // generalised-alpha: correction of q relative to length_scale
+    double newton_tol = 1e-10;  // generalised-alpha: position correction / length_scale
     int max_newton = 12;
     long max_steps = 10000000;
     double rebase_angle = 1.0;  // IDA: re-base a node when |phi| exceeds this [rad]
     double length_scale = 1.0;  // [m] model size, for convergence tests
-    double divergence_limit = 1e6;  // |q| beyond this many length scales counts as divergence
+    double divergence_limit = 1e3;  // a node farther than this many length scales from its
+                                    // reference position counts as divergence
 };
 
 struct TransientOutput {
