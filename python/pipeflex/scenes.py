@@ -34,7 +34,8 @@ def simply_supported_pipe(*, n_elements: int, length: float = 1.0, EI: float = 1
 
 
 def cantilever_pipe(*, n_elements: int, length: float = 1.0, EI: float = 10.0, pipe_mass: float = 8.0,
-                    fluid_mass: float = 2.0, kv: float = 1.0, mass_flow: float = 0.0) -> Model:
+                    fluid_mass: float = 2.0, kv: float = 1.0, mass_flow: float = 0.0,
+                    polar_inertia: float = 0.0) -> Model:
     """Straight cantilever pipe clamped at the inlet, free jet at the outlet
     (seed 000, section 3.2, Fig. 2; Table 2). Along global x from the origin.
 
@@ -42,9 +43,13 @@ def cantilever_pipe(*, n_elements: int, length: float = 1.0, EI: float = 10.0, p
         n_elements: number of equal elements.
         length: L [m]. EI: bending stiffness [N m^2]. pipe_mass: rho_p A_p [kg/m].
         fluid_mass: rho_f A_f [kg/m]. kv: momentum-flux factor [-]. mass_flow: mdot [kg/s].
+        polar_inertia: rho I_p [kg m] rotary inertia per length about the pipe axis (0, as
+            in the seed's tables). Time integration needs it > 0 (a regular mass matrix);
+            it does not enter the bending motion.
     """
     L = _checks.positive("length", length)
-    sec = PipeSection(EI=EI, pipe_mass=pipe_mass, fluid_mass=fluid_mass, kv=kv, EA=1e10 * EI / L**2)
+    sec = PipeSection(EI=EI, pipe_mass=pipe_mass, fluid_mass=fluid_mass, kv=kv, EA=1e10 * EI / L**2,
+                      rotary_inertia=(_checks.non_negative("polar_inertia", polar_inertia), 0.0, 0.0))
     b = ModelBuilder()
     n0 = b.add_node((0.0, 0.0, 0.0))
     b.add_line(n0, (L, 0.0, 0.0), n_elements, sec)
