@@ -2,7 +2,7 @@
 
 SI units throughout. See ``docs/`` for the theory, conventions and user guide.
 """
-from . import scenes
+from . import coriolis, limit_cycle, scenes, work_precision
 from .analysis import (CriticalFlow, EigenResult, Linearization, StaticResult, critical_mass_flow,
                        eigenvalues, linearize, simulate, stability, static_equilibrium,
                        TransientResult, SteadyRotation, steady_rotation)
@@ -12,7 +12,7 @@ from .sections import PipeSection
 
 __version__ = "0.1.0"
 
-__all__ = ["scenes", "CriticalFlow", "EigenResult", "Linearization", "StaticResult",
+__all__ = ["scenes", "coriolis", "limit_cycle", "work_precision", "CriticalFlow", "EigenResult", "Linearization", "StaticResult",
            "critical_mass_flow", "eigenvalues", "linearize", "simulate", "stability", "static_equilibrium",
            "TransientResult", "SteadyRotation", "steady_rotation",
            "ConvergenceError", "Model", "ModelBuilder", "PipeSection"]

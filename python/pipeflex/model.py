@@ -106,8 +106,8 @@ class ModelBuilder:
                 for a curved one the length at which the axial strain eps_1 of eq. 1
                 vanishes in the stress-free shape (seed 000: sigma_1 has no eps_1^0, "an
                 initial elongation can be taken into account by modifying l0"); for a
-                circular arc of angle t this is the chord / (1 - sin^2(t/2)/6), within
-                (t/2)^4/90 of the arc length.
+                circular arc of angle t this is the chord / (1 - sin^2(t/2)/6), shorter than
+                the arc by about 17 (t/2)^4 / 360 relative (7e-5 for t = pi/8).
             flow_factor: [-] this element's mass flow as a multiple of the model's
                 (1: in series with the flow, 0: no flow, -1: reversed).
             fluid_end_terms: keep the split-off end terms of eqs. 19-20 of seed 000

@@ -98,3 +98,53 @@ def sprinkler(*, EI: float, n_elements: int = 8, mass_flow: float = 10.0, radius
     if suck:
         b.reservoir_inlet(nodes[-1])
     return b.build(mass_flow=_checks.finite("mass_flow", mass_flow))
+
+
+def coriolis_meter(*, leg_length: float, fluid_density: float = 1000.0, mass_flow: float = 0.0,
+                   radius: float = 0.150, elements_per_leg: int = 2, arc_elements: int = 12,
+                   outer_diameter: float = 0.0508, inner_diameter: float = 0.0472, E: float = 208e9,
+                   G: float = 80e9, density: float = 8027.0, kv: float = 1.0) -> Model:
+    """U-shaped Coriolis mass-flow rate meter pipe (seed 000, section 4, Figs. 6-8).
+
+    Geometry (flow order = node order): the U lies in the global xy plane and vibrates
+    mainly out of it, along global z. The inlet leg is clamped at node 0 at (0, -a, 0) and
+    runs along +x to (b, -a, 0) = S1; the semicircular arc of radius a, centred at
+    (b, 0, 0), turns by +pi about +z through (b + a, 0, 0) to (b, a, 0) = S2; the outlet
+    leg runs back along -x to the clamped outlet node at (0, a, 0). The arc is made of
+    curved, stress-free elements whose end tangents match the legs (local z along +z).
+    The sensors are the two ends of the arc: S1 is node ``elements_per_leg`` (inlet side)
+    and S2 is node ``elements_per_leg + arc_elements`` (outlet side); the last node,
+    ``2 * elements_per_leg + arc_elements``, is the clamped outlet. The cross-section's
+    rotary inertia is included (a real tube); shear flexibility is not; no gravity.
+
+    Args:
+        leg_length: b [m] length of each straight leg.
+        fluid_density: rho_f [kg/m^3] fluid density (water 1000, kerosene 780).
+        mass_flow: mdot [kg/s] default prescribed mass flow of the model.
+        radius: a [m] radius of the semicircular arc (centre line).
+        elements_per_leg: [-] equal straight elements per leg (seed: 2).
+        arc_elements: [-] equal curved elements in the arc (seed: 12).
+        outer_diameter: D_o [m] tube outer diameter (seed: 50.8 mm).
+        inner_diameter: D_i [m] tube inner diameter (seed: 47.2 mm).
+        E: E [Pa] Young's modulus of the wall (steel, 208 GPa).
+        G: G [Pa] shear modulus of the wall (80 GPa).
+        density: rho_p [kg/m^3] density of the wall (8027).
+        kv: k_v [-] momentum-flux factor (1: plug flow).
+    """
+    b_len = _checks.positive("leg_length", leg_length)
+    a = _checks.positive("radius", radius)
+    rho_f = _checks.non_negative("fluid_density", fluid_density)
+    n_leg = _checks.positive_int("elements_per_leg", elements_per_leg)
+    n_arc = _checks.positive_int("arc_elements", arc_elements)
+    sec = PipeSection.tube(outer_diameter=outer_diameter, inner_diameter=inner_diameter, E=E, G=G,
+                           density=density, fluid_density=rho_f, kv=kv, rotary_inertia=True)
+    b = ModelBuilder()
+    inlet = b.add_node((0.0, -a, 0.0))
+    leg1 = b.add_line(inlet, (b_len, -a, 0.0), n_leg, sec)
+    # start tangent sign(angle) * z x (S1 - centre) = z x (-a y) = +a x: continues leg 1
+    arc = b.add_arc(leg1[-1], center=(b_len, 0.0, 0.0), angle=np.pi, normal=(0.0, 0.0, 1.0),
+                    n_elements=n_arc, section=sec)
+    leg2 = b.add_line(arc[-1], (0.0, a, 0.0), n_leg, sec)
+    b.clamp(inlet)
+    b.clamp(leg2[-1])
+    return b.build(mass_flow=_checks.finite("mass_flow", mass_flow))
