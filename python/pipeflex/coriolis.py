@@ -235,7 +235,7 @@ class TimeLagCurve:
         time_lag: dt [s] (module docstring). omega: first natural frequency [rad/s].
         sensitivity: slope d(dt)/d(mdot) [s/(kg/s)] of the fit.
         intercept: [s] of the fit.
-        nonlinearity: max |dt - fit| / max |dt| [-].
+        nonlinearity: max abs(dt - fit) / max abs(dt) [-].
         scales: the :class:`Scales` used. leg_length: b [m]. fluid_density: rho_f [kg/m^3].
     """
 
@@ -367,7 +367,7 @@ def time_lag_figure(*curves: TimeLagCurve, labels: Sequence[str] = ()):
 
 
 def mode_figure(model: Model, mode: MeterMode):
-    """Out-of-plane amplitude |w| and phase arg w [mrad] of a complex mode along the pipe."""
+    """Out-of-plane amplitude abs(w) and phase arg(w) [mrad] of a complex mode along the pipe."""
     import matplotlib.pyplot as plt
 
     s = arc_length(model)
