@@ -118,13 +118,44 @@ def format_rows(rows: List[Row]) -> str:
 
 
 def write_figures(out: Path) -> List[Path]:
-    """Convergence of the critical mass flows (Tables 1 and 2) with the number of elements."""
+    """The seeds' figures reproduced so far: convergence of the critical flows (Tables 1,
+    2), the sprinkler's spin-up (Fig. 5) and the Coriolis meter (Figs. 7, 8)."""
     import matplotlib
 
     matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    import numpy as np
+
+    from . import coriolis
+    from .analysis import simulate
     from .plotting import convergence_figure
 
     out.mkdir(parents=True, exist_ok=True)
-    path = out / "critical_flow_convergence.png"
-    convergence_figure().savefig(path, dpi=120)
-    return [path]
+    paths = []
+
+    def save(fig, name):
+        path = out / name
+        fig.savefig(path, dpi=120)
+        plt.close(fig)
+        paths.append(path)
+
+    save(convergence_figure(), "critical_flow_convergence.png")
+    fig, ax = plt.subplots(figsize=(7, 4))
+    for label, model in (("EI = 10", scenes.sprinkler(EI=10.0)), ("EI = 100", scenes.sprinkler(EI=100.0)),
+                         ("EI = 1000", scenes.sprinkler(EI=1000.0)), ("rigid", scenes.sprinkler(EI=1.0, rigid=True))):
+        r = simulate(model, 1.0, integrator="generalized_alpha", step=1e-3, n_outputs=201, progress=False)
+        ax.plot(r.t, r.omega[:, 0, 2], label=label)
+    ax.set_xlabel("time [s]")
+    ax.set_ylabel("angular velocity [rad/s]")
+    ax.set_title("seed 000, Fig. 5: semicircular rotating pipe")
+    ax.legend()
+    ax.grid(lw=0.3)
+    save(fig, "sprinkler_fig5.png")
+    f7 = coriolis.frequency_curve(flows_scaled=np.linspace(0.0, 0.4, 21))
+    save(coriolis.frequency_figure(f7, labels=["water, b = 3a"]), "coriolis_fig7.png")
+    flows = np.linspace(0.0, 0.02, 6)
+    water = coriolis.time_lag_curve(flows_scaled=flows, fluid_density=coriolis.WATER)
+    kerosene = coriolis.time_lag_curve(flows_scaled=flows, fluid_density=coriolis.KEROSENE,
+                                       mass_flow0=water.scales.mass_flow0)
+    save(coriolis.time_lag_figure(water, kerosene, labels=["water", "kerosene"]), "coriolis_fig8.png")
+    return paths
