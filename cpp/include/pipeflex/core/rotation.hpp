@@ -43,28 +43,28 @@ template <class S> void rotation_coefficients(const S& t2, S& s, S& a, S& b) {
 }
 
 
+// I + c1 skew(phi) + c2 skew(phi)^2, the common form of exp and of its Jacobian.
+template <class S> Mat3<S> rodrigues(const Vec3<S>& phi, const S& c1, const S& c2) {
+    const Mat3<S> W = skew(phi);
+    const Mat3<S> W2 = W * W;
+    Mat3<S> r;
+    for (int i = 0; i < 9; ++i) r.c[i] = c1 * W.c[i] + c2 * W2.c[i];
+    for (int i = 0; i < 3; ++i) r(i, i) += 1.0;
+    return r;
+}
+
 // exp(skew(phi)).
 template <class S> Mat3<S> rotation_exp(const Vec3<S>& phi) {
     S s, a, b;
     rotation_coefficients(dot(phi, phi), s, a, b);
-    Mat3<S> W = skew(phi);
-    Mat3<S> W2 = W * W;
-    Mat3<S> r;
-    for (int i = 0; i < 9; ++i) r.c[i] = s * W.c[i] + a * W2.c[i];
-    for (int i = 0; i < 3; ++i) r(i, i) += 1.0;
-    return r;
+    return rodrigues(phi, s, a);
 }
 
 // Left Jacobian T(phi): omega = T(phi) phi_dot, delta_theta = T(phi) delta_phi.
 template <class S> Mat3<S> rotation_jacobian(const Vec3<S>& phi) {
     S s, a, b;
     rotation_coefficients(dot(phi, phi), s, a, b);
-    Mat3<S> W = skew(phi);
-    Mat3<S> W2 = W * W;
-    Mat3<S> r;
-    for (int i = 0; i < 9; ++i) r.c[i] = a * W.c[i] + b * W2.c[i];
-    for (int i = 0; i < 3; ++i) r(i, i) += 1.0;
-    return r;
+    return rodrigues(phi, a, b);
 }
 
 // d/dt[T(phi)] phi_dot: the part of the angular velocity's rate omega_dot = T phi_ddot +
