@@ -83,7 +83,8 @@ def test_save_and_load_round_trip(tmp_path):
     (dict(t_end=1.0, step=1e-3), "unknown option.*'step'.*'ida'"),
     (dict(t_end=1.0, integrator="generalized_alpha", rho_inf=1.5), "rho_inf must be in"),
     (dict(t_end=1.0, times=[0.0, 0.5, 0.4]), "strictly increasing"),
-    (dict(t_end=1.0, mass_flow=([0.0, 1.0], [1.0])), "equal length"),
+    (dict(t_end=1.0, mass_flow=([0.0, 1.0], [1.0])), "mass_flow table.*equal length"),
+    (dict(t_end=1.0, load_factor=pf.Sine(omega=-1.0)), "load_factor.omega must be > 0"),
 ])
 def test_bad_input(kwargs, match):
     m, st, _ = swinging_cantilever(2)

@@ -14,11 +14,12 @@ py::array_t<double> as_array(const std::vector<double>& v, std::vector<py::ssize
     return a;
 }
 
-using Integrator = TransientOutput (*)(const Model&, State&, const LoadState&, const TimeTable&,
+using Integrator = TransientOutput (*)(const Model&, State&, const LoadState&, const TimeFunctions&,
                                        const std::vector<double>&, const TransientOptions&, const ProgressFn&);
 
 py::dict run(Integrator f, const Model& model, State& state, const LoadState& load, const TimeTable& flow,
-             const std::vector<double>& times, const TransientOptions& opt, py::object progress) {
+             const TimeTable& loads, const std::vector<double>& times, const TransientOptions& opt,
+             py::object progress) {
     ProgressFn cb;
     if (!progress.is_none()) {
         cb = [progress](double t) {
@@ -29,7 +30,7 @@ py::dict run(Integrator f, const Model& model, State& state, const LoadState& lo
     TransientOutput out;
     {
         py::gil_scoped_release release;
-        out = f(model, state, load, flow, times, opt, cb);
+        out = f(model, state, load, TimeFunctions{flow, loads}, times, opt, cb);
     }
     const py::ssize_t nt = static_cast<py::ssize_t>(out.t.size()), N = model.n_nodes();
     py::dict d;
@@ -60,6 +61,8 @@ void bind_transient(py::module_& m) {
         .def(py::init<>())
         .def_readwrite("t", &TimeTable::t)
         .def_readwrite("value", &TimeTable::value)
+        .def_readwrite("omega", &TimeTable::omega)
+        .def_readwrite("phase", &TimeTable::phase)
         .def("at", &TimeTable::at)
         .def("rate", &TimeTable::rate);
     py::class_<TransientOptions>(m, "TransientOptions")
@@ -76,13 +79,14 @@ void bind_transient(py::module_& m) {
         .def_readwrite("rebase_angle", &TransientOptions::rebase_angle)
         .def_readwrite("length_scale", &TransientOptions::length_scale)
         .def_readwrite("divergence_limit", &TransientOptions::divergence_limit);
-    m.def("integrate_ida", [](const Model& md, State& s, const LoadState& l, const TimeTable& f,
+    m.def("integrate_ida", [](const Model& md, State& s, const LoadState& l, const TimeTable& f, const TimeTable& lf,
                               const std::vector<double>& t, const TransientOptions& o, py::object p) {
-        return run(integrate_ida, md, s, l, f, t, o, p);
+        return run(integrate_ida, md, s, l, f, lf, t, o, p);
     });
     m.def("integrate_generalized_alpha", [](const Model& md, State& s, const LoadState& l, const TimeTable& f,
-                                            const std::vector<double>& t, const TransientOptions& o, py::object p) {
-        return run(integrate_generalized_alpha, md, s, l, f, t, o, p);
+                                            const TimeTable& lf, const std::vector<double>& t,
+                                            const TransientOptions& o, py::object p) {
+        return run(integrate_generalized_alpha, md, s, l, f, lf, t, o, p);
     });
     m.def("gravity_potential", &gravity_potential);
 }

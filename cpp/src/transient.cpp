@@ -15,7 +15,11 @@
 
 namespace pipeflex {
 
-double TimeTable::at(double time) const {
+namespace {
+
+double table_value(const TimeTable& f, double time) {
+    const auto& t = f.t;
+    const auto& value = f.value;
     if (t.empty()) return 0.0;
     if (time <= t.front()) return value.front();
     if (time >= t.back()) return value.back();
@@ -25,11 +29,26 @@ double TimeTable::at(double time) const {
     return value[k - 1] + s * (value[k] - value[k - 1]);
 }
 
-double TimeTable::rate(double time) const {
+double table_rate(const TimeTable& f, double time) {
+    const auto& t = f.t;
     if (t.size() < 2 || time < t.front() || time >= t.back()) return 0.0;
     const auto it = std::upper_bound(t.begin(), t.end(), time);
     const std::size_t k = static_cast<std::size_t>(it - t.begin());
-    return (value[k] - value[k - 1]) / (t[k] - t[k - 1]);
+    return (f.value[k] - f.value[k - 1]) / (t[k] - t[k - 1]);
+}
+
+}  // namespace
+
+double TimeTable::at(double time) const {
+    const double env = table_value(*this, time);
+    return omega == 0.0 ? env : env * std::sin(omega * time + phase);
+}
+
+double TimeTable::rate(double time) const {
+    const double d = table_rate(*this, time);
+    if (omega == 0.0) return d;
+    const double arg = omega * time + phase;
+    return d * std::sin(arg) + table_value(*this, time) * omega * std::cos(arg);
 }
 
 double gravity_potential(const Model& model, const State& s, const LoadState& load) {
@@ -66,13 +85,15 @@ std::string fmt(double x) {
 // tangents, outputs and energy bookkeeping.
 class System {
    public:
-    System(const Model& m, State& s, const LoadState& load, const TimeTable& flow, const TransientOptions& o)
-        : model(m), state(s), base_load(load), flow(flow), opt(o), n(m.n_dofs), base_q(s.q) {}
+    System(const Model& m, State& s, const LoadState& load, const TimeFunctions& f, const TransientOptions& o)
+        : model(m), state(s), base_load(load), flow(f.mass_flow), loads(f.load_factor), opt(o), n(m.n_dofs),
+          base_q(s.q) {}
 
     const Model& model;
     State& state;
     LoadState base_load;
     const TimeTable& flow;
+    const TimeTable& loads;
     const TransientOptions& opt;
     int n;
     Eigen::VectorXd base_q;
@@ -99,9 +120,11 @@ class System {
         state.a = full(a);
     }
 
+    double load_factor(double t) const { return loads.at(t); }
+
     Eigen::VectorXd residual(double t) const {
         Eigen::VectorXd r;
-        assemble(model, state, load_at(t), 1.0, 0.0, 0.0, 0.0, &r, nullptr);
+        assemble(model, state, load_at(t), load_factor(t), 0.0, 0.0, 0.0, &r, nullptr);
         return r;
     }
 
@@ -148,7 +171,7 @@ class System {
         assemble(model, state, without, 0.0, 0.0, 0.0, 0.0, &r0, nullptr);
         const Eigen::VectorXd vz = reduce(model, state.v);
         *fluid = -vz.dot(r1 - r0);
-        *loads = vz.dot(reduce(model, external_forces(model, state)));
+        *loads = load_factor(t) * vz.dot(reduce(model, external_forces(model, state)));
     }
 
     void start_work(double t) {
@@ -197,7 +220,7 @@ class System {
         state.a.setZero();
         const Eigen::VectorXd r = residual(t);
         Triplets trip;
-        assemble(model, state, load_at(t), 1.0, 0.0, 0.0, 1.0, nullptr, &trip);
+        assemble(model, state, load_at(t), load_factor(t), 0.0, 0.0, 1.0, nullptr, &trip);
         Eigen::MatrixXd M = Eigen::MatrixXd::Zero(n, n);
         for (std::size_t k = 0; k < trip.values.size(); ++k) M(trip.rows[k], trip.cols[k]) += trip.values[k];
         Eigen::LDLT<Eigen::MatrixXd> ldlt(0.5 * (M + M.transpose()));
@@ -269,8 +292,8 @@ int ida_jacobian(sunrealtype t, sunrealtype cj, N_Vector yy, N_Vector yp, N_Vect
     s.set(d->z, d->v, d->vd);
     Triplets K, CM;
     const LoadState load = s.load_at(t);
-    assemble(s.model, s.state, load, 1.0, 1.0, 0.0, 0.0, nullptr, &K);
-    assemble(s.model, s.state, load, 1.0, 0.0, 1.0, cj, nullptr, &CM);
+    assemble(s.model, s.state, load, s.load_factor(t), 1.0, 0.0, 0.0, nullptr, &K);
+    assemble(s.model, s.state, load, s.load_factor(t), 0.0, 1.0, cj, nullptr, &CM);
     SUNMatZero(J);
     for (int i = 0; i < n; ++i) {
         SM_ELEMENT_B(J, 2 * i, 2 * i) = cj;
@@ -303,12 +326,12 @@ int bandwidth(const Model& model, const State& state, const LoadState& load) {
 
 }  // namespace
 
-TransientOutput integrate_ida(const Model& model, State& state, const LoadState& load, const TimeTable& mass_flow,
+TransientOutput integrate_ida(const Model& model, State& state, const LoadState& load, const TimeFunctions& functions,
                               const std::vector<double>& times, const TransientOptions& opt,
                               const ProgressFn& progress) {
     TransientOutput out;
     if (times.empty()) return out;
-    System sys(model, state, load, mass_flow, opt);
+    System sys(model, state, load, functions, opt);
     const int n = sys.n;
     double t = times.front();
     IdaData data{&sys, Eigen::VectorXd::Zero(n), Eigen::VectorXd::Zero(n), Eigen::VectorXd::Zero(n),
@@ -428,11 +451,11 @@ TransientOutput integrate_ida(const Model& model, State& state, const LoadState&
 // ------------------------------------------------------- generalised-alpha ------------
 
 TransientOutput integrate_generalized_alpha(const Model& model, State& state, const LoadState& load,
-                                            const TimeTable& mass_flow, const std::vector<double>& times,
+                                            const TimeFunctions& functions, const std::vector<double>& times,
                                             const TransientOptions& opt, const ProgressFn& progress) {
     TransientOutput out;
     if (times.empty()) return out;
-    System sys(model, state, load, mass_flow, opt);
+    System sys(model, state, load, functions, opt);
     const int n = sys.n;
     const double rho = opt.rho_inf;
     const double am = (2.0 * rho - 1.0) / (rho + 1.0), af = rho / (rho + 1.0);
@@ -479,13 +502,13 @@ TransientOutput integrate_generalized_alpha(const Model& model, State& state, co
                 Eigen::VectorXd r;
                 if (!fresh) {
                     Triplets J;
-                    assemble(model, state, sys.load_at(tn), 1.0, bp, gp, 1.0, &r, &J);
+                    assemble(model, state, sys.load_at(tn), sys.load_factor(tn), bp, gp, 1.0, &r, &J);
                     lu.compute(dense(J, n));
                     fresh = true;
                     lu_step = hs;
                     ++out.jacobians;
                 } else {
-                    assemble(model, state, sys.load_at(tn), 1.0, 0.0, 0.0, 0.0, &r, nullptr);
+                    assemble(model, state, sys.load_at(tn), sys.load_factor(tn), 0.0, 0.0, 0.0, &r, nullptr);
                 }
                 rnorm = r.norm();
                 if (!std::isfinite(rnorm)) break;

@@ -103,7 +103,7 @@ def sprinkler(*, EI: float, n_elements: int = 8, mass_flow: float = 10.0, radius
 def coriolis_meter(*, leg_length: float, fluid_density: float = 1000.0, mass_flow: float = 0.0,
                    radius: float = 0.150, elements_per_leg: int = 2, arc_elements: int = 12,
                    outer_diameter: float = 0.0508, inner_diameter: float = 0.0472, E: float = 208e9,
-                   G: float = 80e9, density: float = 8027.0, kv: float = 1.0) -> Model:
+                   G: float = 80e9, density: float = 8027.0, kv: float = 1.0, drive_force: float = 0.0) -> Model:
     """U-shaped Coriolis mass-flow rate meter pipe (seed 000, section 4, Figs. 6-8).
 
     Geometry (flow order = node order): the U lies in the global xy plane and vibrates
@@ -130,6 +130,9 @@ def coriolis_meter(*, leg_length: float, fluid_density: float = 1000.0, mass_flo
         G: G [Pa] shear modulus of the wall (80 GPa).
         density: rho_p [kg/m^3] density of the wall (8027).
         kv: k_v [-] momentum-flux factor (1: plug flow).
+        drive_force: F [N] out-of-plane (+z) force at the arc's apex, node
+            ``elements_per_leg + arc_elements // 2``: the meter's driver (scale it in time
+            with ``simulate(..., load_factor=pf.Sine(...))``).
     """
     b_len = _checks.positive("leg_length", leg_length)
     a = _checks.positive("radius", radius)
@@ -147,4 +150,7 @@ def coriolis_meter(*, leg_length: float, fluid_density: float = 1000.0, mass_flo
     leg2 = b.add_line(arc[-1], (0.0, a, 0.0), n_leg, sec)
     b.clamp(inlet)
     b.clamp(leg2[-1])
+    drive = _checks.finite("drive_force", drive_force)
+    if drive != 0.0:
+        b.add_load(arc[n_arc // 2], force=(0.0, 0.0, drive))
     return b.build(mass_flow=_checks.finite("mass_flow", mass_flow))

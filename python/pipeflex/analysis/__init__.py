@@ -4,8 +4,8 @@ from .eigen import EigenResult, eigenvalues, stability
 from .linearize import Linearization, linearize
 from .static import StaticResult, static_equilibrium
 from .steady import SteadyRotation, steady_rotation
-from .transient import TransientResult, simulate
+from .transient import Sine, TransientResult, simulate
 
 __all__ = ["CriticalFlow", "critical_mass_flow", "EigenResult", "eigenvalues", "stability",
            "Linearization", "linearize", "StaticResult", "static_equilibrium",
-           "TransientResult", "simulate", "SteadyRotation", "steady_rotation"]
+           "Sine", "TransientResult", "simulate", "SteadyRotation", "steady_rotation"]

@@ -87,29 +87,49 @@ class TransientResult:
             return cls(**arrays, stats=json.loads(str(f["stats"])), metadata=json.loads(str(f["metadata"])))
 
 
-def _flow_table(model, mass_flow) -> "_core.TimeTable":
+@dataclass(frozen=True)
+class Sine:
+    """A time function envelope(t) * sin(omega t + phase).
+
+    Attributes:
+        omega: angular frequency [rad/s] (> 0).
+        envelope: a number, or a table (times [s], values) interpolated linearly (e.g. a
+            ramp that starts a drive smoothly).
+        phase: [rad].
+    """
+
+    omega: float
+    envelope: Union[float, Tuple[Sequence[float], Sequence[float]]] = 1.0
+    phase: float = 0.0
+
+
+def _time_function(name, f) -> "_core.TimeTable":
+    """A number, a table (times [s], values) or a :class:`Sine`, as a core TimeTable."""
     tab = _core.TimeTable()
-    if mass_flow is None:
-        mass_flow = model.mass_flow
-    if np.isscalar(mass_flow):
-        v = _checks.finite("mass_flow", mass_flow)
-        tab.t, tab.value = [0.0], [v]
+    if isinstance(f, Sine):
+        tab = _time_function(f"{name}.envelope", f.envelope)
+        tab.omega = _checks.positive(f"{name}.omega", f.omega)
+        tab.phase = _checks.finite(f"{name}.phase", f.phase)
+        return tab
+    if np.isscalar(f):
+        tab.t, tab.value = [0.0], [_checks.finite(name, f)]
         return tab
     try:
-        ts, vs = (np.asarray(a, float) for a in mass_flow)
+        ts, vs = (np.asarray(a, float) for a in f)
     except (TypeError, ValueError):
-        raise ValueError("mass_flow must be a number [kg/s] or a pair (times [s], values [kg/s])") from None
+        raise ValueError(f"{name} must be a number, a pair (times [s], values) or a Sine") from None
     if ts.ndim != 1 or ts.shape != vs.shape or len(ts) < 1 or not np.all(np.isfinite(ts)) or not np.all(np.isfinite(vs)):
-        raise ValueError("mass_flow table: times and values must be finite 1D arrays of equal length")
+        raise ValueError(f"{name} table: times and values must be finite 1D arrays of equal length")
     if np.any(np.diff(ts) <= 0):
-        raise ValueError("mass_flow table: times must increase strictly")
+        raise ValueError(f"{name} table: times must increase strictly")
     tab.t, tab.value = list(ts), list(vs)
     return tab
 
 
 def simulate(model, t_end: float, *, integrator: str = "ida", state=None, t_start: float = 0.0,
              n_outputs: int = 201, times: Optional[Sequence[float]] = None,
-             mass_flow: Union[None, float, Tuple[Sequence[float], Sequence[float]]] = None,
+             mass_flow: Union[None, float, Tuple[Sequence[float], Sequence[float]], Sine] = None,
+             load_factor: Union[float, Tuple[Sequence[float], Sequence[float]], Sine] = 1.0,
              progress: Optional[bool] = None, **options) -> TransientResult:
     """Integrate the equations of motion from ``state`` over [t_start, t_end].
 
@@ -124,8 +144,10 @@ def simulate(model, t_end: float, *, integrator: str = "ida", state=None, t_star
         n_outputs: number of equally spaced output times (ignored if ``times`` is given).
         times: output times [s], increasing, from t_start to t_end.
         mass_flow: mdot [kg/s], constant, or a table ``(times [s], values [kg/s])``
-            interpolated linearly (its slope gives the relative-acceleration term).
-            Default: the model's.
+            interpolated linearly, or a :class:`Sine` (its slope gives the
+            relative-acceleration term). Default: the model's.
+        load_factor: [-] multiplier of the model's nodal loads: a number, a table
+            ``(times [s], values)`` or a :class:`Sine` (a harmonic drive).
         progress: show a progress bar (default: only when the run is expected to take
             more than a few seconds — i.e. when tqdm is available and t_end is long).
         **options: for ``ida``: ``rtol`` (1e-6), ``atol`` (1e-8), ``rebase_angle`` [rad]
@@ -185,7 +207,8 @@ def simulate(model, t_end: float, *, integrator: str = "ida", state=None, t_star
     opt.length_scale = max(float(np.ptp(model.positions, axis=0).max()), 1e-3)
     st = (model.initial_state() if state is None else state).copy()
     load = model.load_state()
-    flow = _flow_table(model, mass_flow)
+    flow = _time_function("mass_flow", model.mass_flow if mass_flow is None else mass_flow)
+    loads = _time_function("load_factor", load_factor)
 
     bar = None
     if progress or (progress is None and (t1 - t0) > 5.0):
@@ -204,7 +227,7 @@ def simulate(model, t_end: float, *, integrator: str = "ida", state=None, t_star
     run = _core.integrate_ida if integrator == "ida" else _core.integrate_generalized_alpha
     wall = _time.perf_counter()
     try:
-        out = run(model.core, st, load, flow, list(times), opt, tick if bar is not None else None)
+        out = run(model.core, st, load, flow, loads, list(times), opt, tick if bar is not None else None)
     except _core.SolverError as e:
         msg = str(e)
         if msg.startswith("the mass matrix is singular"):
@@ -219,5 +242,6 @@ def simulate(model, t_end: float, *, integrator: str = "ida", state=None, t_star
     stats["wall_time"] = wall
     meta = {"integrator": integrator, "options": {k: float(v) for k, v in options.items()},
             "t_start": t0, "t_end": t1, "n_nodes": model.n_nodes, "n_dofs": model.n_dofs,
-            "mass_flow": [list(flow.t), list(flow.value)]}
+            "mass_flow": [list(flow.t), list(flow.value), flow.omega, flow.phase],
+            "load_factor": [list(loads.t), list(loads.value), loads.omega, loads.phase]}
     return TransientResult(**out, stats=stats, metadata=meta)

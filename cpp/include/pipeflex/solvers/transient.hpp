@@ -27,11 +27,14 @@ class SolverError : public std::runtime_error {
     using std::runtime_error::runtime_error;
 };
 
-// Piecewise-linear function of time (constant beyond the ends).
+// Function of time: a piecewise-linear table (constant beyond its ends), optionally an
+// envelope modulating a sine carrier: f(t) = table(t) sin(omega t + phase) if omega != 0.
 struct TimeTable {
     std::vector<double> t, value;
+    double omega = 0.0;  // carrier angular frequency [rad/s] (0: no carrier)
+    double phase = 0.0;  // carrier phase [rad]
     double at(double time) const;
-    double rate(double time) const;  // derivative (piecewise constant)
+    double rate(double time) const;  // derivative
 };
 
 struct TransientOptions {
@@ -61,12 +64,18 @@ struct TransientOutput {
 
 using ProgressFn = std::function<void(double)>;
 
+// The time functions scale the model's mass flow (mdot(t) = mass_flow(t)) and its
+// nodal loads (f_ext(t) = load_factor(t) f_ext).
+struct TimeFunctions {
+    TimeTable mass_flow, load_factor;
+};
+
 TransientOutput integrate_ida(const Model& model, State& state, const LoadState& load,
-                              const TimeTable& mass_flow, const std::vector<double>& times,
+                              const TimeFunctions& functions, const std::vector<double>& times,
                               const TransientOptions& opt, const ProgressFn& progress);
 
 TransientOutput integrate_generalized_alpha(const Model& model, State& state, const LoadState& load,
-                                            const TimeTable& mass_flow, const std::vector<double>& times,
+                                            const TimeFunctions& functions, const std::vector<double>& times,
                                             const TransientOptions& opt, const ProgressFn& progress);
 
 // Gravitational potential energy [J] of pipes and point masses: -sum m g . x.
