@@ -78,7 +78,8 @@ void bind_transient(py::module_& m) {
         .def_readwrite("max_steps", &TransientOptions::max_steps)
         .def_readwrite("rebase_angle", &TransientOptions::rebase_angle)
         .def_readwrite("length_scale", &TransientOptions::length_scale)
-        .def_readwrite("divergence_limit", &TransientOptions::divergence_limit);
+        .def_readwrite("divergence_limit", &TransientOptions::divergence_limit)
+        .def_readwrite("work", &TransientOptions::work);
     m.def("integrate_ida", [](const Model& md, State& s, const LoadState& l, const TimeTable& f, const TimeTable& lf,
                               const std::vector<double>& t, const TransientOptions& o, py::object p) {
         return run(integrate_ida, md, s, l, f, lf, t, o, p);

@@ -175,12 +175,14 @@ class System {
     }
 
     void start_work(double t) {
+        if (!opt.work) return;
         powers(t, &last_fluid_power, &last_load_power);
         last_power_t = t;
     }
 
     // Trapezoidal accumulation of the work from the last step to time t (current state).
     void accumulate_work(double t) {
+        if (!opt.work) return;
         double pf, pl;
         powers(t, &pf, &pl);
         const double dt = t - last_power_t;
@@ -496,7 +498,7 @@ TransientOutput integrate_generalized_alpha(const Model& model, State& state, co
             int it = 0;
             // Modified Newton: the factorised iteration matrix is kept across iterations and
             // steps while the corrections contract fast; it is rebuilt otherwise.
-            if (lu_step != hs) fresh = false;
+            if (std::abs(lu_step - hs) > 1e-10 * hs) fresh = false;  // same step up to round-off
             for (it = 1; it <= opt.max_newton; ++it) {
                 sys.set(zn, vn, an);
                 Eigen::VectorXd r;

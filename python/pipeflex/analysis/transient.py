@@ -18,9 +18,9 @@ from ..errors import ConvergenceError
 
 INTEGRATORS = ("ida", "generalized_alpha")
 _OPTIONS = {
-    "ida": {"rtol", "atol", "rebase_angle", "max_steps", "max_order", "divergence_limit"},
+    "ida": {"rtol", "atol", "rebase_angle", "max_steps", "max_order", "divergence_limit", "work"},
     "generalized_alpha": {"step", "rho_inf", "newton_tol", "max_newton", "min_step", "max_steps",
-                          "divergence_limit"},
+                          "divergence_limit", "work"},
 }
 
 
@@ -155,7 +155,9 @@ def simulate(model, t_end: float, *, integrator: str = "ida", state=None, t_star
             ``rho_inf`` (0.9, in [0, 1]), ``newton_tol`` (1e-10), ``max_newton`` (12),
             ``min_step`` [s], ``max_steps``. Both: ``divergence_limit`` (1e3): a node
             farther than this many model sizes from its reference position stops the run
-            with :class:`ConvergenceError`.
+            with :class:`ConvergenceError`; ``work`` (True): integrate the work of the
+            fluid forces and loads at every step (two extra residual evaluations per
+            step; without it ``fluid_work`` and ``load_work`` are NaN).
 
     Raises:
         ValueError: bad time span, tolerances, unknown integrator or option, a singular
@@ -204,6 +206,8 @@ def simulate(model, t_end: float, *, integrator: str = "ida", state=None, t_star
             setattr(opt, name, _checks.positive_int(name, options[name]))
     if integrator == "generalized_alpha" and opt.step > (t1 - t0):
         opt.step = t1 - t0
+    if "work" in options:
+        opt.work = bool(options["work"])
     opt.length_scale = max(float(np.ptp(model.positions, axis=0).max()), 1e-3)
     st = (model.initial_state() if state is None else state).copy()
     load = model.load_state()
@@ -240,6 +244,9 @@ def simulate(model, t_end: float, *, integrator: str = "ida", state=None, t_star
     stats = {k: int(out.pop(k)) for k in ("steps", "newton_iterations", "jacobians", "rebases", "failed_steps",
                                                "convergence_failures")}
     stats["wall_time"] = wall
+    if not opt.work:
+        out["fluid_work"][:] = np.nan
+        out["load_work"][:] = np.nan
     meta = {"integrator": integrator, "options": {k: float(v) for k, v in options.items()},
             "t_start": t0, "t_end": t1, "n_nodes": model.n_nodes, "n_dofs": model.n_dofs,
             "mass_flow": [list(flow.t), list(flow.value), flow.omega, flow.phase],

@@ -49,6 +49,7 @@ struct TransientOptions {
     long max_steps = 10000000;
     double rebase_angle = 1.0;  // IDA: re-base a node when |phi| exceeds this [rad]
     double length_scale = 1.0;  // [m] model size, for convergence tests
+    bool work = true;           // integrate the work of fluid forces and loads every step
     double divergence_limit = 1e3;  // a node farther than this many length scales from its
                                     // reference position counts as divergence
 };
