@@ -2,10 +2,12 @@
 
 Method: (1) scan mdot upward in steps of a quarter of the model's natural flow unit
 (:meth:`Model.flow_scale`), each point a static solve, a linearisation and a dense
-block eigen-analysis; (2) bisect the first stable/unstable bracket to 1e-3 relative;
-(3) converge superlinearly (Brent) on a smooth scalar that crosses zero at the critical
-flow: for flutter the real part of the tracked crossing eigenvalue, for divergence the
-stiffness eigenvalue through zero (det K = 0).
+block eigen-analysis, up to the first unstable point; (2) flutter: Brent's method on
+the real part of the crossing eigenvalue over the scan bracket, the eigenvalue followed
+by Newton refinement in its block (bisection on full eigen-analyses only if the
+tracking is lost); divergence: bisection to 1e-3 relative, then Brent's method on the
+stiffness eigenvalue through zero (det K = 0); (3) a full eigen-analysis at the result
+checks that no other eigenvalue is unstable.
 """
 from __future__ import annotations
 
