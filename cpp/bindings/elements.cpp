@@ -1,5 +1,6 @@
 #include "convert.hpp"
 #include "pipeflex/core/rotation.hpp"
+#include "pipeflex/elements/ancf_beam2d.hpp"
 #include "pipeflex/elements/pipe_beam3d.hpp"
 
 #include <stdexcept>
@@ -77,6 +78,34 @@ void bind_elements(py::module_& m) {
             return e;
         },
         py::arg("data"), py::arg("frame_p"), py::arg("frame_q"), py::arg("q"));
+    py::class_<AncfElementData>(m, "AncfElementData")
+        .def(py::init<>())
+        .def_readwrite("l", &AncfElementData::l)
+        .def_readwrite("EA", &AncfElementData::EA)
+        .def_readwrite("EI", &AncfElementData::EI)
+        .def_readwrite("mass", &AncfElementData::mass)
+        .def_readwrite("tip_mass", &AncfElementData::tip_mass);
+    using Vec8 = Eigen::Matrix<double, 8, 1>;
+    using Mat8 = Eigen::Matrix<double, 8, 8, Eigen::RowMajor>;
+    m.def(
+        "ancf_model_a_tangent",
+        [](const AncfElementData& d, const Vec8& e, const Vec8& v, const Vec8& a, double wK, double wC, double wM) {
+            Vec8 r;
+            Mat8 J;
+            ancf_model_a_tangent(d, e.data(), v.data(), a.data(), wK, wC, wM, r.data(), J.data());
+            return py::make_tuple(r, J);
+        },
+        py::arg("data"), py::arg("e"), py::arg("v"), py::arg("a"), py::arg("wK"), py::arg("wC"), py::arg("wM"),
+        "ANCF Model A (seed 002): residual (8) and weighted tangent (8x8).");
+    m.def(
+        "ancf_model_a_matrix",
+        [](const AncfElementData& d, int which) {
+            if (which < 0 || which > 4) throw std::invalid_argument("which must be 0 (K_A) .. 4 (M)");
+            Mat8 out;
+            ancf_model_a_matrix(d, which, out.data());
+            return out;
+        },
+        py::arg("data"), py::arg("which"), "K_A, K_M, K_B, K_t or M (which = 0..4) of seed 002's appendix.");
     m.def(
         "rotation_exp",
         [](const Eigen::Vector3d& phi) { return from_mat3(rotation_exp(to_vec3(phi))); },
