@@ -1,5 +1,5 @@
 """Planar ANCF beam, elastic Model A (seed 002): the appendix matrices, tangents, rigid
-motion. (The element is a kernel so far; its model integration is issue 4.)"""
+motion, both elastic models."""
 import numpy as np
 import pytest
 
@@ -55,39 +55,113 @@ def test_matrices_equal_the_seed_appendix():
         assert np.allclose(got, scale * ref, rtol=1e-12, atol=1e-12 * np.abs(scale * ref).max())
 
 
-def test_tangent_matches_finite_differences():
-    rng = np.random.default_rng(5)
+G0 = np.zeros(2)
+
+
+def residual(d, e, a=np.zeros(8), g=G0):
+    return _core.ancf_tangent(d, e, a, g, 0.0, 0.0)[0]
+
+
+def generic_e(d, seed=5):
+    rng = np.random.default_rng(seed)
+    return np.array([0.1, -0.2, 0.95, 0.2, 0.1 + d.l * 0.97, -0.05, 0.9, -0.3]) + 0.01 * rng.standard_normal(8)
+
+
+@pytest.mark.parametrize("model", ["A", "0"])
+def test_tangent_matches_finite_differences(model):
     d = data()
-    e = np.array([0.1, -0.2, 0.95, 0.2, 0.1 + 0.68, -0.05, 0.9, -0.3]) + 0.01 * rng.standard_normal(8)
-    v, a = rng.standard_normal(8), rng.standard_normal(8)
-    r0, K = _core.ancf_model_a_tangent(d, e, v, a, 1.0, 0.0, 0.0)
-    _, W = _core.ancf_model_a_tangent(d, e, v, a, 0.5, 3.0, 2.0)
+    d.elastic = model
+    e = generic_e(d)
+    a = np.random.default_rng(1).standard_normal(8)
+    r0, K = _core.ancf_tangent(d, e, a, G0, 1.0, 0.0)
+    _, W = _core.ancf_tangent(d, e, a, G0, 0.5, 2.0)
     h = 1e-7
-    K_fd = np.column_stack([(_core.ancf_model_a_tangent(d, e + h * np.eye(8)[j], v, a, 0, 0, 0)[0] -
-                             _core.ancf_model_a_tangent(d, e - h * np.eye(8)[j], v, a, 0, 0, 0)[0]) / (2 * h)
+    K_fd = np.column_stack([(residual(d, e + h * np.eye(8)[j], a) - residual(d, e - h * np.eye(8)[j], a)) / (2 * h)
                             for j in range(8)])
     assert np.abs(K - K_fd).max() <= 1e-6 * np.abs(K_fd).max()
     assert np.allclose(W, 0.5 * K + 2.0 * _core.ancf_model_a_matrix(d, 4), rtol=1e-13, atol=1e-9)
 
 
-@pytest.mark.parametrize("angle", [0.0, 0.7, 2.5])
-def test_rigid_motion_gives_zero_elastic_force(angle):
+def test_model_0_force_is_the_energy_gradient():
+    """Model 0 is conservative: Q = dU/de (central differences of the energy). (Model A is
+    not derived from a potential: its reported energy is a diagnostic.)"""
     d = data()
+    d.elastic = "0"
+    e = generic_e(d, seed=2)
+    h = 1e-6
+    U = lambda x: _core.ancf_energies(d, x, np.zeros(8))[1]
+    grad = np.array([(U(e + h * np.eye(8)[j]) - U(e - h * np.eye(8)[j])) / (2 * h) for j in range(8)])
+    Q = residual(d, e)
+    assert np.abs(grad - Q).max() <= 1e-6 * np.abs(Q).max()
+
+
+def test_kinetic_energy_and_gravity_sum_to_the_element_mass():
+    d = data(tip=0.0)
+    e = np.array([0, 0, 1, 0, d.l, 0, 1, 0.0])
+    v = np.array([2.0, -1.0, 0, 0, 2.0, -1.0, 0, 0])  # translation
+    T, U = _core.ancf_energies(d, e, v)
+    m = d.mass * d.l
+    assert T == pytest.approx(0.5 * m * 5.0, rel=1e-13)
+    assert U == pytest.approx(0.0, abs=1e-12)
+    f = -residual(d, e, g=np.array([0.0, -9.81]))
+    assert f[1] + f[5] == pytest.approx(-9.81 * m, rel=1e-13)
+    assert abs(f[0]) + abs(f[4]) < 1e-12 * d.EA
+
+
+@pytest.mark.parametrize("model", ["A", "0"])
+@pytest.mark.parametrize("angle", [0.0, 0.7, 2.5])
+def test_rigid_motion_gives_zero_elastic_force(angle, model):
+    d = data()
+    d.elastic = model
     c, s = np.cos(angle), np.sin(angle)
     t = np.array([0.3, -1.2])
     rA, rB, slope = t, t + d.l * np.array([c, s]), np.array([c, s])
     e = np.concatenate([rA, slope, rB, slope])
-    r, _ = _core.ancf_model_a_tangent(d, e, np.zeros(8), np.zeros(8), 0, 0, 0)
-    assert np.abs(r).max() < 1e-9 * d.EA
+    assert np.abs(residual(d, e)).max() < 1e-9 * d.EA
+    assert abs(_core.ancf_energies(d, e, np.zeros(8))[1]) < 1e-12 * d.EA
 
 
-def test_uniform_stretch_gives_axial_end_forces():
+@pytest.mark.parametrize("model", ["A", "0"])
+def test_uniform_stretch_gives_axial_end_forces(model):
     """A straight element stretched by eps: nodal forces -+EA eps along the axis (to first
     order: Model A's K_l e with eps_A = eps_M = eps_B = eps)."""
     d = data(EA=1.0e3, EI=1.0, tip=0.0)
+    d.elastic = model
     eps = 1e-6
     e = np.array([0, 0, 1 + eps, 0, d.l * (1 + eps), 0, 1 + eps, 0])
-    r, _ = _core.ancf_model_a_tangent(d, e, np.zeros(8), np.zeros(8), 0, 0, 0)
+    r = residual(d, e)
     assert r[0] == pytest.approx(-d.EA * eps, rel=1e-5)
     assert r[4] == pytest.approx(d.EA * eps, rel=1e-5)
     assert abs(r[1]) < 1e-12 and abs(r[5]) < 1e-12
+
+
+def test_models_agree_for_small_deformation_without_prestress():
+    """About the straight, unstressed reference both models have the same transverse
+    (bending) stiffness; their axial stiffnesses differ (Model A interpolates the strain
+    from eps_A, eps_M, eps_B)."""
+    K = {}
+    for model in ("A", "0"):
+        d = data()
+        d.elastic = model
+        e = np.array([0, 0, 1, 0, d.l, 0, 1, 0.0])
+        K[model] = _core.ancf_tangent(d, e, np.zeros(8), G0, 1.0, 0.0)[1]
+    y = [1, 3, 5, 7]
+    assert np.allclose(K["A"][np.ix_(y, y)], K["0"][np.ix_(y, y)], rtol=1e-9, atol=1e-9 * np.abs(K["A"]).max())
+    x = [0, 2, 4, 6]
+    assert np.allclose(K["A"][np.ix_(x, x)], K["0"][np.ix_(x, x)], rtol=2e-2, atol=2e-2 * np.abs(K["A"]).max())
+
+
+def test_geometric_stiffness_is_the_strain_part_of_the_tangent():
+    """Model A: K(e0 + t de) - K(e0) = t (G(de) + the strain-gradient terms); for a pure
+    stretch de of a straight element the change is G(de) alone to first order along the
+    transverse coordinates."""
+    d = data(tip=0.0)
+    e0 = np.array([0, 0, 1, 0, d.l, 0, 1, 0.0])
+    de = np.array([0, 0, 1, 0, d.l, 0, 1, 0.0]) * 1e-3  # uniform stretch eps = 1e-3
+    G = _core.ancf_geometric_stiffness(d, e0, de)
+    KA, KM, KB = (_core.ancf_model_a_matrix(d, k) for k in range(3))
+    assert np.allclose(G, 1e-3 * (KA + KM + KB), rtol=1e-12, atol=1e-12 * np.abs(KM).max())
+    K0 = _core.ancf_tangent(d, e0, np.zeros(8), G0, 1.0, 0.0)[1]
+    K1 = _core.ancf_tangent(d, e0 + de, np.zeros(8), G0, 1.0, 0.0)[1]
+    y = [1, 3, 5, 7]
+    assert np.allclose((K1 - K0)[np.ix_(y, y)], G[np.ix_(y, y)], rtol=1e-2, atol=1e-6 * np.abs(G).max())

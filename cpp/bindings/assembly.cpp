@@ -39,6 +39,40 @@ void bind_assembly(py::module_& m) {
              [](Model& md, int node, double mass, const Eigen::Vector3d& inertia) {
                  md.masses.push_back({node, mass, to_vec3(inertia)});
              })
+        .def("add_ancf_node",
+             [](Model& md, const Eigen::Vector3d& x, const Eigen::Vector3d& slope) {
+                 md.positions.push_back(to_vec3(x));
+                 md.kinds.resize(md.positions.size() - 1, NodeKind::frame);
+                 md.kinds.push_back(NodeKind::ancf);
+                 md.slopes.resize(md.positions.size() - 1, Vec3<double>{{1.0, 0.0, 0.0}});
+                 md.slopes.push_back(to_vec3(slope));
+                 return md.n_nodes() - 1;
+             })
+        .def("add_ancf",
+             [](Model& md, int p, int q, const AncfElementData& d) {
+                 md.ancf.push_back({p, q, d});
+                 return static_cast<int>(md.ancf.size()) - 1;
+             })
+        .def("set_hub",
+             [](Model& md, const std::vector<int>& nodes, const Eigen::Vector3d& axis, const Eigen::Vector3d& center,
+                double omega, double spin_up_time) {
+                 md.hub.nodes = nodes;
+                 md.hub.axis = to_vec3(axis);
+                 md.hub.center = to_vec3(center);
+                 md.hub.omega = omega;
+                 md.hub.spin_up_time = spin_up_time;
+             },
+             py::arg("nodes"), py::arg("axis"), py::arg("center"), py::arg("omega"), py::arg("spin_up_time"))
+        .def("hub_angle",
+             [](const Model& md, double t) {
+                 double a, b, c;
+                 md.hub.angle(t, &a, &b, &c);
+                 return py::make_tuple(a, b, c);
+             })
+        .def_property_readonly("n_ancf", [](const Model& md) { return md.ancf.size(); })
+        .def("ancf_element", [](const Model& md, int i) { return md.ancf.at(i).data; })
+        .def("ancf_nodes", [](const Model& md, int i) { return py::make_tuple(md.ancf.at(i).p, md.ancf.at(i).q); })
+        .def("is_ancf_node", [](const Model& md, int i) { return md.kinds.at(i) == NodeKind::ancf; })
         .def("set_bases", [](Model& md, const std::vector<Eigen::MatrixXd>& b) { md.bases = b; })
         .def("finalize", &Model::finalize)
         .def_property_readonly("n_nodes", &Model::n_nodes)
@@ -85,6 +119,17 @@ void bind_assembly(py::module_& m) {
         py::arg("model"), py::arg("state"), py::arg("load"), py::arg("load_factor"), py::arg("wK"),
         py::arg("wC"), py::arg("wM"), py::arg("matrix") = true,
         "Reduced residual and weighted tangent triplets (rows, cols, values).");
+    m.def(
+        "assemble_geometric",
+        [](const Model& md, const State& s, const Eigen::VectorXd& dq) {
+            if (dq.size() != 6 * md.n_nodes()) throw std::invalid_argument("dq must have 6 entries per node");
+            Triplets t;
+            assemble_geometric(md, s, dq, &t);
+            return triplets_to_numpy(t);
+        },
+        py::arg("model"), py::arg("state"), py::arg("dq"),
+        "Prestress stiffness triplets of the first-order strains of the full displacement dq.");
+    m.def("apply_hub", &apply_hub, py::arg("model"), py::arg("state"), py::arg("t"));
     m.def("external_forces", &external_forces);
     m.def("add_increment", [](const Model& md, State& s, const Eigen::VectorXd& dz, const std::string& which) {
         Eigen::VectorXd& x = which == "q" ? s.q : which == "v" ? s.v : s.a;

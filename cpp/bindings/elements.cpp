@@ -4,6 +4,7 @@
 #include "pipeflex/elements/pipe_beam3d.hpp"
 
 #include <stdexcept>
+#include <string>
 
 namespace py = pybind11;
 using namespace pipeflex;
@@ -84,19 +85,41 @@ void bind_elements(py::module_& m) {
         .def_readwrite("EA", &AncfElementData::EA)
         .def_readwrite("EI", &AncfElementData::EI)
         .def_readwrite("mass", &AncfElementData::mass)
-        .def_readwrite("tip_mass", &AncfElementData::tip_mass);
+        .def_readwrite("tip_mass", &AncfElementData::tip_mass)
+        .def_property(
+            "elastic", [](const AncfElementData& d) { return d.elastic == AncfElastic::model_a ? "A" : "0"; },
+            [](AncfElementData& d, const std::string& m) {
+                if (m != "A" && m != "0") throw std::invalid_argument("elastic model must be 'A' or '0', got '" + m + "'");
+                d.elastic = m == "A" ? AncfElastic::model_a : AncfElastic::model_0;
+            });
     using Vec8 = Eigen::Matrix<double, 8, 1>;
     using Mat8 = Eigen::Matrix<double, 8, 8, Eigen::RowMajor>;
     m.def(
-        "ancf_model_a_tangent",
-        [](const AncfElementData& d, const Vec8& e, const Vec8& v, const Vec8& a, double wK, double wC, double wM) {
+        "ancf_tangent",
+        [](const AncfElementData& d, const Vec8& e, const Vec8& a, const Eigen::Vector2d& g, double wK, double wM) {
             Vec8 r;
             Mat8 J;
-            ancf_model_a_tangent(d, e.data(), v.data(), a.data(), wK, wC, wM, r.data(), J.data());
+            ancf_tangent(d, e.data(), a.data(), g.data(), wK, wM, r.data(), J.data());
             return py::make_tuple(r, J);
         },
-        py::arg("data"), py::arg("e"), py::arg("v"), py::arg("a"), py::arg("wK"), py::arg("wC"), py::arg("wM"),
-        "ANCF Model A (seed 002): residual (8) and weighted tangent (8x8).");
+        py::arg("data"), py::arg("e"), py::arg("a"), py::arg("gravity"), py::arg("wK"), py::arg("wM"),
+        "Planar ANCF element (seed 002): residual (8) and weighted tangent wK K + wM M (8x8).");
+    m.def(
+        "ancf_geometric_stiffness",
+        [](const AncfElementData& d, const Vec8& e, const Vec8& de) {
+            Mat8 G;
+            ancf_geometric_stiffness(d, e.data(), de.data(), G.data());
+            return G;
+        },
+        py::arg("data"), py::arg("e"), py::arg("de"), "Model A prestress stiffness of the strains linearised along de.");
+    m.def(
+        "ancf_energies",
+        [](const AncfElementData& d, const Vec8& e, const Vec8& v) {
+            double t, u;
+            ancf_energies(d, e.data(), v.data(), &t, &u);
+            return py::make_tuple(t, u);
+        },
+        py::arg("data"), py::arg("e"), py::arg("v"), "Kinetic and elastic energy [J].");
     m.def(
         "ancf_model_a_matrix",
         [](const AncfElementData& d, int which) {

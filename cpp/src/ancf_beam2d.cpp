@@ -2,14 +2,13 @@
 
 #include "pipeflex/core/dual.hpp"
 
-#include <array>
 #include <cmath>
 
 namespace pipeflex {
 namespace {
 
-// Hermite shape functions on xi in [0, 1] and their xi-derivatives (coefficients of
-// 1, xi, xi^2, xi^3); slope functions scaled by l in the element matrices.
+// Hermite shape functions on xi in [0, 1] (coefficients of 1, xi, xi^2, xi^3); the slope
+// functions are scaled by l in the element matrices.
 constexpr double H[4][4] = {{1, 0, -3, 2}, {0, 1, -2, 1}, {0, 0, 3, -2}, {0, 0, -1, 1}};
 
 double poly(const double* c, double x) { return c[0] + x * (c[1] + x * (c[2] + x * c[3])); }
@@ -20,7 +19,10 @@ double ddpoly(const double* c, double x) { return 2 * c[2] + 6 * x * c[3]; }
 struct Integrals {
     double mass[4][4];      // int s_i s_j
     double axial[3][4][4];  // int N_X s_i' s_j'  (X = A, M, B)
+    double stretch[4][4];   // int s_i' s_j'  (= sum over X, since N_A + N_M + N_B = 1)
     double bend[4][4];      // int s_i'' s_j''
+    double quad[3][3];      // int N_X N_Y
+    double load[4];         // int s_i
 };
 
 const Integrals& integrals() {
@@ -32,17 +34,24 @@ const Integrals& integrals() {
         for (int g = 0; g < 5; ++g) {
             const double xi = 0.5 * (x[g] + 1.0), wg = 0.5 * w[g];
             const double N[3] = {1 - 4 * xi + 3 * xi * xi, 6 * xi - 6 * xi * xi, -2 * xi + 3 * xi * xi};
-            for (int i = 0; i < 4; ++i)
+            for (int i = 0; i < 4; ++i) {
+                r.load[i] += wg * poly(H[i], xi);
                 for (int j = 0; j < 4; ++j) {
                     r.mass[i][j] += wg * poly(H[i], xi) * poly(H[j], xi);
                     for (int k = 0; k < 3; ++k) r.axial[k][i][j] += wg * N[k] * dpoly(H[i], xi) * dpoly(H[j], xi);
+                    r.stretch[i][j] += wg * dpoly(H[i], xi) * dpoly(H[j], xi);
                     r.bend[i][j] += wg * ddpoly(H[i], xi) * ddpoly(H[j], xi);
                 }
+            }
+            for (int a = 0; a < 3; ++a)
+                for (int b = 0; b < 3; ++b) r.quad[a][b] += wg * N[a] * N[b];
         }
         return r;
     }();
     return I;
 }
+
+constexpr int kSlope[4] = {0, 1, 0, 1};  // which Hermite functions multiply a slope
 
 // 8x8 matrix c * int f_i f_j with f = [s1, l s2, s3, l s4] on both components.
 void expand(const double (&m)[4][4], double l, double c, double* out) {
@@ -53,16 +62,82 @@ void expand(const double (&m)[4][4], double l, double c, double* out) {
             for (int comp = 0; comp < 2; ++comp) out[8 * (2 * i + comp) + 2 * j + comp] = c * sc[i] * sc[j] * m[i][j];
 }
 
+struct ModelAMatrices {
+    double K[4][64];  // K_A, K_M, K_B, K_t
+};
+
+ModelAMatrices model_a_matrices(const AncfElementData& d) {
+    ModelAMatrices m;
+    for (int k = 0; k < 4; ++k) ancf_model_a_matrix(d, k, m.K[k]);
+    return m;
+}
+
 template <class S>
-void elastic_forces(const AncfElementData& d, const double (&K)[4][64], const S* e, S* Q) {
+void model_a_strains(const AncfElementData& d, const S* e, S* eps) {
     using std::sqrt;
-    const S eA = sqrt(e[2] * e[2] + e[3] * e[3]) - 1.0;
-    const S eM = sqrt((e[4] - e[0]) * (e[4] - e[0]) + (e[5] - e[1]) * (e[5] - e[1])) / d.l - 1.0;
-    const S eB = sqrt(e[6] * e[6] + e[7] * e[7]) - 1.0;
+    eps[0] = sqrt(e[2] * e[2] + e[3] * e[3]) - 1.0;
+    eps[1] = sqrt((e[4] - e[0]) * (e[4] - e[0]) + (e[5] - e[1]) * (e[5] - e[1])) / d.l - 1.0;
+    eps[2] = sqrt(e[6] * e[6] + e[7] * e[7]) - 1.0;
+}
+
+template <class S>
+void model_a_forces(const AncfElementData& d, const ModelAMatrices& m, const S* e, S* Q) {
+    S eps[3];
+    model_a_strains(d, e, eps);
     for (int i = 0; i < 8; ++i) {
         S q = S(0.0);
-        for (int j = 0; j < 8; ++j) q += (eA * K[0][8 * i + j] + eM * K[1][8 * i + j] + eB * K[2][8 * i + j] + S(K[3][8 * i + j])) * e[j];
+        for (int j = 0; j < 8; ++j)
+            q += (eps[0] * m.K[0][8 * i + j] + eps[1] * m.K[1][8 * i + j] + eps[2] * m.K[2][8 * i + j] +
+                  S(m.K[3][8 * i + j])) * e[j];
         Q[i] = q;
+    }
+}
+
+// Model 0 strain energy (see the header).
+template <class S>
+S model_0_energy(const AncfElementData& d, const S* e) {
+    using std::sqrt;
+    const Integrals& I = integrals();
+    const double l = d.l;
+    const S dx = e[4] - e[0], dy = e[5] - e[1];
+    const S len = sqrt(dx * dx + dy * dy);
+    const S cx = dx / len, cy = dy / len;
+    // local coordinates of [r_A, r_A', r_B, r_B'] relative to r_A, minus the reference
+    // [0, 0 | 1, 0 | l, 0 | 1, 0]; slopes scaled by l as in the Hermite basis
+    S ux[4], uy[4];
+    const S* v[4] = {nullptr, e + 2, nullptr, e + 6};
+    ux[0] = S(0.0);
+    uy[0] = S(0.0);
+    ux[2] = len - l;
+    uy[2] = S(0.0);
+    for (int k : {1, 3}) {
+        ux[k] = (cx * v[k][0] + cy * v[k][1] - 1.0) * l;
+        uy[k] = (cx * v[k][1] - cy * v[k][0]) * l;
+    }
+    S U = S(0.0);
+    for (int i = 0; i < 4; ++i)
+        for (int j = 0; j < 4; ++j)
+            U += 0.5 * (d.EA / l * I.stretch[i][j] * ux[i] * ux[j] + d.EI / (l * l * l) * I.bend[i][j] * uy[i] * uy[j]);
+    return U;
+}
+
+void model_0_forces(const AncfElementData& d, const double* e, double* Q, double* K) {
+    if (K == nullptr) {
+        using D = Dual<double, 8>;
+        D ed[8];
+        for (int i = 0; i < 8; ++i) ed[i] = D(e[i], i);
+        const D U = model_0_energy(d, ed);
+        for (int i = 0; i < 8; ++i) Q[i] = U.d[i];
+        return;
+    }
+    using D = Dual<double, 8>;
+    using DD = Dual<D, 8>;
+    DD ed[8];
+    for (int i = 0; i < 8; ++i) ed[i] = DD(D(e[i], i), i);
+    const DD U = model_0_energy(d, ed);
+    for (int i = 0; i < 8; ++i) {
+        Q[i] = U.d[i].v;
+        for (int j = 0; j < 8; ++j) K[8 * i + j] = U.d[i].d[j];
     }
 }
 
@@ -82,28 +157,76 @@ void ancf_model_a_matrix(const AncfElementData& d, int which, double* out) {
     }
 }
 
-void ancf_model_a_tangent(const AncfElementData& d, const double* e, const double* v, const double* a, double wK,
-                          double wC, double wM, double* r, double* J) {
-    // No velocity dependence (absolute coordinates, constant mass matrix): wC has no term.
-    (void)v;
-    (void)wC;
-    double K[4][64], M[64];
-    for (int k = 0; k < 4; ++k) ancf_model_a_matrix(d, k, K[k]);
+void ancf_tangent(const AncfElementData& d, const double* e, const double* a, const double* gravity, double wK,
+                  double wM, double* r, double* J) {
+    double M[64], Q[8], K[64];
     ancf_model_a_matrix(d, 4, M);
-    double Q[8];
-    elastic_forces<double>(d, K, e, Q);
-    for (int i = 0; i < 8; ++i) {
-        double ma = 0.0;
-        for (int j = 0; j < 8; ++j) ma += M[8 * i + j] * a[j];
-        if (r != nullptr) r[i] = ma + Q[i];
+    const bool need_K = J != nullptr && wK != 0.0;
+    if (d.elastic == AncfElastic::model_0) {
+        model_0_forces(d, e, Q, need_K ? K : nullptr);
+    } else {
+        const ModelAMatrices m = model_a_matrices(d);
+        model_a_forces<double>(d, m, e, Q);
+        if (need_K) {
+            using D = Dual<double, 8>;
+            D ed[8], Qd[8];
+            for (int i = 0; i < 8; ++i) ed[i] = D(e[i], i);
+            model_a_forces<D>(d, m, ed, Qd);
+            for (int i = 0; i < 8; ++i)
+                for (int j = 0; j < 8; ++j) K[8 * i + j] = Qd[i].d[j];
+        }
+    }
+    if (r != nullptr) {
+        const Integrals& I = integrals();
+        for (int i = 0; i < 8; ++i) {
+            double ma = 0.0;
+            for (int j = 0; j < 8; ++j) ma += M[8 * i + j] * a[j];
+            r[i] = ma + Q[i];
+            if (gravity != nullptr) {
+                const int fn = i / 2;
+                const double sc = kSlope[fn] ? d.l : 1.0;
+                r[i] -= d.mass * d.l * sc * I.load[fn] * gravity[i % 2];
+            }
+        }
     }
     if (J == nullptr) return;
-    using D = Dual<double, 8>;
-    D ed[8], Qd[8];
-    for (int i = 0; i < 8; ++i) ed[i] = D(e[i], i);
-    elastic_forces<D>(d, K, ed, Qd);
+    for (int k = 0; k < 64; ++k) J[k] = (need_K ? wK * K[k] : 0.0) + wM * M[k];
+}
+
+void ancf_geometric_stiffness(const AncfElementData& d, const double* e, const double* de, double* G) {
+    using D = Dual<double, 1>;
+    D ed[8], eps[3];
+    for (int i = 0; i < 8; ++i) {
+        ed[i] = D(e[i]);
+        ed[i].d[0] = de[i];
+    }
+    model_a_strains(d, ed, eps);
+    const ModelAMatrices m = model_a_matrices(d);
+    for (int k = 0; k < 64; ++k) G[k] = eps[0].d[0] * m.K[0][k] + eps[1].d[0] * m.K[1][k] + eps[2].d[0] * m.K[2][k];
+}
+
+void ancf_energies(const AncfElementData& d, const double* e, const double* v, double* kinetic, double* elastic) {
+    double M[64];
+    ancf_model_a_matrix(d, 4, M);
+    double T = 0.0;
     for (int i = 0; i < 8; ++i)
-        for (int j = 0; j < 8; ++j) J[8 * i + j] = wK * Qd[i].d[j] + wM * M[8 * i + j];
+        for (int j = 0; j < 8; ++j) T += 0.5 * v[i] * M[8 * i + j] * v[j];
+    *kinetic = T;
+    if (d.elastic == AncfElastic::model_0) {
+        *elastic = model_0_energy<double>(d, e);
+        return;
+    }
+    const Integrals& I = integrals();
+    double eps[3];
+    model_a_strains(d, e, eps);
+    double U = 0.0;
+    for (int a = 0; a < 3; ++a)
+        for (int b = 0; b < 3; ++b) U += 0.5 * d.EA * d.l * I.quad[a][b] * eps[a] * eps[b];
+    double Kt[64];
+    ancf_model_a_matrix(d, 3, Kt);
+    for (int i = 0; i < 8; ++i)
+        for (int j = 0; j < 8; ++j) U += 0.5 * e[i] * Kt[8 * i + j] * e[j];
+    *elastic = U;
 }
 
 }  // namespace pipeflex

@@ -1,10 +1,13 @@
 #include "pipeflex/assembly/model.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <string>
 
 namespace pipeflex {
 namespace {
+
+double norm(const Vec3<double>& a) { return std::sqrt(dot(a, a)); }
 
 Vec3<double> node_vec(const Eigen::VectorXd& x, int node, int off) {
     return {{x[6 * node + off], x[6 * node + off + 1], x[6 * node + off + 2]}};
@@ -73,6 +76,31 @@ void scatter_block(const Model& m, int na, int nb, const double* blk, int ld, Tr
         }
 }
 
+// ANCF element coordinates e (8) from a 6-per-node vector: slots 0, 1 (position) and
+// 3, 4 (slope) of each node.
+constexpr int kAncfSlot[4] = {0, 1, 3, 4};
+
+void gather_ancf(const Eigen::VectorXd& x, const AncfElement& el, double* e) {
+    for (int k = 0; k < 4; ++k) {
+        e[k] = x[6 * el.p + kAncfSlot[k]];
+        e[4 + k] = x[6 * el.q + kAncfSlot[k]];
+    }
+}
+
+// Scatter an ANCF element vector (8) and matrix (8x8) into 12-slot node pairs.
+void widen_ancf(const double* r8, const double* J8, double* r12, double* J12) {
+    auto slot = [](int i) { return 6 * (i / 4) + kAncfSlot[i % 4]; };
+    if (r8 != nullptr) {
+        for (int i = 0; i < 12; ++i) r12[i] = 0.0;
+        for (int i = 0; i < 8; ++i) r12[slot(i)] = r8[i];
+    }
+    if (J8 != nullptr) {
+        for (int i = 0; i < 144; ++i) J12[i] = 0.0;
+        for (int i = 0; i < 8; ++i)
+            for (int j = 0; j < 8; ++j) J12[12 * slot(i) + slot(j)] = J8[8 * i + j];
+    }
+}
+
 void scatter_vector(const Model& m, int n, const double* f, Eigen::VectorXd* r) {
     const Eigen::MatrixXd& T = m.bases[n];
     for (int j = 0; j < T.cols(); ++j) {
@@ -86,6 +114,8 @@ void scatter_vector(const Model& m, int n, const double* f, Eigen::VectorXd* r) 
 
 void Model::finalize() {
     const int n = n_nodes();
+    kinds.resize(n, NodeKind::frame);
+    slopes.resize(n, Vec3<double>{{1.0, 0.0, 0.0}});
     if (static_cast<int>(bases.size()) != n) {
         bases.assign(n, Eigen::MatrixXd::Identity(6, 6));
     }
@@ -119,24 +149,136 @@ void Model::finalize() {
         e.data.strain0 = {};
         pipe_strains(e.data, identity, qe, e.data.strain0.data());
     }
-    for (const auto& l : loads) check_node(l.node, "nodal load");
-    for (const auto& m : masses) check_node(m.node, "nodal mass");
+    for (const auto& e : pipes)
+        for (int i : {e.p, e.q})
+            if (kinds[i] != NodeKind::frame)
+                throw std::invalid_argument("pipe element at node " + std::to_string(i) + ", an ANCF node");
+    for (const auto& e : ancf) {
+        check_node(e.p, "ANCF element");
+        check_node(e.q, "ANCF element");
+        if (!(e.data.l > 0.0)) throw std::invalid_argument("ANCF element length l must be > 0");
+        for (int i : {e.p, e.q}) {
+            if (kinds[i] != NodeKind::ancf)
+                throw std::invalid_argument("ANCF element at node " + std::to_string(i) + ", which is not an ANCF node");
+            if (bases[i].row(2).norm() != 0.0 || bases[i].row(5).norm() != 0.0)
+                throw std::invalid_argument("ANCF node " + std::to_string(i) + " must have z and z' fixed (planar element)");
+        }
+    }
+    for (const auto& l : loads) {
+        check_node(l.node, "nodal load");
+        if (kinds[l.node] == NodeKind::ancf &&
+            (norm(l.moment) != 0.0 || norm(l.follower_force) != 0.0 || norm(l.follower_moment) != 0.0))
+            throw std::invalid_argument("ANCF node " + std::to_string(l.node) +
+                                        " takes dead forces only (no moments, no follower loads)");
+    }
+    for (const auto& m : masses) {
+        check_node(m.node, "nodal mass");
+        if (kinds[m.node] == NodeKind::ancf && norm(m.inertia) != 0.0)
+            throw std::invalid_argument("a point mass at ANCF node " + std::to_string(m.node) +
+                                        " cannot carry rotary inertia");
+    }
+    for (int i : hub.nodes) {
+        check_node(i, "hub drive");
+        if (bases[i].cols() != 0)
+            throw std::invalid_argument("hub-driven node " + std::to_string(i) + " must be clamped (no free coordinates)");
+    }
+    if (!hub.nodes.empty() && std::abs(norm(hub.axis) - 1.0) > 1e-12)
+        throw std::invalid_argument("hub axis must be a unit vector");
+}
+
+void HubDrive::angle(double t, double* th, double* thd, double* thdd) const {
+    const double T = spin_up_time;
+    if (T > 0.0 && t < T) {
+        // seed 002, eq. 13
+        const double k = 2.0 * M_PI / T;
+        *th = omega / T * (0.5 * t * t + (std::cos(k * t) - 1.0) / (k * k));
+        *thd = omega / T * (t - std::sin(k * t) / k);
+        *thdd = omega / T * (1.0 - std::cos(k * t));
+    } else {
+        *th = omega * (t - 0.5 * T);
+        *thd = omega;
+        *thdd = 0.0;
+    }
+}
+
+void apply_hub(const Model& model, State& state, double t) {
+    if (model.hub.nodes.empty()) return;
+    double th, thd, thdd;
+    model.hub.angle(t, &th, &thd, &thdd);
+    const Vec3<double>& ax = model.hub.axis;
+    const Mat3<double> R = rotation_exp(Vec3<double>{{th * ax[0], th * ax[1], th * ax[2]}});
+    auto set3 = [](Eigen::VectorXd& x, int at, const Vec3<double>& v) {
+        for (int k = 0; k < 3; ++k) x[at + k] = v[k];
+    };
+    // velocity and acceleration of a vector u turning with the hub
+    auto moving = [&](const Vec3<double>& u, Vec3<double>* vel, Vec3<double>* acc) {
+        const Vec3<double> au = cross(ax, u);
+        *vel = thd * au;
+        *acc = thdd * au + thd * thd * cross(ax, au);
+    };
+    for (int n : model.hub.nodes) {
+        Vec3<double> X, x, vel, acc;
+        for (int k = 0; k < 3; ++k) X[k] = model.positions[n][k] - model.hub.center[k];
+        const Vec3<double> u = R * X;
+        for (int k = 0; k < 3; ++k) x[k] = model.hub.center[k] + u[k];
+        moving(u, &vel, &acc);
+        set3(state.q, 6 * n, x);
+        set3(state.v, 6 * n, vel);
+        set3(state.a, 6 * n, acc);
+        if (model.kinds[n] == NodeKind::ancf) {
+            const Vec3<double> s = R * model.slopes[n];
+            moving(s, &vel, &acc);
+            set3(state.q, 6 * n + 3, s);
+            set3(state.v, 6 * n + 3, vel);
+            set3(state.a, 6 * n + 3, acc);
+        } else {
+            // phi = 0 in the turned frame: phi_dot = omega, phi_ddot = omega_dot
+            state.frames[n] = R;
+            set3(state.q, 6 * n + 3, Vec3<double>{});
+            set3(state.v, 6 * n + 3, thd * ax);
+            set3(state.a, 6 * n + 3, thdd * ax);
+        }
+    }
 }
 
 State::State(const Model& m)
     : q(Eigen::VectorXd::Zero(6 * m.n_nodes())),
       v(Eigen::VectorXd::Zero(6 * m.n_nodes())),
       a(Eigen::VectorXd::Zero(6 * m.n_nodes())),
-      frames(m.n_nodes()) {
+      frames(m.n_nodes()),
+      kinds(m.kinds) {
+    kinds.resize(m.n_nodes(), NodeKind::frame);
     for (int i = 0; i < m.n_nodes(); ++i) {
         for (int k = 0; k < 3; ++k) {
             q[6 * i + k] = m.positions[i][k];
             frames[i](k, k) = 1.0;
+            if (kinds[i] == NodeKind::ancf) q[6 * i + 3 + k] = m.slopes[i][k];
         }
     }
 }
 
+double State::max_rotation() const {
+    double big = 0.0;
+    for (int i = 0; i < static_cast<int>(frames.size()); ++i)
+        if (kinds[i] == NodeKind::frame) big = std::max(big, norm(node_vec(q, i, 3)));
+    return big;
+}
+
 Mat3<double> State::rotation(int node) const {
+    if (kinds[node] == NodeKind::ancf) {
+        Vec3<double> e1 = node_vec(q, node, 3);
+        e1 = (1.0 / norm(e1)) * e1;
+        Vec3<double> e3{{0.0, 0.0, 1.0}};
+        const Vec3<double> e2 = cross(e3, e1);
+        e3 = cross(e1, e2);
+        Mat3<double> R;
+        for (int k = 0; k < 3; ++k) {
+            R(k, 0) = e1[k];
+            R(k, 1) = e2[k];
+            R(k, 2) = e3[k];
+        }
+        return R;
+    }
     return rotation_exp(node_vec(q, node, 3)) * frames[node];
 }
 
@@ -144,7 +286,7 @@ int State::rebase(double max_angle) {
     int count = 0;
     for (int i = 0; i < static_cast<int>(frames.size()); ++i) {
         const Vec3<double> phi = node_vec(q, i, 3);
-        if (std::sqrt(dot(phi, phi)) <= max_angle) continue;
+        if (kinds[i] != NodeKind::frame || std::sqrt(dot(phi, phi)) <= max_angle) continue;
         // The angular velocity and acceleration are kept; their coordinates change.
         const Mat3<double> T = rotation_jacobian(phi);
         const Vec3<double> phid = node_vec(v, i, 3);
@@ -182,8 +324,35 @@ void assemble(const Model& model, const State& state, const LoadState& load, dou
                 for (int b = 0; b < 2; ++b) scatter_block(model, nodes[a], nodes[b], Je + 72 * a + 6 * b, 12, J);
         }
     }
+    for (const auto& el : model.ancf) {
+        double e[8], a8[8], r8[8], J8[64];
+        gather_ancf(state.q, el, e);
+        gather_ancf(state.a, el, a8);
+        const double g[2] = {load.gravity[0] * load.gravity_factor, load.gravity[1] * load.gravity_factor};
+        ancf_tangent(el.data, e, a8, g, wK, wM, r8, J != nullptr ? J8 : nullptr);
+        widen_ancf(r8, J != nullptr ? J8 : nullptr, re, Je);
+        if (residual != nullptr) {
+            scatter_vector(model, el.p, re, residual);
+            scatter_vector(model, el.q, re + 6, residual);
+        }
+        if (J != nullptr) {
+            const int nodes[2] = {el.p, el.q};
+            for (int a = 0; a < 2; ++a)
+                for (int b = 0; b < 2; ++b) scatter_block(model, nodes[a], nodes[b], Je + 72 * a + 6 * b, 12, J);
+        }
+    }
     for (const auto& nm : model.masses) {
         const int n = nm.node;
+        if (model.kinds[n] == NodeKind::ancf) {
+            double rv[6] = {}, blk[36] = {};
+            for (int i = 0; i < 3; ++i) {
+                rv[i] = nm.mass * (state.a[6 * n + i] - load.gravity[i] * load.gravity_factor);
+                blk[6 * i + i] = wM * nm.mass;
+            }
+            if (residual != nullptr) scatter_vector(model, n, rv, residual);
+            if (J != nullptr) scatter_block(model, n, n, blk, 6, J);
+            continue;
+        }
         using D = Dual<double, 6>;
         D qd[6], vd[6], rd[6];
         for (int i = 0; i < 6; ++i) {
@@ -233,6 +402,27 @@ void assemble(const Model& model, const State& state, const LoadState& load, dou
     }
 }
 
+void assemble_geometric(const Model& model, const State& state, const Eigen::VectorXd& dq, Triplets* G) {
+    if (!model.pipes.empty())
+        throw std::invalid_argument("the small-deformation prestress stiffness is defined for ANCF Model A elements "
+                                    "only; this model has pipe elements (use the steady-state linearisation)");
+    G->clear();
+    double e[8], de[8], G8[64], G12[144];
+    for (const auto& el : model.ancf) {
+        if (el.data.elastic != AncfElastic::model_a)
+            throw std::invalid_argument("the small-deformation prestress stiffness is defined for ANCF Model A "
+                                        "elements only (Model 0 has no axial-bending coupling); use the "
+                                        "steady-state linearisation");
+        gather_ancf(state.q, el, e);
+        gather_ancf(dq, el, de);
+        ancf_geometric_stiffness(el.data, e, de, G8);
+        widen_ancf(nullptr, G8, nullptr, G12);
+        const int nodes[2] = {el.p, el.q};
+        for (int a = 0; a < 2; ++a)
+            for (int b = 0; b < 2; ++b) scatter_block(model, nodes[a], nodes[b], G12 + 72 * a + 6 * b, 12, G);
+    }
+}
+
 Eigen::VectorXd external_forces(const Model& model, const State& state) {
     Eigen::VectorXd f = Eigen::VectorXd::Zero(6 * model.n_nodes());
     for (const auto& l : model.loads) {
@@ -268,8 +458,21 @@ void energies(const Model& model, const State& state, double* kinetic, double* e
         T += t;
         U += u;
     }
+    for (const auto& el : model.ancf) {
+        double e[8], v8[8], t, u;
+        gather_ancf(state.q, el, e);
+        gather_ancf(state.v, el, v8);
+        ancf_energies(el.data, e, v8, &t, &u);
+        T += t;
+        U += u;
+    }
     for (const auto& nm : model.masses) {
         const int n = nm.node;
+        if (model.kinds[n] == NodeKind::ancf) {
+            const Vec3<double> xd = node_vec(state.v, n, 0);
+            T += 0.5 * nm.mass * dot(xd, xd);
+            continue;
+        }
         const Vec3<double> xd = node_vec(state.v, n, 0);
         const Vec3<double> w = rotation_jacobian(node_vec(state.q, n, 3)) * node_vec(state.v, n, 3);
         const Vec3<double> wb = tmul(state.rotation(n), w);

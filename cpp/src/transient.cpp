@@ -65,6 +65,14 @@ double gravity_potential(const Model& model, const State& s, const LoadState& lo
         const Vec3<double> a[4] = {xp, l0 * Ep.col(0), xq, l0 * Eq.col(0)};
         for (int i = 0; i < 4; ++i) V -= m * hermite::load[i] * dot(g, a[i]);
     }
+    for (const auto& el : model.ancf) {
+        // int rho A r dx = rho A l sum_i (int s_i) a_i, a = [r_A, l r_A', r_B, l r_B']
+        const double m = el.data.mass * el.data.l, l = el.data.l;
+        const double c[4] = {m * hermite::load[0], m * l * hermite::load[1], m * hermite::load[2], m * l * hermite::load[3]};
+        const int at[4] = {6 * el.p, 6 * el.p + 3, 6 * el.q, 6 * el.q + 3};
+        for (int i = 0; i < 4; ++i)
+            for (int k = 0; k < 3; ++k) V -= c[i] * g[k] * s.q[at[i] + k];
+    }
     for (const auto& nm : model.masses) {
         Vec3<double> x{{s.q[6 * nm.node], s.q[6 * nm.node + 1], s.q[6 * nm.node + 2]}};
         V -= nm.mass * dot(g, x);
@@ -113,11 +121,13 @@ class System {
         return f;
     }
 
-    void set(const Eigen::VectorXd& z, const Eigen::VectorXd& v, const Eigen::VectorXd& a) {
+    // Coordinates from the reduced z, v, a; the hub-driven nodes from their motion at t.
+    void set(const Eigen::VectorXd& z, const Eigen::VectorXd& v, const Eigen::VectorXd& a, double t) {
         state.q = base_q;
         add_increment(model, state.q, z);
         state.v = full(v);
         state.a = full(a);
+        apply_hub(model, state, t);
     }
 
     double load_factor(double t) const { return loads.at(t); }
@@ -199,7 +209,8 @@ class System {
         for (int i = 0; i < N; ++i) {
             const Vec3<double> phi{{state.q[6 * i + 3], state.q[6 * i + 4], state.q[6 * i + 5]}};
             const Vec3<double> phid{{state.v[6 * i + 3], state.v[6 * i + 4], state.v[6 * i + 5]}};
-            const Vec3<double> w = rotation_jacobian(phi) * phid;
+            Vec3<double> w = rotation_jacobian(phi) * phid;
+            if (state.kinds[i] == NodeKind::ancf) w = (1.0 / dot(phi, phi)) * cross(phi, phid);  // slope's turn rate
             const Mat3<double> R = state.rotation(i);
             for (int k = 0; k < 3; ++k) {
                 out.x.push_back(state.q[6 * i + k]);
@@ -269,7 +280,7 @@ int ida_residual(sunrealtype t, N_Vector yy, N_Vector yp, N_Vector rr, void* use
     for (int i = 0; i < n; ++i)
         if (!std::isfinite(d->z[i]) || !std::isfinite(d->v[i])) return 1;  // recoverable
     try {
-        s.set(d->z, d->v, d->vd);
+        s.set(d->z, d->v, d->vd, t);
         const Eigen::VectorXd R = s.residual(t);
         for (int i = 0; i < n; ++i) {
             r[2 * i] = d->zd[i] - d->v[i];
@@ -291,7 +302,7 @@ int ida_jacobian(sunrealtype t, sunrealtype cj, N_Vector yy, N_Vector yp, N_Vect
     ++d->jacobians;
     unpack(NV_DATA_S(yy), d->z, d->v, n);
     unpack(NV_DATA_S(yp), d->zd, d->vd, n);
-    s.set(d->z, d->v, d->vd);
+    s.set(d->z, d->v, d->vd, t);
     Triplets K, CM;
     const LoadState load = s.load_at(t);
     assemble(s.model, s.state, load, s.load_factor(t), 1.0, 0.0, 0.0, nullptr, &K);
@@ -356,7 +367,7 @@ TransientOutput integrate_ida(const Model& model, State& state, const LoadState&
     // Consistent initial values: z = 0 at the base, v from the state, v_dot from M a = -R.
     Eigen::VectorXd v = reduce(model, state.v), a;
     sys.rebase(0.0, v, a);
-    sys.set(Eigen::VectorXd::Zero(n), v, Eigen::VectorXd::Zero(n));
+    sys.set(Eigen::VectorXd::Zero(n), v, Eigen::VectorXd::Zero(n), t);
     a = sys.initial_acceleration(t);
     auto load_y = [&](const Eigen::VectorXd& vv, const Eigen::VectorXd& aa) {
         double* y = NV_DATA_S(yy.get());
@@ -381,7 +392,7 @@ TransientOutput integrate_ida(const Model& model, State& state, const LoadState&
     check(IDASetMaxOrd(mem, opt.max_order), "IDASetMaxOrd");
     check(IDASetStopTime(mem, times.back()), "IDASetStopTime");
 
-    sys.set(Eigen::VectorXd::Zero(n), v, a);
+    sys.set(Eigen::VectorXd::Zero(n), v, a, t);
     sys.start_work(t);
     sys.record(t, out, 0.0, 0.0);
     std::size_t next = 1;
@@ -403,7 +414,7 @@ TransientOutput integrate_ida(const Model& model, State& state, const LoadState&
         ++out.steps;
         unpack(NV_DATA_S(yy.get()), data.z, data.v, n);
         unpack(NV_DATA_S(yp.get()), data.zd, data.vd, n);
-        sys.set(data.z, data.v, data.vd);
+        sys.set(data.z, data.v, data.vd, tret);
         sys.check_divergence(tret, tret - prev_t);
         sys.accumulate_work(tret);
         // outputs inside (prev_t, tret], interpolated by IDA; work linearly
@@ -414,7 +425,7 @@ TransientOutput integrate_ida(const Model& model, State& state, const LoadState&
             unpack(NV_DATA_S(dky), zo, vo, n);
             check(IDAGetDky(mem, to, 1, dky), "IDAGetDky");
             unpack(NV_DATA_S(dky), dummy, ao, n);
-            sys.set(zo, vo, ao);
+            sys.set(zo, vo, ao, to);
             const double s = tret > prev_t ? (to - prev_t) / (tret - prev_t) : 1.0;
             sys.record(to, out, prev_fw + s * (sys.fluid_work - prev_fw), prev_lw + s * (sys.load_work - prev_lw));
             if (progress) progress(to);
@@ -424,12 +435,8 @@ TransientOutput integrate_ida(const Model& model, State& state, const LoadState&
         prev_fw = sys.fluid_work;
         prev_lw = sys.load_work;
         // re-base rotations that grew large, then restart IDA from the same motion
-        sys.set(data.z, data.v, data.vd);
-        bool big = false;
-        for (int i = 0; i < model.n_nodes() && !big; ++i) {
-            const Vec3<double> phi{{state.q[6 * i + 3], state.q[6 * i + 4], state.q[6 * i + 5]}};
-            big = std::sqrt(dot(phi, phi)) > opt.rebase_angle;
-        }
+        sys.set(data.z, data.v, data.vd, tret);
+        const bool big = state.max_rotation() > opt.rebase_angle;
         if (big && next < times.size()) {
             Eigen::VectorXd vv, aa;
             out.rebases += sys.rebase(opt.rebase_angle, vv, aa);
@@ -466,10 +473,10 @@ TransientOutput integrate_generalized_alpha(const Model& model, State& state, co
     double t = times.front();
     Eigen::VectorXd v = reduce(model, state.v), a;
     sys.rebase(0.0, v, a);
-    sys.set(Eigen::VectorXd::Zero(n), v, Eigen::VectorXd::Zero(n));
+    sys.set(Eigen::VectorXd::Zero(n), v, Eigen::VectorXd::Zero(n), t);
     a = sys.initial_acceleration(t);
     Eigen::VectorXd pa = a;  // pseudo-acceleration
-    sys.set(Eigen::VectorXd::Zero(n), v, a);
+    sys.set(Eigen::VectorXd::Zero(n), v, a, t);
     sys.start_work(t);
     sys.record(t, out, 0.0, 0.0);
 
@@ -500,7 +507,7 @@ TransientOutput integrate_generalized_alpha(const Model& model, State& state, co
             // steps while the corrections contract fast; it is rebuilt otherwise.
             if (std::abs(lu_step - hs) > 1e-10 * hs) fresh = false;  // same step up to round-off
             for (it = 1; it <= opt.max_newton; ++it) {
-                sys.set(zn, vn, an);
+                sys.set(zn, vn, an, tn);
                 Eigen::VectorXd r;
                 if (!fresh) {
                     Triplets J;
@@ -540,7 +547,7 @@ TransientOutput integrate_generalized_alpha(const Model& model, State& state, co
                 }
                 continue;
             }
-            sys.set(zn, vn, an);
+            sys.set(zn, vn, an, tn);
             sys.check_divergence(tn, hs);
             sys.accumulate_work(tn);
             // accept: re-base every node to phi = 0, carrying the pseudo-acceleration's
@@ -552,7 +559,7 @@ TransientOutput integrate_generalized_alpha(const Model& model, State& state, co
             ++out.steps;
             if (h < opt.step) h = std::min(opt.step, 2.0 * h);
         }
-        sys.set(Eigen::VectorXd::Zero(n), v, a);
+        sys.set(Eigen::VectorXd::Zero(n), v, a, t);
         sys.record(t, out, sys.fluid_work, sys.load_work);
         if (progress) progress(t);
     }

@@ -1,6 +1,8 @@
 // Model (immutable after construction), State (mutable) and the assembler.
 //
-// Every node carries 6 coordinates [x (3) m, phi (3) rad]; supports are linear
+// Every node carries 6 coordinates: a frame node [x (3) m, phi (3) rad], an ANCF node
+// [r (3) m, r' (3) -] (position and slope; planar elements use the x, y components and
+// the builder fixes z, z'). Supports are linear
 // constraints on them, eliminated through a per-node basis T_n (6 x k_n): the free
 // (reduced) coordinates z give dq_n = T_n dz_n. The assembler evaluates
 //     R(z) = T^T [ sum_e r_e(q, q_dot, q_ddot) - lambda f_ext(q) ]
@@ -8,6 +10,7 @@
 // routine for static (1, 0, 0), linearisation (one weight at a time) and time stepping.
 #pragma once
 
+#include "pipeflex/elements/ancf_beam2d.hpp"
 #include "pipeflex/elements/pipe_beam3d.hpp"
 
 #include <Eigen/Core>
@@ -19,6 +22,28 @@ namespace pipeflex {
 struct PipeElement {
     int p = 0, q = 0;  // node indices (flow from p to q)
     PipeElementData data;
+};
+
+// Planar ANCF beam between two ANCF nodes (x, y components of position and slope).
+struct AncfElement {
+    int p = 0, q = 0;
+    AncfElementData data;
+};
+
+enum class NodeKind : int { frame = 0, ancf = 1 };
+
+// Prescribed rotation of the hub nodes (which must be clamped) about the axis a through
+// the centre c by the angle theta(t): eq. 13 of seed 002 (spin-up to Omega over
+// spin_up_time T, then constant Omega), or theta = Omega t when T = 0. A node at X
+// (reference) is carried to c + R(theta)(X - c); frames and slopes turn with R(theta).
+struct HubDrive {
+    std::vector<int> nodes;
+    Vec3<double> axis{{0.0, 0.0, 1.0}};  // unit axis a
+    Vec3<double> center{};              // c [m]
+    double omega = 0.0;                 // Omega [rad/s] final angular velocity
+    double spin_up_time = 0.0;          // T [s]
+    // theta [rad], theta_dot [rad/s], theta_ddot [rad/s^2] at time t [s].
+    void angle(double t, double* th, double* thd, double* thdd) const;
 };
 
 // Nodal load: dead force/moment in global axes, follower force/moment in the node frame.
@@ -38,6 +63,10 @@ struct NodalMass {
 struct Model {
     std::vector<Vec3<double>> positions;  // reference node positions [m]
     std::vector<PipeElement> pipes;
+    std::vector<AncfElement> ancf;
+    std::vector<NodeKind> kinds;          // per node (default frame)
+    std::vector<Vec3<double>> slopes;     // reference slope r' of ANCF nodes
+    HubDrive hub;
     std::vector<NodalLoad> loads;
     std::vector<NodalMass> masses;
     std::vector<Eigen::MatrixXd> bases;  // T_n (6 x k_n) per node
@@ -55,8 +84,11 @@ struct State {
     explicit State(const Model& m);
     // Re-base the rotation of every node whose |phi| exceeds max_angle [rad].
     int rebase(double max_angle);
-    // Nodal rotation matrix R = exp(phi) R_ref.
+    // Nodal rotation matrix R = exp(phi) R_ref (ANCF node: e1 along the slope, e3 = z).
     Mat3<double> rotation(int node) const;
+    // Largest |phi| over the frame nodes [rad].
+    double max_rotation() const;
+    std::vector<NodeKind> kinds;
 };
 
 struct Triplets {
@@ -68,6 +100,13 @@ struct Triplets {
 // Reduced residual (size n_dofs) and, if J is not null, the weighted tangent.
 void assemble(const Model& model, const State& state, const LoadState& load, double load_factor,
               double wK, double wC, double wM, Eigen::VectorXd* residual, Triplets* J);
+
+// Geometric stiffness (reduced triplets) of the prestress that the full-coordinate
+// displacement dq produces to first order about the state: ANCF Model A elements only.
+void assemble_geometric(const Model& model, const State& state, const Eigen::VectorXd& dq, Triplets* G);
+
+// Set position, velocity and acceleration of the hub nodes to the drive's motion at t.
+void apply_hub(const Model& model, State& state, double t);
 
 // Full (6 per node) generalised force of the external nodal loads at load factor 1.
 Eigen::VectorXd external_forces(const Model& model, const State& state);

@@ -1,29 +1,46 @@
-// Planar ANCF beam element (seed 002, Berzeri & Shabana), elastic "Model A".
+// Planar ANCF beam element (seed 002, Berzeri & Shabana) with two elastic force models.
 //
 // Coordinates e = [r_A (2), r_A' (2), r_B (2), r_B' (2)] [m, -]: nodal positions and
 // slopes, cubic Hermite interpolation r(xi) = S(xi) e, xi = x/l. Residual
-//     r(e, e_dot, e_ddot) = M e_ddot + (eps_A K_A + eps_M K_M + eps_B K_B + K_t) e
-// with the constant mass matrix M = m int S^T S dxi (A-1; plus a tip mass at B, A-2),
-// K_X = EA int N_X S_x^T S_x dx (N_A = 1 - 4xi + 3xi^2, N_M = 6xi - 6xi^2,
-// N_B = -2xi + 3xi^2; A-6..A-8), K_t = EI int S_xx^T S_xx dx, and the strains
-// eps_A = |r_A'| - 1, eps_M = |r_B - r_A| / l - 1, eps_B = |r_B'| - 1.
-// Not yet wired into the Model/assembler (issue 4): a kernel with its tangents.
+//     r(e, e_ddot) = M e_ddot + Q(e) - f_g,
+// constant mass matrix M = rho A l int S^T S dxi (A-1; plus a tip mass at B, A-2) and
+// gravity f_g = rho A l int S^T g dxi. Elastic forces Q:
+//  * Model A (continuum mechanics, seed's Model A = Model III of its ref. [2]):
+//      Q = (eps_A K_A + eps_M K_M + eps_B K_B + K_t) e,
+//    K_X = EA int N_X S_x^T S_x dx (N_A = 1 - 4xi + 3xi^2, N_M = 6xi - 6xi^2,
+//    N_B = -2xi + 3xi^2; A-6..A-8), K_t = EI int S_xx^T S_xx dx,
+//    eps_A = |r_A'| - 1, eps_M = |r_B - r_A| / l - 1, eps_B = |r_B'| - 1.
+//  * Model 0 (local element frame, linear strain; seed ref. [16]): the frame's x axis
+//    follows the chord r_B - r_A; in it the local displacement u = e_l - e_l0 gives
+//      U = 1/2 EA int (u_x')^2 dx + 1/2 EI int (u_y'')^2 dx,  Q = dU/de (exact gradient,
+//    including the frame's rotation). No axial-bending coupling inside an element.
 #pragma once
 
 namespace pipeflex {
+
+enum class AncfElastic : int { model_0 = 0, model_a = 1 };
 
 struct AncfElementData {
     double l = 1.0;          // l [m] element length
     double EA = 0.0;         // E A [N] axial stiffness
     double EI = 0.0;         // E I [N m^2] bending stiffness
     double mass = 0.0;       // rho A [kg/m] mass per length
-    double tip_mass = 0.0;   // m_t [kg] concentrated at node B
+    double tip_mass = 0.0;   // m_t [kg] concentrated at node B (kernel use; models use nodal masses)
+    AncfElastic elastic = AncfElastic::model_a;
 };
 
-// Residual (8) and weighted tangent wK dr/de + wC dr/de_dot + wM M (row-major 8x8);
-// J may be null.
-void ancf_model_a_tangent(const AncfElementData& d, const double* e, const double* v, const double* a,
-                          double wK, double wC, double wM, double* r, double* J);
+// Residual (8) and weighted tangent wK dr/de + wM M (row-major 8x8); no velocity
+// dependence. gravity: g [m/s^2] (2), may be null. r or J may be null.
+void ancf_tangent(const AncfElementData& d, const double* e, const double* a, const double* gravity,
+                  double wK, double wM, double* r, double* J);
+
+// Geometric (prestress) stiffness of Model A at e for the strains linearised about e in
+// the direction de: sum_X (d eps_X/de . de) K_X (row-major 8x8).
+void ancf_geometric_stiffness(const AncfElementData& d, const double* e, const double* de, double* G);
+
+// Elastic energy [J] (Model A: 1/2 EA int eps^2 dx with eps interpolated from eps_A,
+// eps_M, eps_B, plus bending; Model 0: U above) and kinetic energy 1/2 v^T M v [J].
+void ancf_energies(const AncfElementData& d, const double* e, const double* v, double* kinetic, double* elastic);
 
 // The constant matrices of the appendix (row-major 8x8): which = 0: K_A, 1: K_M, 2: K_B,
 // 3: K_t, 4: M (with the tip mass).
