@@ -58,8 +58,15 @@ def test_matrices_equal_the_seed_appendix():
 G0 = np.zeros(2)
 
 
-def residual(d, e, a=np.zeros(8), g=G0):
-    return _core.ancf_tangent(d, e, a, g, 0.0, 0.0)[0]
+F0 = np.zeros(4)  # inertial frame
+
+
+def tangent(d, e, a=np.zeros(8), *, v=np.zeros(8), g=G0, frame=F0, wK=1.0, wC=0.0, wM=0.0):
+    return _core.ancf_tangent(d, e, v, a, g, frame, wK, wC, wM)
+
+
+def residual(d, e, a=np.zeros(8), g=G0, **kw):
+    return tangent(d, e, a, g=g, **kw)[0]
 
 
 def generic_e(d, seed=5):
@@ -73,8 +80,8 @@ def test_tangent_matches_finite_differences(model):
     d.elastic = model
     e = generic_e(d)
     a = np.random.default_rng(1).standard_normal(8)
-    r0, K = _core.ancf_tangent(d, e, a, G0, 1.0, 0.0)
-    _, W = _core.ancf_tangent(d, e, a, G0, 0.5, 2.0)
+    r0, K = tangent(d, e, a)
+    _, W = tangent(d, e, a, wK=0.5, wM=2.0)
     h = 1e-7
     K_fd = np.column_stack([(residual(d, e + h * np.eye(8)[j], a) - residual(d, e - h * np.eye(8)[j], a)) / (2 * h)
                             for j in range(8)])
@@ -144,7 +151,7 @@ def test_models_agree_for_small_deformation_without_prestress():
         d = data()
         d.elastic = model
         e = np.array([0, 0, 1, 0, d.l, 0, 1, 0.0])
-        K[model] = _core.ancf_tangent(d, e, np.zeros(8), G0, 1.0, 0.0)[1]
+        K[model] = tangent(d, e)[1]
     y = [1, 3, 5, 7]
     assert np.allclose(K["A"][np.ix_(y, y)], K["0"][np.ix_(y, y)], rtol=1e-9, atol=1e-9 * np.abs(K["A"]).max())
     x = [0, 2, 4, 6]
@@ -161,7 +168,44 @@ def test_geometric_stiffness_is_the_strain_part_of_the_tangent():
     G = _core.ancf_geometric_stiffness(d, e0, de)
     KA, KM, KB = (_core.ancf_model_a_matrix(d, k) for k in range(3))
     assert np.allclose(G, 1e-3 * (KA + KM + KB), rtol=1e-12, atol=1e-12 * np.abs(KM).max())
-    K0 = _core.ancf_tangent(d, e0, np.zeros(8), G0, 1.0, 0.0)[1]
-    K1 = _core.ancf_tangent(d, e0 + de, np.zeros(8), G0, 1.0, 0.0)[1]
+    K0 = tangent(d, e0)[1]
+    K1 = tangent(d, e0 + de)[1]
     y = [1, 3, 5, 7]
     assert np.allclose((K1 - K0)[np.ix_(y, y)], G[np.ix_(y, y)], rtol=1e-2, atol=1e-6 * np.abs(G).max())
+
+
+def test_co_rotating_frame_terms_and_their_tangents():
+    """In a frame turning at w with w_dot, a point fixed in the inertial frame has e_dot =
+    -w S (e - c) and e_ddot from the kinematics; the fictitious forces must cancel
+    M e_ddot then. The tangents match finite differences in e and e_dot."""
+    d = data(tip=0.0)
+    e = generic_e(d, seed=3)
+    rng = np.random.default_rng(4)
+    v, a = rng.standard_normal(8), rng.standard_normal(8)
+    frame = np.array([2.5, -0.7, 0.3, -0.2])
+    _, K = tangent(d, e, a, v=v, frame=frame)
+    _, C = tangent(d, e, a, v=v, frame=frame, wK=0.0, wC=1.0)
+    h = 1e-7
+    I = np.eye(8)
+    K_fd = np.column_stack([(residual(d, e + h * I[j], a, v=v, frame=frame) -
+                             residual(d, e - h * I[j], a, v=v, frame=frame)) / (2 * h) for j in range(8)])
+    # the residual is linear in e_dot: a unit difference is exact up to round-off
+    C_fd = np.column_stack([(residual(d, e, a, v=v + I[j], frame=frame) -
+                             residual(d, e, a, v=v - I[j], frame=frame)) / 2 for j in range(8)])
+    assert np.abs(K - K_fd).max() <= 1e-6 * np.abs(K_fd).max()
+    assert np.abs(C - C_fd).max() <= 1e-6 * np.abs(C_fd).max()
+    # rigid body at rest in the inertial frame, seen from a frame turning at constant w:
+    # e_rel(t) = R(-w t) e_in, so e_dot = -w S (e - c), e_ddot = -w^2 (e - c)
+    w = 1.7
+    c = np.array([0.3, -0.2])
+    ang = 0.4
+    cs, sn = np.cos(ang), np.sin(ang)
+    rA = c + np.array([0.5, 0.1])
+    sl = np.array([cs, sn])
+    e = np.concatenate([rA, sl, rA + d.l * sl, sl])
+    cc = np.array([c[0], c[1], 0, 0, c[0], c[1], 0, 0])
+    S = np.kron(np.eye(4), np.array([[0, -1], [1, 0]]))
+    edot = -w * S @ (e - cc)
+    eddot = -w**2 * (e - cc)
+    r = residual(d, e, eddot, v=edot, frame=np.array([w, 0.0, c[0], c[1]]))
+    assert np.abs(r).max() < 1e-9 * d.mass * w**2

@@ -49,7 +49,10 @@ void bind_elements(py::module_& m) {
         .def_readwrite("mass_flow", &LoadState::mass_flow)
         .def_readwrite("mass_flow_rate", &LoadState::mass_flow_rate)
         .def_readwrite("gravity", &LoadState::gravity)
-        .def_readwrite("gravity_factor", &LoadState::gravity_factor);
+        .def_readwrite("gravity_factor", &LoadState::gravity_factor)
+        .def_readwrite("frame_rate", &LoadState::frame_rate)
+        .def_readwrite("frame_acceleration", &LoadState::frame_acceleration)
+        .def_readwrite("frame_center", &LoadState::frame_center);
 
     m.def(
         "pipe_tangent",
@@ -96,14 +99,22 @@ void bind_elements(py::module_& m) {
     using Mat8 = Eigen::Matrix<double, 8, 8, Eigen::RowMajor>;
     m.def(
         "ancf_tangent",
-        [](const AncfElementData& d, const Vec8& e, const Vec8& a, const Eigen::Vector2d& g, double wK, double wM) {
+        [](const AncfElementData& d, const Vec8& e, const Vec8& v, const Vec8& a, const Eigen::Vector2d& g,
+           const Eigen::Vector4d& frame, double wK, double wC, double wM) {
             Vec8 r;
             Mat8 J;
-            ancf_tangent(d, e.data(), a.data(), g.data(), wK, wM, r.data(), J.data());
+            AncfFrame f;
+            f.rate = frame[0];
+            f.acceleration = frame[1];
+            f.center[0] = frame[2];
+            f.center[1] = frame[3];
+            ancf_tangent(d, e.data(), v.data(), a.data(), g.data(), &f, wK, wC, wM, r.data(), J.data());
             return py::make_tuple(r, J);
         },
-        py::arg("data"), py::arg("e"), py::arg("a"), py::arg("gravity"), py::arg("wK"), py::arg("wM"),
-        "Planar ANCF element (seed 002): residual (8) and weighted tangent wK K + wM M (8x8).");
+        py::arg("data"), py::arg("e"), py::arg("v"), py::arg("a"), py::arg("gravity"), py::arg("frame"), py::arg("wK"),
+        py::arg("wC"), py::arg("wM"),
+        "Planar ANCF element (seed 002): residual (8) and weighted tangent (8x8); frame = (rate [rad/s], "
+        "acceleration [rad/s^2], centre x, y [m]) of a co-rotating frame (zeros: inertial).");
     m.def(
         "ancf_geometric_stiffness",
         [](const AncfElementData& d, const Vec8& e, const Vec8& de) {

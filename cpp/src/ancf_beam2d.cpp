@@ -157,8 +157,8 @@ void ancf_model_a_matrix(const AncfElementData& d, int which, double* out) {
     }
 }
 
-void ancf_tangent(const AncfElementData& d, const double* e, const double* a, const double* gravity, double wK,
-                  double wM, double* r, double* J) {
+void ancf_tangent(const AncfElementData& d, const double* e, const double* v, const double* a, const double* gravity,
+                  const AncfFrame* frame, double wK, double wC, double wM, double* r, double* J) {
     double M[64], Q[8], K[64];
     ancf_model_a_matrix(d, 4, M);
     const bool need_K = J != nullptr && wK != 0.0;
@@ -176,11 +176,21 @@ void ancf_tangent(const AncfElementData& d, const double* e, const double* a, co
                 for (int j = 0; j < 8; ++j) K[8 * i + j] = Qd[i].d[j];
         }
     }
+    // Frame terms: f = 2 w S e_dot + (w^2 S^2 + w_dot S)(e - c), multiplied by M.
+    const bool turning = frame != nullptr && (frame->rate != 0.0 || frame->acceleration != 0.0);
+    const double w = turning ? frame->rate : 0.0, wd = turning ? frame->acceleration : 0.0;
+    auto S = [](const double* x, int i) { return i % 2 == 0 ? -x[i + 1] : x[i - 1]; };  // S on pairs
     if (r != nullptr) {
         const Integrals& I = integrals();
+        double f[8] = {};
+        if (turning) {
+            double rel[8];
+            for (int i = 0; i < 8; ++i) rel[i] = e[i] - ((i == 0 || i == 4) ? frame->center[0] : (i == 1 || i == 5) ? frame->center[1] : 0.0);
+            for (int i = 0; i < 8; ++i) f[i] = 2.0 * w * S(v, i) - w * w * rel[i] + wd * S(rel, i);
+        }
         for (int i = 0; i < 8; ++i) {
             double ma = 0.0;
-            for (int j = 0; j < 8; ++j) ma += M[8 * i + j] * a[j];
+            for (int j = 0; j < 8; ++j) ma += M[8 * i + j] * (a[j] + f[j]);
             r[i] = ma + Q[i];
             if (gravity != nullptr) {
                 const int fn = i / 2;
@@ -191,6 +201,16 @@ void ancf_tangent(const AncfElementData& d, const double* e, const double* a, co
     }
     if (J == nullptr) return;
     for (int k = 0; k < 64; ++k) J[k] = (need_K ? wK * K[k] : 0.0) + wM * M[k];
+    if (turning) {
+        // d f / d e = w^2 S^2 + w_dot S = -w^2 I + w_dot S; d f / d e_dot = 2 w S (S on pairs:
+        // column 2k+1 -> row 2k with -1, column 2k -> row 2k+1 with +1)
+        for (int i = 0; i < 8; ++i)
+            for (int k = 0; k < 4; ++k) {
+                const double mx = M[8 * i + 2 * k], my = M[8 * i + 2 * k + 1];  // M S: (M S)_{i,2k} = M_{i,2k+1}
+                J[8 * i + 2 * k] += (wK * wd + wC * 2.0 * w) * my - wK * w * w * mx;
+                J[8 * i + 2 * k + 1] += -(wK * wd + wC * 2.0 * w) * mx - wK * w * w * my;
+            }
+    }
 }
 
 void ancf_geometric_stiffness(const AncfElementData& d, const double* e, const double* de, double* G) {

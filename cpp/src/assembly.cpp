@@ -177,10 +177,19 @@ void Model::finalize() {
             throw std::invalid_argument("a point mass at ANCF node " + std::to_string(m.node) +
                                         " cannot carry rotary inertia");
     }
+    hub.co_rotating = false;
+    for (int i : hub.nodes) check_node(i, "hub drive");
+    for (int i : hub.nodes) hub.co_rotating = hub.co_rotating || kinds[i] == NodeKind::ancf;
     for (int i : hub.nodes) {
-        check_node(i, "hub drive");
-        if (bases[i].cols() != 0)
+        if (hub.co_rotating && kinds[i] != NodeKind::ancf)
+            throw std::invalid_argument("hub nodes must be all ANCF nodes or all frame nodes");
+        if (!hub.co_rotating && bases[i].cols() != 0)
             throw std::invalid_argument("hub-driven node " + std::to_string(i) + " must be clamped (no free coordinates)");
+    }
+    if (hub.co_rotating) {
+        if (!pipes.empty())
+            throw std::invalid_argument("a hub carrying ANCF beams turns a co-rotating frame: pipe elements cannot join it");
+        if (std::abs(hub.axis[2]) != 1.0) throw std::invalid_argument("the hub of ANCF beams must turn about z");
     }
     if (!hub.nodes.empty() && std::abs(norm(hub.axis) - 1.0) > 1e-12)
         throw std::invalid_argument("hub axis must be a unit vector");
@@ -201,8 +210,18 @@ void HubDrive::angle(double t, double* th, double* thd, double* thdd) const {
     }
 }
 
+void apply_hub_frame(const Model& model, LoadState& load, double t) {
+    if (!model.hub.co_rotating) return;
+    double th, thd, thdd;
+    model.hub.angle(t, &th, &thd, &thdd);
+    const double sgn = model.hub.axis[2];
+    load.frame_rate = sgn * thd;
+    load.frame_acceleration = sgn * thdd;
+    load.frame_center = {model.hub.center[0], model.hub.center[1]};
+}
+
 void apply_hub(const Model& model, State& state, double t) {
-    if (model.hub.nodes.empty()) return;
+    if (model.hub.nodes.empty() || model.hub.co_rotating) return;
     double th, thd, thdd;
     model.hub.angle(t, &th, &thd, &thdd);
     const Vec3<double>& ax = model.hub.axis;
@@ -324,12 +343,18 @@ void assemble(const Model& model, const State& state, const LoadState& load, dou
                 for (int b = 0; b < 2; ++b) scatter_block(model, nodes[a], nodes[b], Je + 72 * a + 6 * b, 12, J);
         }
     }
+    AncfFrame frame;
+    frame.rate = load.frame_rate;
+    frame.acceleration = load.frame_acceleration;
+    frame.center[0] = load.frame_center[0];
+    frame.center[1] = load.frame_center[1];
     for (const auto& el : model.ancf) {
-        double e[8], a8[8], r8[8], J8[64];
+        double e[8], v8[8], a8[8], r8[8], J8[64];
         gather_ancf(state.q, el, e);
         gather_ancf(state.a, el, a8);
+        gather_ancf(state.v, el, v8);
         const double g[2] = {load.gravity[0] * load.gravity_factor, load.gravity[1] * load.gravity_factor};
-        ancf_tangent(el.data, e, a8, g, wK, wM, r8, J != nullptr ? J8 : nullptr);
+        ancf_tangent(el.data, e, v8, a8, g, &frame, wK, wC, wM, r8, J != nullptr ? J8 : nullptr);
         widen_ancf(r8, J != nullptr ? J8 : nullptr, re, Je);
         if (residual != nullptr) {
             scatter_vector(model, el.p, re, residual);
@@ -345,10 +370,17 @@ void assemble(const Model& model, const State& state, const LoadState& load, dou
         const int n = nm.node;
         if (model.kinds[n] == NodeKind::ancf) {
             double rv[6] = {}, blk[36] = {};
+            // inertia in the (possibly) turning frame: a + 2 w S v + (w^2 S^2 + w_dot S)(x - c)
+            const double w = frame.rate, wd = frame.acceleration;
+            const double rx = state.q[6 * n] - frame.center[0], ry = state.q[6 * n + 1] - frame.center[1];
+            const double f[2] = {-2.0 * w * state.v[6 * n + 1] - w * w * rx - wd * ry,
+                                 2.0 * w * state.v[6 * n] - w * w * ry + wd * rx};
             for (int i = 0; i < 3; ++i) {
-                rv[i] = nm.mass * (state.a[6 * n + i] - load.gravity[i] * load.gravity_factor);
-                blk[6 * i + i] = wM * nm.mass;
+                rv[i] = nm.mass * (state.a[6 * n + i] + (i < 2 ? f[i] : 0.0) - load.gravity[i] * load.gravity_factor);
+                blk[6 * i + i] = wM * nm.mass - wK * nm.mass * w * w * (i < 2);
             }
+            blk[0 * 6 + 1] = nm.mass * (-wK * wd - wC * 2.0 * w);
+            blk[1 * 6 + 0] = nm.mass * (wK * wd + wC * 2.0 * w);
             if (residual != nullptr) scatter_vector(model, n, rv, residual);
             if (J != nullptr) scatter_block(model, n, n, blk, 6, J);
             continue;

@@ -112,6 +112,7 @@ class System {
         LoadState l = base_load;
         l.mass_flow = flow.at(t);
         l.mass_flow_rate = flow.rate(t);
+        apply_hub_frame(model, l, t);
         return l;
     }
 

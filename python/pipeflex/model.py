@@ -3,8 +3,10 @@
 A :class:`ModelBuilder` collects the description; :meth:`ModelBuilder.build` checks it
 and returns an immutable :class:`Model`. Analyses are free functions of a model and a
 state (see :mod:`pipeflex.analysis`). Conventions (DOF order, signs, units) are in
-``docs/conventions.md``: every node has the coordinates ``[x, y, z, phi_x, phi_y,
-phi_z]``, positions in m and a spatial rotation vector in rad.
+``docs/conventions.md``: every node has six coordinates: a frame node (pipe/beam
+element of seed 000) ``[x, y, z, phi_x, phi_y, phi_z]``, position in m and a spatial
+rotation vector in rad; an ANCF node (planar beam of seed 002) ``[x, y, z, x', y', z']``,
+position in m and the slope dr/dx [-] (z and z' are fixed: the element is planar).
 """
 from __future__ import annotations
 
@@ -18,6 +20,8 @@ from . import _checks, _core
 from .sections import PipeSection
 
 COMPONENTS = ("ux", "uy", "uz", "rx", "ry", "rz")
+ANCF_COMPONENTS = ("ux", "uy", "uz", "dx", "dy", "dz")  # position, slope dr/dx
+ELASTIC_MODELS = ("A", "0")
 
 
 def _triad(tangent: np.ndarray, up: Optional[np.ndarray]) -> np.ndarray:
@@ -50,12 +54,30 @@ def _strain_free_length(chord: np.ndarray, Ep: np.ndarray, Eq: np.ndarray) -> fl
 
 @dataclass(frozen=True)
 class ElementInfo:
-    """What the builder recorded of an element (for plotting and post-processing)."""
+    """What the builder recorded of an element (for plotting and post-processing).
+
+    ``kind`` is ``"pipe"`` (seed 000 element) or ``"ancf"`` (planar ANCF beam of seed
+    002, whose elastic force model ``elastic`` is ``"A"`` or ``"0"``)."""
 
     nodes: Tuple[int, int]
     section: PipeSection
     length: float
     flow_factor: float
+    kind: str = "pipe"
+    elastic: Optional[str] = None
+
+
+@dataclass(frozen=True)
+class HubInfo:
+    """A rigid hub turning the ``nodes`` about ``axis`` through ``center`` [m]: angle
+    theta(t) of seed 002's eq. 13 with final rate ``omega`` [rad/s] reached after
+    ``spin_up_time`` [s] (0: constant omega from t = 0)."""
+
+    nodes: Tuple[int, ...]
+    axis: np.ndarray
+    center: np.ndarray
+    omega: float
+    spin_up_time: float
 
 
 class ModelBuilder:
@@ -77,6 +99,9 @@ class ModelBuilder:
         self._loads: List[dict] = []
         self._masses: List[dict] = []
         self._gravity = np.zeros(3)
+        self._ancf_nodes: dict = {}  # node -> reference slope
+        self._ancf: List[dict] = []
+        self._hub: Optional[HubInfo] = None
 
     # -- nodes and elements -------------------------------------------------------
     def add_node(self, position: Sequence[float]) -> int:
@@ -88,6 +113,86 @@ class ModelBuilder:
         if isinstance(i, bool) or not isinstance(i, (int, np.integer)) or not 0 <= i < len(self._positions):
             raise ValueError(f"{name} refers to node {i!r}, but the model has nodes 0..{len(self._positions) - 1}")
         return int(i)
+
+    def add_ancf_node(self, position: Sequence[float], slope: Sequence[float] = (1.0, 0.0, 0.0)) -> int:
+        """Add an ANCF node at ``position`` [m] with the unit reference ``slope`` dr/dx [-]
+        in the x-y plane (z and z' are fixed at build)."""
+        x = _checks.vector3("position", position)
+        d = _checks.unit_vector("slope", slope)
+        if abs(d[2]) > 1e-12:
+            raise ValueError("slope must lie in the x-y plane (ANCF elements are planar)")
+        self._positions.append(x)
+        self._ancf_nodes[len(self._positions) - 1] = d
+        return len(self._positions) - 1
+
+    def add_ancf_beam(self, start, end: Sequence[float], n_elements: int, section: PipeSection, *,
+                      elastic: str = "A") -> List[int]:
+        """A straight planar ANCF beam (seed 002) from ``start`` (an ANCF node index, or a
+        point [m]) to the point ``end`` [m] in ``n_elements`` equal elements; returns the
+        node indices (start first).
+
+        Args:
+            section: ``EA`` [N] axial stiffness, ``EIz`` [N m^2] in-plane bending
+                stiffness (the section's EI unless EIz is given), ``pipe_mass`` [kg/m]
+                rho A; ``fluid_mass`` must be 0 (no flow in ANCF elements).
+            elastic: elastic force model, ``"A"`` (continuum strain, captures centrifugal
+                stiffening) or ``"0"`` (linear strain in a local element frame).
+        """
+        if elastic not in ELASTIC_MODELS:
+            raise ValueError(f"elastic must be one of {ELASTIC_MODELS}, got {elastic!r}")
+        if not isinstance(section, PipeSection):
+            raise ValueError("section must be a pipeflex.PipeSection")
+        if section.fluid_mass != 0.0:
+            raise ValueError("ANCF beams carry no fluid: section.fluid_mass must be 0")
+        n = _checks.positive_int("n_elements", n_elements)
+        x1 = _checks.vector3("end", end)
+        if isinstance(start, (int, np.integer)) and not isinstance(start, bool):
+            first = self._node("start", start)
+            if first not in self._ancf_nodes:
+                raise ValueError(f"start node {first} is not an ANCF node")
+            x0 = self._positions[first]
+        else:
+            x0 = _checks.vector3("start", start)
+            first = None
+        chord = x1 - x0
+        L = float(np.linalg.norm(chord))
+        if L <= 0.0:
+            raise ValueError("the beam has zero length: start and end coincide")
+        if abs(chord[2]) > 1e-12 * L:
+            raise ValueError("an ANCF beam must lie in a plane z = const")
+        d = chord / L
+        if first is None:
+            first = self.add_ancf_node(x0, d)
+        elif not np.allclose(self._ancf_nodes[first], d, atol=1e-12):
+            raise ValueError(f"start node {first} has slope {self._ancf_nodes[first]}, not along the beam {d}")
+        nodes = [first]
+        for k in range(1, n + 1):
+            nodes.append(self.add_ancf_node(x0 + chord * k / n, d))
+            self._ancf.append(dict(p=nodes[-2], q=nodes[-1], section=section, l=L / n, elastic=elastic))
+        return nodes
+
+    def rotating_hub(self, node: int, *, omega: float, spin_up_time: float = 0.0,
+                     center: Sequence[float] = (0.0, 0.0, 0.0), axis: Sequence[float] = (0.0, 0.0, 1.0)) -> None:
+        """Clamp ``node`` to a rigid hub turning about ``axis`` through ``center`` [m].
+
+        The angle is prescribed: theta(t) of seed 002's eq. 13, a smooth spin-up from rest
+        to ``omega`` [rad/s] over ``spin_up_time`` T [s], then theta = omega (t - T/2); with
+        T = 0 the hub turns at constant omega from t = 0 (the model's initial state is
+        then at rest: start such runs from a steady state). Rotating-frame analyses
+        (:func:`pipeflex.rotating_frequencies`) use the hub's axis and centre.
+        """
+        node = self._node("node", node)
+        omega = _checks.finite("omega", omega)
+        T = _checks.non_negative("spin_up_time", spin_up_time)
+        if self._hub is not None and node not in self._hub.nodes:
+            nodes = self._hub.nodes + (node,)
+            if not (np.allclose(self._hub.axis, axis) and np.allclose(self._hub.center, center)
+                    and self._hub.omega == omega and self._hub.spin_up_time == T):
+                raise ValueError("all hub nodes must share one axis, centre and angle law")
+        else:
+            nodes = (node,)
+        self.clamp(node)
+        self._hub = HubInfo(nodes, _checks.unit_vector("axis", axis), _checks.vector3("center", center), omega, T)
 
     def add_pipe(self, p: int, q: int, section: PipeSection, *, up: Optional[Sequence[float]] = None,
                  tangent_p: Optional[Sequence[float]] = None, tangent_q: Optional[Sequence[float]] = None,
@@ -118,6 +223,9 @@ class ModelBuilder:
         q = self._node("q", q)
         if p == q:
             raise ValueError(f"a pipe element needs two different nodes, got p = q = {p}")
+        for i in (p, q):
+            if i in self._ancf_nodes:
+                raise ValueError(f"node {i} is an ANCF node; pipe elements need frame nodes (add_node)")
         if not isinstance(section, PipeSection):
             raise ValueError("section must be a pipeflex.PipeSection")
         chord = self._positions[q] - self._positions[p]
@@ -184,17 +292,27 @@ class ModelBuilder:
         self._constraints.setdefault(node, []).extend(np.asarray(r, float) for r in rows)
 
     def fix(self, node: int, components: Iterable[str]) -> None:
-        """Fix coordinates of a node by name: any of ``ux uy uz rx ry rz``."""
+        """Fix coordinates of a node by name: any of ``ux uy uz rx ry rz`` (frame node) or
+        ``ux uy uz dx dy dz`` (ANCF node: position and slope components)."""
         node = self._node("node", node)
+        names = ANCF_COMPONENTS if node in self._ancf_nodes else COMPONENTS
         comps = list(components)
         for c in comps:
-            if c not in COMPONENTS:
-                raise ValueError(f"unknown component {c!r}; use one of {COMPONENTS}")
-        self._constrain(node, [np.eye(6)[COMPONENTS.index(c)] for c in comps])
+            if c not in names:
+                raise ValueError(f"unknown component {c!r} for node {node}; use one of {names}")
+        self._constrain(node, [np.eye(6)[names.index(c)] for c in comps])
 
     def clamp(self, node: int) -> None:
-        """Fix position and orientation of a node."""
-        self.fix(node, COMPONENTS)
+        """Fix position and orientation of a node. At an ANCF node the slope's direction
+        is fixed but not its length: the axial strain at the clamp stays free (seed 002,
+        eq. 18: five free coordinates for one clamped element)."""
+        node = self._node("node", node)
+        if node not in self._ancf_nodes:
+            self.fix(node, COMPONENTS)
+            return
+        d = self._ancf_nodes[node]
+        self.fix(node, ("ux", "uy", "uz", "dz"))
+        self._constrain(node, [np.array([0, 0, 0, -d[1], d[0], 0.0])])
 
     def pin(self, node: int) -> None:
         """Fix the position of a node; its rotation stays free."""
@@ -269,33 +387,68 @@ class ModelBuilder:
             mass_flow: mdot [kg/s] prescribed mass flow (analyses may override it).
         """
         mdot = _checks.finite("mass_flow", mass_flow)
-        if not self._elements:
+        if not self._elements and not self._ancf:
             raise ValueError("the model has no elements")
         if not self._constraints:
             raise ValueError("the model has no supports: add clamp/pin/hinge/fix so it cannot drift")
-        used = {e["p"] for e in self._elements} | {e["q"] for e in self._elements}
+        for n in self._ancf_nodes:  # planar: z and z' fixed
+            rows = self._constraints.get(n, [])
+            for k in (2, 5):
+                if not any(np.allclose(r, np.eye(6)[k]) for r in rows):
+                    self._constrain(n, [np.eye(6)[k]])
+        for m in self._masses:
+            if m["node"] in self._ancf_nodes and np.any(m["inertia"] != 0):
+                raise ValueError(f"point mass at ANCF node {m['node']}: rotary inertia must be 0")
+        for ld in self._loads:
+            if ld["node"] in self._ancf_nodes and (np.any(ld["m"] != 0) or np.any(ld["ff"] != 0) or np.any(ld["fm"] != 0)):
+                raise ValueError(f"load at ANCF node {ld['node']}: only dead forces are supported (no moments, "
+                                 f"no follower loads)")
+        els = self._elements + self._ancf
+        used = {e["p"] for e in els} | {e["q"] for e in els}
         loose = sorted(set(range(len(self._positions))) - used)
         if loose:
             raise ValueError(f"nodes {loose} are not connected to any element")
         for e in self._elements:
             if mdot != 0.0 and e["flow_factor"] != 0.0 and e["section"].fluid_mass <= 0.0:
                 raise ValueError(f"element {e['p']}->{e['q']} carries a mass flow but its fluid_mass is 0")
+        bases = [self._basis(i) for i in range(len(self._positions))]
+        core, infos = self._make_core(bases, self._hub)
+        # the same model without supports (planar ANCF nodes keep z, z' fixed), for
+        # analyses that need the unconstrained matrices (rotating frame)
+        free_bases = [np.eye(6)[:, [0, 1, 3, 4]] if i in self._ancf_nodes else np.eye(6)
+                      for i in range(len(self._positions))]
+        free_core, _ = self._make_core(free_bases, None)
+        model = Model(core, np.array(self._positions), tuple(infos), bases, mdot, self._gravity.copy(),
+                      hub=self._hub, ancf_nodes=tuple(sorted(self._ancf_nodes)),
+                      free=(free_core, free_bases))
+        return model
+
+    def _make_core(self, bases, hub):
         core = _core.Model()
-        for x in self._positions:
-            core.add_node(x)
+        for i, x in enumerate(self._positions):
+            if i in self._ancf_nodes:
+                core.add_ancf_node(x, self._ancf_nodes[i])
+            else:
+                core.add_node(x)
         infos = []
         for e in self._elements:
             core.add_pipe(e["p"], e["q"], self._element_data(e))
             infos.append(ElementInfo((e["p"], e["q"]), e["section"], e["l0"], e["flow_factor"]))
+        for e in self._ancf:
+            d = _core.AncfElementData()
+            sec = e["section"]
+            d.l, d.EA, d.EI, d.mass, d.elastic = e["l"], sec.EA, sec.EIz, sec.pipe_mass, e["elastic"]
+            core.add_ancf(e["p"], e["q"], d)
+            infos.append(ElementInfo((e["p"], e["q"]), sec, e["l"], 0.0, kind="ancf", elastic=e["elastic"]))
+        if hub is not None:
+            core.set_hub(list(hub.nodes), hub.axis, hub.center, hub.omega, hub.spin_up_time)
         for ld in self._loads:
             core.add_load(ld["node"], ld["f"], ld["m"], ld["ff"], ld["fm"])
         for m in self._masses:
             core.add_mass(m["node"], m["mass"], m["inertia"])
-        bases = [self._basis(i) for i in range(len(self._positions))]
         core.set_bases(bases)
         core.finalize()
-        model = Model(core, np.array(self._positions), tuple(infos), bases, mdot, self._gravity.copy())
-        return model
+        return core, infos
 
     def _basis(self, node: int) -> np.ndarray:
         rows = self._constraints.get(node, [])
@@ -337,12 +490,16 @@ class Model:
     Attributes:
         n_nodes, n_dofs: number of nodes and of free (reduced) coordinates.
         positions: (n_nodes, 3) reference node positions [m].
-        elements: per-element :class:`ElementInfo`.
+        elements: per-element :class:`ElementInfo` (pipe elements first, then ANCF).
         mass_flow: default prescribed mass flow mdot [kg/s].
         gravity: g [m/s^2].
+        hub: the rotating hub (:class:`HubInfo`) or None.
+        ancf_nodes: indices of the ANCF nodes.
+        info: free-form description a scene attaches (e.g. reference frequencies).
     """
 
-    def __init__(self, core, positions, elements, bases, mass_flow, gravity):
+    def __init__(self, core, positions, elements, bases, mass_flow, gravity, *, hub=None, ancf_nodes=(),
+                 free=None):
         self._core = core
         self.positions = positions
         self.positions.flags.writeable = False
@@ -352,13 +509,18 @@ class Model:
         self.gravity.flags.writeable = False
         self.n_nodes = core.n_nodes
         self.n_dofs = core.n_dofs
+        self.hub = hub
+        self.ancf_nodes = ancf_nodes
+        self.info: dict = {}
+        self._free = free
         rows, cols, vals = [], [], []
         labels = []
         for n, T in enumerate(bases):
             f = core.first_dof[n]
             for j in range(T.shape[1]):
                 nz = np.nonzero(T[:, j])[0]
-                labels.append((n, COMPONENTS[nz[0]] if len(nz) == 1 else "combined"))
+                names = ANCF_COMPONENTS if n in ancf_nodes else COMPONENTS
+                labels.append((n, names[nz[0]] if len(nz) == 1 else "combined"))
                 for i in nz:
                     rows.append(6 * n + i)
                     cols.append(f + j)
@@ -367,6 +529,15 @@ class Model:
         self.basis = sp.csr_matrix((vals, (rows, cols)), shape=(6 * self.n_nodes, self.n_dofs))
         #: (node, component) of each reduced coordinate
         self.dof_labels = tuple(labels)
+
+    def free_model(self) -> "Model":
+        """The same structure without supports or hub (ANCF nodes stay planar): its
+        coordinates are all nodal coordinates; ``basis`` maps them to the full ones."""
+        if self._free is None:
+            raise ValueError("this model has no unconstrained variant")
+        core, bases = self._free
+        return Model(core, self.positions.copy(), self.elements, bases, self.mass_flow, self.gravity.copy(),
+                     ancf_nodes=self.ancf_nodes)
 
     @property
     def core(self):

@@ -32,16 +32,23 @@ struct AncfElement {
 
 enum class NodeKind : int { frame = 0, ancf = 1 };
 
-// Prescribed rotation of the hub nodes (which must be clamped) about the axis a through
-// the centre c by the angle theta(t): eq. 13 of seed 002 (spin-up to Omega over
-// spin_up_time T, then constant Omega), or theta = Omega t when T = 0. A node at X
-// (reference) is carried to c + R(theta)(X - c); frames and slopes turn with R(theta).
+// Prescribed rotation of the hub about the axis a through the centre c by the angle
+// theta(t): eq. 13 of seed 002 (spin-up to Omega over spin_up_time T, then constant
+// Omega), or theta = Omega t when T = 0.
+//  * Frame nodes (pipe elements) are driven in inertial coordinates: the hub nodes must
+//    be clamped; a node at X (reference) is carried to c + R(theta)(X - c) and its frame
+//    turns with R(theta).
+//  * ANCF hub nodes: the model is integrated in the co-rotating hub frame (co_rotating),
+//    where the clamp is fixed and the elements feel the frame's fictitious forces; the
+//    clamp fixes the slope's direction, not its length (the root strain stays free).
+//    The axis must be z and all elements ANCF.
 struct HubDrive {
     std::vector<int> nodes;
     Vec3<double> axis{{0.0, 0.0, 1.0}};  // unit axis a
     Vec3<double> center{};              // c [m]
     double omega = 0.0;                 // Omega [rad/s] final angular velocity
     double spin_up_time = 0.0;          // T [s]
+    bool co_rotating = false;           // set by Model::finalize (ANCF hub nodes)
     // theta [rad], theta_dot [rad/s], theta_ddot [rad/s^2] at time t [s].
     void angle(double t, double* th, double* thd, double* thdd) const;
 };
@@ -105,8 +112,10 @@ void assemble(const Model& model, const State& state, const LoadState& load, dou
 // displacement dq produces to first order about the state: ANCF Model A elements only.
 void assemble_geometric(const Model& model, const State& state, const Eigen::VectorXd& dq, Triplets* G);
 
-// Set position, velocity and acceleration of the hub nodes to the drive's motion at t.
+// Set position, velocity and acceleration of the hub nodes to the drive's motion at t
+// (inertial mode), or the frame rates of the load (co-rotating mode).
 void apply_hub(const Model& model, State& state, double t);
+void apply_hub_frame(const Model& model, LoadState& load, double t);
 
 // Full (6 per node) generalised force of the external nodal loads at load factor 1.
 Eigen::VectorXd external_forces(const Model& model, const State& state);

@@ -29,10 +29,21 @@ struct AncfElementData {
     AncfElastic elastic = AncfElastic::model_a;
 };
 
-// Residual (8) and weighted tangent wK dr/de + wM M (row-major 8x8); no velocity
-// dependence. gravity: g [m/s^2] (2), may be null. r or J may be null.
-void ancf_tangent(const AncfElementData& d, const double* e, const double* a, const double* gravity,
-                  double wK, double wM, double* r, double* J);
+// A frame turning about z through `center` at rate `rate` [rad/s] with angular
+// acceleration `acceleration` [rad/s^2], in which the coordinates are measured. Its
+// fictitious forces add M (2 rate S e_dot + (rate^2 S^2 + acceleration S)(e - c)) to the
+// residual, S = [[0, -1], [1, 0]] on every 2-vector, c = [center, 0, center, 0].
+struct AncfFrame {
+    double rate = 0.0, acceleration = 0.0;
+    double center[2] = {0.0, 0.0};
+};
+
+// Residual (8) and weighted tangent wK dr/de + wC dr/de_dot + wM M (row-major 8x8).
+// gravity: g [m/s^2] (2), may be null; frame may be null (inertial coordinates).
+// r or J may be null.
+void ancf_tangent(const AncfElementData& d, const double* e, const double* v, const double* a,
+                  const double* gravity, const AncfFrame* frame, double wK, double wC, double wM,
+                  double* r, double* J);
 
 // Geometric (prestress) stiffness of Model A at e for the strains linearised about e in
 // the direction de: sum_X (d eps_X/de . de) K_X (row-major 8x8).

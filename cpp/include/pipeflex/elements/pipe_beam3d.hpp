@@ -51,6 +51,10 @@ struct LoadState {
     double mass_flow_rate = 0.0;  // d(mdot)/dt [kg/s^2]
     std::array<double, 3> gravity{};  // g [m/s^2]
     double gravity_factor = 1.0;  // [-] multiplier (load stepping)
+    // Co-rotating hub frame (ANCF models; see HubDrive): rate [rad/s], its rate [rad/s^2]
+    // and the axis point [m]; the frame turns about global z.
+    double frame_rate = 0.0, frame_acceleration = 0.0;
+    std::array<double, 2> frame_center{};
 };
 
 // Reference rotations of the element's two nodes (row-major 3x3 each).

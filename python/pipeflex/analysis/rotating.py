@@ -1,0 +1,350 @@
+"""Linear vibration about a steady rotation, in the co-rotating frame (seed 002, §5-7).
+
+A model with a rotating hub (:meth:`ModelBuilder.rotating_hub`) turns rigidly at the rate
+Omega about the hub axis a through its centre c. Seen from the frame turning with it, a
+coordinate perturbation y(t) moves the nodes by P(t) y, P(0) = I, with P = R(Omega t) for
+positions and ANCF slopes and P = T(Omega t a)^-1 R(Omega t) for rotation vectors. With the
+library's linearisation (K, C, M) at t = 0 of the rotating state the equations
+    M y_ddot + (C + 2 Omega M A) y_dot + (K + Omega C A + Omega^2 M B) y = 0
+are autonomous, A = P'(0)/Omega, B = P''(0)/Omega^2: A = S, B = S^2 (S = skew(a)) for
+positions and slopes, A = S/2, B = S^2/6 for rotation vectors. The term Omega^2 M B is
+the centrifugal softening, 2 Omega M A the Coriolis (gyroscopic) matrix; K carries the
+prestress. Two choices of the state about which K is taken:
+
+* ``"steady_state"``: the nonlinear relative equilibrium R(q, v(q), a(q)) = 0 in the
+  rotating frame (Newton with continuation in Omega^2); any element type.
+* ``"small_deformation"``: the seed's Section 5: geometry and strain gradients at the
+  undeformed configuration, prestress from the first-order static strains under the
+  centrifugal load of the undeformed beam, K = K_0 + Omega^2 G (ANCF Model A only).
+  The matrices K_0, G, M are computed once; each Omega costs one eigen-solution.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Optional, Sequence
+
+import numpy as np
+import scipy.linalg as sla
+import scipy.sparse as sp
+
+from .. import _checks, _core
+from ..errors import ConvergenceError
+from ._assembly import residual_and_tangent
+from .eigen import eigenvalues
+from .linearize import Linearization
+
+LINEARIZATIONS = ("small_deformation", "steady_state")
+
+
+@dataclass
+class RotatingFrequencies:
+    """Dimensionless frequencies omega / omega0 in the rotating frame.
+
+    Attributes:
+        gamma: (k,) Omega / omega0 [-] (eq. 65).
+        omega0: reference rate [rad/s] (eq. 64; ``model.info['omega0']``).
+        transverse: (k, n_modes) in-plane bending frequencies / omega0 [-], ascending.
+        longitudinal: (k, n_modes) axial (radial) ones / omega0 [-].
+        out_of_plane: (k, n_modes) flapwise ones / omega0 [-] (NaN for planar models).
+        growth: (k,) largest Re(lambda) / omega0 [-]; > 0 means the rotation is unstable.
+        max_strain: (k,) largest axial strain of the state linearised about [-] (the
+            first-order strain for "small_deformation").
+        linearization: which linearisation was used.
+    """
+
+    gamma: np.ndarray
+    omega0: float
+    transverse: np.ndarray
+    longitudinal: np.ndarray
+    out_of_plane: np.ndarray
+    growth: np.ndarray
+    max_strain: np.ndarray
+    linearization: str
+
+
+def _skew(a):
+    return np.array([[0, -a[2], a[1]], [a[2], 0, -a[0]], [-a[1], a[0], 0]])
+
+
+class _Frame:
+    """The rotating-frame operators A, B (per unit Omega) of a model, on the coordinates of
+    its unconstrained variant: the supports hold in the rotating frame, so the reduced
+    matrices are T^T (K + Omega C A + Omega^2 M B) T with the full M, C, K."""
+
+    def __init__(self, model):
+        if model.hub is None:
+            raise ValueError("the model has no rotating hub: add one with ModelBuilder.rotating_hub")
+        self.model = model
+        self.free = model.free_model()
+        self.axis = model.hub.axis
+        self.center = model.hub.center
+        S = _skew(self.axis)
+        n = model.n_nodes
+        A = np.zeros((6 * n, 6 * n))
+        B = np.zeros((6 * n, 6 * n))
+        ancf = set(model.ancf_nodes)
+        for i in range(n):
+            p, r = slice(6 * i, 6 * i + 3), slice(6 * i + 3, 6 * i + 6)
+            A[p, p], B[p, p] = S, S @ S
+            if i in ancf:
+                A[r, r], B[r, r] = S, S @ S
+            else:
+                A[r, r], B[r, r] = 0.5 * S, S @ S / 6.0
+        Tf = self.free.basis.toarray()
+        T = model.basis.toarray()
+        Tfp = np.linalg.pinv(Tf)
+        self.T = T
+        self.T_rel = Tfp @ T
+        self.A = Tfp @ A @ Tf
+        self.B = Tfp @ B @ Tf
+        if np.abs(Tf @ self.A - A @ Tf).max() > 1e-12 or np.abs(Tf @ self.T_rel - T).max() > 1e-12:
+            raise ValueError("planar ANCF nodes can only turn about the z axis")
+        self.radial, self.tangential = self._directions()
+
+    def matrices(self, state, omega):
+        """Reduced M, C, K of the rotating-frame equations at rate omega [rad/s]."""
+        K, C, M = _matrices(self.free, state)
+        Tr = self.T_rel
+        return (Tr.T @ M @ Tr, Tr.T @ (C + 2 * omega * M @ self.A) @ Tr,
+                Tr.T @ (K + omega * C @ self.A + omega**2 * M @ self.B) @ Tr)
+
+    def _directions(self):
+        """Unit radial (along the reference beam, normal to the axis) and tangential
+        directions of the structure, for classifying mode shapes."""
+        x = self.model.positions - self.center
+        x = x - np.outer(x @ self.axis, self.axis)
+        far = x[np.argmax(np.linalg.norm(x, axis=1))]
+        if np.linalg.norm(far) == 0:
+            raise ValueError("the structure lies on the hub axis")
+        er = far / np.linalg.norm(far)
+        return er, np.cross(self.axis, er)
+
+    def rigid_rotation(self, state, omega):
+        """Velocities and accelerations of the rigid rotation at rate omega (phi = 0)."""
+        S = _skew(self.axis)
+        n = self.model.n_nodes
+        v = np.zeros(6 * n)
+        a = np.zeros(6 * n)
+        q = np.asarray(state.q)
+        ancf = set(self.model.ancf_nodes)
+        for i in range(n):
+            r = q[6 * i:6 * i + 3] - self.center
+            v[6 * i:6 * i + 3] = omega * S @ r
+            a[6 * i:6 * i + 3] = omega**2 * S @ S @ r
+            if i in ancf:
+                d = q[6 * i + 3:6 * i + 6]
+                v[6 * i + 3:6 * i + 6] = omega * S @ d
+                a[6 * i + 3:6 * i + 6] = omega**2 * S @ S @ d
+            else:
+                v[6 * i + 3:6 * i + 6] = omega * self.axis
+        state.v = v
+        state.a = a
+
+    def classify(self, vectors):
+        """Share of each mode's nodal displacement along radial, tangential, axial."""
+        full = self.T @ vectors
+        n = self.model.n_nodes
+        pos = np.concatenate([np.arange(6 * i, 6 * i + 3) for i in range(n)])
+        u = full[pos].reshape(n, 3, -1)
+        parts = np.array([np.sum(np.abs(np.einsum("k,nkm->nm", d, u)) ** 2, axis=0)
+                          for d in (self.radial, self.tangential, self.axis)])
+        return parts / np.maximum(parts.sum(axis=0), 1e-300)
+
+
+def _matrices(model, state):
+    load = model.load_state()
+    _, K = residual_and_tangent(model, state, load, wK=1.0)
+    _, C = residual_and_tangent(model, state, load, load_factor=0.0, wK=0.0, wC=1.0)
+    _, M = residual_and_tangent(model, state, load, load_factor=0.0, wK=0.0, wM=1.0)
+    return K.toarray(), C.toarray(), M.toarray()
+
+
+def _axial_strains(model, state) -> float:
+    """Largest |eps| over the elements' end and mean strains (ANCF) or chord strains."""
+    q = np.asarray(state.q)
+    worst = 0.0
+    for e in model.elements:
+        p, r = e.nodes
+        chord = np.linalg.norm(q[6 * r:6 * r + 3] - q[6 * p:6 * p + 3]) / e.length - 1.0
+        worst = max(worst, abs(chord))
+        if e.kind == "ancf":
+            for n in (p, r):
+                worst = max(worst, abs(np.linalg.norm(q[6 * n + 3:6 * n + 6]) - 1.0))
+    return worst
+
+
+def rotating_state(model, omega: float, *, state=None, state_omega: float = 0.0, steps: int = 1,
+                   tol: float = 1e-10, max_iterations: int = 30):
+    """The steady state of the model turning at rate ``omega`` [rad/s] with its hub.
+
+    Newton's method on R(q, v(q), a(q)) = 0 with the rotating-frame Jacobian
+    K + Omega C A + Omega^2 M B, continued in Omega^2 from ``state`` (default: the
+    undeformed state) at rate ``state_omega`` over ``steps`` equal steps, a step being
+    halved when Newton fails. Returns the state (positions at t = 0, with the velocities
+    and accelerations of the rigid rotation).
+
+    Raises:
+        ConvergenceError: Newton failed (the message gives Omega, iteration, residual).
+    """
+    fr = _Frame(model)
+    omega = _checks.finite("omega", omega)
+    st = (model.initial_state() if state is None else state).copy()
+    st.rebase(0.0)
+    size = max(float(np.ptp(model.positions, axis=0).max()), 1e-3)
+    w2_good = _checks.finite("state_omega", state_omega) ** 2
+    targets = list(np.linspace(w2_good, omega**2, _checks.positive_int("steps", steps) + 1)[1:])
+    load = model.load_state()
+    scale = model.force_scale()
+    last_good = st
+    while targets:
+        w2 = targets[0]
+        w = np.sign(omega) * np.sqrt(w2)
+        trial = last_good.copy()
+        ok = False
+        rnorm = np.inf
+        for it in range(1, max_iterations + 1):
+            trial.rebase(0.0)
+            fr.rigid_rotation(trial, w)
+            _, _, J = fr.matrices(trial, w)
+            r, _ = residual_and_tangent(model, trial, load, matrix=False)
+            rnorm = float(np.linalg.norm(r))
+            try:
+                dz = np.linalg.solve(J, -r)
+            except np.linalg.LinAlgError:
+                break
+            _core.add_increment(model.core, trial, dz, "q")
+            if np.abs(dz).max() <= tol * size:
+                ok = True
+                break
+            if not np.all(np.isfinite(dz)) or np.abs(dz).max() > 0.5 * size:
+                break
+        if ok:
+            last_good = trial
+            w2_good = w2
+            targets.pop(0)
+            continue
+        if w2 - w2_good < 1e-8 * max(omega**2, 1e-30):
+            raise ConvergenceError(f"rotating_state: Newton failed at Omega = {w:.6g} rad/s after {it} iterations "
+                                   f"(residual {rnorm:.3e} N, force scale {scale:.3e} N)")
+        targets.insert(0, 0.5 * (w2 + w2_good))
+    last_good.rebase(0.0)
+    fr.rigid_rotation(last_good, omega)
+    return last_good
+
+
+def _modes(fr, M, C, K, state, n_modes):
+    """Frequencies sorted into transverse, longitudinal and out-of-plane families."""
+    lin = Linearization(sp.csc_matrix(M), sp.csc_matrix(C), sp.csc_matrix(K), 0.0, state)
+    eig = eigenvalues(lin, vectors=True)
+    up = eig.values.imag > 0
+    lam, V = eig.values[up], eig.vectors[:, up]
+    share = fr.classify(V)
+    kind = np.argmax(share, axis=0)
+    out = []
+    for k in (1, 0, 2):  # tangential (transverse), radial (longitudinal), axial
+        w = np.sort(lam[kind == k].imag)[:n_modes]
+        out.append(np.concatenate([w, np.full(n_modes - len(w), np.nan)]))
+    growth = float(np.max(eig.values.real)) if len(eig.values) else 0.0
+    return out, growth
+
+
+def rotating_frequencies(model, *, gamma, linearization: str = "small_deformation",
+                         n_modes: int = 3) -> RotatingFrequencies:
+    """Natural frequencies of a rotating model, dimensionless as in seed 002 (Tables 3-5).
+
+    Args:
+        model: a model with a rotating hub and ``model.info['omega0']`` (e.g.
+            :func:`pipeflex.scenes.rotating_cantilever`).
+        gamma: Omega / omega0 [-], a number or a sequence (computed in ascending order).
+        linearization: ``"small_deformation"`` (seed's Section 5: undeformed geometry,
+            first-order prestress; ANCF Model A) or ``"steady_state"`` (the full nonlinear
+            steady state in the rotating frame; any element).
+        n_modes: how many frequencies of each family to return.
+
+    Returns:
+        :class:`RotatingFrequencies`; ``transverse[i, j]`` is omega_j / omega0 of the
+        (j+1)-th in-plane bending mode at ``gamma[i]``. Mode families are told apart by
+        the direction of their nodal displacements (radial: longitudinal; tangential:
+        transverse; along the axis: out-of-plane).
+    """
+    if linearization not in LINEARIZATIONS:
+        raise ValueError(f"linearization must be one of {LINEARIZATIONS}, got {linearization!r}")
+    if "omega0" not in model.info:
+        raise ValueError("model.info has no 'omega0' (reference rate); build the model with "
+                         "scenes.rotating_cantilever or set model.info['omega0'] [rad/s]")
+    n_modes = _checks.positive_int("n_modes", n_modes)
+    g = np.atleast_1d(np.asarray(gamma, dtype=float))
+    if g.ndim != 1 or not np.all(np.isfinite(g)) or np.any(g < 0):
+        raise ValueError("gamma must be a finite non-negative number or 1-D sequence")
+    w0 = float(model.info["omega0"])
+    fr = _Frame(model)
+    order = np.argsort(g)
+    res = np.full((len(g), 3, n_modes), np.nan)
+    growth = np.zeros(len(g))
+    strain = np.zeros(len(g))
+    if linearization == "small_deformation":
+        s0 = model.initial_state()
+        K0f, C0f, Mf = _matrices(fr.free, s0)
+        Tr = fr.T_rel
+        K0, M = Tr.T @ K0f @ Tr, Tr.T @ Mf @ Tr
+        G, e1 = _unit_prestress(model, fr, s0, K0)
+        MA, MB, CA = Tr.T @ Mf @ fr.A @ Tr, Tr.T @ Mf @ fr.B @ Tr, Tr.T @ C0f @ fr.A @ Tr
+        C0 = Tr.T @ C0f @ Tr
+        for i in order:
+            w = g[i] * w0
+            fam, growth[i] = _modes(fr, M, C0 + 2 * w * MA, K0 + w * CA + w**2 * (G + MB), s0, n_modes)
+            res[i] = fam
+            strain[i] = w**2 * e1
+    else:
+        st, w_prev = None, 0.0
+        for i in order:
+            w = g[i] * w0
+            st = rotating_state(model, w, steps=4) if st is None else _continue(model, st, w_prev, w)
+            w_prev = w
+            fam, growth[i] = _modes(fr, *fr.matrices(st, w), st, n_modes)
+            res[i] = fam
+            strain[i] = _axial_strains(model, st)
+    return RotatingFrequencies(g, w0, res[:, 0] / w0, res[:, 1] / w0, res[:, 2] / w0, growth / w0, strain,
+                               linearization)
+
+
+def _continue(model, state, state_omega, omega):
+    """Steady state at omega continued from a nearby one (at most 4 Omega^2 steps)."""
+    try:
+        return rotating_state(model, omega, state=state, state_omega=state_omega)
+    except ConvergenceError:
+        return rotating_state(model, omega, steps=8)
+
+
+def _unit_prestress(model, fr, s0, K0):
+    """Prestress stiffness per unit Omega^2 and the largest first-order strain per unit
+    Omega^2: the static displacement under the centrifugal load of the undeformed state,
+    K0 u = f_c, f_c = -M_full B (q - c) (from the residual of the rigid rotation at rate 1)."""
+    s = s0.copy()
+    fr.rigid_rotation(s, 1.0)
+    s.v = np.zeros_like(np.asarray(s.v))  # only the centripetal acceleration loads
+    f, _ = residual_and_tangent(model, s, model.load_state(), load_factor=0.0, matrix=False)
+    u = np.linalg.solve(K0, -f)
+    du = fr.T @ u
+    rows, cols, vals = _core.assemble_geometric(model.core, s0, du)
+    G = sp.csc_matrix((vals, (rows, cols)), shape=K0.shape).toarray()
+    probe = s0.copy()
+    _core.add_increment(model.core, probe, u * 1e-6, "q")
+    return G, _axial_strains(model, probe) * 1e6
+
+
+def resonance_speed(model, *, mode: int = 1, gamma_range: Sequence[float] = (0.5, 20.0),
+                    linearization: str = "small_deformation") -> float:
+    """gamma at which the ``mode``-th transverse frequency equals the rotation rate
+    (omega_mode = Omega, seed 002 Section 7: 3.88 for mode 1, N = 0, R = 0)."""
+    from scipy.optimize import brentq
+
+    j = _checks.positive_int("mode", mode) - 1
+
+    def f(g):
+        return rotating_frequencies(model, gamma=g, linearization=linearization, n_modes=j + 1).transverse[0, j] - g
+
+    lo, hi = gamma_range
+    if f(lo) * f(hi) > 0:
+        raise ValueError(f"no resonance of mode {mode} for gamma in {tuple(gamma_range)}")
+    return float(brentq(f, lo, hi, xtol=1e-10))
