@@ -11,9 +11,20 @@ def test_validate_writes_json_and_figures(tmp_path, capsys):
     rows = json.loads((tmp_path / "v.json").read_text())
     assert len(rows) == 6 and all(r["passed"] for r in rows)
     assert {"source", "published", "ours", "deviation", "tolerance"} <= set(rows[0])
-    assert "6 of 6 published numbers" in capsys.readouterr().out
+    assert "6 of 6 checked published numbers" in capsys.readouterr().out
     assert {p.name for p in out.iterdir()} >= {"critical_flow_convergence.png", "sprinkler_fig5.png",
-                                               "coriolis_fig7.png", "coriolis_fig8.png"}
+                                               "coriolis_fig7.png", "coriolis_fig8.png", "seed002_table3.png",
+                                               "seed002_fig6.png"}
+
+
+def test_shown_rows_do_not_fail_the_run(tmp_path):
+    """Seed 002's gamma = 20, 50 entries and one misprint are shown, not checked."""
+    code = main(["validate", "--only", "seed002_tables3to5", "--json", str(tmp_path / "v.json"), "--no-figures"])
+    rows = json.loads((tmp_path / "v.json").read_text())
+    assert code == 0 and len(rows) == 720
+    shown = [r for r in rows if not r["checked"]]
+    assert len(shown) == 181 and all("g=20" in r["source"] or "g=50" in r["source"] or "N=3, R/L=3, g=10" in r["source"]
+                                     for r in shown)
 
 
 def test_unknown_group_is_an_error():

@@ -30,7 +30,7 @@ import scipy.sparse as sp
 from .. import _checks, _core
 from ..errors import ConvergenceError
 from ._assembly import residual_and_tangent
-from .eigen import eigenvalues
+from .eigen import GROWTH_TOL, eigenvalues
 from .linearize import Linearization
 
 LINEARIZATIONS = ("small_deformation", "steady_state")
@@ -244,7 +244,10 @@ def _modes(fr, M, C, K, state, n_modes):
     for k in (1, 0, 2):  # tangential (transverse), radial (longitudinal), axial
         w = np.sort(lam[kind == k].imag)[:n_modes]
         out.append(np.concatenate([w, np.full(n_modes - len(w), np.nan)]))
-    growth = float(np.max(eig.values.real)) if len(eig.values) else 0.0
+    # growth above the round-off bound of each eigenvalue (0: stable)
+    real = eig.values.real
+    grows = real > np.maximum(GROWTH_TOL * np.abs(eig.values), eig.noise)
+    growth = float(np.max(real[grows])) if np.any(grows) else 0.0
     return out, growth
 
 
@@ -269,6 +272,7 @@ def rotating_frequencies(model, *, gamma, linearization: str = "small_deformatio
     """
     if linearization not in LINEARIZATIONS:
         raise ValueError(f"linearization must be one of {LINEARIZATIONS}, got {linearization!r}")
+    fr = _Frame(model)
     if "omega0" not in model.info:
         raise ValueError("model.info has no 'omega0' (reference rate); build the model with "
                          "scenes.rotating_cantilever or set model.info['omega0'] [rad/s]")
@@ -277,7 +281,6 @@ def rotating_frequencies(model, *, gamma, linearization: str = "small_deformatio
     if g.ndim != 1 or not np.all(np.isfinite(g)) or np.any(g < 0):
         raise ValueError("gamma must be a finite non-negative number or 1-D sequence")
     w0 = float(model.info["omega0"])
-    fr = _Frame(model)
     order = np.argsort(g)
     res = np.full((len(g), 3, n_modes), np.nan)
     growth = np.zeros(len(g))

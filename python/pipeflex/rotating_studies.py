@@ -1,0 +1,99 @@
+"""Seed 002 studies beyond the tables: Southwell coefficients (eqs. 67-69, Figs. 13-14),
+spin-up manoeuvres (Figs. 2-7) and the rotation rate at which Model 0 fails."""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Sequence
+
+import numpy as np
+
+from . import _checks, scenes
+from .analysis.rotating import rotating_frequencies
+from .analysis.transient import simulate
+from .errors import ConvergenceError
+
+#: Seed 002, eqs. 68-69 (Schilhansl's in-plane coefficients): phi = a + b R/L.
+SCHILHANSL = {1: (0.173, 1.558), 2: (5.380, 8.631)}
+
+
+def schilhansl(mode: int, hub_radius_ratio: float) -> float:
+    """Southwell coefficient of eqs. 68-69 for transverse mode 1 or 2."""
+    a, b = SCHILHANSL[mode]
+    return a + b * hub_radius_ratio
+
+
+@dataclass
+class Southwell:
+    """Southwell coefficients of one configuration: ``fitted`` from omega^2 = omega_0^2 +
+    phi Omega^2 by least squares over ``gammas``; ``slope`` = d(omega^2)/d(Omega^2) at
+    Omega -> 0 from the eigen-analysis (difference at gamma = 1e-3)."""
+
+    mode: int
+    hub_radius_ratio: float
+    fitted: float
+    slope: float
+    gammas: np.ndarray
+
+
+def southwell(*, mode: int = 1, hub_radius_ratio: float = 0.0, gammas: Sequence[float] = (0.0, 1.0, 2.0, 3.0, 4.0, 5.0),
+              n_elements: int = 10) -> Southwell:
+    """Southwell coefficient of transverse ``mode`` (N = 0), fitted and limiting."""
+    model = scenes.rotating_cantilever(n_elements=n_elements, hub_radius_ratio=hub_radius_ratio)
+    g = np.asarray(gammas, float)
+    w = rotating_frequencies(model, gamma=g, n_modes=mode).transverse[:, mode - 1]
+    A = np.column_stack([np.ones_like(g), g**2])
+    fitted = float(np.linalg.lstsq(A, w**2, rcond=None)[0][1])
+    eps = 1e-3
+    w0, w1 = rotating_frequencies(model, gamma=[0.0, eps], n_modes=mode).transverse[:, mode - 1]
+    return Southwell(mode, hub_radius_ratio, fitted, float((w1**2 - w0**2) / eps**2), g)
+
+
+def tip_deflection(model, result) -> np.ndarray:
+    """Transverse tip deflection [m] in the rotating frame (the co-rotating coordinates of
+    an ANCF hub model): the tip's displacement normal to the reference beam axis."""
+    tip = model.info["tip_node"]
+    axis = model.hub.axis
+    x0 = model.positions[tip] - model.hub.center
+    er = x0 / np.linalg.norm(x0)
+    return (result.x[:, tip, :] - model.positions[tip]) @ np.cross(axis, er)
+
+
+def spin_up(*, reference: str = "ref21", n_elements: int = 2, model: str = "A", omega=None,
+            t_end: float = 20.0, step: float = 2e-3, n_outputs: int = 401):
+    """Simulate the spin-up manoeuvre (eq. 13, T = 15 s) of a Table 1 beam with
+    generalised-alpha; returns (times [s], tip deflection [m]). A diverging run raises
+    :class:`~pipeflex.ConvergenceError`."""
+    m = scenes.spin_up_beam(reference=reference, n_elements=n_elements, model=model, omega=omega)
+    r = simulate(m, t_end, integrator="generalized_alpha", step=step, n_outputs=n_outputs, work=False,
+                 progress=False)
+    return r.t, tip_deflection(m, r)
+
+
+def unstable(*, n_elements: int, omega: float, model: str = "0", reference: str = "ref21") -> bool:
+    """Is the steady rotation at ``omega`` [rad/s] unstable (linear analysis about the
+    nonlinear steady state in the rotating frame), or has it no steady state?"""
+    m = scenes.spin_up_beam(reference=reference, n_elements=n_elements, model=model, omega=omega)
+    gamma = omega / m.info["omega0"]
+    try:
+        r = rotating_frequencies(m, gamma=[gamma], linearization="steady_state", n_modes=1)
+    except ConvergenceError:
+        return True
+    return bool(r.growth[0] > 0.0)
+
+
+def critical_rate(*, n_elements: int, model: str = "0", reference: str = "ref21", low: float = 0.5,
+                  high: float = 400.0, rtol: float = 1e-3) -> float:
+    """Smallest rotation rate [rad/s] at which the steady rotation loses stability
+    (bisection between ``low`` stable and ``high`` unstable); inf if stable at ``high``."""
+    _checks.positive_int("n_elements", n_elements)
+    if unstable(n_elements=n_elements, omega=low, model=model, reference=reference):
+        raise ValueError(f"already unstable at the lower bound {low} rad/s")
+    if not unstable(n_elements=n_elements, omega=high, model=model, reference=reference):
+        return float("inf")
+    while high - low > rtol * high:
+        mid = 0.5 * (low + high)
+        if unstable(n_elements=n_elements, omega=mid, model=model, reference=reference):
+            high = mid
+        else:
+            low = mid
+    return 0.5 * (low + high)
