@@ -211,3 +211,13 @@ def test_bad_analysis_input():
         b.add_ancf_beam(n0, (1, 0, 0), 2, PipeSection(EI=1.0, pipe_mass=1.0, fluid_mass=1.0))
     with pytest.raises(ValueError, match="plane"):
         b.add_ancf_beam((0, 0, 0), (1, 0, 1), 2, PipeSection(EI=1.0, pipe_mass=1.0))
+
+
+def test_transverse_mode_shapes_straighten_with_speed():
+    """Seed 002, Fig. 11 (R = 0, N = 0): the first transverse mode tends to a straight
+    line as gamma grows (the centrifugal tension dominates bending)."""
+    r = pf.rotating_frequencies(scenes.rotating_cantilever(), gamma=[0.0, 50.0], n_modes=1)
+    s0, s50 = r.transverse_shapes[0, 0, :, 1], r.transverse_shapes[1, 0, :, 1]
+    assert s0[0] == 0.0 and s0[-1] == pytest.approx(1.0) and s50[-1] == pytest.approx(1.0)
+    x = np.linspace(0, 1, len(s0))
+    assert np.abs(s50 - x).max() < 0.1 < np.abs(s0 - x).max()

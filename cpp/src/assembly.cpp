@@ -110,6 +110,21 @@ void scatter_vector(const Model& m, int n, const double* f, Eigen::VectorXd* r) 
     }
 }
 
+// Scatter a two-node element's residual (12) and tangent (12x12, row-major); either
+// destination may be null.
+void scatter_element(const Model& m, int p, int q, const double* re, const double* Je, Eigen::VectorXd* residual,
+                     Triplets* J) {
+    if (residual != nullptr) {
+        scatter_vector(m, p, re, residual);
+        scatter_vector(m, q, re + 6, residual);
+    }
+    if (J != nullptr) {
+        const int nodes[2] = {p, q};
+        for (int a = 0; a < 2; ++a)
+            for (int b = 0; b < 2; ++b) scatter_block(m, nodes[a], nodes[b], Je + 72 * a + 6 * b, 12, J);
+    }
+}
+
 }  // namespace
 
 void Model::finalize() {
@@ -333,15 +348,7 @@ void assemble(const Model& model, const State& state, const LoadState& load, dou
         gather(state.a, el.p, el.q, ae);
         pipe_tangent(el.data, frames_of(state, el), load, qe, ve, ae, wK, wC, wM, re,
                      J != nullptr ? Je : nullptr);
-        if (residual != nullptr) {
-            scatter_vector(model, el.p, re, residual);
-            scatter_vector(model, el.q, re + 6, residual);
-        }
-        if (J != nullptr) {
-            const int nodes[2] = {el.p, el.q};
-            for (int a = 0; a < 2; ++a)
-                for (int b = 0; b < 2; ++b) scatter_block(model, nodes[a], nodes[b], Je + 72 * a + 6 * b, 12, J);
-        }
+        scatter_element(model, el.p, el.q, re, Je, residual, J);
     }
     AncfFrame frame;
     frame.rate = load.frame_rate;
@@ -356,15 +363,7 @@ void assemble(const Model& model, const State& state, const LoadState& load, dou
         const double g[2] = {load.gravity[0] * load.gravity_factor, load.gravity[1] * load.gravity_factor};
         ancf_tangent(el.data, e, v8, a8, g, &frame, wK, wC, wM, r8, J != nullptr ? J8 : nullptr);
         widen_ancf(r8, J != nullptr ? J8 : nullptr, re, Je);
-        if (residual != nullptr) {
-            scatter_vector(model, el.p, re, residual);
-            scatter_vector(model, el.q, re + 6, residual);
-        }
-        if (J != nullptr) {
-            const int nodes[2] = {el.p, el.q};
-            for (int a = 0; a < 2; ++a)
-                for (int b = 0; b < 2; ++b) scatter_block(model, nodes[a], nodes[b], Je + 72 * a + 6 * b, 12, J);
-        }
+        scatter_element(model, el.p, el.q, re, Je, residual, J);
     }
     for (const auto& nm : model.masses) {
         const int n = nm.node;

@@ -50,6 +50,10 @@ class RotatingFrequencies:
         max_strain: (k,) largest axial strain of the state linearised about [-] (the
             first-order strain for "small_deformation").
         linearization: which linearisation was used.
+        transverse_shapes: (k, n_modes, n_nodes, 2) real mode shapes of the transverse
+            family: nodal displacements along the reference beam (radial) and normal to
+            it (tangential) in the rotating frame, scaled to a largest tangential
+            component of 1 (the phase of the complex gyroscopic mode that maximises it).
     """
 
     gamma: np.ndarray
@@ -60,6 +64,7 @@ class RotatingFrequencies:
     growth: np.ndarray
     max_strain: np.ndarray
     linearization: str
+    transverse_shapes: np.ndarray = None
 
 
 def _skew(a):
@@ -244,11 +249,21 @@ def _modes(fr, M, C, K, state, n_modes):
     for k in (1, 0, 2):  # tangential (transverse), radial (longitudinal), axial
         w = np.sort(lam[kind == k].imag)[:n_modes]
         out.append(np.concatenate([w, np.full(n_modes - len(w), np.nan)]))
+    sel = np.flatnonzero(kind == 1)
+    sel = sel[np.argsort(lam[sel].imag)][:n_modes]
+    n = fr.model.n_nodes
+    shapes = np.full((n_modes, n, 2), np.nan)
+    for j, col in enumerate(sel):
+        u = (fr.T @ V[:, col]).reshape(n, 6)[:, :3]
+        ur, ut = u @ fr.radial, u @ fr.tangential
+        big = np.argmax(np.abs(ut))
+        ph = np.conj(ut[big]) / abs(ut[big])  # rotate the complex mode to a real tip/peak
+        shapes[j, :, 0], shapes[j, :, 1] = (ph * ur).real / abs(ut[big]), (ph * ut).real / abs(ut[big])
     # growth above the round-off bound of each eigenvalue (0: stable)
     real = eig.values.real
     grows = real > np.maximum(GROWTH_TOL * np.abs(eig.values), eig.noise)
     growth = float(np.max(real[grows])) if np.any(grows) else 0.0
-    return out, growth
+    return out, growth, shapes
 
 
 def rotating_frequencies(model, *, gamma, linearization: str = "small_deformation",
@@ -283,6 +298,7 @@ def rotating_frequencies(model, *, gamma, linearization: str = "small_deformatio
     w0 = float(model.info["omega0"])
     order = np.argsort(g)
     res = np.full((len(g), 3, n_modes), np.nan)
+    shapes = np.full((len(g), n_modes, model.n_nodes, 2), np.nan)
     growth = np.zeros(len(g))
     strain = np.zeros(len(g))
     if linearization == "small_deformation":
@@ -295,7 +311,7 @@ def rotating_frequencies(model, *, gamma, linearization: str = "small_deformatio
         C0 = Tr.T @ C0f @ Tr
         for i in order:
             w = g[i] * w0
-            fam, growth[i] = _modes(fr, M, C0 + 2 * w * MA, K0 + w * CA + w**2 * (G + MB), s0, n_modes)
+            fam, growth[i], shapes[i] = _modes(fr, M, C0 + 2 * w * MA, K0 + w * CA + w**2 * (G + MB), s0, n_modes)
             res[i] = fam
             strain[i] = w**2 * e1
     else:
@@ -304,11 +320,11 @@ def rotating_frequencies(model, *, gamma, linearization: str = "small_deformatio
             w = g[i] * w0
             st = rotating_state(model, w, steps=4) if st is None else _continue(model, st, w_prev, w)
             w_prev = w
-            fam, growth[i] = _modes(fr, *fr.matrices(st, w), st, n_modes)
+            fam, growth[i], shapes[i] = _modes(fr, *fr.matrices(st, w), st, n_modes)
             res[i] = fam
             strain[i] = _axial_strains(model, st)
     return RotatingFrequencies(g, w0, res[:, 0] / w0, res[:, 1] / w0, res[:, 2] / w0, growth / w0, strain,
-                               linearization)
+                               linearization, shapes)
 
 
 def _continue(model, state, state_omega, omega):
