@@ -221,3 +221,12 @@ def test_transverse_mode_shapes_straighten_with_speed():
     assert s0[0] == 0.0 and s0[-1] == pytest.approx(1.0) and s50[-1] == pytest.approx(1.0)
     x = np.linspace(0, 1, len(s0))
     assert np.abs(s50 - x).max() < 0.1 < np.abs(s0 - x).max()
+
+
+def test_in_plane_gravity_rejected_in_the_co_rotating_frame():
+    b = ModelBuilder()
+    nodes = b.add_ancf_beam((0, 0, 0), (1, 0, 0), 2, PipeSection(EI=1.0, pipe_mass=1.0))
+    b.rotating_hub(nodes[0], omega=1.0)
+    b.set_gravity((0, -9.81, 0))
+    with pytest.raises(ValueError, match="gravity"):
+        pf.simulate(b.build(), 0.1, integrator="generalized_alpha")
