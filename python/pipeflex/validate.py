@@ -242,7 +242,11 @@ def _seed002_spin_up_figure():
             t, y = rs.spin_up(n_elements=n, model=model, omega=10.0, t_end=20.0)
             ax.plot(t, y, label=f"Model {model}, {n} element{'s' * (n > 1)}")
         except ConvergenceError as e:
-            ax.plot([], [], label=f"Model {model}, {n} element{'s' * (n > 1)}: diverged ({str(e)[:28]}...)")
+            import re
+
+            when = re.search(r"t = ([0-9.eE+-]+) s", str(e))
+            ax.plot([], [], label=f"Model {model}, {n} element{'s' * (n > 1)}: diverged"
+                                  + (f" at t = {float(when.group(1)):.2f} s" if when else ""))
     ax.set_ylim(-1.5, 1.5)
     ax.set_xlabel("time [s]")
     ax.set_ylabel("tip deflection [m]")
