@@ -4,8 +4,10 @@ A model with a rotating hub (:meth:`ModelBuilder.rotating_hub`) turns rigidly at
 Omega about the hub axis a through its centre c. Seen from the frame turning with it, a
 coordinate perturbation y(t) moves the nodes by P(t) y, P(0) = I, with P = R(Omega t) for
 positions and ANCF slopes and P = T(Omega t a)^-1 R(Omega t) for rotation vectors. With the
-library's linearisation (K, C, M) at t = 0 of the rotating state the equations
+library's linearisation (K, C, M) at t = 0 of the rotating state the equations ::
+
     M y_ddot + (C + 2 Omega M A) y_dot + (K + Omega C A + Omega^2 M B) y = 0
+
 are autonomous, A = P'(0)/Omega, B = P''(0)/Omega^2: A = S, B = S^2 (S = skew(a)) for
 positions and slopes, A = S/2, B = S^2/6 for rotation vectors. The term Omega^2 M B is
 the centrifugal softening, 2 Omega M A the Coriolis (gyroscopic) matrix; K carries the
