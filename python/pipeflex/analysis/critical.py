@@ -20,7 +20,7 @@ from scipy.optimize import brentq
 
 from .. import _checks
 from ..errors import ConvergenceError
-from .eigen import GROWTH_TOL, eigen_from_blocks, split_blocks, stability
+from .eigen import eigen_from_blocks, split_blocks, stability
 from .linearize import linearize
 from .static import static_equilibrium
 

@@ -23,10 +23,9 @@ prestress. Two choices of the state about which K is taken:
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Optional, Sequence
+from typing import Sequence
 
 import numpy as np
-import scipy.linalg as sla
 import scipy.sparse as sp
 
 from .. import _checks, _core
