@@ -33,6 +33,7 @@ from ..errors import ConvergenceError
 from ._assembly import residual_and_tangent
 from .eigen import GROWTH_TOL, eigenvalues
 from .linearize import Linearization
+from .steady import _skew
 
 LINEARIZATIONS = ("small_deformation", "steady_state")
 
@@ -66,10 +67,6 @@ class RotatingFrequencies:
     max_strain: np.ndarray
     linearization: str
     transverse_shapes: np.ndarray = None
-
-
-def _skew(a):
-    return np.array([[0, -a[2], a[1]], [a[2], 0, -a[0]], [-a[1], a[0], 0]])
 
 
 class _Frame:
