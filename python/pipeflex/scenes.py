@@ -1,6 +1,8 @@
 """The seeds' test problems as ready-made models (defaults are the seeds' values)."""
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 
 from . import _checks
@@ -236,3 +238,112 @@ def spin_up_beam(*, reference: str = "ref21", n_elements: int = 2, model: str = 
     return rotating_cantilever(n_elements=n_elements, model=model, hub_radius_ratio=p["hub_radius"] / L,
                                slenderness=L * np.sqrt(EA / EI), length=L, EI=EI, mass_per_length=rho_a,
                                omega=w, spin_up_time=spin_up_time)
+
+
+# -- seed 004: floating frame of reference -----------------------------------------------
+
+def _tube(*, outer_diameter, inner_diameter, E, G, density, fluid_density) -> PipeSection:
+    """A tube with its polar rotary inertia rho_p I_p (the torsion of floating-frame bodies
+    needs it: without it the twist is a massless coordinate), bending rotary inertia 0."""
+    sec = PipeSection.tube(outer_diameter=outer_diameter, inner_diameter=inner_diameter, E=E, G=G,
+                           density=density, fluid_density=fluid_density, rotary_inertia=True)
+    return dataclasses.replace(sec, rotary_inertia=(sec.rotary_inertia[0], 0.0, 0.0))
+
+
+def _ffrf_chain(bodies, placements, flow_factor=1.0):
+    """Bodies placed at (position, rotation), each rigidly joined to the next (end to start)."""
+    from .multibody import MultibodyBuilder
+
+    b = MultibodyBuilder()
+    ids = [b.add_body(body, position=p, rotation=R, flow_factor=flow_factor) for body, (p, R) in zip(bodies, placements)]
+    for k in range(len(ids) - 1):
+        b.rigid(ids[k], "end", ids[k + 1], "start")
+    return b, ids
+
+
+def ffrf_cantilever_pipe(*, n_bodies: int, elements_per_body: int = 20, internal_modes: int = 0,
+                         reduction: str = "craig_bampton", mass_flow: float = 0.0, tip_force: float = 0.0,
+                         length: float = 1.0, section: PipeSection = None):
+    """Straight cantilever pipe of seed 004, section 8.1, as a chain of floating-frame bodies.
+
+    Along global x from the clamped origin; the free end carries ``tip_force`` [N] along
+    global z. The pipe is seed 000's Table 2 cantilever (EI = 10 N m^2, 8 and 2 kg/m)
+    with the axial and torsional stiffness of seed 004's tube (OD 61.97 mm, ID 50.46 mm,
+    E = 24.64 MPa, G = 9.48 MPa: EA = 2.50e4 N, GJ = 7.69 N m^2, polar rotary inertia
+    rho_p I_p = 6.4e-3 kg m; bending rotary inertia 0); seed 004's tube data give
+    EI = 9.997 N m^2 and 7.999 / 2.000 kg/m, within 4e-4 of the rounded values.
+
+    Args:
+        n_bodies: bodies of equal length L / n_bodies, rigidly connected.
+        elements_per_body: beam elements per body (even). internal_modes: Craig-Bampton
+            fixed-interface modes per body (0: boundary modes only, 18 coordinates per body).
+        reduction: ``"craig_bampton"`` or ``"full"``. mass_flow: mdot [kg/s].
+        tip_force: [N] along global z at the free end. length: L [m].
+        section: replaces the default :class:`~pipeflex.PipeSection`.
+
+    Returns a :class:`~pipeflex.multibody.MultibodySystem`; ``info["tip"]`` = (body, node).
+    """
+    from .multibody import flexible_body
+
+    nb = _checks.positive_int("n_bodies", n_bodies)
+    L = _checks.positive("length", length)
+    if section is None:
+        tube = _tube(outer_diameter=0.06197, inner_diameter=0.05046, E=24.64e6, G=9.48e6, density=7870.0,
+                     fluid_density=1000.0)
+        section = PipeSection(EI=10.0, pipe_mass=8.0, fluid_mass=2.0, EA=tube.EA, GJ=tube.GJ,
+                              rotary_inertia=tube.rotary_inertia)
+    body = flexible_body(length=L / nb, n_elements=elements_per_body, section=section,
+                         internal_modes=internal_modes, reduction=reduction)
+    b, ids = _ffrf_chain([body] * nb, [(((k + 0.5) * L / nb, 0.0, 0.0), None) for k in range(nb)])
+    b.fix(ids[0], "start")
+    if tip_force:
+        b.add_load(ids[-1], "end", force=(0.0, 0.0, _checks.finite("tip_force", tip_force)))
+    system = b.build(mass_flow=mass_flow)
+    system.info.update(tip=(ids[-1], body.n_elements), scene="seed 004, sec. 8.1")
+    return system
+
+
+#: Seed 004, Table 1: final angular velocity [rad/s] of the semicircular pipe, FFRF column.
+FFRF_CURVED_TABLE1 = {0.9585e9: 5.320, 9.585e9: 9.117, 95.85e9: 9.954}
+
+
+def ffrf_curved_pipe(*, E: float, n_bodies: int = 8, elements_per_body: int = 20, internal_modes: int = 0,
+                     flow_speed: float = 10.0, radius: float = 0.5, reduction: str = "craig_bampton"):
+    """Semicircular pipe hinged at its inlet (seed 004, section 8.2; seed 000's sprinkler).
+
+    The semicircle of radius R lies in the global x-z plane: it leaves the hinge at the
+    origin along +z, has its centre at (R, 0, 0) and ends at (2R, 0, 0). The hinge turns
+    about global y. Tube: OD 36.80 mm, ID 35.68 mm, 7870 kg/m^3, Young's modulus E [Pa],
+    nu = 0.3; water (1000 kg/m^3) at ``flow_speed`` sdot [m/s] relative to the pipe.
+    Each body is straight with the arc preimposed (eta0) and made stress-free.
+
+    Args:
+        E: Young's modulus [Pa] (seed: 0.9585e9, 9.585e9, 95.85e9).
+        n_bodies: bodies along the semicircle. elements_per_body: elements per body.
+        internal_modes: Craig-Bampton internal modes per body. flow_speed: sdot [m/s].
+        radius: R [m]. reduction: ``"craig_bampton"`` or ``"full"``.
+
+    Returns a :class:`~pipeflex.multibody.MultibodySystem` whose mass flow is mu_f sdot.
+    """
+    from .multibody import flexible_body
+
+    E = _checks.positive("E", E)
+    R = _checks.positive("radius", radius)
+    nb = _checks.positive_int("n_bodies", n_bodies)
+    sec = _tube(outer_diameter=0.0368, inner_diameter=0.03568, E=E, G=E / 2.6, density=7870.0,
+                fluid_density=1000.0)
+    Lb = np.pi * R / nb
+    body = flexible_body(length=Lb, n_elements=elements_per_body, section=sec, internal_modes=internal_modes,
+                         reduction=reduction, curvature=1.0 / R)
+    places = []
+    for k in range(nb):
+        th = (k + 0.5) * np.pi / nb
+        pos = (R - R * np.cos(th), 0.0, R * np.sin(th))
+        ex = np.array([np.sin(th), 0.0, np.cos(th)])   # tangent (flow direction)
+        ey = np.array([np.cos(th), 0.0, -np.sin(th)])  # towards the centre
+        places.append((pos, np.column_stack([ex, ey, np.cross(ex, ey)])))
+    b, ids = _ffrf_chain([body] * nb, places)
+    b.hinge(ids[0], "start", (0.0, 1.0, 0.0))
+    system = b.build(mass_flow=sec.fluid_mass * _checks.finite("flow_speed", flow_speed))
+    system.info.update(E=E, base=(ids[0], 0), tip=(ids[-1], body.n_elements), scene="seed 004, sec. 8.2")
+    return system

@@ -36,7 +36,14 @@ def linearize(model, state=None, *, mass_flow: Optional[float] = None) -> Linear
         model: the model.
         state: state to linearise about (positions, velocities, accelerations); not modified.
         mass_flow: mdot [kg/s] (default the model's).
+
+    A :class:`~pipeflex.multibody.MultibodySystem` is linearised in independent
+    coordinates by :func:`pipeflex.multibody.linearize`.
     """
+    from ..multibody import MultibodySystem, linearize as multibody_linearize
+
+    if isinstance(model, MultibodySystem):
+        return multibody_linearize(model, state, mass_flow=mass_flow)
     s = model.initial_state() if state is None else state.copy()
     s.rebase(0.0)
     mdot = model.mass_flow if mass_flow is None else _checks.finite("mass_flow", mass_flow)

@@ -48,7 +48,15 @@ def static_equilibrium(model, *, state=None, mass_flow: Optional[float] = None, 
 
     Raises:
         ConvergenceError: with the load factor, iteration and residual where it failed.
+
+    A :class:`~pipeflex.multibody.MultibodySystem` is solved by
+    :func:`pipeflex.multibody.static_equilibrium` (same options).
     """
+    from ..multibody import MultibodySystem, static_equilibrium as multibody_static
+
+    if isinstance(model, MultibodySystem):
+        return multibody_static(model, state=state, mass_flow=mass_flow, load_steps=load_steps, tol=tol,
+                                max_iterations=max(max_iterations, 30))
     load_steps = _checks.positive_int("load_steps", load_steps)
     tol = _checks.positive("tol", tol)
     state = model.initial_state() if state is None else state.copy()

@@ -1,0 +1,90 @@
+// Bindings of the floating-frame body kernels (seed 004).
+#include "pipeflex/elements/ffrf_body.hpp"
+
+#include <pybind11/eigen.h>
+#include <pybind11/pybind11.h>
+#include <pybind11/stl.h>
+
+#include <optional>
+
+namespace py = pybind11;
+using namespace pipeflex;
+
+void bind_ffrf(py::module_& m) {
+    m.def(
+        "beam_integrals",
+        [](double l) {
+            BeamIntegrals b;
+            beam_integrals(l, b);
+            py::dict r;
+            r["NN"] = MatX(b.NN);
+            r["NdN"] = MatX(b.NdN);
+            r["NddN"] = MatX(b.NddN);
+            r["NSN"] = std::vector<MatX>(b.NSN.begin(), b.NSN.end());
+            r["NSdN"] = std::vector<MatX>(b.NSdN.begin(), b.NSdN.end());
+            r["N"] = MatX(b.N);
+            return r;
+        },
+        py::arg("l"));
+    m.def(
+        "beam_stiffness",
+        [](double l, double EA, double GJ, double EIy, double EIz) {
+            Mat12d k;
+            beam_stiffness(l, EA, GJ, EIy, EIz, k);
+            return MatX(k);
+        },
+        py::arg("l"), py::arg("EA"), py::arg("GJ"), py::arg("EIy"), py::arg("EIz"));
+
+    py::class_<FfrfBodyData>(m, "FfrfBodyData")
+        .def(py::init([](MatX M, MatX K, VecX eta0, std::vector<MatX> A, std::vector<MatX> Bk, std::vector<MatX> GPhi,
+                         std::vector<VecX> Gx, MatX CPhi, MatX HPhi, VecX Cx, VecX Hx, MatX Ng) {
+                 if (A.size() != 3 || Bk.size() != 3 || GPhi.size() != 3 || Gx.size() != 3)
+                     throw std::invalid_argument("A, Bk, GPhi, Gx need 3 entries (k = x, y, z)");
+                 FfrfBodyData d;
+                 d.M = std::move(M);
+                 d.K = std::move(K);
+                 d.eta0 = std::move(eta0);
+                 for (int k = 0; k < 3; ++k) {
+                     d.A[k] = A[k];
+                     d.Bk[k] = Bk[k];
+                     d.GPhi[k] = GPhi[k];
+                     d.Gx[k] = Gx[k];
+                 }
+                 d.CPhi = std::move(CPhi);
+                 d.HPhi = std::move(HPhi);
+                 d.Cx = std::move(Cx);
+                 d.Hx = std::move(Hx);
+                 d.Ng = std::move(Ng);
+                 return d;
+             }),
+             py::arg("M"), py::arg("K"), py::arg("eta0"), py::arg("A"), py::arg("Bk"), py::arg("GPhi"),
+             py::arg("Gx"), py::arg("CPhi"), py::arg("HPhi"), py::arg("Cx"), py::arg("Hx"), py::arg("Ng"))
+        .def_property_readonly("n", [](const FfrfBodyData& d) { return d.M.rows(); })
+        .def_readonly("M", &FfrfBodyData::M)
+        .def_readonly("K", &FfrfBodyData::K)
+        .def_readonly("eta0", &FfrfBodyData::eta0)
+        .def_readonly("Ng", &FfrfBodyData::Ng)
+        .def(
+            "forces",
+            [](const FfrfBodyData& d, const Mat3d& R, const Vec3d& omega, const VecX& a, const VecX& eta,
+               const VecX& eta_dot, double sdot, double sddot, const Vec3d& gravity, double wK, double wC, double wM,
+               bool tangent) {
+                FfrfBodyMotion s;
+                s.R = R;
+                s.omega = omega;
+                s.a = a;
+                s.eta = eta;
+                s.eta_dot = eta_dot;
+                s.sdot = sdot;
+                s.sddot = sddot;
+                s.gravity = gravity;
+                const Eigen::Index n = d.M.rows();
+                VecX r(n);
+                MatX t(tangent ? n : 0, tangent ? n : 0);
+                ffrf_body_forces(d, s, wK, wC, wM, r, t, tangent);
+                return std::make_pair(r, tangent ? std::optional<MatX>(t) : std::nullopt);
+            },
+            py::arg("R"), py::arg("omega"), py::arg("a"), py::arg("eta"), py::arg("eta_dot"), py::arg("sdot"),
+            py::arg("sddot"), py::arg("gravity"), py::arg("wK") = 1.0, py::arg("wC") = 0.0, py::arg("wM") = 0.0,
+            py::arg("tangent") = true);
+}

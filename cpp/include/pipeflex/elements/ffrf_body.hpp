@@ -1,0 +1,82 @@
+// Fluid-conveying pipe body in the floating frame of reference (seed 004, section 7).
+//
+// Element kernel: constant shape-function integrals of a straight two-node 3-D beam
+// element (translation field N(s): linear axial, cubic Hermite bending), per unit
+// mass per length, and its linear Euler-Bernoulli stiffness. Node DOF order
+// [u_x, u_y, u_z, theta_x, theta_y, theta_z] in the body frame; theta_z = du_y/ds,
+// theta_y = -du_z/ds.
+//
+// Body kernel: with B = [Psi0 Phi] (rigid modes of the straight reference and the
+// reduction basis) the simplified equations of motion of eq. 70, per body,
+//
+//   R^ [ M_loc R^T a + Q_v(w, eta, eta_dot, sdot, sddot) - N_g R^T g ]
+//       + [0; 0; K_eta (eta - eta0)] = Q_external (+ constraint forces),
+//
+// with global coordinates [r; pi; eta], global velocities v = [r_dot; omega; eta_dot],
+// accelerations a = v_dot, R^ = diag(R, R, I), w = R^T omega (body components), and
+//
+//   Q_v = sum_k w_k [A_k w + 2 B_k eta_dot + 2 sdot (Gx_k + GPhi_k eta)]
+//         + 2 sdot CPhi eta_dot + sdot^2 (Hx + HPhi eta) + sddot (Cx + CPhi eta),
+//
+// where A_k = B^T S_k Psi_r0, B_k = B^T S_k Phi, Gx_k = B^T G_k xbar, GPhi_k = B^T G_k Phi,
+// Cx = B^T C xbar, CPhi = B^T C Phi, Hx, HPhi likewise (S_k = int N^T n~_k N (mu_p + mu_f),
+// G_k = int N^T n~_k N' mu_f, C = int N^T N' mu_f, H = int N^T N'' mu_f), all constant.
+#pragma once
+
+#include <Eigen/Dense>
+
+#include <array>
+
+namespace pipeflex {
+
+using MatX = Eigen::MatrixXd;
+using VecX = Eigen::VectorXd;
+using Mat12d = Eigen::Matrix<double, 12, 12>;
+using Mat3d = Eigen::Matrix3d;
+using Vec3d = Eigen::Vector3d;
+
+// Integrals over one straight element of length l [m], per unit mass per length
+// (multiply by mu [kg/m]): N^T N, N^T N', N^T N'', N^T n~_k N, N^T n~_k N' (k = x, y, z),
+// and int N^T ds (12 x 3).
+struct BeamIntegrals {
+    Mat12d NN, NdN, NddN;
+    std::array<Mat12d, 3> NSN, NSdN;
+    Eigen::Matrix<double, 12, 3> N;
+};
+
+void beam_integrals(double l, BeamIntegrals& out);
+
+// Linear stiffness [N/m, N, N m] of the element: EA [N], GJ [N m^2], EIy (bending in
+// the x-z plane, u_z) and EIz (x-y plane, u_y) [N m^2].
+void beam_stiffness(double l, double EA, double GJ, double EIy, double EIz, Mat12d& out);
+
+// Reduced constants of one body (sizes: n = 6 + m, m = number of elastic coordinates).
+struct FfrfBodyData {
+    MatX M;                        // n x n local mass B^T (M_p + M_f) B [kg, kg m, kg m^2]
+    MatX K;                        // m x m  Phi^T K_p Phi
+    VecX eta0;                     // m      preimposed (stress-free) elastic coordinates
+    std::array<MatX, 3> A, Bk, GPhi;  // n x 3, n x m, n x m
+    std::array<VecX, 3> Gx;        // n
+    MatX CPhi, HPhi;               // n x m
+    VecX Cx, Hx;                   // n
+    MatX Ng;                       // n x 3  B^T int N^T (mu_p + mu_f) ds
+};
+
+// Motion of one body at an instant (global components).
+struct FfrfBodyMotion {
+    Mat3d R = Mat3d::Identity();   // frame rotation, body -> global
+    Vec3d omega = Vec3d::Zero();   // angular velocity [rad/s]
+    VecX a;                        // n accelerations [r_ddot; omega_dot; eta_ddot]
+    VecX eta, eta_dot;             // m
+    double sdot = 0.0, sddot = 0.0;  // fluid speed [m/s] and its rate [m/s^2]
+    Vec3d gravity = Vec3d::Zero();   // [m/s^2]
+};
+
+// Residual (inertia + elastic - gravity, n) and the tangent
+//   wK dF/d[dr, dpi, deta] + wC dF/d[r_dot, omega, eta_dot] + wM dF/da   (n x n)
+// into caller-owned buffers (the tangent only when `with_tangent`). Throws
+// std::invalid_argument on inconsistent sizes.
+void ffrf_body_forces(const FfrfBodyData& d, const FfrfBodyMotion& s, double wK, double wC, double wM,
+                      Eigen::Ref<VecX> residual, Eigen::Ref<MatX> tangent, bool with_tangent);
+
+}  // namespace pipeflex

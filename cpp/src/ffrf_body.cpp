@@ -1,0 +1,165 @@
+#include "pipeflex/elements/ffrf_body.hpp"
+
+#include <stdexcept>
+#include <string>
+
+namespace pipeflex {
+
+namespace {
+
+Mat3d hat(const Vec3d& w) {
+    Mat3d r;
+    r << 0.0, -w[2], w[1], w[2], 0.0, -w[0], -w[1], w[0], 0.0;
+    return r;
+}
+
+// Rows of N (3 x 12) and of its first and second derivatives in s at xi = s / l.
+void shape(double l, double xi, Eigen::Matrix<double, 3, 12>& N, Eigen::Matrix<double, 3, 12>& dN,
+           Eigen::Matrix<double, 3, 12>& ddN) {
+    const double x2 = xi * xi, x3 = x2 * xi;
+    const double H[4] = {1 - 3 * x2 + 2 * x3, l * (xi - 2 * x2 + x3), 3 * x2 - 2 * x3, l * (-x2 + x3)};
+    const double dH[4] = {(-6 * xi + 6 * x2) / l, 1 - 4 * xi + 3 * x2, (6 * xi - 6 * x2) / l, -2 * xi + 3 * x2};
+    const double ddH[4] = {(-6 + 12 * xi) / (l * l), (-4 + 6 * xi) / l, (6 - 12 * xi) / (l * l), (-2 + 6 * xi) / l};
+    N.setZero();
+    dN.setZero();
+    ddN.setZero();
+    N(0, 0) = 1 - xi;
+    N(0, 6) = xi;
+    dN(0, 0) = -1 / l;
+    dN(0, 6) = 1 / l;
+    // u_y: [u_y1, theta_z1, u_y2, theta_z2]; u_z: [u_z1, -theta_y1, u_z2, -theta_y2]
+    const int iy[4] = {1, 5, 7, 11}, iz[4] = {2, 4, 8, 10};
+    const double sz[4] = {1, -1, 1, -1};
+    for (int k = 0; k < 4; ++k) {
+        N(1, iy[k]) = H[k];
+        dN(1, iy[k]) = dH[k];
+        ddN(1, iy[k]) = ddH[k];
+        N(2, iz[k]) = sz[k] * H[k];
+        dN(2, iz[k]) = sz[k] * dH[k];
+        ddN(2, iz[k]) = sz[k] * ddH[k];
+    }
+}
+
+// 4-point Gauss-Legendre on [0, 1]: exact to degree 7 (the integrands are of degree <= 6).
+constexpr double gp[4] = {0.0694318442029737, 0.3300094782075719, 0.6699905217924281, 0.9305681557970263};
+constexpr double gw[4] = {0.1739274225687269, 0.3260725774312731, 0.3260725774312731, 0.1739274225687269};
+
+}  // namespace
+
+void beam_integrals(double l, BeamIntegrals& out) {
+    if (!(l > 0.0)) throw std::invalid_argument("beam_integrals: element length must be > 0");
+    out.NN.setZero();
+    out.NdN.setZero();
+    out.NddN.setZero();
+    out.N.setZero();
+    for (int k = 0; k < 3; ++k) {
+        out.NSN[k].setZero();
+        out.NSdN[k].setZero();
+    }
+    Eigen::Matrix<double, 3, 12> N, dN, ddN;
+    for (int g = 0; g < 4; ++g) {
+        shape(l, gp[g], N, dN, ddN);
+        const double w = gw[g] * l;
+        out.NN.noalias() += w * N.transpose() * N;
+        out.NdN.noalias() += w * N.transpose() * dN;
+        out.NddN.noalias() += w * N.transpose() * ddN;
+        out.N.noalias() += w * N.transpose();
+        for (int k = 0; k < 3; ++k) {
+            const Mat3d nk = hat(Vec3d::Unit(k));
+            out.NSN[k].noalias() += w * N.transpose() * nk * N;
+            out.NSdN[k].noalias() += w * N.transpose() * nk * dN;
+        }
+    }
+}
+
+void beam_stiffness(double l, double EA, double GJ, double EIy, double EIz, Mat12d& out) {
+    if (!(l > 0.0)) throw std::invalid_argument("beam_stiffness: element length must be > 0");
+    out.setZero();
+    Eigen::Matrix<double, 3, 12> N, dN, ddN;
+    for (int g = 0; g < 4; ++g) {
+        shape(l, gp[g], N, dN, ddN);
+        const double w = gw[g] * l;
+        out.noalias() += w * (EA * dN.row(0).transpose() * dN.row(0) + EIz * ddN.row(1).transpose() * ddN.row(1) +
+                              EIy * ddN.row(2).transpose() * ddN.row(2));
+    }
+    const double kt = GJ / l;  // linear twist
+    out(3, 3) += kt;
+    out(9, 9) += kt;
+    out(3, 9) -= kt;
+    out(9, 3) -= kt;
+}
+
+void ffrf_body_forces(const FfrfBodyData& d, const FfrfBodyMotion& s, double wK, double wC, double wM,
+                      Eigen::Ref<VecX> residual, Eigen::Ref<MatX> tangent, bool with_tangent) {
+    const Eigen::Index n = d.M.rows(), m = n - 6;
+    if (m < 0 || d.M.cols() != n || d.K.rows() != m || d.eta0.size() != m || s.a.size() != n ||
+        s.eta.size() != m || s.eta_dot.size() != m || residual.size() != n ||
+        (with_tangent && (tangent.rows() != n || tangent.cols() != n)))
+        throw std::invalid_argument("ffrf_body_forces: inconsistent sizes (body has " + std::to_string(n) +
+                                    " coordinates)");
+    const Mat3d& R = s.R;
+    const Vec3d w = R.transpose() * s.omega;
+    const Vec3d gl = R.transpose() * s.gravity;
+    VecX b(n);
+    b.head<3>() = R.transpose() * s.a.head<3>();
+    b.segment<3>(3) = R.transpose() * s.a.segment<3>(3);
+    b.tail(m) = s.a.tail(m);
+
+    // Q_v and its partial derivatives in body components.
+    const double sd = s.sdot, sdd = s.sddot;
+    VecX L = d.M * b - d.Ng * gl + sd * sd * (d.Hx + d.HPhi * s.eta) + sdd * (d.Cx + d.CPhi * s.eta) +
+             2.0 * sd * d.CPhi * s.eta_dot;
+    Eigen::Matrix<double, Eigen::Dynamic, 3> dQdw(n, 3);
+    MatX Aw = MatX::Zero(n, 3);
+    for (int k = 0; k < 3; ++k) {
+        const VecX col = d.A[k] * w + 2.0 * d.Bk[k] * s.eta_dot + 2.0 * sd * (d.Gx[k] + d.GPhi[k] * s.eta);
+        dQdw.col(k) = col;
+        L += w[k] * col;
+        Aw += w[k] * d.A[k];
+    }
+    dQdw += Aw;
+
+    residual.head<3>() = R * L.head<3>();
+    residual.segment<3>(3) = R * L.segment<3>(3);
+    residual.tail(m) = L.tail(m) + d.K * (s.eta - d.eta0);
+    if (!with_tangent) return;
+
+    tangent.setZero();
+    auto rot_rows = [&](const MatX& X, Eigen::Index c0, double weight) {  // tangent += weight R^ X
+        const Eigen::Index nc = X.cols();
+        tangent.block(0, c0, 3, nc) += weight * R * X.topRows(3);
+        tangent.block(3, c0, 3, nc) += weight * R * X.middleRows(3, 3);
+        tangent.block(6, c0, m, nc) += weight * X.bottomRows(m);
+    };
+    if (wM != 0.0) {
+        MatX MR = d.M;  // M R^T (columns)
+        MR.leftCols(3) = d.M.leftCols(3) * R.transpose();
+        MR.middleCols(3, 3) = d.M.middleCols(3, 3) * R.transpose();
+        rot_rows(MR, 0, wM);
+    }
+    if (wC != 0.0) {
+        MatX dv = MatX::Zero(n, n);
+        dv.middleCols(3, 3) = dQdw * R.transpose();
+        MatX dQde = 2.0 * sd * d.CPhi;
+        for (int k = 0; k < 3; ++k) dQde += 2.0 * w[k] * d.Bk[k];
+        dv.rightCols(m) = dQde;
+        rot_rows(dv, 0, wC);
+    }
+    if (wK != 0.0) {
+        // rotation: R <- exp(dpi~) R; d(R^T x) = R^T x~ dpi, d(R y) = -(R y)~ dpi
+        MatX dL = MatX::Zero(n, 3);
+        dL += d.M.leftCols(3) * (R.transpose() * hat(s.a.head<3>()));
+        dL += d.M.middleCols(3, 3) * (R.transpose() * hat(s.a.segment<3>(3)));
+        dL += dQdw * (R.transpose() * hat(s.omega));
+        dL -= d.Ng * (R.transpose() * hat(s.gravity));
+        rot_rows(dL, 3, wK);
+        tangent.block(0, 3, 3, 3) -= wK * hat(R * L.head<3>());
+        tangent.block(3, 3, 3, 3) -= wK * hat(R * L.segment<3>(3));
+        MatX dQe = sd * sd * d.HPhi + sdd * d.CPhi;
+        for (int k = 0; k < 3; ++k) dQe += 2.0 * sd * w[k] * d.GPhi[k];
+        rot_rows(dQe, 6, wK);
+        tangent.block(6, 6, m, m) += wK * d.K;
+    }
+}
+
+}  // namespace pipeflex

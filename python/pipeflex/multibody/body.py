@@ -1,0 +1,242 @@
+"""Flexible bodies in the floating frame of reference (seed 004, sections 5 and 7).
+
+A body is a straight beam or pipe of ``n_elements`` two-node 3-D beam elements along
+its local x axis, from s = -L/2 to L/2; the floating frame sits at the centre node. The
+elastic displacements are reduced, u = Phi eta, by Craig-Bampton (boundary nodes = the
+two end nodes, the centre node fixed to remove rigid motion, plus internal
+fixed-interface modes) or kept in full (every node but the centre). A curved pipe is
+a straight body with a preimposed, stress-free elastic deformation eta0 (eq. 70).
+
+The constant inertia shape integrals (eqs. 64-69) are assembled over the elements from
+the C++ element kernel and projected on B = [Psi0 Phi]; the C++ body kernel then
+evaluates the mass matrix, quadratic-velocity and fluid terms at run time.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Optional
+
+import numpy as np
+import scipy.linalg as sla
+
+from .. import _checks, _core
+from ..sections import PipeSection
+
+REDUCTIONS = ("craig_bampton", "full")
+
+
+def _skew(v: np.ndarray) -> np.ndarray:
+    return np.array([[0.0, -v[2], v[1]], [v[2], 0.0, -v[0]], [-v[1], v[0], 0.0]])
+
+
+@dataclass(frozen=True, eq=False)
+class FlexibleBody:
+    """An immutable reduced body: geometry, reduction basis and the compiled constants.
+
+    Attributes:
+        length: L [m] (arc length of the straight reference).
+        n_elements: number of beam elements; ``nodes_s`` [m] their node coordinates s.
+        section: the :class:`~pipeflex.PipeSection` (``pipe_mass`` mu_p and
+            ``fluid_mass`` mu_f [kg/m], ``EA`` [N], ``GJ``, ``EI``, ``EIz`` [N m^2]).
+        reduction: ``"craig_bampton"`` or ``"full"`` (or ``"custom"``).
+        internal_modes: fixed-interface modes kept (Craig-Bampton).
+        basis: Phi (6 n_nodes x m), nodal [u, theta] per node in the body frame.
+        eta0: preimposed elastic coordinates (m) [m, rad mixed].
+        data: the compiled constants (``_core.FfrfBodyData``).
+        mass: total mass (pipe + fluid) [kg].
+    """
+
+    length: float
+    n_elements: int
+    section: PipeSection
+    reduction: str
+    internal_modes: int
+    nodes_s: np.ndarray
+    basis: np.ndarray
+    eta0: np.ndarray
+    data: object
+    mass: float
+
+    @property
+    def n_nodes(self) -> int:
+        return self.n_elements + 1
+
+    @property
+    def n_modes(self) -> int:
+        """Number of elastic coordinates m."""
+        return self.basis.shape[1]
+
+    @property
+    def n_coordinates(self) -> int:
+        """6 frame coordinates + m elastic ones."""
+        return 6 + self.n_modes
+
+    def node_index(self, node) -> int:
+        """Node index from an int or ``"start"``, ``"center"``, ``"end"``."""
+        names = {"start": 0, "center": self.n_elements // 2, "end": self.n_elements}
+        if isinstance(node, str):
+            if node not in names:
+                raise ValueError(f"node must be an index 0..{self.n_elements} or one of {tuple(names)}, got {node!r}")
+            return names[node]
+        if isinstance(node, bool) or not isinstance(node, (int, np.integer)) or not 0 <= node <= self.n_elements:
+            raise ValueError(f"node must be an index 0..{self.n_elements} or one of {tuple(names)}, got {node!r}")
+        return int(node)
+
+    def node_rows(self, node: int):
+        """(Phi_u (3 x m), Phi_theta (3 x m), x (3,)) of a node in the body frame."""
+        i = self.node_index(node)
+        return self.basis[6 * i:6 * i + 3], self.basis[6 * i + 3:6 * i + 6], np.array([self.nodes_s[i], 0.0, 0.0])
+
+
+def _assemble(length, n_el, sec: PipeSection):
+    """Full body matrices (6 n_nodes square) from the element kernels."""
+    n = 6 * (n_el + 1)
+    le = length / n_el
+    ints = _core.beam_integrals(le)
+    ke = _core.beam_stiffness(le, sec.EA, sec.GJ, sec.EI, sec.EIz)
+    mu_p, mu_f = sec.pipe_mass, sec.fluid_mass
+    Z = lambda: np.zeros((n, n))  # noqa: E731
+    M, C, H, K = Z(), Z(), Z(), Z()
+    S, G = [Z() for _ in range(3)], [Z() for _ in range(3)]
+    Ng = np.zeros((n, 3))
+    for e in range(n_el):
+        s = slice(6 * e, 6 * e + 12)
+        M[s, s] += (mu_p + mu_f) * ints["NN"]
+        C[s, s] += mu_f * ints["NdN"]
+        H[s, s] += mu_f * ints["NddN"]
+        K[s, s] += ke
+        for k in range(3):
+            S[k][s, s] += (mu_p + mu_f) * ints["NSN"][k]
+            G[k][s, s] += mu_f * ints["NSdN"][k]
+        Ng[s] += (mu_p + mu_f) * ints["N"]
+    # section rotary inertia (rho I_p, rho I_y, rho I_z) lumped at the nodes
+    J = np.asarray(sec.rotary_inertia, float)
+    for i in range(n_el + 1):
+        w = le * (0.5 if i in (0, n_el) else 1.0)
+        M[6 * i + 3:6 * i + 6, 6 * i + 3:6 * i + 6] += np.diag(w * J)
+    return M, C, H, K, S, G, Ng
+
+
+def _craig_bampton(K, M, n_el, internal_modes):
+    n = K.shape[0]
+    c = n_el // 2
+    bdofs = np.r_[0:6, 6 * n_el:6 * n_el + 6]
+    fixed = np.r_[6 * c:6 * c + 6]
+    idofs = np.setdiff1d(np.arange(n), np.r_[bdofs, fixed])
+    Phi = np.zeros((n, 12 + internal_modes))
+    Phi[bdofs, np.arange(12)] = 1.0
+    if len(idofs):
+        Kii = K[np.ix_(idofs, idofs)]
+        Phi[np.ix_(idofs, np.arange(12))] = -np.linalg.solve(Kii, K[np.ix_(idofs, bdofs)])
+        if internal_modes:
+            if internal_modes > len(idofs):
+                raise ValueError(f"internal_modes must be <= {len(idofs)} (interior coordinates), got {internal_modes}")
+            # eig(M, K): the largest 1/omega^2 first; works with massless (torsion) coordinates
+            mu, V = sla.eigh(M[np.ix_(idofs, idofs)], Kii)
+            order = np.argsort(mu)[::-1][:internal_modes]
+            V = V[:, order]
+            Phi[np.ix_(idofs, 12 + np.arange(internal_modes))] = V / np.abs(V).max(axis=0)
+    elif internal_modes:
+        raise ValueError("internal_modes must be 0: the body has no interior nodes")
+    return Phi
+
+
+def check_no_rigid_motion(Psi0: np.ndarray, Phi: np.ndarray, K: np.ndarray) -> None:
+    """Raise ValueError if span(Phi) contains rigid motion (a combination without strain
+    energy) or if [Psi0 Phi] is rank deficient: the frame and the elastic coordinates
+    would then describe the same motion."""
+    Kr = Phi.T @ K @ Phi
+    # strain energy per unit of a diagonal (always positive) norm of the displacement
+    W = Phi.T @ (np.abs(np.diag(K))[:, None] * Phi)
+    try:
+        w = sla.eigvalsh(0.5 * (Kr + Kr.T), 0.5 * (W + W.T))
+    except np.linalg.LinAlgError:
+        raise ValueError("the reduction basis has linearly dependent columns") from None
+    if w.min() <= 1e-11 * w.max():
+        raise ValueError("the reduction basis contains rigid-body motion (a mode without strain energy): "
+                         "fix a node (e.g. the centre) when computing the modes")
+    B = np.hstack([Psi0 / np.abs(Psi0).max(axis=0), Phi / np.abs(Phi).max(axis=0)])
+    sv = np.linalg.svd(B, compute_uv=False)
+    if sv[-1] <= 1e-10 * sv[0]:
+        raise ValueError("the reduction basis and the rigid-body modes are linearly dependent")
+
+
+def flexible_body(*, length: float, n_elements: int, section: PipeSection, internal_modes: int = 0,
+                  reduction: str = "craig_bampton", curvature: float = 0.0,
+                  basis: Optional[np.ndarray] = None) -> FlexibleBody:
+    """Build a reduced straight (or preimposed-curved) body.
+
+    Args:
+        length: L [m] > 0 (for a curved body the arc length).
+        n_elements: number of elements, even (the frame sits at the centre node).
+        section: :class:`~pipeflex.PipeSection`; ``fluid_mass`` > 0 for a pipe that carries flow.
+        internal_modes: fixed-interface modes added to the 12 boundary modes (Craig-Bampton).
+        reduction: ``"craig_bampton"`` (default) or ``"full"`` (all nodal coordinates but the
+            centre node's: the unreduced body, as a check).
+        curvature: kappa [1/m] of a preimposed circular arc in the body's x-y plane (turning
+            towards +y): the straight body is deformed onto the arc, and that shape is made
+            stress-free by the stiffness compensation K (eta - eta0).
+        basis: a custom Phi (6 (n_elements + 1) x m) in place of ``reduction``; it must not
+            contain rigid-body motion.
+    """
+    L = _checks.positive("length", length)
+    n_el = _checks.positive_int("n_elements", n_elements)
+    if n_el % 2:
+        raise ValueError(f"n_elements must be even (the floating frame sits at the centre node), got {n_el}")
+    if not isinstance(section, PipeSection):
+        raise ValueError("section must be a pipeflex.PipeSection")
+    if isinstance(internal_modes, bool) or int(internal_modes) != internal_modes or internal_modes < 0:
+        raise ValueError(f"internal_modes must be a non-negative integer, got {internal_modes!r}")
+    internal_modes = int(internal_modes)
+    kappa = _checks.finite("curvature", curvature)
+    if abs(kappa) * L >= np.pi:
+        raise ValueError(f"curvature * length must be < pi (a body turns by less than 180 degrees), got {kappa * L}")
+    s = np.linspace(-L / 2, L / 2, n_el + 1)
+    M, C, H, K, S, G, Ng = _assemble(L, n_el, section)
+    n = 6 * (n_el + 1)
+    xbar = np.zeros(n)
+    xbar[0::6] = s
+    Psi0 = np.zeros((n, 6))
+    for i in range(n_el + 1):
+        Psi0[6 * i:6 * i + 3, 0:3] = np.eye(3)
+        Psi0[6 * i:6 * i + 3, 3:6] = _skew(np.array([s[i], 0.0, 0.0])).T
+        Psi0[6 * i + 3:6 * i + 6, 3:6] = np.eye(3)
+    if basis is not None:
+        Phi = np.asarray(basis, dtype=float)
+        if Phi.ndim != 2 or Phi.shape[0] != n or not np.all(np.isfinite(Phi)):
+            raise ValueError(f"basis must be a finite {n} x m array (6 coordinates per node)")
+        reduction = "custom"
+    elif reduction == "craig_bampton":
+        Phi = _craig_bampton(K, M, n_el, internal_modes)
+    elif reduction == "full":
+        if internal_modes:
+            raise ValueError("internal_modes applies to reduction='craig_bampton' only")
+        c = n_el // 2
+        keep = np.setdiff1d(np.arange(n), np.r_[6 * c:6 * c + 6])
+        Phi = np.eye(n)[:, keep]
+    else:
+        raise ValueError(f"reduction must be one of {REDUCTIONS}, got {reduction!r}")
+    check_no_rigid_motion(Psi0, Phi, K)
+
+    # preimposed arc: exact nodal displacements and rotations, projected in the K-norm
+    Kr = Phi.T @ K @ Phi
+    if kappa != 0.0:
+        phi = kappa * s
+        u0 = np.zeros(n)
+        u0[0::6] = np.sin(phi) / kappa - s
+        u0[1::6] = (1.0 - np.cos(phi)) / kappa
+        u0[5::6] = phi
+        eta0 = np.linalg.solve(Kr, Phi.T @ K @ u0)
+    else:
+        eta0 = np.zeros(Phi.shape[1])
+
+    B = np.hstack([Psi0, Phi])
+    Psi_r0 = Psi0[:, 3:]
+    data = _core.FfrfBodyData(
+        M=B.T @ M @ B, K=Kr, eta0=eta0,
+        A=[B.T @ S[k] @ Psi_r0 for k in range(3)], Bk=[B.T @ S[k] @ Phi for k in range(3)],
+        GPhi=[B.T @ G[k] @ Phi for k in range(3)], Gx=[B.T @ G[k] @ xbar for k in range(3)],
+        CPhi=B.T @ C @ Phi, HPhi=B.T @ H @ Phi, Cx=B.T @ C @ xbar, Hx=B.T @ H @ xbar, Ng=B.T @ Ng)
+    mass = L * (section.pipe_mass + section.fluid_mass)
+    return FlexibleBody(L, n_el, section, reduction, internal_modes if reduction == "craig_bampton" else 0,
+                        s, Phi, eta0, data, mass)
