@@ -46,15 +46,17 @@ def _two_bodies(curvature=0.0, internal_modes=2):
 
 @pytest.mark.parametrize("curvature", [0.0, 1.5])
 def test_body_tangent_matches_finite_differences(rng, curvature):
-    """wK dF/dq, wC dF/dv, wM dF/da of the C++ body kernel (rotation increments on the
-    Lie group) against central differences, with flow, its rate, gravity and rotation."""
+    """wK dF/dq, wC dF/dv, wM dF/da of the C++ kernels (bodies, loads, joint reactions;
+    rotation increments on the Lie group) against central differences, with flow, its
+    rate, gravity, rotation and multipliers."""
     s = _two_bodies(curvature)
     st = _perturbed(s, rng)
+    st.lam = rng.standard_normal(s.n_constraints)
     kw = dict(mass_flow=0.9, mass_flow_rate=0.4)
     h = 1e-6
     N = s.n_coordinates
     for weights, perturb in (((1, 0, 0), "q"), ((0, 1, 0), "v"), ((0, 0, 1), "a")):
-        _, T = s.body_forces(st, wK=weights[0], wC=weights[1], wM=weights[2], **kw)
+        T = s.evaluate(st, wK=weights[0], wC=weights[1], wM=weights[2], **kw)[3]
         fd = np.zeros((N, N))
         for i in range(N):
             sp, sm = st.copy(), st.copy()
@@ -66,7 +68,7 @@ def test_body_tangent_matches_finite_differences(rng, curvature):
             else:
                 getattr(sp, perturb)[i] += h
                 getattr(sm, perturb)[i] -= h
-            fd[:, i] = (s.body_forces(sp, tangent=False, **kw)[0] - s.body_forces(sm, tangent=False, **kw)[0]) / (2 * h)
+            fd[:, i] = (s.evaluate(sp, tangent=False, **kw)[0] - s.evaluate(sm, tangent=False, **kw)[0]) / (2 * h)
         assert np.abs(T - fd).max() <= 1e-6 * np.abs(fd).max(), perturb
 
 
@@ -105,7 +107,7 @@ def test_no_elastic_force_under_rigid_motion(rng, curvature):
     for j in range(2):
         st.r[j] = rng.standard_normal(3)
         st.R[j] = rotation_exp(rng.standard_normal(3))
-    F, _ = s.body_forces(st, mass_flow=0.0, gravity_factor=0.0, tangent=False)
+    F = s.evaluate(st, mass_flow=0.0, gravity_factor=0.0, load_factor=0.0, tangent=False)[0]
     assert np.abs(F).max() < 1e-12
 
 

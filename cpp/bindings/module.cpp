@@ -8,6 +8,7 @@ void bind_elements(py::module_& m);
 void bind_assembly(py::module_& m);
 void bind_transient(py::module_& m);
 void bind_ffrf(py::module_& m);
+void bind_multibody(py::module_& m);
 
 PYBIND11_MODULE(_core, m) {
     m.doc() = "pipeflex compiled core (element kernels and assembly)";
@@ -15,4 +16,5 @@ PYBIND11_MODULE(_core, m) {
     bind_assembly(m);
     bind_transient(m);
     bind_ffrf(m);
+    bind_multibody(m);
 }

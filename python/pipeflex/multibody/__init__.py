@@ -1,9 +1,9 @@
 """Floating frame of reference (seed 004): flexible bodies, joints, analyses."""
-from .analysis import (MultibodyLinearization, MultibodyResult, MultibodyStatic, alpha_parameters, linearize,
+from .analysis import (MultibodyLinearization, MultibodyResult, MultibodyStatic, linearize,
                        simulate, static_equilibrium)
 from .body import FlexibleBody, flexible_body
 from .system import MultibodyBuilder, MultibodyState, MultibodySystem
 
 __all__ = ["FlexibleBody", "flexible_body", "MultibodyBuilder", "MultibodyState", "MultibodySystem",
-           "MultibodyLinearization", "MultibodyResult", "MultibodyStatic", "alpha_parameters", "linearize",
+           "MultibodyLinearization", "MultibodyResult", "MultibodyStatic", "linearize",
            "simulate", "static_equilibrium"]

@@ -17,33 +17,14 @@ from typing import Callable, List, Optional, Sequence, Tuple, Union
 
 import numpy as np
 
-from .. import _checks
-from ..analysis.transient import Sine
+from .. import _checks, _core
+from ..analysis.transient import Sine, _time_function
 from .body import FlexibleBody
-from .joints import Joint, node_kinematics, rotation_exp
+from .joints import JOINT_KINDS, JOINT_ROWS, Joint, rotation_exp
 
-TimeFunction = Union[float, Sine, Callable[[float], float]]
-
-
-def time_value(f: TimeFunction, t: float) -> float:
-    """Value of a time function at t [s]: a number, a :class:`~pipeflex.Sine` (envelope
-    number or table (times, values), interpolated linearly) or a callable f(t)."""
-    if isinstance(f, Sine):
-        env = f.envelope
-        e = float(env) if np.isscalar(env) else float(np.interp(t, env[0], env[1]))
-        return e * np.sin(f.omega * t + f.phase)
-    if callable(f):
-        return float(f(t))
-    return float(f)
-
-
-def _check_time_function(name: str, f):
-    if isinstance(f, Sine) or callable(f):
-        v = time_value(f, 0.0)
-        if not np.isfinite(v):
-            raise ValueError(f"{name} must be finite, got {v} at t = 0")
-        return f
-    return _checks.finite(name, f)
+#: A function of time: a number, a table (times [s], values) interpolated linearly, or a
+#: :class:`~pipeflex.Sine` (envelope number or table times a sine carrier).
+TimeFunction = Union[float, Tuple[Sequence[float], Sequence[float]], Sine]
 
 
 @dataclass
@@ -75,8 +56,8 @@ class MultibodyState:
 class _Load:
     body: int
     node: int
-    force: Tuple[TimeFunction, TimeFunction, TimeFunction]
-    moment: Tuple[TimeFunction, TimeFunction, TimeFunction]
+    force: Tuple  # three _core.TimeTable [N]
+    moment: Tuple  # three _core.TimeTable [N m]
 
 
 class MultibodyBuilder:
@@ -153,12 +134,12 @@ class MultibodyBuilder:
     def add_load(self, body: int, node, *, force: Sequence[TimeFunction] = (0.0, 0.0, 0.0),
                  moment: Sequence[TimeFunction] = (0.0, 0.0, 0.0)) -> None:
         """Dead nodal force [N] and moment [N m] in global axes; each component a number,
-        a :class:`~pipeflex.Sine` or a callable of time t [s]."""
+        a table (times [s], values) or a :class:`~pipeflex.Sine` (see :data:`TimeFunction`)."""
         ref = self._ref("body", body, node)
         if len(force) != 3 or len(moment) != 3:
             raise ValueError("force and moment need 3 components")
-        f = tuple(_check_time_function(f"force[{i}]", x) for i, x in enumerate(force))
-        m = tuple(_check_time_function(f"moment[{i}]", x) for i, x in enumerate(moment))
+        f = tuple(_time_function(f"force[{i}]", x) for i, x in enumerate(force))
+        m = tuple(_time_function(f"moment[{i}]", x) for i, x in enumerate(moment))
         self._loads.append(_Load(ref[0], ref[1], f, m))
 
     def set_gravity(self, g: Sequence[float]) -> None:
@@ -183,50 +164,53 @@ class MultibodyBuilder:
         for j, (body, f) in enumerate(zip(self._bodies, self._flow)):
             if f != 0.0 and mdot != 0.0 and body.section.fluid_mass <= 0.0:
                 raise ValueError(f"body {j} carries a mass flow but its fluid_mass is 0 (set flow_factor=0)")
+        core = _core.MultibodySystemCore()
+        for body, f in zip(self._bodies, self._flow):
+            core.add_body(body.data, body.basis, list(body.nodes_s), body.section.fluid_mass, f)
         offsets = np.cumsum([0] + [b.n_coordinates for b in self._bodies])
         eta = np.zeros(offsets[-1])
         for j, b in enumerate(self._bodies):
             eta[offsets[j] + 6:offsets[j + 1]] = b.eta0
-        n_rows = sum({"rigid": 6, "hinge": 5, "spherical": 3, "roller": 1}[j[0]] for j in self._joints)
+        n_rows = sum(JOINT_ROWS[j[0]] for j in self._joints)
         state0 = MultibodyState(np.array(self._r), np.array(self._R), eta, np.zeros(offsets[-1]),
                                 np.zeros(offsets[-1]), np.zeros(n_rows))
 
         def kin(body, node):
-            o = offsets[body]
-            return node_kinematics(self._bodies[body], state0.r[body], state0.R[body],
-                                   eta[o + 6:offsets[body + 1]], node)
+            return core.node(state0.r, state0.R, eta, body, node)[:2]
 
         joints = []
         for k, (kind, a, b, extra) in enumerate(self._joints):
             name = f"joint {k} ({kind}: body {a[0]} node {a[1]} - " + \
                    ("ground" if b is None else f"body {b[0]} node {b[1]}") + ")"
-            pa, Aa, _, _ = kin(*a)
-            pb, Ab = (pa, np.eye(3)) if b is None else kin(*b)[:2]
-            if b is not None and np.linalg.norm(pa - pb) > 1e-9 * max(1.0, np.linalg.norm(pa)):
+            pa, Aa = kin(*a)
+            pb, Ab = (pa, Aa) if b is None else kin(*b)
+            if np.linalg.norm(pa - pb) > 1e-9 * max(1.0, np.linalg.norm(pa)):
                 raise ValueError(f"{name}: the nodes do not coincide in the assembly configuration "
                                  f"(gap {np.linalg.norm(pa - pb):.3g} m)")
-            ref = {}
-            if b is None:
-                ref["p"], ref["A"] = pa.copy(), Aa.copy()
-                Ab = Aa
-            if kind == "rigid":
-                ref["C0"] = Aa.T @ Ab
-            elif kind == "hinge":
+            ref = dict(p_ground=pa, A_ground=Aa, C0=Aa.T @ Ab, axis_b=np.array([0.0, 0.0, 1.0]),
+                       perp0=np.zeros(3), perp1=np.zeros(3), direction=np.array([0.0, 0.0, 1.0]), p0=pa)
+            if kind == "hinge":
                 ax = extra["axis"]
                 perp = np.linalg.svd(ax.reshape(1, 3))[2][1:]
-                ref["axis_b"] = Ab.T @ ax
-                ref["perp_a"] = [Aa.T @ e for e in perp]
+                ref.update(axis_b=Ab.T @ ax, perp0=Aa.T @ perp[0], perp1=Aa.T @ perp[1])
             elif kind == "roller":
-                ref["direction"], ref["p0"] = extra["direction"], pa.copy()
+                ref["direction"] = extra["direction"]
+            core.add_joint(JOINT_KINDS.index(kind), a[0], a[1], -1 if b is None else b[0], 0 if b is None else b[1],
+                           **ref)
             joints.append(Joint(kind, a, b, ref, name))
-        system = MultibodySystem(tuple(self._bodies), offsets, tuple(joints), tuple(self._loads),
+        for ld in self._loads:
+            core.add_load(ld.body, ld.node, list(ld.force), list(ld.moment))
+        core.set_gravity(self._gravity)
+        core.finalize()
+        system = MultibodySystem(core, tuple(self._bodies), offsets, tuple(joints), tuple(self._loads),
                                  self._gravity.copy(), mdot, np.array(self._flow), state0)
         system.check_constraints()
         return system
 
 
 class MultibodySystem:
-    """An immutable system of flexible bodies, joints and loads.
+    """An immutable system of flexible bodies, joints and loads (evaluated by the C++
+    ``_core.MultibodySystemCore``).
 
     Attributes:
         bodies: the :class:`FlexibleBody` of each body; offsets: first coordinate of each.
@@ -236,12 +220,14 @@ class MultibodySystem:
         info: free-form description a scene attaches.
     """
 
-    def __init__(self, bodies, offsets, joints, loads, gravity, mass_flow, flow_factors, state0):
+    def __init__(self, core, bodies, offsets, joints, loads, gravity, mass_flow, flow_factors, state0):
+        self._core = core
         self.bodies = bodies
         self.offsets = offsets
         self.joints = joints
         self.loads = loads
         self.gravity = gravity
+        self.gravity.flags.writeable = False
         self.mass_flow = mass_flow
         self.flow_factors = flow_factors
         self._state0 = state0
@@ -251,13 +237,15 @@ class MultibodySystem:
         self.n_dofs = self.n_coordinates - self.n_constraints
         self.info: dict = {}
 
+    @property
+    def core(self):
+        """The compiled system (read-only use)."""
+        return self._core
+
     # -- states --------------------------------------------------------------------
     def initial_state(self) -> MultibodyState:
         """The assembly configuration (eta = eta0) at rest."""
-        s = self._state0.copy()
-        N = self.n_coordinates
-        s.v, s.a, s.lam = np.zeros(N), np.zeros(N), np.zeros(self.n_constraints)
-        return s
+        return self._state0.copy()
 
     def body_slice(self, j: int) -> slice:
         return slice(int(self.offsets[j]), int(self.offsets[j + 1]))
@@ -266,8 +254,8 @@ class MultibodySystem:
         return state.eta[self.offsets[j] + 6:self.offsets[j + 1]]
 
     def node_kinematics(self, state: MultibodyState, body: int, node: int):
-        """(position [m], orientation, Jp, Ja) of a node (see :mod:`.joints`)."""
-        return node_kinematics(self.bodies[body], state.r[body], state.R[body], self.eta(state, body), node)
+        """(position p [m], orientation A, Jp, Ja) of a node: dp = Jp dq_j, d alpha = Ja dq_j."""
+        return self._core.node(state.r, state.R, state.eta, body, node)
 
     def node_position(self, state: MultibodyState, body: int, node) -> np.ndarray:
         """Global position [m] of a node (index or "start"/"center"/"end")."""
@@ -277,8 +265,7 @@ class MultibodySystem:
         """Per body, the (n_nodes, 3) global node positions [m]."""
         out = []
         for j, b in enumerate(self.bodies):
-            e = self.eta(state, j)
-            U = (b.basis @ e).reshape(-1, 6)[:, :3]
+            U = (b.basis @ self.eta(state, j)).reshape(-1, 6)[:, :3]
             X = np.column_stack([b.nodes_s, np.zeros((b.n_nodes, 2))]) + U
             out.append(state.r[j] + X @ state.R[j].T)
         return out
@@ -292,17 +279,14 @@ class MultibodySystem:
             state.eta[o + 6:self.offsets[j + 1]] += dq[o + 6:self.offsets[j + 1]]
 
     # -- flow ----------------------------------------------------------------------
-    def flow_speeds(self, mass_flow: float, mass_flow_rate: float = 0.0):
-        """Per body (sdot [m/s], sddot [m/s^2]) for mdot [kg/s] and d(mdot)/dt [kg/s^2]."""
-        out = []
-        for b, f in zip(self.bodies, self.flow_factors):
-            mu = b.section.fluid_mass
-            out.append((0.0, 0.0) if mu <= 0.0 or f == 0.0 else (f * mass_flow / mu, f * mass_flow_rate / mu))
-        return out
+    def flow_speeds(self, mass_flow: float):
+        """Per body the fluid speed sdot [m/s] for the mass flow mdot [kg/s]."""
+        return [0.0 if b.section.fluid_mass <= 0.0 else f * mass_flow / b.section.fluid_mass
+                for b, f in zip(self.bodies, self.flow_factors)]
 
     def flow_scale(self) -> float:
-        """mdot_ref = (pi / L) sqrt(mu_f EI / k_v) [kg/s] of the flow-carrying bodies (as
-        :meth:`pipeflex.Model.flow_scale`)."""
+        """mdot_ref = (pi / L) sqrt(mu_f EI) [kg/s] of the flow-carrying bodies (as
+        :meth:`pipeflex.Model.flow_scale` with k_v = 1)."""
         bs = [b for b, f in zip(self.bodies, self.flow_factors) if f != 0 and b.section.fluid_mass > 0]
         if not bs:
             raise ValueError("the system has no body that carries fluid")
@@ -313,105 +297,42 @@ class MultibodySystem:
 
     @property
     def total_mass(self) -> float:
+        """Pipe + fluid mass of all bodies [kg]."""
         return float(sum(b.mass for b in self.bodies))
 
     @property
     def length_scale(self) -> float:
+        """The largest body length [m] (convergence tests)."""
         return float(max(b.length for b in self.bodies))
 
     # -- equations -----------------------------------------------------------------
+    def evaluate(self, state: MultibodyState, *, mass_flow: float, mass_flow_rate: float = 0.0,
+                 load_factor: float = 1.0, gravity_factor: float = 1.0, wK: float = 1.0, wC: float = 0.0,
+                 wM: float = 0.0, tangent: bool = True):
+        """(F, c, C_q, S): residual F = body forces - loads + C_q^T lambda (N,), the
+        constraint equations c (n_constraints,), their Jacobian and the tangent
+        S = wK dF/dq + wC dF/dv + wM dF/da (dF/dq includes the joint reactions' and the
+        loads' geometric stiffness; None unless ``tangent``), at ``state`` (time state.t)."""
+        return self._core.evaluate(state.r, state.R, state.eta, state.v, state.a, state.lam, state.t, mass_flow,
+                                   mass_flow_rate, load_factor, gravity_factor, wK, wC, wM, tangent)
+
     def constraints(self, state: MultibodyState):
         """(c (n_constraints,), C_q (n_constraints x N)) at ``state``."""
-        c = np.zeros(self.n_constraints)
-        J = np.zeros((self.n_constraints, self.n_coordinates))
-        kin = lambda body, node: self.node_kinematics(state, body, node)  # noqa: E731
-        for k, jt in enumerate(self.joints):
-            rows = slice(self.joint_rows[k], self.joint_rows[k + 1])
-            ck, Ja, Jb = jt.evaluate(kin)
-            c[rows] = ck
-            J[rows, self.body_slice(jt.a[0])] += Ja
-            if Jb is not None:
-                J[rows, self.body_slice(jt.b[0])] += Jb
+        _, c, J, _ = self.evaluate(state, mass_flow=0.0, tangent=False)
         return c, J
 
     def check_constraints(self) -> None:
         """Raise ValueError for redundant joint equations (rank-deficient C_q)."""
-        _, J = self.constraints(self._state0)
         if self.n_constraints > self.n_coordinates:
             raise ValueError(f"{self.n_constraints} constraint equations for {self.n_coordinates} coordinates")
-        scale = np.maximum(np.abs(J).max(axis=1, keepdims=True), 1e-300)
-        Jn = J / scale
-        rank = 0
+        _, J = self.constraints(self._state0)
+        J = J / np.maximum(np.abs(J).max(axis=1, keepdims=True), 1e-300)
         for k, jt in enumerate(self.joints):
-            sub = Jn[:self.joint_rows[k + 1]]
+            sub = J[:self.joint_rows[k + 1]]
             r = np.linalg.matrix_rank(sub, tol=1e-9 * np.sqrt(sub.shape[1]))
             if r < self.joint_rows[k + 1]:
                 raise ValueError(f"{jt.name} is redundant: {self.joint_rows[k + 1] - r} of its equations repeat "
                                  "constraints already imposed by the joints before it")
-            rank = r
-        del rank
-
-    def external_forces(self, state: MultibodyState, t: float, load_factor: float = 1.0) -> np.ndarray:
-        """Generalised nodal loads Jp^T f + Ja^T m (N,) at time t [s]."""
-        Q = np.zeros(self.n_coordinates)
-        for ld in self.loads:
-            f = np.array([time_value(x, t) for x in ld.force])
-            m = np.array([time_value(x, t) for x in ld.moment])
-            _, _, Jp, Ja = self.node_kinematics(state, ld.body, ld.node)
-            Q[self.body_slice(ld.body)] += load_factor * (Jp.T @ f + Ja.T @ m)
-        return Q
-
-    def body_forces(self, state: MultibodyState, *, mass_flow: float, mass_flow_rate: float = 0.0,
-                    gravity_factor: float = 1.0, wK: float = 1.0, wC: float = 0.0, wM: float = 0.0,
-                    tangent: bool = True):
-        """Stacked body residuals (inertia + elastic - gravity) and the block-diagonal
-        tangent wK dF/dq + wC dF/dv + wM dF/da (or None)."""
-        N = self.n_coordinates
-        F = np.zeros(N)
-        T = np.zeros((N, N)) if tangent else None
-        g = gravity_factor * self.gravity
-        for j, (b, (sd, sdd)) in enumerate(zip(self.bodies, self.flow_speeds(mass_flow, mass_flow_rate))):
-            sl = self.body_slice(j)
-            o = sl.start
-            v = state.v[sl]
-            res, tan = b.data.forces(state.R[j], v[3:6], state.a[sl], state.eta[o + 6:sl.stop], v[6:], sd, sdd, g,
-                                     wK, wC, wM, tangent)
-            F[sl] = res
-            if tangent:
-                T[sl, sl] = tan
-        return F, T
-
-    def constraint_stiffness(self, state: MultibodyState, lam: np.ndarray, h: float = 1e-7) -> np.ndarray:
-        """d(C_q^T lambda)/dq at fixed lambda (central differences per joint): the
-        geometric stiffness of the joint reactions."""
-        N = self.n_coordinates
-        Kc = np.zeros((N, N))
-        for k, jt in enumerate(self.joints):
-            lk = lam[self.joint_rows[k]:self.joint_rows[k + 1]]
-            if not np.any(lk):
-                continue
-            bodies = sorted({jt.a[0]} | ({jt.b[0]} if jt.b is not None else set()))
-            cols = np.concatenate([np.arange(*self.body_slice(j).indices(N)) for j in bodies])
-
-            def force(st):
-                kin = lambda body, node: self.node_kinematics(st, body, node)  # noqa: E731
-                _, Ja, Jb = jt.evaluate(kin)
-                out = np.zeros(N)
-                out[self.body_slice(jt.a[0])] += Ja.T @ lk
-                if Jb is not None:
-                    out[self.body_slice(jt.b[0])] += Jb.T @ lk
-                return out[cols]
-
-            for c in cols:
-                d = np.zeros(N)
-                step = h * (self.length_scale if (c - self.offsets[np.searchsorted(self.offsets, c, 'right') - 1]) < 3
-                            else 1.0)
-                d[c] = step
-                sp, sm = state.copy(), state.copy()
-                self.increment(sp, d)
-                self.increment(sm, -d)
-                Kc[cols, c] += (force(sp) - force(sm)) / (2 * step)
-        return Kc
 
     def energy(self, state: MultibodyState) -> float:
         """Kinetic + elastic + gravitational potential energy [J] (no flow)."""
@@ -421,13 +342,8 @@ class MultibodySystem:
             R = state.R[j]
             v = state.v[sl]
             vl = np.concatenate([R.T @ v[:3], R.T @ v[3:6], v[6:]])
-            M = np.asarray(b.data.forces(np.eye(3), np.zeros(3), np.zeros(b.n_coordinates), np.zeros(b.n_modes),
-                                         np.zeros(b.n_modes), 0.0, 0.0, np.zeros(3), 0.0, 0.0, 1.0, True)[1])
             e = self.eta(state, j) - b.eta0
-            K = np.asarray(b.data.forces(np.eye(3), np.zeros(3), np.zeros(b.n_coordinates), np.zeros(b.n_modes),
-                                         np.zeros(b.n_modes), 0.0, 0.0, np.zeros(3), 1.0, 0.0, 0.0, True)[1])[6:, 6:]
-            E += 0.5 * vl @ M @ vl + 0.5 * e @ K @ e
+            E += 0.5 * vl @ b.data.M @ vl + 0.5 * e @ b.data.K @ e
             # gravity: V = -m g.r - (R^T g).(int mu N ds) eta; the straight reference is centred
-            Ng = np.asarray(b.data.Ng)
-            E -= b.mass * self.gravity @ state.r[j] + (R.T @ self.gravity) @ (Ng[6:].T @ self.eta(state, j))
+            E -= b.mass * self.gravity @ state.r[j] + (R.T @ self.gravity) @ (b.data.Ng[6:].T @ self.eta(state, j))
         return float(E)

@@ -1,0 +1,170 @@
+// Bindings of the multibody system core (seed 004): states cross as numpy arrays.
+#include "pipeflex/multibody/multibody.hpp"
+
+#include <pybind11/eigen.h>
+#include <pybind11/numpy.h>
+#include <pybind11/pybind11.h>
+#include <pybind11/stl.h>
+
+namespace py = pybind11;
+using namespace pipeflex;
+
+namespace {
+
+using Arr = py::array_t<double, py::array::c_style | py::array::forcecast>;
+
+MbState to_state(const MultibodySystemCore& sys, const Arr& r, const Arr& R, const VecX& eta, const VecX& v,
+                 const VecX& a, const VecX& lam, double t) {
+    const int nb = sys.n_bodies();
+    if (r.size() != 3 * nb || R.size() != 9 * nb)
+        throw std::invalid_argument("r must be (n_bodies, 3) and R (n_bodies, 3, 3)");
+    MbState s;
+    auto rr = r.unchecked();
+    auto RR = R.unchecked();
+    const double* pr = rr.data(0);
+    const double* pR = RR.data(0);
+    for (int j = 0; j < nb; ++j) {
+        s.r.emplace_back(pr[3 * j], pr[3 * j + 1], pr[3 * j + 2]);
+        Mat3d M;
+        for (int i = 0; i < 3; ++i)
+            for (int k = 0; k < 3; ++k) M(i, k) = pR[9 * j + 3 * i + k];
+        s.R.push_back(M);
+    }
+    s.eta = eta;
+    s.v = v;
+    s.a = a;
+    s.lam = lam;
+    s.t = t;
+    return s;
+}
+
+py::tuple from_state(const MbState& s) {
+    const size_t nb = s.r.size();
+    Arr r({nb, size_t(3)}), R({nb, size_t(3), size_t(3)});
+    auto rr = r.mutable_unchecked<2>();
+    auto RR = R.mutable_unchecked<3>();
+    for (size_t j = 0; j < nb; ++j)
+        for (int i = 0; i < 3; ++i) {
+            rr(j, i) = s.r[j][i];
+            for (int k = 0; k < 3; ++k) RR(j, i, k) = s.R[j](i, k);
+        }
+    return py::make_tuple(r, R, s.eta, s.v, s.a, s.lam, s.t);
+}
+
+}  // namespace
+
+void bind_multibody(py::module_& m) {
+    py::class_<MultibodySystemCore>(m, "MultibodySystemCore")
+        .def(py::init<>())
+        .def(
+            "add_body",
+            [](MultibodySystemCore& sys, const FfrfBodyData& d, const MatX& basis, const std::vector<double>& s,
+               double fluid_mass, double flow_factor) {
+                MbBody b;
+                b.data = d;
+                b.basis = basis;
+                b.s = s;
+                b.fluid_mass = fluid_mass;
+                b.flow_factor = flow_factor;
+                return sys.add_body(std::move(b));
+            },
+            py::arg("data"), py::arg("basis"), py::arg("s"), py::arg("fluid_mass"), py::arg("flow_factor"))
+        .def(
+            "add_joint",
+            [](MultibodySystemCore& sys, int kind, int body_a, int node_a, int body_b, int node_b, const Vec3d& p_ground,
+               const Mat3d& A_ground, const Mat3d& C0, const Vec3d& axis_b, const Vec3d& perp0, const Vec3d& perp1,
+               const Vec3d& direction, const Vec3d& p0) {
+                if (kind < 0 || kind > 3) throw std::invalid_argument("joint kind must be 0..3");
+                MbJoint j;
+                j.kind = static_cast<JointKind>(kind);
+                j.body_a = body_a;
+                j.node_a = node_a;
+                j.body_b = body_b;
+                j.node_b = node_b;
+                j.p_ground = p_ground;
+                j.A_ground = A_ground;
+                j.C0 = C0;
+                j.axis_b = axis_b;
+                j.perp_a = {perp0, perp1};
+                j.direction = direction;
+                j.p0 = p0;
+                sys.add_joint(j);
+            },
+            py::arg("kind"), py::arg("body_a"), py::arg("node_a"), py::arg("body_b"), py::arg("node_b"),
+            py::arg("p_ground"), py::arg("A_ground"), py::arg("C0"), py::arg("axis_b"), py::arg("perp0"),
+            py::arg("perp1"), py::arg("direction"), py::arg("p0"))
+        .def(
+            "add_load",
+            [](MultibodySystemCore& sys, int body, int node, const std::vector<TimeTable>& f,
+               const std::vector<TimeTable>& mo) {
+                if (f.size() != 3 || mo.size() != 3) throw std::invalid_argument("force and moment need 3 components");
+                MbLoad l;
+                l.body = body;
+                l.node = node;
+                for (int i = 0; i < 3; ++i) {
+                    l.force[i] = f[i];
+                    l.moment[i] = mo[i];
+                }
+                sys.add_load(l);
+            },
+            py::arg("body"), py::arg("node"), py::arg("force"), py::arg("moment"))
+        .def("set_gravity", &MultibodySystemCore::set_gravity)
+        .def("finalize", &MultibodySystemCore::finalize)
+        .def_property_readonly("n_coordinates", &MultibodySystemCore::n_coordinates)
+        .def_property_readonly("n_constraints", &MultibodySystemCore::n_constraints)
+        .def(
+            "node",
+            [](const MultibodySystemCore& sys, const Arr& r, const Arr& R, const VecX& eta, int body, int nd) {
+                if (body < 0 || body >= sys.n_bodies()) throw std::invalid_argument("no such body");
+                const VecX z = VecX::Zero(sys.n_coordinates());
+                const MbState s = to_state(sys, r, R, eta, z, z, VecX::Zero(sys.n_constraints()), 0.0);
+                Vec3d p;
+                Mat3d A;
+                MatX Jp, Ja;
+                sys.node(s, body, nd, p, A, &Jp, &Ja);
+                return py::make_tuple(p, A, Jp, Ja);
+            },
+            py::arg("r"), py::arg("R"), py::arg("eta"), py::arg("body"), py::arg("node"))
+        .def(
+            "evaluate",
+            [](const MultibodySystemCore& sys, const Arr& r, const Arr& R, const VecX& eta, const VecX& v,
+               const VecX& a, const VecX& lam, double t, double mdot, double mdot_rate, double load_factor,
+               double gravity_factor, double wK, double wC, double wM, bool tangent) {
+                const MbState s = to_state(sys, r, R, eta, v, a, lam, t);
+                MbEvaluation ev;
+                sys.evaluate(s, mdot, mdot_rate, load_factor, gravity_factor, wK, wC, wM, tangent, ev);
+                return py::make_tuple(ev.F, ev.c, ev.J, tangent ? py::object(py::cast(ev.S)) : py::none());
+            },
+            py::arg("r"), py::arg("R"), py::arg("eta"), py::arg("v"), py::arg("a"), py::arg("lam"), py::arg("t"),
+            py::arg("mass_flow"), py::arg("mass_flow_rate"), py::arg("load_factor"), py::arg("gravity_factor"),
+            py::arg("wK"), py::arg("wC"), py::arg("wM"), py::arg("tangent"))
+        .def(
+            "integrate",
+            [](const MultibodySystemCore& sys, const Arr& r, const Arr& R, const VecX& eta, const VecX& v,
+               const VecX& a, const VecX& lam, double t, const TimeTable& flow, double t_end,
+               const std::vector<long>& out_steps, double step, double rho_inf, double tol, int max_newton,
+               int refresh) {
+                MbState s = to_state(sys, r, R, eta, v, a, lam, t);
+                MbOptions opt;
+                opt.step = step;
+                opt.rho_inf = rho_inf;
+                opt.tol = tol;
+                opt.max_newton = max_newton;
+                opt.refresh = refresh;
+                MbOutput out;
+                {
+                    py::gil_scoped_release release;
+                    out = sys.integrate(s, flow, t_end, out_steps, opt);
+                }
+                py::list states;
+                for (const auto& st : out.states) states.append(from_state(st));
+                py::dict stats;
+                stats["steps"] = out.steps;
+                stats["iterations"] = out.iterations;
+                stats["factorizations"] = out.factorizations;
+                return py::make_tuple(out.t, states, out.drift, stats);
+            },
+            py::arg("r"), py::arg("R"), py::arg("eta"), py::arg("v"), py::arg("a"), py::arg("lam"), py::arg("t"),
+            py::arg("mass_flow"), py::arg("t_end"), py::arg("out_steps"), py::arg("step"), py::arg("rho_inf"),
+            py::arg("tol"), py::arg("max_newton"), py::arg("refresh"));
+}

@@ -1,0 +1,386 @@
+#include "pipeflex/multibody/multibody.hpp"
+
+#include <Eigen/LU>
+#include <Eigen/QR>
+
+#include <algorithm>
+#include <cmath>
+#include <functional>
+#include <sstream>
+#include <stdexcept>
+
+namespace pipeflex {
+
+namespace {
+
+Mat3d hat(const Vec3d& w) {
+    Mat3d r;
+    r << 0.0, -w[2], w[1], w[2], 0.0, -w[0], -w[1], w[0], 0.0;
+    return r;
+}
+
+// I + c1 W + c2 W^2 with W = phi~: exp (c1 = sin t / t, c2 = (1 - cos t)/t^2) and the
+// left Jacobian (c1 = (1 - cos t)/t^2, c2 = (t - sin t)/t^3).
+Mat3d rodrigues(const Vec3d& phi, bool jacobian) {
+    const double t2 = phi.squaredNorm();
+    double c1, c2;
+    if (t2 < 1e-8) {
+        c1 = jacobian ? 0.5 - t2 / 24.0 : 1.0 - t2 / 6.0;
+        c2 = jacobian ? 1.0 / 6.0 - t2 / 120.0 : 0.5 - t2 / 24.0;
+    } else {
+        const double t = std::sqrt(t2);
+        c1 = jacobian ? (1.0 - std::cos(t)) / t2 : std::sin(t) / t;
+        c2 = jacobian ? (t - std::sin(t)) / (t2 * t) : (1.0 - std::cos(t)) / t2;
+    }
+    const Mat3d W = hat(phi);
+    return Mat3d::Identity() + c1 * W + c2 * W * W;
+}
+
+Vec3d vee_skew(const Mat3d& D) {
+    return 0.5 * Vec3d(D(2, 1) - D(1, 2), D(0, 2) - D(2, 0), D(1, 0) - D(0, 1));
+}
+
+}  // namespace
+
+int MbJoint::rows() const {
+    switch (kind) {
+        case JointKind::rigid: return 6;
+        case JointKind::hinge: return 5;
+        case JointKind::spherical: return 3;
+        case JointKind::roller: return 1;
+    }
+    return 0;
+}
+
+int MultibodySystemCore::add_body(MbBody body) {
+    const Eigen::Index m = body.data.M.rows() - 6;
+    if (m < 0 || body.basis.cols() != m || body.basis.rows() != 6 * static_cast<Eigen::Index>(body.s.size()))
+        throw std::invalid_argument("add_body: basis must be 6 n_nodes x m with m = (size of M) - 6");
+    length_scale_ = std::max(length_scale_ * (bodies_.empty() ? 0.0 : 1.0), body.s.back() - body.s.front());
+    offsets_.push_back(offsets_.back() + 6 + static_cast<int>(m));
+    bodies_.push_back(std::move(body));
+    return n_bodies() - 1;
+}
+
+void MultibodySystemCore::add_joint(const MbJoint& j) {
+    auto check = [&](int b, int nd) {
+        if (b < 0 || b >= n_bodies() || nd < 0 || nd >= static_cast<int>(bodies_[b].s.size()))
+            throw std::invalid_argument("add_joint: no node " + std::to_string(nd) + " on body " + std::to_string(b));
+    };
+    check(j.body_a, j.node_a);
+    if (j.body_b >= 0) check(j.body_b, j.node_b);
+    joints_.push_back(j);
+    rows_.push_back(rows_.back() + j.rows());
+}
+
+void MultibodySystemCore::add_load(const MbLoad& l) {
+    if (l.body < 0 || l.body >= n_bodies() || l.node < 0 || l.node >= static_cast<int>(bodies_[l.body].s.size()))
+        throw std::invalid_argument("add_load: no such body node");
+    loads_.push_back(l);
+}
+
+void MultibodySystemCore::finalize() {
+    n_ = offsets_.back();
+    nc_ = rows_.back();
+}
+
+void MultibodySystemCore::node(const MbState& s, int body, int nd, Vec3d& p, Mat3d& A, MatX* Jp, MatX* Ja) const {
+    const MbBody& b = bodies_[body];
+    const Eigen::Index m = b.basis.cols();
+    const int o = offsets_[body];
+    const auto eta = s.eta.segment(o + 6, m);
+    const auto Pu = b.basis.middleRows(6 * nd, 3);
+    const auto Pt = b.basis.middleRows(6 * nd + 3, 3);
+    const Mat3d& R = s.R[body];
+    const Vec3d y = R * (Vec3d(b.s[nd], 0.0, 0.0) + Pu * eta);
+    const Vec3d th = Pt * eta;
+    p = s.r[body] + y;
+    A = R * rodrigues(th, false);
+    if (Jp) {
+        Jp->setZero(3, 6 + m);
+        Jp->leftCols(3).setIdentity();
+        Jp->middleCols(3, 3) = -hat(y);
+        Jp->rightCols(m) = R * Pu;
+    }
+    if (Ja) {
+        Ja->setZero(3, 6 + m);
+        Ja->middleCols(3, 3).setIdentity();
+        Ja->rightCols(m) = R * rodrigues(th, true) * Pt;
+    }
+}
+
+void MultibodySystemCore::increment(MbState& s, const VecX& dq) const {
+    for (int j = 0; j < n_bodies(); ++j) {
+        const int o = offsets_[j], m = offsets_[j + 1] - o - 6;
+        s.r[j] += dq.segment<3>(o);
+        s.R[j] = rodrigues(dq.segment<3>(o + 3), false) * s.R[j];
+        s.eta.segment(o + 6, m) += dq.segment(o + 6, m);
+    }
+}
+
+void MultibodySystemCore::joint_equations(const MbState& s, const MbJoint& j, Eigen::Ref<VecX> c,
+                                          Eigen::Ref<MatX> Ja, Eigen::Ref<MatX> Jb) const {
+    Vec3d pa, pb;
+    Mat3d Aa, Ab;
+    MatX Jpa, Jaa, Jpb, Jab;
+    node(s, j.body_a, j.node_a, pa, Aa, &Jpa, &Jaa);
+    const bool ground = j.body_b < 0;
+    if (ground) {
+        pb = j.p_ground;
+        Ab = j.A_ground;
+    } else {
+        node(s, j.body_b, j.node_b, pb, Ab, &Jpb, &Jab);
+    }
+    Ja.setZero();
+    if (!ground) Jb.setZero();
+    if (j.kind == JointKind::roller) {
+        c(0) = j.direction.dot(pa - j.p0);
+        Ja.row(0) = j.direction.transpose() * Jpa;
+        return;
+    }
+    c.head<3>() = pa - pb;
+    Ja.topRows(3) = Jpa;
+    if (!ground) Jb.topRows(3) = -Jpb;
+    if (j.kind == JointKind::rigid) {
+        const Mat3d D = Aa.transpose() * Ab * j.C0.transpose();
+        c.segment<3>(3) = vee_skew(D);
+        Mat3d JD;
+        for (int k = 0; k < 3; ++k) JD.col(k) = vee_skew(hat(Vec3d::Unit(k)) * D);
+        JD = JD * Aa.transpose();
+        Ja.middleRows(3, 3) = -JD * Jaa;
+        if (!ground) Jb.middleRows(3, 3) = JD * Jab;
+    } else if (j.kind == JointKind::hinge) {
+        const Vec3d axb = Ab * j.axis_b;
+        for (int k = 0; k < 2; ++k) {
+            const Vec3d ea = Aa * j.perp_a[k];
+            c(3 + k) = ea.dot(axb);
+            Ja.row(3 + k) = ea.cross(axb).transpose() * Jaa;
+            if (!ground) Jb.row(3 + k) = axb.cross(ea).transpose() * Jab;
+        }
+    }
+}
+
+void MultibodySystemCore::body_columns(MbState& st, int body,
+                                      const std::function<void(int col, double h, double sign)>& fn) const {
+    const int o = offsets_[body], n = offsets_[body + 1] - o;
+    for (int col = 0; col < n; ++col) {
+        const double h = col < 3 ? 1e-7 * length_scale_ : 1e-7;
+        const Vec3d r0 = st.r[body];
+        const Mat3d R0 = st.R[body];
+        const double e0 = st.eta(o + col);
+        for (double sign : {1.0, -1.0}) {
+            const double d = sign * h;
+            if (col < 3) st.r[body][col] += d;
+            else if (col < 6) st.R[body] = rodrigues(d * Vec3d::Unit(col - 3), false) * R0;
+            else st.eta(o + col) += d;
+            fn(col, h, sign);
+            st.r[body] = r0;
+            st.R[body] = R0;
+            st.eta(o + col) = e0;
+        }
+    }
+}
+
+void MultibodySystemCore::geometric_stiffness(const MbState& s, double load_factor, MatX& S, double w) const {
+    MbState st = s;
+    // joint reactions C_q^T lambda at fixed lambda
+    for (size_t k = 0; k < joints_.size(); ++k) {
+        const MbJoint& j = joints_[k];
+        const int nr = j.rows();
+        const VecX lam = s.lam.segment(rows_[k], nr);
+        if (lam.isZero(0.0)) continue;
+        const int na = offsets_[j.body_a + 1] - offsets_[j.body_a];
+        const int nb = j.body_b < 0 ? 0 : offsets_[j.body_b + 1] - offsets_[j.body_b];
+        VecX c(nr);
+        MatX Ja(nr, na), Jb(nr, nb);
+        for (int body : {j.body_a, j.body_b}) {
+            if (body < 0) continue;
+            body_columns(st, body, [&](int col, double h, double sign) {
+                joint_equations(st, j, c, Ja, Jb);
+                const double f = sign * w / (2 * h);
+                S.block(offsets_[j.body_a], offsets_[body] + col, na, 1) += f * (Ja.transpose() * lam);
+                if (nb) S.block(offsets_[j.body_b], offsets_[body] + col, nb, 1) += f * (Jb.transpose() * lam);
+            });
+        }
+    }
+    // dead nodal loads: -(Jp^T f + Ja^T m) turns with the node
+    MatX Jp, Ja;
+    Vec3d p;
+    Mat3d A;
+    for (const MbLoad& l : loads_) {
+        Vec3d fo, mo;
+        for (int i = 0; i < 3; ++i) {
+            fo[i] = load_factor * l.force[i].at(s.t);
+            mo[i] = load_factor * l.moment[i].at(s.t);
+        }
+        if (fo.isZero(0.0) && mo.isZero(0.0)) continue;
+        const int o = offsets_[l.body], n = offsets_[l.body + 1] - o;
+        body_columns(st, l.body, [&](int col, double h, double sign) {
+            node(st, l.body, l.node, p, A, &Jp, &Ja);
+            S.block(o, o + col, n, 1) -= sign * w / (2 * h) * (Jp.transpose() * fo + Ja.transpose() * mo);
+        });
+    }
+}
+
+void MultibodySystemCore::evaluate(const MbState& s, double mdot, double mdot_rate, double load_factor,
+                                   double gravity_factor, double wK, double wC, double wM, bool with_tangent,
+                                   MbEvaluation& out) const {
+    if (s.eta.size() != n_ || s.v.size() != n_ || s.a.size() != n_ || s.lam.size() != nc_ ||
+        static_cast<int>(s.r.size()) != n_bodies() || static_cast<int>(s.R.size()) != n_bodies())
+        throw std::invalid_argument("multibody state has the wrong sizes");
+    out.F.setZero(n_);
+    out.c.setZero(nc_);
+    out.J.setZero(nc_, n_);
+    if (with_tangent) out.S.setZero(n_, n_);
+    MatX dummy(0, 0);
+    FfrfBodyMotion mo;
+    mo.gravity = gravity_factor * gravity_;
+    for (int j = 0; j < n_bodies(); ++j) {
+        const MbBody& b = bodies_[j];
+        const int o = offsets_[j], n = offsets_[j + 1] - o, m = n - 6;
+        mo.R = s.R[j];
+        mo.omega = s.v.segment<3>(o + 3);
+        mo.a = s.a.segment(o, n);
+        mo.eta = s.eta.segment(o + 6, m);
+        mo.eta_dot = s.v.segment(o + 6, m);
+        const double f = b.fluid_mass > 0.0 ? b.flow_factor / b.fluid_mass : 0.0;
+        mo.sdot = f * mdot;
+        mo.sddot = f * mdot_rate;
+        if (with_tangent)
+            ffrf_body_forces(b.data, mo, wK, wC, wM, out.F.segment(o, n), out.S.block(o, o, n, n), true);
+        else
+            ffrf_body_forces(b.data, mo, wK, wC, wM, out.F.segment(o, n), dummy, false);
+    }
+    MatX Jp, Ja;
+    Vec3d p;
+    Mat3d A;
+    for (const MbLoad& l : loads_) {
+        node(s, l.body, l.node, p, A, &Jp, &Ja);
+        Vec3d fo, mo2;
+        for (int i = 0; i < 3; ++i) {
+            fo[i] = l.force[i].at(s.t);
+            mo2[i] = l.moment[i].at(s.t);
+        }
+        const int o = offsets_[l.body];
+        out.F.segment(o, Jp.cols()) -= load_factor * (Jp.transpose() * fo + Ja.transpose() * mo2);
+    }
+    for (size_t k = 0; k < joints_.size(); ++k) {
+        const MbJoint& j = joints_[k];
+        const int r0 = rows_[k], nr = j.rows();
+        const int oa = offsets_[j.body_a], na = offsets_[j.body_a + 1] - oa;
+        const int ob = j.body_b < 0 ? 0 : offsets_[j.body_b], nb = j.body_b < 0 ? 0 : offsets_[j.body_b + 1] - ob;
+        MatX Jak(nr, na), Jbk(nr, nb);
+        joint_equations(s, j, out.c.segment(r0, nr), Jak, Jbk);
+        out.J.block(r0, oa, nr, na) += Jak;
+        if (nb) out.J.block(r0, ob, nr, nb) += Jbk;
+    }
+    out.F.noalias() += out.J.transpose() * s.lam;
+    if (with_tangent && wK != 0.0) geometric_stiffness(s, load_factor, out.S, wK);
+}
+
+MbOutput MultibodySystemCore::integrate(MbState& s, const TimeTable& mass_flow, double t_end,
+                                        const std::vector<long>& out_steps, const MbOptions& opt) const {
+    const double rho = opt.rho_inf;
+    const double am = (2 * rho - 1) / (rho + 1), af = rho / (rho + 1);
+    const double gamma = 0.5 + af - am, beta = 0.25 * (gamma + 0.5) * (gamma + 0.5);
+    const double t0 = s.t;
+    const long n_steps = std::max(1L, static_cast<long>(std::ceil((t_end - t0) / opt.step - 1e-9)));
+    const double h = (t_end - t0) / static_cast<double>(n_steps);
+    const double bp = (1 - am) / ((1 - af) * beta * h * h), gp = gamma / (beta * h);
+    const double L = length_scale_;
+    MbOutput out;
+    MbEvaluation ev;
+    auto save = [&](const MbState& st) {
+        out.t.push_back(st.t);
+        out.states.push_back(st);
+        out.drift.push_back((ev.J * st.v).cwiseAbs().maxCoeff());
+    };
+
+    // consistent initial acceleration and multipliers (minimum-norm least squares)
+    evaluate(s, mass_flow.at(t0), mass_flow.rate(t0), 1.0, 1.0, 0.0, 0.0, 1.0, true, ev);
+    {
+        MatX A = MatX::Zero(n_ + nc_, n_ + nc_);
+        A.topLeftCorner(n_, n_) = ev.S;
+        A.topRightCorner(n_, nc_) = ev.J.transpose();
+        A.bottomLeftCorner(nc_, n_) = ev.J;
+        VecX rhs = VecX::Zero(n_ + nc_);
+        rhs.head(n_) = -(ev.F - ev.J.transpose() * s.lam - ev.S * s.a);
+        const VecX x = A.completeOrthogonalDecomposition().solve(rhs);
+        s.a = x.head(n_);
+        s.lam = x.tail(nc_);
+    }
+    VecX acc = s.a;
+    size_t next_out = 0;
+    if (next_out < out_steps.size() && out_steps[next_out] == 0) {
+        save(s);
+        ++next_out;
+    }
+    Eigen::PartialPivLU<MatX> lu;
+    bool have_lu = false;
+    double scale = 1.0;
+    MatX A(n_ + nc_, n_ + nc_);
+    VecX rhs(n_ + nc_), x;
+    for (long n = 1; n <= n_steps; ++n) {
+        const double t = t0 + static_cast<double>(n) * h;
+        const VecX acc_new = (af * s.a - am * acc) / (1 - am);
+        const VecX dq = h * s.v + h * h * ((0.5 - beta) * acc + beta * acc_new);
+        s.v += h * ((1 - gamma) * acc + gamma * acc_new);
+        s.a.setZero();
+        s.t = t;
+        increment(s, dq);
+        const double mdot = mass_flow.at(t), mrate = mass_flow.rate(t);
+        bool converged = false;
+        double last = INFINITY, size = 0.0;
+        for (int it = 0; it < opt.max_newton; ++it) {
+            const bool refresh = !have_lu || it >= opt.refresh;
+            evaluate(s, mdot, mrate, 1.0, 1.0, 1.0, gp, bp, refresh, ev);
+            if (refresh) {
+                scale = ev.S.cwiseAbs().maxCoeff();
+                A.setZero();
+                A.topLeftCorner(n_, n_) = ev.S;
+                A.topRightCorner(n_, nc_) = scale * ev.J.transpose();
+                A.bottomLeftCorner(nc_, n_) = scale * ev.J;
+                lu.compute(A);
+                have_lu = true;
+                ++out.factorizations;
+            }
+            rhs.head(n_) = -ev.F;
+            rhs.tail(nc_) = -scale * ev.c;
+            x = lu.solve(rhs);
+            if (!x.allFinite()) {
+                std::ostringstream msg;
+                msg << "non-finite Newton increment at t = " << t << " s, iteration " << it
+                    << " (singular iteration matrix?)";
+                throw SolverError(msg.str());
+            }
+            const VecX dx = x.head(n_);
+            increment(s, dx);
+            s.v += gp * dx;
+            s.a += bp * dx;
+            s.lam += scale * x.tail(nc_);
+            ++out.iterations;
+            size = dx.cwiseAbs().maxCoeff();
+            if (size <= opt.tol * L || (size >= 0.5 * last && size <= 100 * opt.tol * L)) {
+                converged = true;
+                break;
+            }
+            last = size;
+        }
+        if (!converged) {
+            std::ostringstream msg;
+            msg << "Newton did not converge at t = " << t << " s after " << opt.max_newton
+                << " iterations (last increment " << size << ", residual " << ev.F.cwiseAbs().maxCoeff()
+                << " N, constraint violation " << ev.c.cwiseAbs().maxCoeff() << " m)";
+            throw SolverError(msg.str());
+        }
+        acc = acc_new + (1 - af) / (1 - am) * s.a;
+        ++out.steps;
+        if (next_out < out_steps.size() && out_steps[next_out] == n) {
+            save(s);
+            ++next_out;
+        }
+    }
+    return out;
+}
+
+}  // namespace pipeflex
