@@ -160,6 +160,19 @@ void MultibodySystemCore::joint_equations(const MbState& s, const MbJoint& j, Ei
     }
 }
 
+void MultibodySystemCore::actuator_forces(const MbState& s, const MbJoint& j, VecX& fa, VecX& fb) const {
+    Vec3d p;
+    Mat3d Aa, Ab;
+    MatX Jp, Ja, Jb;
+    node(s, j.body_a, j.node_a, p, Aa, &Jp, &Ja);
+    if (j.body_b >= 0) node(s, j.body_b, j.node_b, p, Ab, &Jp, &Jb);
+    else Ab = j.A_ground;
+    const Vec3d T = j.torque.at(s.t) * (Ab * j.axis_b);
+    fa = Ja.transpose() * T;
+    if (j.body_b >= 0) fb = -(Jb.transpose() * T);
+    else fb.resize(0);
+}
+
 void MultibodySystemCore::body_columns(MbState& st, int body,
                                       const std::function<void(int col, double h, double sign)>& fn) const {
     const int o = offsets_[body], n = offsets_[body + 1] - o;
@@ -200,6 +213,21 @@ void MultibodySystemCore::geometric_stiffness(const MbState& s, double load_fact
                 const double f = sign * w / (2 * h);
                 S.block(offsets_[j.body_a], offsets_[body] + col, na, 1) += f * (Ja.transpose() * lam);
                 if (nb) S.block(offsets_[j.body_b], offsets_[body] + col, nb, 1) += f * (Jb.transpose() * lam);
+            });
+        }
+    }
+    // driving torques of hinges turn with the hinge axis
+    for (const MbJoint& j : joints_) {
+        if (!j.actuated) continue;
+        VecX fa, fb;
+        const int oa = offsets_[j.body_a], na = offsets_[j.body_a + 1] - oa;
+        for (int body : {j.body_a, j.body_b}) {
+            if (body < 0) continue;
+            body_columns(st, body, [&](int col, double h, double sign) {
+                actuator_forces(st, j, fa, fb);
+                const double f = -sign * w / (2 * h);
+                S.block(oa, offsets_[body] + col, na, 1) += f * fa;
+                if (fb.size()) S.block(offsets_[j.body_b], offsets_[body] + col, fb.size(), 1) += f * fb;
             });
         }
     }
@@ -273,6 +301,12 @@ void MultibodySystemCore::evaluate(const MbState& s, double mdot, double mdot_ra
         joint_equations(s, j, out.c.segment(r0, nr), Jak, Jbk);
         out.J.block(r0, oa, nr, na) += Jak;
         if (nb) out.J.block(r0, ob, nr, nb) += Jbk;
+        if (j.actuated) {
+            VecX fa, fb;
+            actuator_forces(s, j, fa, fb);
+            out.F.segment(oa, na) -= load_factor * fa;
+            if (nb) out.F.segment(ob, nb) -= load_factor * fb;
+        }
     }
     out.F.noalias() += out.J.transpose() * s.lam;
     if (with_tangent && wK != 0.0) geometric_stiffness(s, load_factor, out.S, wK);

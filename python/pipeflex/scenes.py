@@ -347,3 +347,86 @@ def ffrf_curved_pipe(*, E: float, n_bodies: int = 8, elements_per_body: int = 20
     system = b.build(mass_flow=sec.fluid_mass * _checks.finite("flow_speed", flow_speed))
     system.info.update(E=E, base=(ids[0], 0), tip=(ids[-1], body.n_elements), scene="seed 004, sec. 8.2")
     return system
+
+
+#: Seed 004, sec. 8.3: joint and pipe points [m] of the concrete printer. The seed's Fig. 11
+#: is not in the text, so the geometry is ours: the arm OA stands vertical, AB-BC is a
+#: horizontal link (rigid at B) and CD hangs vertically from C to the nozzle D, which the
+#: roller keeps at its height. The pipe bends outward at E and F, so that OE = EB and
+#: BF = FD have the seed's lengths.
+PRINTER_POINTS = {
+    "O": (0.0, 0.0, 0.0), "A": (0.0, 0.0, 0.15), "B": (0.30, 0.0, 0.15), "C": (0.45, 0.0, 0.15),
+    "D": (0.45, 0.0, -0.25),
+}
+
+
+def _apex(p, q, side, leg):
+    """The point at distance ``leg`` from both p and q, on ``side`` of the line pq."""
+    p, q, side = (np.asarray(x, float) for x in (p, q, side))
+    m, d = 0.5 * (p + q), q - p
+    n = side - (side @ d) / (d @ d) * d
+    return m + np.sqrt(leg**2 - (d @ d) / 4) * n / np.linalg.norm(n)
+
+
+def concrete_printer(*, flow_speed: float, gravity: float = 9.81):
+    """The concrete-printing robot of seed 004, section 8.3 (Figs. 11-12).
+
+    Arm: four solid steel rods (diameter 4 cm, 7870 kg/m^3, E = 200 GPa, G = 77 GPa),
+    OA (0.15 m, 4 elements), AB (0.30 m, 10), BC (0.15 m, 4), CD (0.40 m, 14); hinges at O
+    (global z, driven by M_O = 353 t sin(8 pi t) N m), at A (axis normal to the plane of OA
+    and AB, driven by M_A = -5000 cos(1.5 pi t) N m, a motor between OA and AB), at C
+    (normal to BC, CD); AB and BC rigidly joined at B; a roller holds the height of the
+    nozzle D. Pipe: PET tube (OD 4 cm, ID 3.5 cm, 1330 kg/m^3, E = 3.4 GPa, G = 1.2 GPa),
+    bodies OE, EB (0.20 m), BF, FD (0.28 m), 4 elements each, rigidly joined, hinged
+    about global z at O and attached at B and D with free orientation. Concrete
+    (2400 kg/m^3) flows from O to the nozzle at ``flow_speed`` sdot [m/s]. Gravity
+    ``gravity`` [m/s^2] along -z. All bodies use Craig-Bampton boundary modes.
+
+    The geometry (:data:`PRINTER_POINTS`) is an assumption: the seed's Fig. 11 is not
+    available. With CD vertical below C the arm is at a toggle: the moment at A lifts C
+    and is carried by the tension of CD and the roller, so the arm keeps its shape and
+    the drive at O swings it about z.
+
+    Returns a :class:`~pipeflex.multibody.MultibodySystem`; ``info["nozzle"]`` = (body, node).
+    """
+    from .multibody import MultibodyBuilder, flexible_body
+
+    sdot = _checks.finite("flow_speed", flow_speed)
+    g = _checks.non_negative("gravity", gravity)
+    rod = PipeSection.tube(outer_diameter=0.04, inner_diameter=0.0, E=200e9, G=77e9, density=7870.0,
+                           rotary_inertia=True)
+    rod = dataclasses.replace(rod, rotary_inertia=(rod.rotary_inertia[0], 0.0, 0.0))
+    tube = _tube(outer_diameter=0.04, inner_diameter=0.035, E=3.4e9, G=1.2e9, density=1330.0, fluid_density=2400.0)
+    P = {k: np.array(v) for k, v in PRINTER_POINTS.items()}
+    P["E"] = _apex(P["O"], P["B"], (-1.0, 0.0, 1.0), 0.20)
+    P["F"] = _apex(P["B"], P["D"], (1.0, 0.0, 0.0), 0.28)
+    b = MultibodyBuilder()
+    arm = {}
+    for name, n_el in (("OA", 4), ("AB", 10), ("BC", 4), ("CD", 14)):
+        p, q = P[name[0]], P[name[1]]
+        body = flexible_body(length=float(np.linalg.norm(q - p)), n_elements=n_el, section=rod)
+        arm[name] = b.add_body_between(body, p, q, up=(0.0, 1.0, 0.0) if name == "OA" else None, flow_factor=0.0)
+    pipe = {}
+    for name in ("OE", "EB", "BF", "FD"):
+        p, q = P[name[0]], P[name[1]]
+        body = flexible_body(length=float(np.linalg.norm(q - p)), n_elements=4, section=tube)
+        pipe[name] = b.add_body_between(body, p, q, up=(0.0, 1.0, 0.0))
+    z, y = (0.0, 0.0, 1.0), (0.0, 1.0, 0.0)
+    from .analysis.transient import Sine
+
+    b.hinge(arm["OA"], "start", z, torque=Sine(omega=8 * np.pi, envelope=([0.0, 10.0], [0.0, 3530.0])))
+    b.hinge(arm["AB"], "start", y, arm["OA"], "end", torque=Sine(omega=1.5 * np.pi, envelope=-5000.0,
+                                                                  phase=np.pi / 2))
+    b.rigid(arm["AB"], "end", arm["BC"], "start")
+    b.hinge(arm["CD"], "start", y, arm["BC"], "end")
+    b.roller(arm["CD"], "end", z)
+    b.hinge(pipe["OE"], "start", z)
+    for p, q in (("OE", "EB"), ("EB", "BF"), ("BF", "FD")):
+        b.rigid(pipe[p], "end", pipe[q], "start")
+    b.spherical(pipe["EB"], "end", arm["AB"], "end")
+    b.spherical(pipe["FD"], "end", arm["CD"], "end")
+    b.set_gravity((0.0, 0.0, -g))
+    system = b.build(mass_flow=tube.fluid_mass * sdot)
+    system.info.update(nozzle=(arm["CD"], 14), arm=arm, pipe=pipe, points=P, flow_speed=sdot,
+                       scene="seed 004, sec. 8.3")
+    return system

@@ -38,20 +38,23 @@ class MultibodyStatic:
     mass_flow: float
 
 
-def _kkt_solve(S, J, rhs_f, rhs_c):
-    """Solve [[S, J^T], [J, 0]] [dq; dlam] = [rhs_f; rhs_c] (constraint rows scaled)."""
-    n = S.shape[0]
-    scale = max(np.abs(S).max(), 1e-300)
-    A = np.block([[S, scale * J.T], [scale * J, np.zeros((J.shape[0], J.shape[0]))]])
-    try:
-        lu = sla.lu_factor(A, check_finite=True)
-    except (np.linalg.LinAlgError, ValueError) as e:
-        raise ConvergenceError(f"singular or non-finite iteration matrix ({e})") from None
-    if np.min(np.abs(np.diag(lu[0]))) <= 1e-14 * np.abs(np.diag(lu[0])).max():
-        raise ConvergenceError("singular iteration matrix: a coordinate is neither constrained nor stiff "
-                               "(a mechanism without stiffness?)")
-    x = sla.lu_solve(lu, np.concatenate([rhs_f, scale * rhs_c]))
-    return x[:n], x[n:] * scale
+def _null_space_step(S, J, F, c, cutoff=1e-9):
+    """Newton increment (dq, dlam) for S dq + J^T dlam = -F, J dq = -c by the null-space
+    method: dq = -J^+ c + T z with C_q T = 0 and (T^T S T) z = T^T (-F - S dq_c) solved by
+    a pseudo-inverse, so that the neutral directions of a mechanism (no stiffness, e.g.
+    a free hinge, or a toggle before its joints carry load) are left alone instead of
+    wandering with the round-off; dlam from J^T dlam = -F - S dq (least squares)."""
+    if not (np.all(np.isfinite(S)) and np.all(np.isfinite(F)) and np.all(np.isfinite(c))):
+        raise ConvergenceError("non-finite tangent or residual")
+    U, sv, Vt = np.linalg.svd(J) if J.shape[0] else (None, np.zeros(0), np.zeros((0, S.shape[0])))
+    rank = int(np.sum(sv > 1e-12 * (sv[0] if len(sv) else 1.0)))
+    dq = -(Vt[:rank].T @ ((U[:, :rank].T @ c) / sv[:rank])) if rank else np.zeros(S.shape[0])
+    T = Vt[rank:].T if J.shape[0] else np.eye(S.shape[0])
+    Sr = T.T @ S @ T
+    z = np.linalg.pinv(Sr, rcond=cutoff) @ (T.T @ (-F - S @ dq))
+    dq = dq + T @ z
+    dlam = np.linalg.lstsq(J.T, -F - S @ dq, rcond=None)[0] if J.shape[0] else np.zeros(0)
+    return dq, dlam
 
 
 def static_equilibrium(system: MultibodySystem, *, state: Optional[MultibodyState] = None,
@@ -60,7 +63,9 @@ def static_equilibrium(system: MultibodySystem, *, state: Optional[MultibodyStat
     """Static equilibrium (at rest) under the loads at time ``t``, gravity and the flow.
 
     Loads and gravity are applied in ``load_steps`` increments; Newton's method on the
-    coordinates and the Lagrange multipliers.
+    coordinates and the Lagrange multipliers, converged when the increment is below
+    ``tol`` times the largest body length (or stalls at round-off within 1e3 tol).
+    Neutral directions of a mechanism (a free hinge) keep their assembly value.
 
     Raises:
         ConvergenceError: with the load factor, iteration and residual where it failed.
@@ -76,16 +81,20 @@ def static_equilibrium(system: MultibodySystem, *, state: Optional[MultibodyStat
     total = 0
     for k in range(1, steps + 1):
         lf = k / steps
+        last = np.inf
         for it in range(max_iterations):
             F, c, J, S = system.evaluate(st, mass_flow=mdot, load_factor=lf, gravity_factor=lf)
-            dq, dlam = _kkt_solve(S, J, -F, -c)
+            dq, dlam = _null_space_step(S, J, F, c)
             system.increment(st, dq)
             st.lam += dlam
             total += 1
             if not np.all(np.isfinite(dq)):
                 raise ConvergenceError(f"static solve: non-finite increment at load factor {lf:.3g}, iteration {it}")
-            if np.abs(dq).max() <= tol * L and np.abs(c).max() <= 1e-6 * L:
+            size = np.abs(dq).max()
+            # converged, or stalled at round-off close to the tolerance
+            if np.abs(c).max() <= 1e-6 * L and (size <= tol * L or (size >= 0.5 * last and size <= 1e3 * tol * L)):
                 break
+            last = size
         else:
             raise ConvergenceError(f"static solve did not converge at load factor {lf:.3g} after {max_iterations} "
                                    f"iterations (last increment {np.abs(dq).max():.3g}, constraint violation "

@@ -83,6 +83,20 @@ class MultibodyBuilder:
         self._loads: List[_Load] = []
         self._gravity = np.zeros(3)
 
+    def add_body_between(self, body: FlexibleBody, start: Sequence[float], end: Sequence[float], *,
+                         up: Optional[Sequence[float]] = None, flow_factor: float = 1.0) -> int:
+        """Place a straight body from the point ``start`` to ``end`` [m] (its length must
+        match), local z towards ``up`` (default global z, or y for a vertical body)."""
+        from ..model import _triad
+
+        x0, x1 = _checks.vector3("start", start), _checks.vector3("end", end)
+        d = float(np.linalg.norm(x1 - x0))
+        if abs(d - body.length) > 1e-9 * body.length or not np.allclose(body.eta0, 0.0):
+            raise ValueError(f"the body (length {body.length} m, straight) does not fit between start and end "
+                             f"({d} m apart)")
+        R = _triad(x1 - x0, None if up is None else _checks.unit_vector("up", up))
+        return self.add_body(body, position=0.5 * (x0 + x1), rotation=R, flow_factor=flow_factor)
+
     def add_body(self, body: FlexibleBody, *, position: Sequence[float],
                  rotation: Optional[np.ndarray] = None, flow_factor: float = 1.0) -> int:
         """Place ``body`` with its frame origin (centre node) at ``position`` [m] and its
@@ -116,11 +130,15 @@ class MultibodyBuilder:
         """Rigid connection: no jump in position or orientation between two nodes."""
         self._add("rigid", self._ref("body_a", body_a, node_a), self._ref("body_b", body_b, node_b))
 
-    def hinge(self, body_a: int, node_a, axis: Sequence[float], body_b: Optional[int] = None, node_b=None) -> None:
+    def hinge(self, body_a: int, node_a, axis: Sequence[float], body_b: Optional[int] = None, node_b=None, *,
+              torque: Optional[TimeFunction] = None) -> None:
         """Revolute joint about the global ``axis`` (in the assembly configuration) between
-        two nodes, or to the ground when ``body_b`` is None."""
+        two nodes, or to the ground when ``body_b`` is None. ``torque`` [N m] (a time
+        function) drives the joint: +torque about the current axis on body a, -torque on
+        body b (a motor between them)."""
         b = None if body_b is None else self._ref("body_b", body_b, node_b)
-        self._add("hinge", self._ref("body_a", body_a, node_a), b, axis=_checks.unit_vector("axis", axis))
+        self._add("hinge", self._ref("body_a", body_a, node_a), b, axis=_checks.unit_vector("axis", axis),
+                  torque=None if torque is None else _time_function("torque", torque))
 
     def spherical(self, body_a: int, node_a, body_b: Optional[int] = None, node_b=None) -> None:
         """Coincident points, orientations free (to the ground when ``body_b`` is None)."""
@@ -192,7 +210,7 @@ class MultibodyBuilder:
             if kind == "hinge":
                 ax = extra["axis"]
                 perp = np.linalg.svd(ax.reshape(1, 3))[2][1:]
-                ref.update(axis_b=Ab.T @ ax, perp0=Aa.T @ perp[0], perp1=Aa.T @ perp[1])
+                ref.update(axis_b=Ab.T @ ax, perp0=Aa.T @ perp[0], perp1=Aa.T @ perp[1], torque=extra["torque"])
             elif kind == "roller":
                 ref["direction"] = extra["direction"]
             core.add_joint(JOINT_KINDS.index(kind), a[0], a[1], -1 if b is None else b[0], 0 if b is None else b[1],

@@ -43,6 +43,8 @@ struct MbJoint {
     std::array<Vec3d, 2> perp_a{};          // hinge: two normals to the axis in node a's frame
     Vec3d direction = Vec3d::UnitZ();       // roller: constrained global direction
     Vec3d p0 = Vec3d::Zero();               // roller: reference position
+    bool actuated = false;                  // hinge: driving torque about the axis,
+    TimeTable torque;                       //   +T on body a, -T on body b [N m]
     int rows() const;
 };
 
@@ -104,6 +106,8 @@ class MultibodySystemCore {
    private:
     void joint_equations(const MbState& s, const MbJoint& j, Eigen::Ref<VecX> c, Eigen::Ref<MatX> Ja,
                          Eigen::Ref<MatX> Jb) const;
+    // Generalised forces of a hinge's driving torque on bodies a and b (fb empty for the ground).
+    void actuator_forces(const MbState& s, const MbJoint& j, VecX& fa, VecX& fb) const;
     // w d(C_q^T lambda - Q_loads)/dq by central differences, body by body.
     void geometric_stiffness(const MbState& s, double load_factor, MatX& S, double w) const;
     void body_columns(MbState& st, int body, const std::function<void(int col, double h, double sign)>& fn) const;
