@@ -1,0 +1,237 @@
+"""Seed 004 studies (floating frame of reference): the cantilever's flutter (Figs. 4, 5,
+7), the curved pipe (Figs. 9, 10, Table 1), the concrete printer (Fig. 12) and the
+accuracy-versus-cost charts. Shared by ``pipeflex validate``, the notebooks, the
+benchmarks and the tests; every number is computed by the FFRF bodies of
+:mod:`pipeflex.multibody` or the seed-000 element.
+"""
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+from typing import Dict, Optional, Sequence
+
+import numpy as np
+
+from . import _checks, scenes
+from .analysis import critical_mass_flow, simulate, static_equilibrium, steady_rotation
+from .limit_cycle import cycle_metrics, limit_cycle_model
+from .multibody import simulate as mb_simulate, static_equilibrium as mb_static
+
+#: Seed 004, Table 1 (final angular velocity about y at the base [rad/s]).
+TABLE1_FFRF = dict(scenes.FFRF_CURVED_TABLE1)
+TABLE1_SPACAR = {0.9585e9: 5.218, 9.585e9: 9.010, 95.85e9: 9.882}
+#: Seed 004, sec. 8.1: the cantilever's flow speed [m/s] and tip force [N].
+CANTILEVER_FLOW_SPEED = 15.0
+CANTILEVER_TIP_FORCE = 1.5
+#: Seed 004, sec. 8.3: concrete flow speeds [m/s] and the simulated time [s].
+PRINTER_FLOW_SPEEDS = (0.0, 3.0, 6.0)
+PRINTER_DURATION = 0.34
+
+
+@dataclass
+class Trace:
+    """A time history: ``t`` [s], ``y`` (the output, unit in ``label``), wall time [s]."""
+
+    label: str
+    t: np.ndarray
+    y: np.ndarray
+    wall_time: float
+    size: int  # coordinates (FFRF: frame + elastic) or free DOF (seed-000 element)
+
+
+def ffrf_cantilever_tip(*, n_bodies: int, elements_per_body: int = 20, internal_modes: int = 0,
+                        t_end: float = 2.0, step: float = 1e-3, n_outputs: int = 401) -> Trace:
+    """Tip deflection [m] (along the 1.5 N tip force, global z) of the FFRF cantilever of
+    sec. 8.1: static deflection without flow, then sdot = 15 m/s (mdot = 30 kg/s) from
+    t = 0 on (a sudden start, as seed 000's Fig. 3)."""
+    s = scenes.ffrf_cantilever_pipe(n_bodies=n_bodies, elements_per_body=elements_per_body,
+                                    internal_modes=internal_modes, tip_force=CANTILEVER_TIP_FORCE)
+    sdot = CANTILEVER_FLOW_SPEED
+    mdot = s.bodies[0].section.fluid_mass * sdot
+    w = time.perf_counter()
+    st = mb_static(s, mass_flow=0.0).state
+    res = mb_simulate(s, t_end, step=step, state=st, mass_flow=mdot, n_outputs=n_outputs)
+    wall = time.perf_counter() - w
+    label = f"FFRF {n_bodies} bod{'ies' if n_bodies > 1 else 'y'}" + \
+            (f", {internal_modes} internal modes" if internal_modes else "")
+    return Trace(label, res.t, res.node_position(*s.info["tip"])[:, 2], wall, s.n_coordinates)
+
+
+def element_cantilever_tip(*, n_elements: int = 8, t_end: float = 2.0, step: float = 1e-3,
+                           n_outputs: int = 401) -> Trace:
+    """The same run with seed 000's element (the seed's Spacar reference, Fig. 4 grey):
+    tip deflection [m] along the tip force (global y in that model)."""
+    model, tip = limit_cycle_model(n_elements=n_elements, tip_force=CANTILEVER_TIP_FORCE,
+                                   mass_flow=2.0 * CANTILEVER_FLOW_SPEED)
+    w = time.perf_counter()
+    st = static_equilibrium(model, mass_flow=0.0).state
+    res = simulate(model, t_end, integrator="generalized_alpha", step=step, state=st, n_outputs=n_outputs,
+                   progress=False)
+    return Trace(f"seed-000 element, {n_elements} elements", res.t, res.x[:, tip, 1], time.perf_counter() - w,
+                 model.n_dofs)
+
+
+def cycle_summary(trace: Trace, *, after: float) -> Dict[str, float]:
+    """Amplitude [m] and period [s] of a tip trace after ``after`` [s]."""
+    amp, period, _ = cycle_metrics(trace.t, trace.y, after=after)
+    return {"amplitude": amp, "period": period}
+
+
+def critical_flow_speed(system) -> float:
+    """Critical flow speed sdot_cr [m/s] = mdot_cr / mu_f of a straight FFRF cantilever."""
+    return critical_mass_flow(system).mass_flow / system.bodies[0].section.fluid_mass
+
+
+def critical_flow_vs_state_size(*, bodies: Sequence[int] = (1, 2, 4, 8, 16, 32),
+                                modes: Sequence[int] = (0, 2, 4, 8, 12, 16, 24),
+                                elements_per_body: int = 50) -> Dict[str, np.ndarray]:
+    """Seed 004, Fig. 7: critical mass flow [kg/s] against the size of the first-order
+    state vector 2 (12 + n_int) n_bodies, refining bodies (no internal modes) or the
+    internal modes of one body (``elements_per_body`` elements: 51 nodes as the seed)."""
+    out = {}
+    for kind, values in (("bodies", bodies), ("modes", modes)):
+        sizes, flows = [], []
+        for v in values:
+            s = scenes.ffrf_cantilever_pipe(n_bodies=v if kind == "bodies" else 1,
+                                            internal_modes=0 if kind == "bodies" else v,
+                                            elements_per_body=elements_per_body)
+            sizes.append(2 * s.n_dofs)
+            flows.append(critical_mass_flow(s).mass_flow)
+        out[kind] = np.array(values)
+        out[kind + "_size"] = np.array(sizes)
+        out[kind + "_flow"] = np.array(flows)
+    return out
+
+
+def curved_pipe_run(E: float, *, n_bodies: int = 8, elements_per_body: int = 20, internal_modes: int = 0,
+                    t_end: float = 4.0, step: float = 1e-3, n_outputs: int = 401, rho_inf: float = 0.8):
+    """Seed 004, sec. 8.2: the semicircular pipe from rest, flow 10 m/s from t = 0.
+    Returns (system, result, base angular velocity about y [rad/s] per output)."""
+    s = scenes.ffrf_curved_pipe(E=E, n_bodies=n_bodies, elements_per_body=elements_per_body,
+                                internal_modes=internal_modes)
+    res = mb_simulate(s, t_end, step=step, n_outputs=n_outputs, rho_inf=rho_inf)
+    return s, res, res.node_angular_velocity(*s.info["base"])[:, 1]
+
+
+def final_angular_velocity(t: np.ndarray, omega: np.ndarray, *, window: float = 0.5) -> float:
+    """|omega| [rad/s] averaged over the last ``window`` [s] (the oscillations about the
+    steady rotation average out)."""
+    sel = t >= t[-1] - window
+    return float(np.abs(np.mean(omega[sel])))
+
+
+def element_curved_pipe(E: float, *, n_elements: int = 8) -> float:
+    """Steady angular velocity [rad/s] of the same tube (seed-004 section, finite EA) built
+    from seed 000's curved elements, by the direct steady-rotation solver."""
+    import dataclasses
+
+    from .model import ModelBuilder
+
+    sec = scenes._tube(outer_diameter=0.0368, inner_diameter=0.03568, E=E, G=E / 2.6, density=7870.0,
+                       fluid_density=1000.0)
+    b = ModelBuilder()
+    n0 = b.add_node((0.0, 0.0, 0.0))
+    b.add_arc(n0, center=(0.5, 0.0, 0.0), angle=-np.pi, normal=(0.0, 0.0, 1.0), n_elements=n_elements,
+              section=dataclasses.replace(sec, rotary_inertia=(sec.rotary_inertia[0], 0.0, 0.0)))
+    b.hinge(n0, (0.0, 0.0, 1.0))
+    return float(steady_rotation(b.build(mass_flow=sec.fluid_mass * 10.0)).omega)
+
+
+def printer_run(flow_speed: float, *, step: float = 2e-4, t_end: float = PRINTER_DURATION, n_outputs: int = 69):
+    """Seed 004, sec. 8.3: static equilibrium under gravity and M_A(0) = -5000 N m (with the
+    flow running), then the driven motion. Returns (system, result, nozzle path (n, 3) [m])."""
+    s = scenes.concrete_printer(flow_speed=flow_speed)
+    st = mb_static(s, load_steps=4).state
+    res = mb_simulate(s, t_end, step=step, state=st, n_outputs=n_outputs, rho_inf=0.8)
+    return s, res, res.node_position(*s.info["nozzle"])
+
+
+def nozzle_shift(paths: Dict[float, np.ndarray]) -> Dict[float, float]:
+    """Largest distance [m] between the nozzle path with flow and the one without."""
+    ref = paths[0.0]
+    return {v: float(np.linalg.norm(p - ref, axis=1).max()) for v, p in paths.items() if v != 0.0}
+
+
+# -- figures ---------------------------------------------------------------------------
+
+def _axes(title, xlabel, ylabel, figsize=(7, 4)):
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(figsize=figsize)
+    ax.set_title(title, fontsize=10)
+    ax.set_xlabel(xlabel)
+    ax.set_ylabel(ylabel)
+    ax.grid(lw=0.3)
+    return fig, ax
+
+
+def tip_figure(traces: Sequence[Trace], reference: Optional[Trace], title: str):
+    """Figs. 4, 5: tip deflection against time; the seed-000 reference in grey."""
+    fig, ax = _axes(title, "time [s]", "tip deflection [m]")
+    if reference is not None:
+        ax.plot(reference.t, reference.y, color="0.6", lw=2.5, label=reference.label)
+    for tr in traces:
+        ax.plot(tr.t, tr.y, lw=1, label=tr.label)
+    ax.legend(fontsize=8)
+    return fig
+
+
+def fig7_figure(data: Dict[str, np.ndarray], table2: Dict[int, float]):
+    """Fig. 7: critical mass flow against the state size; filled: bodies, open: modes."""
+    fig, ax = _axes("seed 004, Fig. 7: critical flow vs state size", "size of the state vector",
+                    "critical mass flow [kg/s]")
+    ax.semilogx(data["bodies_size"], data["bodies_flow"], "ko-", label="n bodies, boundary modes")
+    ax.semilogx(data["modes_size"], data["modes_flow"], "ko--", mfc="none", label="1 body, internal modes")
+    n = np.array(sorted(table2))
+    ax.semilogx(2 * 6 * n, [table2[k] for k in n], "x", color="tab:red", label="seed 000 Table 2 (n elements)")
+    ax.legend(fontsize=8)
+    return fig
+
+
+def curved_figures(runs: Dict[float, tuple]):
+    """Figs. 9 (base angular velocity) and 10 (final shapes) from :func:`curved_pipe_run`."""
+    import matplotlib.pyplot as plt
+
+    fig9, axes = plt.subplots(1, len(runs), figsize=(11, 3.5), sharey=True)
+    fig10, ax10 = _axes("seed 004, Fig. 10: deformed shapes at the last step", "x [m]", "z [m]", (6, 4.5))
+    for ax, (E, (s, res, w)) in zip(np.atleast_1d(axes), runs.items()):
+        ax.plot(res.t, np.abs(w), "k", lw=1, label="FFRF")
+        ax.axhline(TABLE1_SPACAR[E], color="0.6", lw=2, label="Spacar (Table 1)")
+        ax.set_title(f"E = {E / 1e9:g} GPa", fontsize=10)
+        ax.set_xlabel("time [s]")
+        ax.grid(lw=0.3)
+        pts = np.vstack(s.centre_line(res.state(len(res.t) - 1)))
+        ax10.plot(pts[:, 0], pts[:, 2], ".-", ms=2, label=f"E = {E / 1e9:g} GPa")
+    np.atleast_1d(axes)[0].set_ylabel("|angular velocity| at the base [rad/s]")
+    np.atleast_1d(axes)[0].legend(fontsize=8)
+    fig9.suptitle("seed 004, Fig. 9: angular velocity about y at the base", fontsize=10)
+    fig9.tight_layout()
+    s0 = next(iter(runs.values()))[0]
+    pts0 = np.vstack(s0.centre_line(s0.initial_state()))
+    ax10.plot(pts0[:, 0], pts0[:, 2], ":", color="0.5", label="initial")
+    ax10.set_aspect("equal")
+    ax10.legend(fontsize=8)
+    return fig9, fig10
+
+
+def printer_figure(paths: Dict[float, np.ndarray]):
+    """Fig. 12: nozzle trajectories in the x-y plane for the flow speeds."""
+    fig, ax = _axes("seed 004, Fig. 12: nozzle D in the x-y plane, 0-0.34 s", "x [m]", "y [m]", (6, 4.5))
+    for v, p in paths.items():
+        ax.plot(p[:, 0], p[:, 1], label=f"{v:g} m/s")
+    ax.legend(title="concrete flow", fontsize=8)
+    return fig
+
+
+def timed(fn, *args, **kwargs):
+    """(result, wall time [s]) of one call."""
+    w = time.perf_counter()
+    out = fn(*args, **kwargs)
+    return out, time.perf_counter() - w
+
+
+def cheapest(costs: Sequence[float], errors: Sequence[float], labels: Sequence[str], *, tolerance: float):
+    """The label of the cheapest model whose error is within ``tolerance`` (None if none)."""
+    tol = _checks.positive("tolerance", tolerance)
+    ok = [(c, lab) for c, e, lab in zip(costs, errors, labels) if e <= tol]
+    return min(ok)[1] if ok else None

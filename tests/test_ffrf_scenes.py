@@ -1,0 +1,109 @@
+"""Seed 004 scenes: the FFRF cantilever, curved pipe and concrete printer."""
+import numpy as np
+import pytest
+
+import pipeflex as pf
+from pipeflex import ffrf_studies as fs
+from pipeflex import scenes, validate
+from pipeflex.multibody import linearize, simulate, static_equilibrium  # noqa: F401
+
+from conftest import FAST
+
+
+@pytest.mark.parametrize("n_bodies", [1, 2])
+def test_n_bodies_reproduce_table2_with_2n_elements(n_bodies):
+    """Seed 000, Table 2 (2 and 4 elements: 24.962732, 25.054732 kg/s) from 1 and 2 FFRF
+    bodies with boundary modes: a body with its centre node fixed is two Hermite elements."""
+    m = pf.critical_mass_flow(scenes.ffrf_cantilever_pipe(n_bodies=n_bodies, elements_per_body=50)).mass_flow
+    assert m == pytest.approx(validate.TABLE2[2 * n_bodies], rel=validate.TOL_TABLE2)
+
+
+def test_internal_modes_converge_faster_per_state_size():
+    """Seed 004, Fig. 7: one body with internal modes approaches the converged critical
+    flow with a smaller state vector than more bodies without."""
+    d = fs.critical_flow_vs_state_size(bodies=(1, 2, 4), modes=(0, 8, 16))
+    ref = validate.TABLE2_EXTRAPOLATED
+    err_b = np.abs(d["bodies_flow"] - ref)
+    err_m = np.abs(d["modes_flow"] - ref)
+    assert err_b[2] < err_b[1] and err_m[-1] < err_m[0]  # (Table 2 is not monotone from 2 to 4 elements)
+    # 16 internal modes (state 56) beat 2 bodies (state 48) and match 4 bodies (state 96)
+    assert d["modes_size"][-1] < d["bodies_size"][-1]
+    assert err_m[-1] < err_b[1] and err_m[-1] < 1.5 * err_b[-1]
+
+
+def test_curved_pipe_is_assembled_on_the_semicircle():
+    s = scenes.ffrf_curved_pipe(E=9.585e9)
+    st = s.initial_state()
+    c, _ = s.constraints(st)
+    assert np.abs(c).max() < 1e-12
+    pts = np.vstack(s.centre_line(st))
+    r = np.linalg.norm(pts[:, [0, 2]] - np.array([0.5, 0.0]), axis=1)
+    assert np.abs(pts[:, 1]).max() < 1e-12
+    # body end nodes exactly on the arc; interior nodes follow the cubic constraint modes
+    ends = np.vstack([p[[0, -1]] for p in s.centre_line(st)])
+    assert np.linalg.norm(ends[:, [0, 2]] - np.array([0.5, 0.0]), axis=1) == pytest.approx(0.5, abs=1e-12)
+    assert np.abs(r - 0.5).max() < 2e-4
+
+
+@pytest.mark.parametrize("E", sorted(fs.TABLE1_FFRF))
+def test_curved_pipe_table1(E):
+    """Seed 004, Table 1, FFRF column (5.320, 9.117, 9.954 rad/s): within 1%."""
+    _, res, w = fs.curved_pipe_run(E, t_end=3.0 if FAST else 4.0, n_outputs=301)
+    assert fs.final_angular_velocity(res.t, w) == pytest.approx(fs.TABLE1_FFRF[E], rel=validate.TOL_SEED004_TABLE1)
+    assert res.drift.max() < 1e-3
+
+
+def test_energy_is_conserved_without_flow():
+    """A deflected FFRF cantilever released without flow (rho_inf = 1: no numerical damping)
+    keeps its energy; the position constraints hold and their velocity drift is small."""
+    loaded = scenes.ffrf_cantilever_pipe(n_bodies=2, tip_force=1.5)
+    free = scenes.ffrf_cantilever_pipe(n_bodies=2)
+    st = static_equilibrium(loaded, mass_flow=0.0).state
+    res = simulate(free, 1.0, step=5e-4, state=st, mass_flow=0.0, rho_inf=1.0, n_outputs=11)
+    E = np.array([free.energy(res.state(k)) for k in range(len(res.t))])
+    assert np.abs(E - E[0]).max() < 1e-4 * E[0]
+    assert res.drift.max() < 1e-3 * np.abs(res.v).max()
+
+
+def test_one_body_flutters_without_bound():
+    """Where the method fails: a single body (clamped, frame at its centre) is linear in its
+    elastic coordinates, so above the critical flow its tip grows exponentially instead of
+    settling into the limit cycle: it starts as the linearised flutter predicts (an
+    oscillation growing at the unstable eigenvalue's rate) and ends far away."""
+    tr = fs.ffrf_cantilever_tip(n_bodies=1, t_end=3.0, n_outputs=601)
+    s = scenes.ffrf_cantilever_pipe(n_bodies=1, tip_force=1.5)
+    lam = pf.eigenvalues(linearize(s, static_equilibrium(s, mass_flow=0.0).state, mass_flow=30.0)).values
+    crossing = lam[lam.real > 0]
+    assert len(crossing) and np.all(np.abs(crossing.imag) > 1.0)  # flutter, not divergence
+    assert np.abs(tr.y).max() > 5.0  # metres: no limit cycle
+
+
+def test_two_bodies_reach_the_limit_cycle():
+    """Seed 004, Fig. 4: with more than one body the flutter saturates (0.38 m with 2 bodies,
+    0.42 m with 8 bodies and with the seed-000 element)."""
+    tr = fs.ffrf_cantilever_tip(n_bodies=2, t_end=3.0, n_outputs=601)
+    c = fs.cycle_summary(tr, after=2.0)
+    assert 0.3 < c["amplitude"] < 0.5
+    assert c["period"] == pytest.approx(0.44, rel=0.03)
+
+
+def test_printer_flow_moves_the_nozzle():
+    """Seed 004, sec. 8.3: the nozzle stays at the roller's height; the concrete flow
+    changes its path, more at 6 m/s than at 3 m/s."""
+    step = 5e-4 if FAST else 2e-4
+    paths = {v: fs.printer_run(v, step=step)[2] for v in fs.PRINTER_FLOW_SPEEDS}
+    for p in paths.values():
+        assert np.abs(p[:, 2] - p[0, 2]).max() < 1e-8
+        assert np.ptp(p[:, 1]) > 0.05  # the arm swings about z
+    shift = fs.nozzle_shift(paths)
+    assert 0.0 < shift[3.0] < shift[6.0] < 0.05
+
+
+def test_printer_statics():
+    s = scenes.concrete_printer(flow_speed=6.0)
+    st = static_equilibrium(s, load_steps=4)
+    assert st.residual < 1e-8 * 5000
+    c, _ = s.constraints(st.state)
+    assert np.abs(c).max() < 1e-10
+    # the moment at A is carried by the tension of CD: its hinge and the roller take it
+    assert np.abs(st.state.lam).max() > 1e3
