@@ -176,3 +176,20 @@ def test_bad_input():
     b.add_body(body, position=(0.5, 0, 0))
     with pytest.raises(ValueError, match="no joints"):
         b.build()
+
+
+def test_clear_errors_for_misuse():
+    s = scenes.ffrf_cantilever_pipe(n_bodies=1)
+    with pytest.raises(ValueError, match="pipeflex.multibody.simulate"):
+        pf.simulate(s, 1.0)
+    with pytest.raises(ValueError, match="flow_factor"):
+        b = MultibodyBuilder()
+        j = b.add_body(flexible_body(length=1.0, n_elements=2, section=pf.PipeSection(EI=1.0, pipe_mass=1.0)),
+                       position=(0.5, 0, 0))
+        b.fix(j)
+        b.build(mass_flow=1.0)
+    from pipeflex.multibody import simulate
+    with pytest.raises(ValueError, match="rho_inf"):
+        simulate(s, 1.0, step=1e-3, rho_inf=2.0)
+    with pytest.raises(ValueError, match="step"):
+        simulate(s, 1.0, step=0.0)

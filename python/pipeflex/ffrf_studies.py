@@ -114,7 +114,7 @@ def curved_pipe_run(E: float, *, n_bodies: int = 8, elements_per_body: int = 20,
 
 
 def final_angular_velocity(t: np.ndarray, omega: np.ndarray, *, window: float = 0.5) -> float:
-    """|omega| [rad/s] averaged over the last ``window`` [s] (the oscillations about the
+    """abs(omega) [rad/s] averaged over the last ``window`` [s] (the oscillations about the
     steady rotation average out)."""
     sel = t >= t[-1] - window
     return float(np.abs(np.mean(omega[sel])))

@@ -206,7 +206,8 @@ def format_rows(rows: List[Row]) -> str:
 
 def write_figures(out: Path) -> List[Path]:
     """The seeds' figures reproduced so far: convergence of the critical flows (Tables 1,
-    2), the sprinkler's spin-up (Fig. 5) and the Coriolis meter (Figs. 7, 8)."""
+    2), the sprinkler's spin-up (Fig. 5), the Coriolis meter (Figs. 7, 8), seed 002's
+    Table 3 and Fig. 6, seed 004's Figs. 4, 7, 9, 10, 12."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -247,7 +248,25 @@ def write_figures(out: Path) -> List[Path]:
     save(coriolis.time_lag_figure(water, kerosene, labels=["water", "kerosene"]), "coriolis_fig8.png")
     save(_seed002_table3_figure(), "seed002_table3.png")
     save(_seed002_spin_up_figure(), "seed002_fig6.png")
+    for name, fig in _seed004_figures():
+        save(fig, name)
     return paths
+
+
+def _seed004_figures():
+    """Seed 004: Figs. 4, 7, 9, 10 and 12 (FFRF bodies; seed-000 element in grey)."""
+    from . import ffrf_studies as fs
+
+    traces = [fs.ffrf_cantilever_tip(n_bodies=n, t_end=2.0) for n in (2, 4, 8)]
+    fig4 = fs.tip_figure(traces, fs.element_cantilever_tip(n_elements=8, t_end=2.0),
+                         "seed 004, Fig. 4: tip deflection, flow 15 m/s (1 body diverges: see docs)")
+    yield "seed004_fig4.png", fig4
+    yield "seed004_fig7.png", fs.fig7_figure(fs.critical_flow_vs_state_size(bodies=(1, 2, 4, 8, 16, 32),
+                                                                            modes=(0, 4, 8, 12, 16, 24)), TABLE2)
+    fig9, fig10 = fs.curved_figures({E: fs.curved_pipe_run(E, t_end=4.0) for E in fs.TABLE1_FFRF})
+    yield "seed004_fig9.png", fig9
+    yield "seed004_fig10.png", fig10
+    yield "seed004_fig12.png", fs.printer_figure({v: fs.printer_run(v)[2] for v in fs.PRINTER_FLOW_SPEEDS})
 
 
 def _seed002_table3_figure():

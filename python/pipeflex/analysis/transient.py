@@ -164,6 +164,10 @@ def simulate(model, t_end: float, *, integrator: str = "ida", state=None, t_star
             mass matrix (coordinates without inertia).
         ConvergenceError: a failed step or a diverging motion, with the time and step.
     """
+    from ..multibody import MultibodySystem
+
+    if isinstance(model, MultibodySystem):
+        raise ValueError("a MultibodySystem (floating-frame bodies) is integrated by pipeflex.multibody.simulate")
     hub = getattr(model, "hub", None)
     if hub is not None and hub.nodes and hub.nodes[0] in model.ancf_nodes and np.any(model.gravity[:2] != 0):
         raise ValueError("gravity in the x-y plane: an ANCF model on a hub is integrated in the co-rotating frame, "

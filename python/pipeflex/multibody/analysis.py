@@ -6,7 +6,7 @@ Bruls (2007) / Bruls, Cardona & Arnold (2012): rotations are updated as
 R <- exp(h Dq~) R, so there is no rotation singularity and no normalisation constraint.
 Index 3 rather than the seed's index-1 form (eq. 70, accelerations of the constraints)
 because the position constraints then hold to the Newton tolerance at every step with
-no drift stabilisation; the velocity-level drift max |C_q v| (not enforced) is
+no drift stabilisation; the velocity-level drift ``max abs(C_q v)`` (not enforced) is
 reported. Constraint rows are scaled by the iteration matrix's size. Newton is
 modified: the iteration matrix is kept over steps and re-evaluated when a step needs
 more than ``refresh`` iterations.
@@ -145,7 +145,7 @@ class MultibodyResult:
     Attributes:
         t: (n_out,) output times [s]; r: (n_out, n_bodies, 3), R: (n_out, n_bodies, 3, 3)
         frames; eta: (n_out, N) elastic coordinates (frame entries zero); v: (n_out, N)
-        velocities; drift: (n_out,) max |C_q v| [m/s] (velocity-level constraint drift;
+        velocities; drift: (n_out,) ``max abs(C_q v)`` [m/s] (velocity-level constraint drift;
         positions are enforced); stats: steps, Newton iterations, matrix factorisations,
         wall time [s].
     """

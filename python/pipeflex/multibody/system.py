@@ -13,7 +13,7 @@ model's mass flow mdot [kg/s]). Coordinates are stacked body after body.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Callable, List, Optional, Sequence, Tuple, Union
+from typing import List, Optional, Sequence, Tuple, Union
 
 import numpy as np
 
