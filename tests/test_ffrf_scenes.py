@@ -107,3 +107,20 @@ def test_printer_statics():
     assert np.abs(c).max() < 1e-10
     # the moment at A is carried by the tension of CD: its hinge and the roller take it
     assert np.abs(st.state.lam).max() > 1e3
+
+
+def test_critical_flow_converges_at_fourth_order_in_bodies():
+    """Errors against seed 000's extrapolated 25.005520 kg/s fall as (size)^-4, as for
+    Hermite elements (2, 4, 8 bodies = 4, 8, 16 elements)."""
+    d = fs.critical_flow_vs_state_size(bodies=(2, 4, 8), modes=())
+    err = np.abs(d["bodies_flow"] - validate.TABLE2_EXTRAPOLATED)
+    order = np.log2(err[:-1] / err[1:])
+    assert np.all(order > 3.5)
+
+
+def test_unreduced_body_equals_the_element_mesh():
+    """One body without reduction (every node but the centre) is the plain FE mesh:
+    its critical flow equals seed 000's element with as many elements."""
+    s = scenes.ffrf_cantilever_pipe(n_bodies=1, elements_per_body=6, reduction="full")
+    ref = pf.critical_mass_flow(scenes.cantilever_pipe(n_elements=6)).mass_flow
+    assert pf.critical_mass_flow(s).mass_flow == pytest.approx(ref, rel=1e-9)
