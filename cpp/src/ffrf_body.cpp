@@ -7,12 +7,6 @@ namespace pipeflex {
 
 namespace {
 
-Mat3d hat(const Vec3d& w) {
-    Mat3d r;
-    r << 0.0, -w[2], w[1], w[2], 0.0, -w[0], -w[1], w[0], 0.0;
-    return r;
-}
-
 // Rows of N (3 x 12) and of its first and second derivatives in s at xi = s / l.
 void shape(double l, double xi, Eigen::Matrix<double, 3, 12>& N, Eigen::Matrix<double, 3, 12>& dN,
            Eigen::Matrix<double, 3, 12>& ddN) {

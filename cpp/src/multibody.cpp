@@ -13,12 +13,6 @@ namespace pipeflex {
 
 namespace {
 
-Mat3d hat(const Vec3d& w) {
-    Mat3d r;
-    r << 0.0, -w[2], w[1], w[2], 0.0, -w[0], -w[1], w[0], 0.0;
-    return r;
-}
-
 // I + c1 W + c2 W^2 with W = phi~: exp (c1 = sin t / t, c2 = (1 - cos t)/t^2) and the
 // left Jacobian (c1 = (1 - cos t)/t^2, c2 = (t - sin t)/t^3).
 Mat3d rodrigues(const Vec3d& phi, bool jacobian) {
