@@ -124,3 +124,12 @@ def test_unreduced_body_equals_the_element_mesh():
     s = scenes.ffrf_cantilever_pipe(n_bodies=1, elements_per_body=6, reduction="full")
     ref = pf.critical_mass_flow(scenes.cantilever_pipe(n_elements=6)).mass_flow
     assert pf.critical_mass_flow(s).mass_flow == pytest.approx(ref, rel=1e-9)
+
+
+def test_second_branch_crosses_at_the_critical_speed():
+    """Seed 004, Fig. 6: the Hopf bifurcation is the second bending branch crossing the
+    imaginary axis, at sdot_cr = 12.50 m/s (25.0055 kg/s / 2 kg/m)."""
+    c = fs.eigenvalue_curves([0.0, 6.0, 12.0, 13.0])
+    assert np.all(c[:, 0].real <= 1e-9) and np.all(c[:, 2:].real <= 1e-9)
+    assert c[2, 1].real < 0 < c[3, 1].real
+    assert c[0, :2].imag == pytest.approx([3.516, 22.035], abs=1e-3)  # cantilever: 1.875^2, 4.694^2 sqrt(EI/m)

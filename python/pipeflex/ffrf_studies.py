@@ -13,6 +13,7 @@ from typing import Dict, Optional, Sequence
 import numpy as np
 
 from . import _checks, scenes
+from .sections import PipeSection
 from .analysis import critical_mass_flow, simulate, static_equilibrium, steady_rotation
 from .limit_cycle import cycle_metrics, limit_cycle_model
 from .multibody import simulate as mb_simulate, static_equilibrium as mb_static
@@ -80,6 +81,57 @@ def cycle_summary(trace: Trace, *, after: float) -> Dict[str, float]:
 def critical_flow_speed(system) -> float:
     """Critical flow speed sdot_cr [m/s] = mdot_cr / mu_f of a straight FFRF cantilever."""
     return critical_mass_flow(system).mass_flow / system.bodies[0].section.fluid_mass
+
+
+def eigenvalue_curves(flow_speeds: Sequence[float], *, n_bodies: int = 8, n_modes: int = 4) -> np.ndarray:
+    """Seed 004, Fig. 6: the ``n_modes`` lowest bending eigenvalues lambda [1/s] (one of each
+    pair of equal bending planes, Im lambda >= 0) of the straight FFRF cantilever
+    linearised at rest, per flow speed sdot [m/s], followed branch by branch (nearest
+    eigenvalue to the previous speed's). Axial and torsional stiffness are raised 1e6-fold
+    so that only bending modes remain in range (they do not couple with bending in the
+    straight pipe). Shape (len(flow_speeds), n_modes), complex."""
+    from .analysis import eigenvalues
+    from .multibody import linearize
+
+    sec = PipeSection(EI=10.0, pipe_mass=8.0, fluid_mass=2.0, EA=1e6 * 2.5e4, GJ=1e6 * 7.69,
+                      rotary_inertia=(6.4e-3, 0.0, 0.0))
+    system = scenes.ffrf_cantilever_pipe(n_bodies=n_bodies, section=sec)
+    out, prev = [], None
+    for v in flow_speeds:
+        lam = eigenvalues(linearize(system, mass_flow=2.0 * _checks.finite("flow speed", v))).values
+        lam = lam[lam.imag >= -1e-9 * np.abs(lam).max()]
+        if prev is None:
+            lam = lam[np.argsort(lam.imag)]
+            keep = [lam[0]]
+            for x in lam[1:]:
+                if abs(x - keep[-1]) > 1e-6 * abs(x):
+                    keep.append(x)
+            prev = np.array(keep[:n_modes])
+        else:
+            prev = np.array([lam[np.argmin(np.abs(lam - p))] for p in prev])
+        out.append(prev)
+    return np.array(out)
+
+
+def eigenvalue_figure(flow_speeds, curves, critical_speed: Optional[float] = None):
+    """Fig. 6: Im and Re of the lowest eigenvalues against the flow speed."""
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(1, 2, figsize=(10, 3.8))
+    for k in range(curves.shape[1]):
+        ax[0].plot(flow_speeds, curves[:, k].imag, label=f"mode {k + 1}")
+        ax[1].plot(flow_speeds, curves[:, k].real, label=f"mode {k + 1}")
+    for a, lab in zip(ax, ("Im lambda [rad/s]", "Re lambda [1/s]")):
+        a.set_xlabel("flow speed [m/s]")
+        a.set_ylabel(lab)
+        a.grid(lw=0.3)
+        if critical_speed is not None:
+            a.axvline(critical_speed, color="0.5", ls=":", lw=1)
+    ax[1].axhline(0.0, color="k", lw=0.5)
+    ax[0].legend(fontsize=8)
+    fig.suptitle("seed 004, Fig. 6: eigenvalues of the cantilever against the flow speed", fontsize=10)
+    fig.tight_layout()
+    return fig
 
 
 def critical_flow_vs_state_size(*, bodies: Sequence[int] = (1, 2, 4, 8, 16, 32),

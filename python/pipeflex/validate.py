@@ -207,7 +207,7 @@ def format_rows(rows: List[Row]) -> str:
 def write_figures(out: Path) -> List[Path]:
     """The seeds' figures reproduced so far: convergence of the critical flows (Tables 1,
     2), the sprinkler's spin-up (Fig. 5), the Coriolis meter (Figs. 7, 8), seed 002's
-    Table 3 and Fig. 6, seed 004's Figs. 4, 7, 9, 10, 12."""
+    Table 3 and Fig. 6, seed 004's Figs. 4, 6, 7, 9, 10, 12."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -254,13 +254,19 @@ def write_figures(out: Path) -> List[Path]:
 
 
 def _seed004_figures():
-    """Seed 004: Figs. 4, 7, 9, 10 and 12 (FFRF bodies; seed-000 element in grey)."""
+    """Seed 004: Figs. 4, 6, 7, 9, 10 and 12 (FFRF bodies; seed-000 element in grey)."""
+    import numpy as np
+
     from . import ffrf_studies as fs
 
     traces = [fs.ffrf_cantilever_tip(n_bodies=n, t_end=2.0) for n in (2, 4, 8)]
     fig4 = fs.tip_figure(traces, fs.element_cantilever_tip(n_elements=8, t_end=2.0),
                          "seed 004, Fig. 4: tip deflection, flow 15 m/s (1 body diverges: see docs)")
     yield "seed004_fig4.png", fig4
+    s8 = scenes.ffrf_cantilever_pipe(n_bodies=8)
+    speeds = np.linspace(0.0, 15.0, 61)
+    yield "seed004_fig6.png", fs.eigenvalue_figure(speeds, fs.eigenvalue_curves(speeds),
+                                                   fs.critical_flow_speed(s8))
     yield "seed004_fig7.png", fs.fig7_figure(fs.critical_flow_vs_state_size(bodies=(1, 2, 4, 8, 16, 32),
                                                                             modes=(0, 4, 8, 12, 16, 24)), TABLE2)
     fig9, fig10 = fs.curved_figures({E: fs.curved_pipe_run(E, t_end=4.0) for E in fs.TABLE1_FFRF})
