@@ -170,18 +170,17 @@ void MultibodySystemCore::actuator_forces(const MbState& s, const MbJoint& j, Ve
 void MultibodySystemCore::body_columns(MbState& st, int body,
                                       const std::function<void(int col, double h, double sign)>& fn) const {
     const int o = offsets_[body], n = offsets_[body + 1] - o;
-    for (int col = 0; col < n; ++col) {
-        const double h = col < 3 ? 1e-7 * length_scale_ : 1e-7;
-        const Vec3d r0 = st.r[body];
+    // Generalised forces of joints, loads and torques do not depend on the frame
+    // position r (only on R and eta): start at the rotation columns.
+    for (int col = 3; col < n; ++col) {
+        const double h = 1e-7;
         const Mat3d R0 = st.R[body];
         const double e0 = st.eta(o + col);
         for (double sign : {1.0, -1.0}) {
             const double d = sign * h;
-            if (col < 3) st.r[body][col] += d;
-            else if (col < 6) st.R[body] = rodrigues(d * Vec3d::Unit(col - 3), false) * R0;
+            if (col < 6) st.R[body] = rodrigues(d * Vec3d::Unit(col - 3), false) * R0;
             else st.eta(o + col) += d;
             fn(col, h, sign);
-            st.r[body] = r0;
             st.R[body] = R0;
             st.eta(o + col) = e0;
         }
@@ -357,10 +356,11 @@ MbOutput MultibodySystemCore::integrate(MbState& s, const TimeTable& mass_flow, 
         s.t = t;
         increment(s, dq);
         const double mdot = mass_flow.at(t), mrate = mass_flow.rate(t);
-        bool converged = false;
+        bool converged = false, fresh = false, stale_stall = false;
         double last = INFINITY, size = 0.0;
         for (int it = 0; it < opt.max_newton; ++it) {
-            const bool refresh = !have_lu || it >= opt.refresh;
+            const bool refresh = !have_lu || it >= opt.refresh || stale_stall;
+            fresh = fresh || refresh;
             evaluate(s, mdot, mrate, 1.0, 1.0, 1.0, gp, bp, refresh, ev);
             if (refresh) {
                 scale = ev.S.cwiseAbs().maxCoeff();
@@ -388,10 +388,15 @@ MbOutput MultibodySystemCore::integrate(MbState& s, const TimeTable& mass_flow, 
             s.lam += scale * x.tail(nc_);
             ++out.iterations;
             size = dx.cwiseAbs().maxCoeff();
-            if (size <= opt.tol * L || (size >= 0.5 * last && size <= 100 * opt.tol * L)) {
+            // Converged; or stalled at round-off near the tolerance with a matrix evaluated
+            // in this step. A stall with an older matrix is slow modified-Newton
+            // convergence: re-evaluate the matrix instead of accepting.
+            const bool stalled = size >= 0.5 * last && size <= 10 * opt.tol * L;
+            if (size <= opt.tol * L || (stalled && fresh)) {
                 converged = true;
                 break;
             }
+            stale_stall = size >= 0.5 * last;
             last = size;
         }
         if (!converged) {

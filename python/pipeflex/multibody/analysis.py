@@ -186,7 +186,7 @@ class MultibodyResult:
 
 def simulate(system: MultibodySystem, t_end: float, *, step: float, state: Optional[MultibodyState] = None,
              mass_flow: Optional[TimeFunction] = None, n_outputs: int = 201, rho_inf: float = 0.9,
-             tol: float = 1e-7, max_iterations: int = 12, refresh: int = 3) -> MultibodyResult:
+             tol: float = 1e-8, max_iterations: int = 12, refresh: int = 5) -> MultibodyResult:
     """Integrate the constrained equations of motion from ``state`` (default: the
     assembly configuration at rest) to ``t_end`` [s] with the fixed ``step`` h [s].
 
@@ -197,7 +197,8 @@ def simulate(system: MultibodySystem, t_end: float, *, step: float, state: Optio
         n_outputs: output times, evenly spaced over [t0, t_end] (rounded to steps).
         rho_inf: spectral radius at infinite frequency (numerical damping; 1 = none).
         tol: Newton tolerance on the increment, relative to the largest body length
-            (an iteration that stalls within 100 tol at round-off level is accepted).
+            (an iteration that stalls within 10 tol with an iteration matrix evaluated in
+            the step is accepted: round-off; a stall with an older matrix re-evaluates it).
         max_iterations: Newton iterations per step.
         refresh: re-evaluate the iteration matrix when a step needs more Newton
             iterations than this (modified Newton).

@@ -68,8 +68,8 @@ struct MbEvaluation {
 };
 
 struct MbOptions {
-    double step = 1e-3, rho_inf = 0.9, tol = 1e-7;
-    int max_newton = 12, refresh = 3;
+    double step = 1e-3, rho_inf = 0.9, tol = 1e-8;
+    int max_newton = 12, refresh = 5;
 };
 
 struct MbOutput {
