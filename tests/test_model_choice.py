@@ -1,0 +1,64 @@
+"""pipeflex.model_choice: accuracy against cost of FFRF bodies and seed 000's element."""
+import numpy as np
+import pytest
+
+from pipeflex import ffrf_studies as fs
+from pipeflex import model_choice as mc
+from pipeflex import validate
+
+
+def test_straight_candidates_n_bodies_equal_2n_elements():
+    c = mc.straight_pipe_candidates(bodies=(1, 2), modes=(0,), elements=(2, 4), repeats=1)
+    by = {x.label: x for x in c}
+    for nb in (1, 2):
+        ffrf, el = by[f"FFRF {nb} b."], by[f"element {2 * nb} el."]
+        assert ffrf.value == pytest.approx(el.value, rel=1e-7)
+        assert ffrf.value == pytest.approx(validate.TABLE2[2 * nb], rel=validate.TOL_TABLE2)
+        assert ffrf.size == el.size  # 12 n_bodies independent DOF, first-order state twice that
+        assert ffrf.error == pytest.approx(abs(ffrf.value / mc.CRITICAL_FLOW_REFERENCE - 1.0))
+    assert all(x.wall_time > 0 for x in c)
+
+
+def test_choose_picks_the_cheapest_within_tolerance():
+    c = [mc.Candidate("a", "coarse", 10, 0.01, 1.0, 1e-2), mc.Candidate("a", "fine", 40, 0.10, 1.0, 1e-4),
+         mc.Candidate("b", "other", 20, 0.05, 1.0, 5e-4)]
+    assert mc.choose(c, (1e-1, 1e-3, 1e-5)) == {1e-1: "coarse", 1e-3: "other", 1e-5: None}
+    assert mc.choose(c, (1e-3,), cost="size") == {1e-3: "other"}
+    with pytest.raises(ValueError):
+        mc.choose(c, (1e-3,), cost="money")
+    with pytest.raises(ValueError):
+        mc.choose(c, (-1e-3,))
+    assert "coarse" in mc.format_candidates(c, unit="kg/s")
+
+
+def test_element_curved_model_is_the_studies_model():
+    E = 9.585e9
+    m = mc.element_curved_model(E, n_elements=4)
+    assert m.n_dofs == 4 * 6 + 1  # 5 nodes x 6, the hinge leaves one rotation at the inlet
+    import pipeflex as pf
+
+    assert pf.steady_rotation(m).omega == pytest.approx(fs.element_curved_pipe(E, n_elements=4), rel=1e-12)
+
+
+def test_curved_candidates_short_run():
+    c = mc.curved_pipe_candidates(9.585e9, reference=9.036, bodies=(2,), elements=(2,), t_end=0.6, step=2e-3,
+                                  repeats=1)
+    assert [x.family for x in c] == ["FFRF, transient", "seed-000 element, steady solver",
+                                     "seed-000 element, transient"]
+    assert all(np.isfinite(x.value) and x.value > 0 and x.wall_time > 0 for x in c)
+    assert c[0].size == 2 * 25  # 2 bodies: 2 x 18 coordinates - 6 (rigid) - 5 (hinge) constraints
+
+
+def test_best_time_and_bad_input():
+    calls = []
+    out, wall = mc.best_time(lambda: calls.append(1) or 7, repeats=3, budget=10.0)
+    assert out == 7 and len(calls) == 3 and wall >= 0
+    calls.clear()
+    mc.best_time(lambda: calls.append(1), repeats=3, budget=0.0)
+    assert len(calls) == 1
+    with pytest.raises(ValueError):
+        mc.best_time(lambda: None, repeats=0)
+    with pytest.raises(ValueError):
+        mc.element_curved_model(-1.0)
+    with pytest.raises(ValueError):
+        mc.error_cost_figure([], title="x", cost="money")
