@@ -169,6 +169,7 @@ void bind_multibody(py::module_& m) {
                 stats["steps"] = out.steps;
                 stats["iterations"] = out.iterations;
                 stats["factorizations"] = out.factorizations;
+                stats["retries"] = out.retries;
                 return py::make_tuple(out.t, states, out.drift, stats);
             },
             py::arg("r"), py::arg("R"), py::arg("eta"), py::arg("v"), py::arg("a"), py::arg("lam"), py::arg("t"),

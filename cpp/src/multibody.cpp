@@ -356,55 +356,60 @@ MbOutput MultibodySystemCore::integrate(MbState& s, const TimeTable& mass_flow, 
         s.t = t;
         increment(s, dq);
         const double mdot = mass_flow.at(t), mrate = mass_flow.rate(t);
-        bool converged = false, fresh = false, stale_stall = false;
-        double last = INFINITY, size = 0.0;
-        for (int it = 0; it < opt.max_newton; ++it) {
-            const bool refresh = !have_lu || it >= opt.refresh || stale_stall;
-            fresh = fresh || refresh;
-            evaluate(s, mdot, mrate, 1.0, 1.0, 1.0, gp, bp, refresh, ev);
-            if (refresh) {
-                scale = ev.S.cwiseAbs().maxCoeff();
-                A.setZero();
-                A.topLeftCorner(n_, n_) = ev.S;
-                A.topRightCorner(n_, nc_) = scale * ev.J.transpose();
-                A.bottomLeftCorner(nc_, n_) = scale * ev.J;
-                lu.compute(A);
-                have_lu = true;
-                ++out.factorizations;
+        double size = 0.0;
+        // Newton on the corrections; full = re-evaluate the iteration matrix every iteration.
+        auto newton = [&](bool full, int max_it) {
+            bool fresh = false, stale_stall = false;
+            double last = INFINITY;
+            for (int it = 0; it < max_it; ++it) {
+                const bool refresh = full || !have_lu || it >= opt.refresh || stale_stall;
+                fresh = fresh || refresh;
+                evaluate(s, mdot, mrate, 1.0, 1.0, 1.0, gp, bp, refresh, ev);
+                if (refresh) {
+                    scale = ev.S.cwiseAbs().maxCoeff();
+                    A.setZero();
+                    A.topLeftCorner(n_, n_) = ev.S;
+                    A.topRightCorner(n_, nc_) = scale * ev.J.transpose();
+                    A.bottomLeftCorner(nc_, n_) = scale * ev.J;
+                    lu.compute(A);
+                    have_lu = true;
+                    ++out.factorizations;
+                }
+                rhs.head(n_) = -ev.F;
+                rhs.tail(nc_) = -scale * ev.c;
+                x = lu.solve(rhs);
+                if (!x.allFinite()) return false;
+                const VecX dx = x.head(n_);
+                increment(s, dx);
+                s.v += gp * dx;
+                s.a += bp * dx;
+                s.lam += scale * x.tail(nc_);
+                ++out.iterations;
+                size = dx.cwiseAbs().maxCoeff();
+                // Converged; or stalled at round-off near the tolerance with a matrix
+                // evaluated in this step (a stall with an older matrix is slow
+                // modified-Newton convergence: re-evaluate the matrix instead).
+                const bool stalled = size >= 0.5 * last && size <= 10 * opt.tol * L;
+                if (size <= opt.tol * L || (stalled && fresh)) return true;
+                if (size > L) return false;  // diverging
+                stale_stall = size >= 0.5 * last;
+                last = size;
             }
-            rhs.head(n_) = -ev.F;
-            rhs.tail(nc_) = -scale * ev.c;
-            x = lu.solve(rhs);
-            if (!x.allFinite()) {
+            return false;
+        };
+        const MbState predicted = s;
+        if (!newton(false, opt.max_newton)) {
+            // the kept matrix may be too far off: retry the step with full Newton
+            s = predicted;
+            ++out.retries;
+            if (!newton(true, 2 * opt.max_newton)) {
                 std::ostringstream msg;
-                msg << "non-finite Newton increment at t = " << t << " s, iteration " << it
-                    << " (singular iteration matrix?)";
+                msg << "Newton did not converge at t = " << t << " s (h = " << h << " s) after " << 2 * opt.max_newton
+                    << " full Newton iterations (last increment " << size << ", residual "
+                    << ev.F.cwiseAbs().maxCoeff() << " N, constraint violation " << ev.c.cwiseAbs().maxCoeff()
+                    << " m): reduce the step";
                 throw SolverError(msg.str());
             }
-            const VecX dx = x.head(n_);
-            increment(s, dx);
-            s.v += gp * dx;
-            s.a += bp * dx;
-            s.lam += scale * x.tail(nc_);
-            ++out.iterations;
-            size = dx.cwiseAbs().maxCoeff();
-            // Converged; or stalled at round-off near the tolerance with a matrix evaluated
-            // in this step. A stall with an older matrix is slow modified-Newton
-            // convergence: re-evaluate the matrix instead of accepting.
-            const bool stalled = size >= 0.5 * last && size <= 10 * opt.tol * L;
-            if (size <= opt.tol * L || (stalled && fresh)) {
-                converged = true;
-                break;
-            }
-            stale_stall = size >= 0.5 * last;
-            last = size;
-        }
-        if (!converged) {
-            std::ostringstream msg;
-            msg << "Newton did not converge at t = " << t << " s after " << opt.max_newton
-                << " iterations (last increment " << size << ", residual " << ev.F.cwiseAbs().maxCoeff()
-                << " N, constraint violation " << ev.c.cwiseAbs().maxCoeff() << " m)";
-            throw SolverError(msg.str());
         }
         acc = acc_new + (1 - af) / (1 - am) * s.a;
         ++out.steps;

@@ -76,7 +76,7 @@ struct MbOutput {
     std::vector<double> t;
     std::vector<MbState> states;
     std::vector<double> drift;  // max |C_q v| per output
-    long steps = 0, iterations = 0, factorizations = 0;
+    long steps = 0, iterations = 0, factorizations = 0, retries = 0;  // retries: steps redone by full Newton
 };
 
 class MultibodySystemCore {
