@@ -193,3 +193,28 @@ def test_clear_errors_for_misuse():
         simulate(s, 1.0, step=1e-3, rho_inf=2.0)
     with pytest.raises(ValueError, match="step"):
         simulate(s, 1.0, step=0.0)
+
+
+def test_kink_force_of_the_flow():
+    """Two straight pipe bodies at a right angle, clamped at the inlet, steady flow at
+    rest. Momentum balance of the fluid: the clamp carries P (e_in - t_out), P = mu_f
+    sdot^2, e_in the inlet direction and t_out the deformed outlet tangent: the kink force
+    P (e1 - e2) plus the bodies' own terms in their bent shape. Without junction forces
+    (seed 004 as printed) only the bending terms remain."""
+    sec = pf.PipeSection(EI=50.0, EA=1e5, GJ=40.0, pipe_mass=1.0, fluid_mass=2.0, rotary_inertia=(1e-3, 0, 0))
+    body = flexible_body(length=0.4, n_elements=4, section=sec)
+    b = MultibodyBuilder()
+    j0 = b.add_body(body, position=(0.2, 0.0, 0.0))
+    j1 = b.add_body(body, position=(0.4, 0.2, 0.0), rotation=rotation_exp([0.0, 0.0, np.pi / 2]))
+    b.fix(j0, "start")
+    b.rigid(j0, "end", j1, "start")
+    mdot = 6.0
+    P = mdot**2 / sec.fluid_mass
+    s = b.build(mass_flow=mdot)
+    st = static_equilibrium(s).state
+    t_out = s.node_kinematics(st, j1, body.n_elements)[1][:, 0]
+    # to the order of the FFRF's small-deformation terms (rotations here ~0.05 rad)
+    assert np.linalg.norm(st.lam[0:3]) == pytest.approx(P * np.linalg.norm(np.array([1.0, 0, 0]) - t_out), rel=5e-4)
+    assert np.linalg.norm(st.lam[0:3]) > 0.9 * np.sqrt(2) * P
+    s0 = b.build(mass_flow=mdot, junction_forces=False)
+    assert np.linalg.norm(static_equilibrium(s0).state.lam[0:3]) < 1e-3 * P

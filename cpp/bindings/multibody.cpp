@@ -75,7 +75,7 @@ void bind_multibody(py::module_& m) {
             "add_joint",
             [](MultibodySystemCore& sys, int kind, int body_a, int node_a, int body_b, int node_b, const Vec3d& p_ground,
                const Mat3d& A_ground, const Mat3d& C0, const Vec3d& axis_b, const Vec3d& perp0, const Vec3d& perp1,
-               const Vec3d& direction, const Vec3d& p0, std::optional<TimeTable> torque) {
+               const Vec3d& direction, const Vec3d& p0, std::optional<TimeTable> torque, double junction) {
                 if (kind < 0 || kind > 3) throw std::invalid_argument("joint kind must be 0..3");
                 MbJoint j;
                 j.kind = static_cast<JointKind>(kind);
@@ -95,11 +95,18 @@ void bind_multibody(py::module_& m) {
                     j.actuated = true;
                     j.torque = *torque;
                 }
+                if (junction != 0.0) {
+                    if (j.kind != JointKind::rigid || body_b < 0)
+                        throw std::invalid_argument("a flow junction is a rigid joint between two bodies");
+                    j.junction = true;
+                    j.upstream = junction > 0.0 ? 1.0 : -1.0;
+                }
                 sys.add_joint(j);
             },
             py::arg("kind"), py::arg("body_a"), py::arg("node_a"), py::arg("body_b"), py::arg("node_b"),
             py::arg("p_ground"), py::arg("A_ground"), py::arg("C0"), py::arg("axis_b"), py::arg("perp0"),
-            py::arg("perp1"), py::arg("direction"), py::arg("p0"), py::arg("torque") = py::none())
+            py::arg("perp1"), py::arg("direction"), py::arg("p0"), py::arg("torque") = py::none(),
+            py::arg("junction") = 0.0)
         .def(
             "add_load",
             [](MultibodySystemCore& sys, int body, int node, const std::vector<TimeTable>& f,

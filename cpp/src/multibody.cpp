@@ -154,17 +154,36 @@ void MultibodySystemCore::joint_equations(const MbState& s, const MbJoint& j, Ei
     }
 }
 
-void MultibodySystemCore::actuator_forces(const MbState& s, const MbJoint& j, VecX& fa, VecX& fb) const {
+double MultibodySystemCore::junction_pressure(int body, double mdot) const {
+    const MbBody& b = bodies_[body];
+    return b.fluid_mass > 0.0 ? b.flow_factor * b.flow_factor * mdot * mdot / b.fluid_mass : 0.0;
+}
+
+bool MultibodySystemCore::joint_forces(const MbState& s, const MbJoint& j, double mdot, double load_factor,
+                                       VecX& fa, VecX& fb) const {
+    if (!j.actuated && !j.junction) return false;
     Vec3d p;
     Mat3d Aa, Ab;
-    MatX Jp, Ja, Jb;
-    node(s, j.body_a, j.node_a, p, Aa, &Jp, &Ja);
-    if (j.body_b >= 0) node(s, j.body_b, j.node_b, p, Ab, &Jp, &Jb);
+    MatX Jpa, Jaa, Jpb, Jab;
+    node(s, j.body_a, j.node_a, p, Aa, &Jpa, &Jaa);
+    const bool ground = j.body_b < 0;
+    if (!ground) node(s, j.body_b, j.node_b, p, Ab, &Jpb, &Jab);
     else Ab = j.A_ground;
-    const Vec3d T = j.torque.at(s.t) * (Ab * j.axis_b);
-    fa = Ja.transpose() * T;
-    if (j.body_b >= 0) fb = -(Jb.transpose() * T);
-    else fb.resize(0);
+    fa = VecX::Zero(Jpa.cols());
+    fb = VecX::Zero(ground ? 0 : Jpb.cols());
+    if (j.actuated) {
+        const Vec3d T = load_factor * j.torque.at(s.t) * (Ab * j.axis_b);
+        fa += Jaa.transpose() * T;
+        if (!ground) fb -= Jab.transpose() * T;
+    }
+    if (j.junction && !ground) {
+        auto along_flow = [&](int body, const Mat3d& A) -> Vec3d {
+            return (bodies_[body].flow_factor >= 0.0 ? 1.0 : -1.0) * Vec3d(A.col(0));
+        };
+        fa += Jpa.transpose() * (j.upstream * junction_pressure(j.body_a, mdot) * along_flow(j.body_a, Aa));
+        fb -= Jpb.transpose() * (j.upstream * junction_pressure(j.body_b, mdot) * along_flow(j.body_b, Ab));
+    }
+    return true;
 }
 
 void MultibodySystemCore::body_columns(MbState& st, int body,
@@ -187,7 +206,8 @@ void MultibodySystemCore::body_columns(MbState& st, int body,
     }
 }
 
-void MultibodySystemCore::geometric_stiffness(const MbState& s, double load_factor, MatX& S, double w) const {
+void MultibodySystemCore::geometric_stiffness(const MbState& s, double mdot, double load_factor, MatX& S,
+                                              double w) const {
     MbState st = s;
     // joint reactions C_q^T lambda at fixed lambda
     for (size_t k = 0; k < joints_.size(); ++k) {
@@ -209,15 +229,15 @@ void MultibodySystemCore::geometric_stiffness(const MbState& s, double load_fact
             });
         }
     }
-    // driving torques of hinges turn with the hinge axis
+    // driving torques turn with the hinge axis, junction forces with the pipe
     for (const MbJoint& j : joints_) {
-        if (!j.actuated) continue;
+        if (!j.actuated && !j.junction) continue;
         VecX fa, fb;
         const int oa = offsets_[j.body_a], na = offsets_[j.body_a + 1] - oa;
         for (int body : {j.body_a, j.body_b}) {
             if (body < 0) continue;
             body_columns(st, body, [&](int col, double h, double sign) {
-                actuator_forces(st, j, fa, fb);
+                joint_forces(st, j, mdot, load_factor, fa, fb);
                 const double f = -sign * w / (2 * h);
                 S.block(oa, offsets_[body] + col, na, 1) += f * fa;
                 if (fb.size()) S.block(offsets_[j.body_b], offsets_[body] + col, fb.size(), 1) += f * fb;
@@ -294,15 +314,14 @@ void MultibodySystemCore::evaluate(const MbState& s, double mdot, double mdot_ra
         joint_equations(s, j, out.c.segment(r0, nr), Jak, Jbk);
         out.J.block(r0, oa, nr, na) += Jak;
         if (nb) out.J.block(r0, ob, nr, nb) += Jbk;
-        if (j.actuated) {
-            VecX fa, fb;
-            actuator_forces(s, j, fa, fb);
-            out.F.segment(oa, na) -= load_factor * fa;
-            if (nb) out.F.segment(ob, nb) -= load_factor * fb;
+        VecX fa, fb;
+        if (joint_forces(s, j, mdot, load_factor, fa, fb)) {
+            out.F.segment(oa, na) -= fa;
+            if (nb) out.F.segment(ob, nb) -= fb;
         }
     }
     out.F.noalias() += out.J.transpose() * s.lam;
-    if (with_tangent && wK != 0.0) geometric_stiffness(s, load_factor, out.S, wK);
+    if (with_tangent && wK != 0.0) geometric_stiffness(s, mdot, load_factor, out.S, wK);
 }
 
 MbOutput MultibodySystemCore::integrate(MbState& s, const TimeTable& mass_flow, double t_end,

@@ -196,10 +196,12 @@ def element_curved_pipe(E: float, *, n_elements: int = 8) -> float:
     return float(steady_rotation(b.build(mass_flow=sec.fluid_mass * 10.0)).omega)
 
 
-def printer_run(flow_speed: float, *, step: float = 2e-4, t_end: float = PRINTER_DURATION, n_outputs: int = 69):
+def printer_run(flow_speed: float, *, step: float = 2e-4, t_end: float = PRINTER_DURATION, n_outputs: int = 69,
+                junction_forces: bool = True):
     """Seed 004, sec. 8.3: static equilibrium under gravity and M_A(0) = -5000 N m (with the
-    flow running), then the driven motion. Returns (system, result, nozzle path (n, 3) [m])."""
-    s = scenes.concrete_printer(flow_speed=flow_speed)
+    flow running), then the driven motion. Returns (system, result, nozzle path (n, 3) [m]).
+    ``junction_forces=False``: without the flow's kink forces (the seed's formulation)."""
+    s = scenes.concrete_printer(flow_speed=flow_speed, junction_forces=junction_forces)
     st = mb_static(s, load_steps=4).state
     res = mb_simulate(s, t_end, step=step, state=st, n_outputs=n_outputs, rho_inf=0.8)
     return s, res, res.node_position(*s.info["nozzle"])

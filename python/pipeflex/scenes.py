@@ -368,7 +368,7 @@ def _apex(p, q, side, leg):
     return m + np.sqrt(leg**2 - (d @ d) / 4) * n / np.linalg.norm(n)
 
 
-def concrete_printer(*, flow_speed: float, gravity: float = 9.81):
+def concrete_printer(*, flow_speed: float, gravity: float = 9.81, junction_forces: bool = True):
     """The concrete-printing robot of seed 004, section 8.3 (Figs. 11-12).
 
     Arm: four solid steel rods (diameter 4 cm, 7870 kg/m^3, E = 200 GPa, G = 77 GPa),
@@ -381,6 +381,10 @@ def concrete_printer(*, flow_speed: float, gravity: float = 9.81):
     about global z at O and attached at B and D with free orientation. Concrete
     (2400 kg/m^3) flows from O to the nozzle at ``flow_speed`` sdot [m/s]. Gravity
     ``gravity`` [m/s^2] along -z. All bodies use Craig-Bampton boundary modes.
+    ``junction_forces``: the concrete's momentum flux turning at the kinks E, B, F pushes
+    the pipe (P = mu_f sdot^2 = 83 N at 6 m/s; see
+    :meth:`~pipeflex.multibody.MultibodyBuilder.build`); ``False`` is the seed's formulation
+    as printed, which has no such force.
 
     The geometry (:data:`PRINTER_POINTS`) is an assumption: the seed's Fig. 11 is not
     available. With CD vertical below C the arm is at a toggle: the moment at A lifts C
@@ -426,7 +430,7 @@ def concrete_printer(*, flow_speed: float, gravity: float = 9.81):
     b.spherical(pipe["EB"], "end", arm["AB"], "end")
     b.spherical(pipe["FD"], "end", arm["CD"], "end")
     b.set_gravity((0.0, 0.0, -g))
-    system = b.build(mass_flow=tube.fluid_mass * sdot)
+    system = b.build(mass_flow=tube.fluid_mass * sdot, junction_forces=junction_forces)
     system.info.update(nozzle=(arm["CD"], 14), arm=arm, pipe=pipe, points=P, flow_speed=sdot,
                        scene="seed 004, sec. 8.3")
     return system

@@ -126,10 +126,13 @@ def null_space_basis(J: np.ndarray) -> np.ndarray:
 
 def linearize(system: MultibodySystem, state: Optional[MultibodyState] = None, *,
               mass_flow: Optional[float] = None) -> MultibodyLinearization:
-    """Linearise about ``state`` (default: the assembly configuration at rest), keeping its
-    multipliers: K includes the geometric stiffness of the joint reactions and of the loads."""
-    st = system.initial_state() if state is None else state
+    """Linearise about ``state`` with its multipliers (default: the static equilibrium at
+    ``mass_flow`` mdot [kg/s], so that the joint reactions, e.g. of the flow's junction
+    forces, are consistent): K includes the geometric stiffness of the joint reactions,
+    the loads and the junction forces. Linearising about a state whose multipliers do
+    not balance its forces gives a wrong K."""
     mdot = system.mass_flow if mass_flow is None else _checks.finite("mass_flow", mass_flow)
+    st = static_equilibrium(system, mass_flow=mdot).state if state is None else state
     _, _, J, K = system.evaluate(st, mass_flow=mdot, wK=1.0)
     C = system.evaluate(st, mass_flow=mdot, wK=0.0, wC=1.0)[3]
     M = system.evaluate(st, mass_flow=mdot, wK=0.0, wM=1.0)[3]

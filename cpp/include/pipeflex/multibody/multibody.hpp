@@ -45,6 +45,11 @@ struct MbJoint {
     Vec3d p0 = Vec3d::Zero();               // roller: reference position
     bool actuated = false;                  // hinge: driving torque about the axis,
     TimeTable torque;                       //   +T on body a, -T on body b [N m]
+    // rigid joint where the flow passes from one body to the other: the fluid's
+    // momentum flux turning there pushes the pipe with P_up t_up - P_down t_down
+    // (t along the flow, P = mu_f sdot^2); upstream = +1 if body a is upstream, else -1
+    bool junction = false;
+    double upstream = 1.0;
     int rows() const;
 };
 
@@ -106,10 +111,13 @@ class MultibodySystemCore {
    private:
     void joint_equations(const MbState& s, const MbJoint& j, Eigen::Ref<VecX> c, Eigen::Ref<MatX> Ja,
                          Eigen::Ref<MatX> Jb) const;
-    // Generalised forces of a hinge's driving torque on bodies a and b (fb empty for the ground).
-    void actuator_forces(const MbState& s, const MbJoint& j, VecX& fa, VecX& fb) const;
+    // Applied generalised forces of a joint on bodies a and b (fb empty for the ground):
+    // a hinge's driving torque (times load_factor) and the flow junction force. False if none.
+    bool joint_forces(const MbState& s, const MbJoint& j, double mdot, double load_factor, VecX& fa,
+                      VecX& fb) const;
+    double junction_pressure(int body, double mdot) const;  // P = mu_f sdot^2 [N]
     // w d(C_q^T lambda - Q_loads)/dq by central differences, body by body.
-    void geometric_stiffness(const MbState& s, double load_factor, MatX& S, double w) const;
+    void geometric_stiffness(const MbState& s, double mdot, double load_factor, MatX& S, double w) const;
     void body_columns(MbState& st, int body, const std::function<void(int col, double h, double sign)>& fn) const;
 
     std::vector<MbBody> bodies_;
