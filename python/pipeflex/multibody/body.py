@@ -163,7 +163,7 @@ def check_no_rigid_motion(Psi0: np.ndarray, Phi: np.ndarray, K: np.ndarray) -> N
 
 def flexible_body(*, length: float, n_elements: int, section: PipeSection, internal_modes: int = 0,
                   reduction: str = "craig_bampton", curvature: float = 0.0,
-                  basis: Optional[np.ndarray] = None) -> FlexibleBody:
+                  basis: Optional[np.ndarray] = None, coriolis_factor: float = 2.0) -> FlexibleBody:
     """Build a reduced straight (or preimposed-curved) body.
 
     Args:
@@ -234,7 +234,7 @@ def flexible_body(*, length: float, n_elements: int, section: PipeSection, inter
     Psi_r0 = Psi0[:, 3:]
     data = _core.FfrfBodyData(
         M=B.T @ M @ B, K=Kr, eta0=eta0,
-        A=[B.T @ S[k] @ Psi_r0 for k in range(3)], Bk=[B.T @ S[k] @ Phi for k in range(3)],
+        A=[B.T @ S[k] @ Psi_r0 for k in range(3)], Bk=[(0.5 * coriolis_factor) * (B.T @ S[k] @ Phi) for k in range(3)],
         GPhi=[B.T @ G[k] @ Phi for k in range(3)], Gx=[B.T @ G[k] @ xbar for k in range(3)],
         CPhi=B.T @ C @ Phi, HPhi=B.T @ H @ Phi, Cx=B.T @ C @ xbar, Hx=B.T @ H @ xbar, Ng=B.T @ Ng)
     mass = L * (section.pipe_mass + section.fluid_mass)
