@@ -178,6 +178,10 @@ def flexible_body(*, length: float, n_elements: int, section: PipeSection, inter
             stress-free by the stiffness compensation K (eta - eta0).
         basis: a custom Phi (6 (n_elements + 1) x m) in place of ``reduction``; it must not
             contain rigid-body motion.
+        coriolis_factor: c [-] of the frame-elastic Coriolis term c w x u_dot: 2 as in the
+            seed (eqs. 66-68, from the full kinematics whose other first-order terms the
+            simplification drops), 1 for the kinetic energy of the straight-reference
+            velocity field (v_r + w x x + u_dot) that the simplified mass matrix uses.
     """
     L = _checks.positive("length", length)
     n_el = _checks.positive_int("n_elements", n_elements)
@@ -189,6 +193,7 @@ def flexible_body(*, length: float, n_elements: int, section: PipeSection, inter
         raise ValueError(f"internal_modes must be a non-negative integer, got {internal_modes!r}")
     internal_modes = int(internal_modes)
     kappa = _checks.finite("curvature", curvature)
+    coriolis_factor = _checks.non_negative("coriolis_factor", coriolis_factor)
     if abs(kappa) * L >= np.pi:
         raise ValueError(f"curvature * length must be < pi (a body turns by less than 180 degrees), got {kappa * L}")
     s = np.linspace(-L / 2, L / 2, n_el + 1)
