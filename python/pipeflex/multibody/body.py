@@ -163,7 +163,7 @@ def check_no_rigid_motion(Psi0: np.ndarray, Phi: np.ndarray, K: np.ndarray) -> N
 
 def flexible_body(*, length: float, n_elements: int, section: PipeSection, internal_modes: int = 0,
                   reduction: str = "craig_bampton", curvature: float = 0.0,
-                  basis: Optional[np.ndarray] = None, coriolis_factor: float = 2.0) -> FlexibleBody:
+                  basis: Optional[np.ndarray] = None) -> FlexibleBody:
     """Build a reduced straight (or preimposed-curved) body.
 
     Args:
@@ -178,10 +178,6 @@ def flexible_body(*, length: float, n_elements: int, section: PipeSection, inter
             stress-free by the stiffness compensation K (eta - eta0).
         basis: a custom Phi (6 (n_elements + 1) x m) in place of ``reduction``; it must not
             contain rigid-body motion.
-        coriolis_factor: c [-] of the frame-elastic Coriolis term c w x u_dot: 2 as in the
-            seed (eqs. 66-68, from the full kinematics whose other first-order terms the
-            simplification drops), 1 for the kinetic energy of the straight-reference
-            velocity field (v_r + w x x + u_dot) that the simplified mass matrix uses.
     """
     L = _checks.positive("length", length)
     n_el = _checks.positive_int("n_elements", n_elements)
@@ -193,7 +189,6 @@ def flexible_body(*, length: float, n_elements: int, section: PipeSection, inter
         raise ValueError(f"internal_modes must be a non-negative integer, got {internal_modes!r}")
     internal_modes = int(internal_modes)
     kappa = _checks.finite("curvature", curvature)
-    coriolis_factor = _checks.non_negative("coriolis_factor", coriolis_factor)
     if abs(kappa) * L >= np.pi:
         raise ValueError(f"curvature * length must be < pi (a body turns by less than 180 degrees), got {kappa * L}")
     s = np.linspace(-L / 2, L / 2, n_el + 1)
@@ -239,7 +234,7 @@ def flexible_body(*, length: float, n_elements: int, section: PipeSection, inter
     Psi_r0 = Psi0[:, 3:]
     data = _core.FfrfBodyData(
         M=B.T @ M @ B, K=Kr, eta0=eta0,
-        A=[B.T @ S[k] @ Psi_r0 for k in range(3)], Bk=[(0.5 * coriolis_factor) * (B.T @ S[k] @ Phi) for k in range(3)],
+        A=[B.T @ S[k] @ Psi_r0 for k in range(3)], Bk=[B.T @ S[k] @ Phi for k in range(3)],
         GPhi=[B.T @ G[k] @ Phi for k in range(3)], Gx=[B.T @ G[k] @ xbar for k in range(3)],
         CPhi=B.T @ C @ Phi, HPhi=B.T @ H @ Phi, Cx=B.T @ C @ xbar, Hx=B.T @ H @ xbar, Ng=B.T @ Ng)
     mass = L * (section.pipe_mass + section.fluid_mass)
