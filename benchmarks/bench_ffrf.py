@@ -31,7 +31,6 @@ Run: .venv/bin/python benchmarks/bench_ffrf.py [--quick]   (--quick: E = 9.585 G
 coarser references, one repeat; under a minute on 2 cores)
 """
 import argparse
-import dataclasses
 import os
 import statistics
 import time
@@ -41,7 +40,6 @@ import numpy as np
 import pipeflex as pf
 from pipeflex import ConvergenceError, scenes
 from pipeflex import ffrf_studies as fs
-from pipeflex.model import ModelBuilder
 from pipeflex.multibody import simulate as mb_simulate
 from pipeflex.multibody import static_equilibrium as mb_static
 
@@ -59,20 +57,6 @@ def median_time(fn, repeat):
         out = fn()
         times.append(time.perf_counter() - t0)
     return statistics.median(times), out
-
-
-def element_sprinkler(E, n_elements=8):
-    """Seed 000's model of the seed-004 curved pipe: the tube of ``ffrf_curved_pipe``
-    (finite EA, polar rotary inertia) from ``n_elements`` curved elements, hinged about z
-    at the inlet, flow 10 m/s. The model ``ffrf_studies.element_curved_pipe`` solves."""
-    sec = scenes._tube(outer_diameter=0.0368, inner_diameter=0.03568, E=E, G=E / 2.6, density=7870.0,
-                       fluid_density=1000.0)
-    b = ModelBuilder()
-    n0 = b.add_node((0.0, 0.0, 0.0))
-    b.add_arc(n0, center=(0.5, 0.0, 0.0), angle=-np.pi, normal=(0.0, 0.0, 1.0), n_elements=n_elements,
-              section=dataclasses.replace(sec, rotary_inertia=(sec.rotary_inertia[0], 0.0, 0.0)))
-    b.hinge(n0, (0.0, 0.0, 1.0))
-    return b.build(mass_flow=sec.fluid_mass * 10.0)
 
 
 def ffrf_output(system, step, tol=1e-7):
@@ -102,7 +86,7 @@ def section_scenes(repeat):
     rows.append(("seed-000 cantilever, 8 elements, 2 s, h = 1 ms", tr.size, w_ce))
     w_cp, (s, res_cp, _) = median_time(lambda: fs.curved_pipe_run(E_SCENE, step=1e-3), repeat)
     rows.append(("FFRF curved pipe, 8 bodies x 20 el., 4 s, h = 1 ms", s.n_coordinates, w_cp))
-    m = element_sprinkler(E_SCENE)
+    m = fs.element_curved_model(E_SCENE)
     w_se, _ = median_time(lambda: element_output(m, 1e-3), repeat)
     rows.append(("seed-000 curved pipe, 8 elements, 4 s, h = 1 ms", m.n_dofs, w_se))
     printer = {}
@@ -124,7 +108,7 @@ def section_accuracy(E_values, steps, ref_step_ffrf, ref_step_element, repeat, t
     verdicts = {}
     for E in E_values:
         s = scenes.ffrf_curved_pipe(E=E)
-        m = element_sprinkler(E)
+        m = fs.element_curved_model(E)
         steady8 = fs.element_curved_pipe(E, n_elements=8)
         c32, c64 = fs.element_curved_pipe(E, n_elements=32), fs.element_curved_pipe(E, n_elements=64)
         conv = c64 + (c64 - c32) / 3.0

@@ -179,21 +179,31 @@ def final_angular_velocity(t: np.ndarray, omega: np.ndarray, *, window: float = 
     return float(np.abs(np.mean(omega[sel])))
 
 
-def element_curved_pipe(E: float, *, n_elements: int = 8) -> float:
-    """Steady angular velocity [rad/s] of the same tube (seed-004 section, finite EA) built
-    from seed 000's curved elements, by the direct steady-rotation solver."""
+def element_curved_model(E: float, *, n_elements: int = 8, flow_speed: float = 10.0):
+    """Seed 000's curved elements for the tube of seed 004, sec. 8.2: semicircle of radius
+    0.5 m from a hinge at the origin (about global z, in the x-y plane), OD 36.80 mm, ID
+    35.68 mm, 7870 kg/m^3, Young's modulus ``E`` [Pa], G = E / 2.6, finite EA, polar rotary
+    inertia; water at ``flow_speed`` sdot [m/s]. Returns a :class:`~pipeflex.Model`."""
     import dataclasses
 
     from .model import ModelBuilder
 
+    E = _checks.positive("E", E)
     sec = scenes._tube(outer_diameter=0.0368, inner_diameter=0.03568, E=E, G=E / 2.6, density=7870.0,
                        fluid_density=1000.0)
     b = ModelBuilder()
     n0 = b.add_node((0.0, 0.0, 0.0))
-    b.add_arc(n0, center=(0.5, 0.0, 0.0), angle=-np.pi, normal=(0.0, 0.0, 1.0), n_elements=n_elements,
+    b.add_arc(n0, center=(0.5, 0.0, 0.0), angle=-np.pi, normal=(0.0, 0.0, 1.0),
+              n_elements=_checks.positive_int("n_elements", n_elements),
               section=dataclasses.replace(sec, rotary_inertia=(sec.rotary_inertia[0], 0.0, 0.0)))
     b.hinge(n0, (0.0, 0.0, 1.0))
-    return float(steady_rotation(b.build(mass_flow=sec.fluid_mass * 10.0)).omega)
+    return b.build(mass_flow=sec.fluid_mass * _checks.finite("flow_speed", flow_speed))
+
+
+def element_curved_pipe(E: float, *, n_elements: int = 8) -> float:
+    """Steady angular velocity [rad/s] of :func:`element_curved_model` by the direct
+    steady-rotation solver."""
+    return float(steady_rotation(element_curved_model(E, n_elements=n_elements)).omega)
 
 
 def printer_run(flow_speed: float, *, step: float = 2e-4, t_end: float = PRINTER_DURATION, n_outputs: int = 69,

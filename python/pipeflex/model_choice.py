@@ -16,7 +16,6 @@ SI units throughout.
 """
 from __future__ import annotations
 
-import dataclasses
 import time
 from dataclasses import dataclass
 from typing import Dict, List, Optional, Sequence
@@ -25,7 +24,7 @@ import numpy as np
 
 from . import _checks, ffrf_studies, scenes
 from .analysis import critical_mass_flow, simulate
-from .model import Model, ModelBuilder
+from .ffrf_studies import element_curved_model
 
 #: Seed 000, Table 2: Richardson extrapolation of the critical mass flow [kg/s].
 CRITICAL_FLOW_REFERENCE = 25.005520
@@ -104,23 +103,6 @@ def straight_pipe_candidates(*, bodies: Sequence[int] = (1, 2, 4, 8, 16), modes:
 
 
 # -- semicircular pipe: final angular velocity -------------------------------------------
-
-def element_curved_model(E: float, *, n_elements: int = 8, flow_speed: float = CURVED_FLOW_SPEED) -> Model:
-    """Seed 000's curved elements for the tube of seed 004, sec. 8.2 (the model of
-    :func:`pipeflex.ffrf_studies.element_curved_pipe`): semicircle of radius 0.5 m from a
-    hinge at the origin, OD 36.80 mm, ID 35.68 mm, 7870 kg/m^3, Young's modulus ``E``
-    [Pa], G = E / 2.6, water at ``flow_speed`` [m/s]."""
-    E = _checks.positive("E", E)
-    n = _checks.positive_int("n_elements", n_elements)
-    sec = scenes._tube(outer_diameter=0.0368, inner_diameter=0.03568, E=E, G=E / 2.6, density=7870.0,
-                       fluid_density=1000.0)
-    b = ModelBuilder()
-    n0 = b.add_node((0.0, 0.0, 0.0))
-    b.add_arc(n0, center=(0.5, 0.0, 0.0), angle=-np.pi, normal=(0.0, 0.0, 1.0), n_elements=n,
-              section=dataclasses.replace(sec, rotary_inertia=(sec.rotary_inertia[0], 0.0, 0.0)))
-    b.hinge(n0, (0.0, 0.0, 1.0))
-    return b.build(mass_flow=sec.fluid_mass * _checks.finite("flow_speed", flow_speed))
-
 
 def element_curved_transient(E: float, *, n_elements: int = 8, t_end: float = 4.0, step: float = 1e-3) -> float:
     """Final angular velocity [rad/s] of :func:`element_curved_model` from a transient
