@@ -48,6 +48,7 @@ class MultibodyState:
     t: float = 0.0
 
     def copy(self) -> "MultibodyState":
+        """A deep copy."""
         return MultibodyState(self.r.copy(), self.R.copy(), self.eta.copy(), self.v.copy(), self.a.copy(),
                               self.lam.copy(), self.t)
 
@@ -288,9 +289,11 @@ class MultibodySystem:
         return self._state0.copy()
 
     def body_slice(self, j: int) -> slice:
+        """The coordinates [r, pi, eta] of body j in the stacked vectors."""
         return slice(int(self.offsets[j]), int(self.offsets[j + 1]))
 
     def eta(self, state: MultibodyState, j: int) -> np.ndarray:
+        """The elastic coordinates of body j (a view into ``state.eta``)."""
         return state.eta[self.offsets[j] + 6:self.offsets[j + 1]]
 
     def node_kinematics(self, state: MultibodyState, body: int, node: int):
