@@ -218,3 +218,16 @@ def test_kink_force_of_the_flow():
     assert np.linalg.norm(st.lam[0:3]) > 0.9 * np.sqrt(2) * P
     s0 = b.build(mass_flow=mdot, junction_forces=False)
     assert np.linalg.norm(static_equilibrium(s0).state.lam[0:3]) < 1e-3 * P
+
+
+def test_accelerating_flow_pushes_the_pipe_along_its_axis():
+    """Fluid accelerating at sddot relative to a pipe at rest needs the force mu_f L sddot
+    along the flow (eq. 70's sddot C r term), carried by the bodies' frame rows."""
+    s = scenes.ffrf_cantilever_pipe(n_bodies=2)
+    st = s.initial_state()
+    mu = s.bodies[0].section.fluid_mass
+    rate = 3.0  # d(mdot)/dt [kg/s^2]: sddot = rate / mu_f
+    F = s.evaluate(st, mass_flow=0.0, mass_flow_rate=rate, tangent=False)[0]
+    total = sum(F[s.body_slice(j)][:3] for j in range(2))
+    L, sddot = 1.0, rate / mu
+    assert total == pytest.approx([mu * L * sddot, 0.0, 0.0], abs=1e-12)
