@@ -172,3 +172,13 @@ def test_spinning_curved_pipe_needs_numerical_damping():
     res = simulate(s, 2.0, step=1e-3, state=spin, n_outputs=11)
     E = np.array([s.energy(res.state(k)) for k in range(len(res.t))])
     assert np.abs(E - E[0]).max() < 2e-4 * E[0]
+
+
+@pytest.mark.slow
+def test_32_bodies_equal_64_elements():
+    """Seed 004, Fig. 7's finest chain: 32 bodies (51 nodes each) against seed 000's
+    element with 64 elements (beyond Table 2), and both against Table 2's extrapolation."""
+    m = pf.critical_mass_flow(scenes.ffrf_cantilever_pipe(n_bodies=32, elements_per_body=50)).mass_flow
+    ref = pf.critical_mass_flow(scenes.cantilever_pipe(n_elements=64)).mass_flow
+    assert m == pytest.approx(ref, rel=1e-8)
+    assert m == pytest.approx(validate.TABLE2_EXTRAPOLATED, rel=validate.TOL_TABLE2_EXTRAPOLATED)
