@@ -20,13 +20,10 @@ import numpy as np
 import scipy.linalg as sla
 
 from .. import _checks, _core
+from ..analysis.steady import _skew
 from ..sections import PipeSection
 
 REDUCTIONS = ("craig_bampton", "full")
-
-
-def _skew(v: np.ndarray) -> np.ndarray:
-    return np.array([[0.0, -v[2], v[1]], [v[2], 0.0, -v[0]], [-v[1], v[0], 0.0]])
 
 
 @dataclass(frozen=True, eq=False)

@@ -19,23 +19,15 @@ from typing import Optional, Tuple
 
 import numpy as np
 
-from .body import _skew
+from .. import _core
 
 JOINT_KINDS = ("rigid", "hinge", "spherical", "roller")
 JOINT_ROWS = {"rigid": 6, "hinge": 5, "spherical": 3, "roller": 1}
 
 
 def rotation_exp(phi) -> np.ndarray:
-    """exp(phi~) of a rotation vector phi [rad] (Rodrigues)."""
-    phi = np.asarray(phi, float)
-    t2 = float(phi @ phi)
-    W = _skew(phi)
-    if t2 < 1e-8:
-        a, b = 1.0 - t2 / 6.0, 0.5 - t2 / 24.0
-    else:
-        t = np.sqrt(t2)
-        a, b = np.sin(t) / t, (1.0 - np.cos(t)) / t2
-    return np.eye(3) + a * W + b * (W @ W)
+    """exp(phi~) of a rotation vector phi [rad] (the core's Rodrigues formula)."""
+    return np.asarray(_core.rotation_exp(np.asarray(phi, dtype=float)))
 
 
 @dataclass(frozen=True)
