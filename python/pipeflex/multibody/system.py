@@ -370,9 +370,12 @@ class MultibodySystem:
             raise ValueError(f"{self.n_constraints} constraint equations for {self.n_coordinates} coordinates")
         _, J = self.constraints(self._state0)
         J = J / np.maximum(np.abs(J).max(axis=1, keepdims=True), 1e-300)
-        for k, jt in enumerate(self.joints):
+        tol = 1e-9 * np.sqrt(J.shape[1])
+        if np.linalg.matrix_rank(J, tol=tol) == J.shape[0]:
+            return
+        for k, jt in enumerate(self.joints):  # rank deficient: name the first redundant joint
             sub = J[:self.joint_rows[k + 1]]
-            r = np.linalg.matrix_rank(sub, tol=1e-9 * np.sqrt(sub.shape[1]))
+            r = np.linalg.matrix_rank(sub, tol=tol)
             if r < self.joint_rows[k + 1]:
                 raise ValueError(f"{jt.name} is redundant: {self.joint_rows[k + 1] - r} of its equations repeat "
                                  "constraints already imposed by the joints before it")
