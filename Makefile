@@ -11,10 +11,12 @@ $(VENV)/.system-deps: tools/install_system_deps.sh
 	bash tools/install_system_deps.sh
 	@mkdir -p $(VENV) && touch $@
 
-$(VENV)/bin/python: $(VENV)/.system-deps
+# pyvenv.cfg, not bin/python: make would compare the symlink's target (/usr/bin/python3),
+# always older, and rebuild the venv on every run
+$(VENV)/pyvenv.cfg: $(VENV)/.system-deps
 	/usr/bin/python3 -m venv --system-site-packages $(VENV)
 
-$(VENV)/.installed: $(VENV)/bin/python $(SOURCES)
+$(VENV)/.installed: $(VENV)/pyvenv.cfg $(SOURCES)
 	$(PY) -m pip install --no-build-isolation --no-deps -q -e '.[test]'
 	@touch $@
 

@@ -32,3 +32,14 @@ def test_unknown_group_is_an_error():
 
     with pytest.raises(ValueError, match="unknown validation group 'table9'"):
         main(["validate", "--only", "table9", "--no-figures"])
+
+
+def test_rows_from_numpy_values_serialise():
+    """A group that computes with numpy still writes plain JSON (numpy bools are not JSON)."""
+    import numpy as np
+
+    from pipeflex.validate import Row
+
+    row = Row("s", "q [-]", np.float64(2.0), np.float64(2.0 + 1e-9), np.float64(1e-6), checked=np.bool_(True))
+    d = json.loads(json.dumps(row.as_dict()))
+    assert d["passed"] is True and d["checked"] is True and d["ours"] == 2.0 + 1e-9

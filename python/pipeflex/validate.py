@@ -23,6 +23,11 @@ class Row:
     tolerance: float    # relative
     checked: bool = True  # False: shown with its deviation, explained in the docs
 
+    def __post_init__(self):
+        # plain Python numbers, so that the rows serialise to JSON whatever computed them
+        self.published, self.ours, self.tolerance = float(self.published), float(self.ours), float(self.tolerance)
+        self.checked = bool(self.checked)
+
     @property
     def deviation(self) -> float:
         return (self.ours - self.published) / abs(self.published)
