@@ -81,7 +81,8 @@ void bind_ffrf(py::module_& m) {
                 const Eigen::Index n = d.M.rows();
                 VecX r(n);
                 MatX t(tangent ? n : 0, tangent ? n : 0);
-                ffrf_body_forces(d, s, wK, wC, wM, r, t, tangent);
+                FfrfBodyWork work;
+                ffrf_body_forces(d, s, wK, wC, wM, work, r, t, tangent);
                 return std::make_pair(r, tangent ? std::optional<MatX>(t) : std::nullopt);
             },
             py::arg("R"), py::arg("omega"), py::arg("a"), py::arg("eta"), py::arg("eta_dot"), py::arg("sdot"),

@@ -83,30 +83,51 @@ void beam_stiffness(double l, double EA, double GJ, double EIy, double EIz, Mat1
     out(9, 3) -= kt;
 }
 
+void FfrfBodyWork::resize(Eigen::Index n) {
+    b.resize(n);
+    L.resize(n);
+    col.resize(n);
+    dQdw.resize(n, 3);
+    Aw.resize(n, 3);
+    dL.resize(n, 3);
+    X.resize(n, n);
+}
+
 void ffrf_body_forces(const FfrfBodyData& d, const FfrfBodyMotion& s, double wK, double wC, double wM,
-                      Eigen::Ref<VecX> residual, Eigen::Ref<MatX> tangent, bool with_tangent) {
+                      FfrfBodyWork& work, Eigen::Ref<VecX> residual, Eigen::Ref<MatX> tangent, bool with_tangent) {
     const Eigen::Index n = d.M.rows(), m = n - 6;
     if (m < 0 || d.M.cols() != n || d.K.rows() != m || d.eta0.size() != m || s.a.size() != n ||
         s.eta.size() != m || s.eta_dot.size() != m || residual.size() != n ||
         (with_tangent && (tangent.rows() != n || tangent.cols() != n)))
         throw std::invalid_argument("ffrf_body_forces: inconsistent sizes (body has " + std::to_string(n) +
                                     " coordinates)");
+    if (work.X.rows() != n) work.resize(n);
     const Mat3d& R = s.R;
     const Vec3d w = R.transpose() * s.omega;
     const Vec3d gl = R.transpose() * s.gravity;
-    VecX b(n);
+    VecX& b = work.b;
     b.head<3>() = R.transpose() * s.a.head<3>();
     b.segment<3>(3) = R.transpose() * s.a.segment<3>(3);
     b.tail(m) = s.a.tail(m);
 
     // Q_v and its partial derivatives in body components.
     const double sd = s.sdot, sdd = s.sddot;
-    VecX L = d.M * b - d.Ng * gl + sd * sd * (d.Hx + d.HPhi * s.eta) + sdd * (d.Cx + d.CPhi * s.eta) +
-             2.0 * sd * d.CPhi * s.eta_dot;
-    Eigen::Matrix<double, Eigen::Dynamic, 3> dQdw(n, 3);
-    MatX Aw = MatX::Zero(n, 3);
+    VecX& L = work.L;
+    L.noalias() = d.M * b;
+    L.noalias() -= d.Ng * gl;
+    L += sd * sd * d.Hx + sdd * d.Cx;
+    L.noalias() += (sd * sd) * (d.HPhi * s.eta);
+    L.noalias() += sdd * (d.CPhi * s.eta);
+    L.noalias() += (2.0 * sd) * (d.CPhi * s.eta_dot);
+    auto& dQdw = work.dQdw;
+    auto& Aw = work.Aw;
+    Aw.setZero();
     for (int k = 0; k < 3; ++k) {
-        const VecX col = d.A[k] * w + 2.0 * d.Bk[k] * s.eta_dot + 2.0 * sd * (d.Gx[k] + d.GPhi[k] * s.eta);
+        VecX& col = work.col;
+        col.noalias() = d.A[k] * w;
+        col.noalias() += 2.0 * (d.Bk[k] * s.eta_dot);
+        col += (2.0 * sd) * d.Gx[k];
+        col.noalias() += (2.0 * sd) * (d.GPhi[k] * s.eta);
         dQdw.col(k) = col;
         L += w[k] * col;
         Aw += w[k] * d.A[k];
@@ -115,42 +136,45 @@ void ffrf_body_forces(const FfrfBodyData& d, const FfrfBodyMotion& s, double wK,
 
     residual.head<3>() = R * L.head<3>();
     residual.segment<3>(3) = R * L.segment<3>(3);
-    residual.tail(m) = L.tail(m) + d.K * (s.eta - d.eta0);
+    residual.tail(m) = L.tail(m);
+    residual.tail(m).noalias() += d.K * (s.eta - d.eta0);
     if (!with_tangent) return;
 
     tangent.setZero();
-    auto rot_rows = [&](const MatX& X, Eigen::Index c0, double weight) {  // tangent += weight R^ X
+    auto rot_rows = [&](const auto& X, Eigen::Index c0, double weight) {  // tangent += weight R^ X
         const Eigen::Index nc = X.cols();
-        tangent.block(0, c0, 3, nc) += weight * R * X.topRows(3);
-        tangent.block(3, c0, 3, nc) += weight * R * X.middleRows(3, 3);
+        tangent.block(0, c0, 3, nc).noalias() += weight * R * X.topRows(3);
+        tangent.block(3, c0, 3, nc).noalias() += weight * R * X.middleRows(3, 3);
         tangent.block(6, c0, m, nc) += weight * X.bottomRows(m);
     };
+    MatX& X = work.X;
     if (wM != 0.0) {
-        MatX MR = d.M;  // M R^T (columns)
-        MR.leftCols(3) = d.M.leftCols(3) * R.transpose();
-        MR.middleCols(3, 3) = d.M.middleCols(3, 3) * R.transpose();
-        rot_rows(MR, 0, wM);
+        X = d.M;  // M R^T (columns)
+        X.leftCols(3).noalias() = d.M.leftCols(3) * R.transpose();
+        X.middleCols(3, 3).noalias() = d.M.middleCols(3, 3) * R.transpose();
+        rot_rows(X, 0, wM);
     }
     if (wC != 0.0) {
-        MatX dv = MatX::Zero(n, n);
-        dv.middleCols(3, 3) = dQdw * R.transpose();
-        MatX dQde = 2.0 * sd * d.CPhi;
-        for (int k = 0; k < 3; ++k) dQde += 2.0 * w[k] * d.Bk[k];
-        dv.rightCols(m) = dQde;
-        rot_rows(dv, 0, wC);
+        X.leftCols(3).setZero();
+        X.middleCols(3, 3).noalias() = dQdw * R.transpose();
+        auto dQde = X.rightCols(m);
+        dQde = (2.0 * sd) * d.CPhi;
+        for (int k = 0; k < 3; ++k) dQde += (2.0 * w[k]) * d.Bk[k];
+        rot_rows(X, 0, wC);
     }
     if (wK != 0.0) {
         // rotation: R <- exp(dpi~) R; d(R^T x) = R^T x~ dpi, d(R y) = -(R y)~ dpi
-        MatX dL = MatX::Zero(n, 3);
-        dL += d.M.leftCols(3) * (R.transpose() * hat(s.a.head<3>()));
-        dL += d.M.middleCols(3, 3) * (R.transpose() * hat(s.a.segment<3>(3)));
-        dL += dQdw * (R.transpose() * hat(s.omega));
-        dL -= d.Ng * (R.transpose() * hat(s.gravity));
+        auto& dL = work.dL;
+        dL.noalias() = d.M.leftCols(3) * (R.transpose() * hat(s.a.head<3>()));
+        dL.noalias() += d.M.middleCols(3, 3) * (R.transpose() * hat(s.a.segment<3>(3)));
+        dL.noalias() += dQdw * (R.transpose() * hat(s.omega));
+        dL.noalias() -= d.Ng * (R.transpose() * hat(s.gravity));
         rot_rows(dL, 3, wK);
         tangent.block(0, 3, 3, 3) -= wK * hat(R * L.head<3>());
         tangent.block(3, 3, 3, 3) -= wK * hat(R * L.segment<3>(3));
-        MatX dQe = sd * sd * d.HPhi + sdd * d.CPhi;
-        for (int k = 0; k < 3; ++k) dQe += 2.0 * sd * w[k] * d.GPhi[k];
+        auto dQe = X.rightCols(m);
+        dQe = sd * sd * d.HPhi + sdd * d.CPhi;
+        for (int k = 0; k < 3; ++k) dQe += (2.0 * sd * w[k]) * d.GPhi[k];
         rot_rows(dQe, 6, wK);
         tangent.block(6, 6, m, m) += wK * d.K;
     }

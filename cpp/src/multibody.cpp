@@ -274,11 +274,13 @@ void MultibodySystemCore::evaluate(const MbState& s, double mdot, double mdot_ra
     out.J.setZero(nc_, n_);
     if (with_tangent) out.S.setZero(n_, n_);
     MatX dummy(0, 0);
-    FfrfBodyMotion mo;
-    mo.gravity = gravity_factor * gravity_;
+    out.work.resize(bodies_.size());
+    out.motion.resize(bodies_.size());
     for (int j = 0; j < n_bodies(); ++j) {
         const MbBody& b = bodies_[j];
         const int o = offsets_[j], n = offsets_[j + 1] - o, m = n - 6;
+        FfrfBodyMotion& mo = out.motion[j];
+        mo.gravity = gravity_factor * gravity_;
         mo.R = s.R[j];
         mo.omega = s.v.segment<3>(o + 3);
         mo.a = s.a.segment(o, n);
@@ -288,9 +290,9 @@ void MultibodySystemCore::evaluate(const MbState& s, double mdot, double mdot_ra
         mo.sdot = f * mdot;
         mo.sddot = f * mdot_rate;
         if (with_tangent)
-            ffrf_body_forces(b.data, mo, wK, wC, wM, out.F.segment(o, n), out.S.block(o, o, n, n), true);
+            ffrf_body_forces(b.data, mo, wK, wC, wM, out.work[j], out.F.segment(o, n), out.S.block(o, o, n, n), true);
         else
-            ffrf_body_forces(b.data, mo, wK, wC, wM, out.F.segment(o, n), dummy, false);
+            ffrf_body_forces(b.data, mo, wK, wC, wM, out.work[j], out.F.segment(o, n), dummy, false);
     }
     MatX Jp, Ja;
     Vec3d p;

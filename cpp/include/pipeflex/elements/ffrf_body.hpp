@@ -79,11 +79,20 @@ struct FfrfBodyMotion {
     Vec3d gravity = Vec3d::Zero();   // [m/s^2]
 };
 
+// Scratch space of ffrf_body_forces for a body of n coordinates: sized once, so that
+// the kernel does not allocate in a time loop.
+struct FfrfBodyWork {
+    VecX b, L, col;                               // n
+    Eigen::Matrix<double, Eigen::Dynamic, 3> dQdw, Aw, dL;  // n x 3
+    MatX X;                                       // n x n
+    void resize(Eigen::Index n);
+};
+
 // Residual (inertia + elastic - gravity, n) and the tangent
 //   wK dF/d[dr, dpi, deta] + wC dF/d[r_dot, omega, eta_dot] + wM dF/da   (n x n)
-// into caller-owned buffers (the tangent only when `with_tangent`). Throws
-// std::invalid_argument on inconsistent sizes.
+// into caller-owned buffers (the tangent only when `with_tangent`); `work` is resized
+// if it does not fit. Throws std::invalid_argument on inconsistent sizes.
 void ffrf_body_forces(const FfrfBodyData& d, const FfrfBodyMotion& s, double wK, double wC, double wM,
-                      Eigen::Ref<VecX> residual, Eigen::Ref<MatX> tangent, bool with_tangent);
+                      FfrfBodyWork& work, Eigen::Ref<VecX> residual, Eigen::Ref<MatX> tangent, bool with_tangent);
 
 }  // namespace pipeflex

@@ -70,6 +70,9 @@ struct MbEvaluation {
     VecX c;   // constraint equations
     MatX J;   // C_q
     MatX S;   // wK dF/dq + wC dF/dv + wM dF/da, dF/dq including the joint reactions and loads
+    // scratch, kept between evaluations so that a time loop does not allocate
+    std::vector<FfrfBodyWork> work;
+    std::vector<FfrfBodyMotion> motion;
 };
 
 struct MbOptions {
