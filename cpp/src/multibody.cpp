@@ -1,7 +1,10 @@
 #include "pipeflex/multibody/multibody.hpp"
 
 #include <Eigen/LU>
+#include <Eigen/OrderingMethods>
 #include <Eigen/QR>
+#include <Eigen/SparseCore>
+#include <Eigen/SparseLU>
 
 #include <algorithm>
 #include <cmath>
@@ -33,6 +36,61 @@ Mat3d rodrigues(const Vec3d& phi, bool jacobian) {
 Vec3d vee_skew(const Mat3d& D) {
     return 0.5 * Vec3d(D(2, 1) - D(1, 2), D(0, 2) - D(2, 0), D(1, 0) - D(0, 1));
 }
+
+// Sparse LU of the iteration matrix [S, s C_q^T; s C_q, 0] on a fixed block pattern:
+// S couples only bodies that share a joint, and a joint's rows touch only its bodies.
+// For a chain of bodies this is far cheaper than a dense LU (ordering computed once).
+class IterationMatrixLU {
+   public:
+    IterationMatrixLU(const std::vector<int>& offsets, const std::vector<int>& rows,
+                      const std::vector<MbJoint>& joints) {
+        const int nb = static_cast<int>(offsets.size()) - 1, n = offsets.back(), nc = rows.back();
+        n_ = n;
+        std::vector<char> coupled(static_cast<size_t>(nb) * nb, 0);
+        for (int b = 0; b < nb; ++b) coupled[b * nb + b] = 1;
+        for (const MbJoint& j : joints)
+            if (j.body_b >= 0) coupled[j.body_a * nb + j.body_b] = coupled[j.body_b * nb + j.body_a] = 1;
+        std::vector<Eigen::Triplet<double>> t;
+        auto block = [&](int r0, int nr, int c0, int ncol) {
+            for (int c = c0; c < c0 + ncol; ++c)
+                for (int r = r0; r < r0 + nr; ++r) t.emplace_back(r, c, 1.0);
+        };
+        for (int a = 0; a < nb; ++a)
+            for (int b = 0; b < nb; ++b)
+                if (coupled[a * nb + b])
+                    block(offsets[a], offsets[a + 1] - offsets[a], offsets[b], offsets[b + 1] - offsets[b]);
+        for (size_t k = 0; k < joints.size(); ++k) {
+            for (int body : {joints[k].body_a, joints[k].body_b}) {
+                if (body < 0) continue;
+                const int o = offsets[body], nbody = offsets[body + 1] - o, r0 = n + rows[k], nr = rows[k + 1] - rows[k];
+                block(r0, nr, o, nbody);
+                block(o, nbody, r0, nr);
+            }
+        }
+        A_.resize(n + nc, n + nc);
+        A_.setFromTriplets(t.begin(), t.end(), [](double a, double) { return a; });
+        A_.makeCompressed();
+        lu_.analyzePattern(A_);
+    }
+
+    // False if the matrix is singular.
+    bool factorize(const MatX& S, const MatX& J, double scale) {
+        for (Eigen::Index c = 0; c < A_.outerSize(); ++c)
+            for (Eigen::SparseMatrix<double>::InnerIterator it(A_, c); it; ++it) {
+                const Eigen::Index r = it.row();
+                it.valueRef() = r < n_ ? (c < n_ ? S(r, c) : scale * J(c - n_, r)) : (c < n_ ? scale * J(r - n_, c) : 0.0);
+            }
+        lu_.factorize(A_);
+        return lu_.info() == Eigen::Success;
+    }
+
+    void solve(const VecX& rhs, VecX& x) { x = lu_.solve(rhs); }
+
+   private:
+    Eigen::Index n_ = 0;
+    Eigen::SparseMatrix<double> A_;
+    Eigen::SparseLU<Eigen::SparseMatrix<double>, Eigen::COLAMDOrdering<int>> lu_;
+};
 
 }  // namespace
 
@@ -113,10 +171,10 @@ void MultibodySystemCore::increment(MbState& s, const VecX& dq) const {
 }
 
 void MultibodySystemCore::joint_equations(const MbState& s, const MbJoint& j, Eigen::Ref<VecX> c,
-                                          Eigen::Ref<MatX> Ja, Eigen::Ref<MatX> Jb) const {
+                                          Eigen::Ref<MatX> Ja, Eigen::Ref<MatX> Jb, MbJointWork& w) const {
     Vec3d pa, pb;
     Mat3d Aa, Ab;
-    MatX Jpa, Jaa, Jpb, Jab;
+    MatX &Jpa = w.Jpa, &Jaa = w.Jaa, &Jpb = w.Jpb, &Jab = w.Jab;
     node(s, j.body_a, j.node_a, pa, Aa, &Jpa, &Jaa);
     const bool ground = j.body_b < 0;
     if (ground) {
@@ -160,17 +218,18 @@ double MultibodySystemCore::junction_pressure(int body, double mdot) const {
 }
 
 bool MultibodySystemCore::joint_forces(const MbState& s, const MbJoint& j, double mdot, double load_factor,
-                                       VecX& fa, VecX& fb) const {
+                                       MbJointWork& w) const {
     if (!j.actuated && !j.junction) return false;
     Vec3d p;
     Mat3d Aa, Ab;
-    MatX Jpa, Jaa, Jpb, Jab;
+    MatX &Jpa = w.Jpa, &Jaa = w.Jaa, &Jpb = w.Jpb, &Jab = w.Jab;
+    VecX &fa = w.fa, &fb = w.fb;
     node(s, j.body_a, j.node_a, p, Aa, &Jpa, &Jaa);
     const bool ground = j.body_b < 0;
     if (!ground) node(s, j.body_b, j.node_b, p, Ab, &Jpb, &Jab);
     else Ab = j.A_ground;
-    fa = VecX::Zero(Jpa.cols());
-    fb = VecX::Zero(ground ? 0 : Jpb.cols());
+    fa.setZero(Jpa.cols());
+    fb.setZero(ground ? 0 : Jpb.cols());
     if (j.actuated) {
         const Vec3d T = load_factor * j.torque.at(s.t) * (Ab * j.axis_b);
         fa += Jaa.transpose() * T;
@@ -219,10 +278,11 @@ void MultibodySystemCore::geometric_stiffness(const MbState& s, double mdot, dou
         const int nb = j.body_b < 0 ? 0 : offsets_[j.body_b + 1] - offsets_[j.body_b];
         VecX c(nr);
         MatX Ja(nr, na), Jb(nr, nb);
+        MbJointWork jw;
         for (int body : {j.body_a, j.body_b}) {
             if (body < 0) continue;
             body_columns(st, body, [&](int col, double h, double sign) {
-                joint_equations(st, j, c, Ja, Jb);
+                joint_equations(st, j, c, Ja, Jb, jw);
                 const double f = sign * w / (2 * h);
                 S.block(offsets_[j.body_a], offsets_[body] + col, na, 1) += f * (Ja.transpose() * lam);
                 if (nb) S.block(offsets_[j.body_b], offsets_[body] + col, nb, 1) += f * (Jb.transpose() * lam);
@@ -232,12 +292,13 @@ void MultibodySystemCore::geometric_stiffness(const MbState& s, double mdot, dou
     // driving torques turn with the hinge axis, junction forces with the pipe
     for (const MbJoint& j : joints_) {
         if (!j.actuated && !j.junction) continue;
-        VecX fa, fb;
+        MbJointWork jw;
+        const VecX &fa = jw.fa, &fb = jw.fb;
         const int oa = offsets_[j.body_a], na = offsets_[j.body_a + 1] - oa;
         for (int body : {j.body_a, j.body_b}) {
             if (body < 0) continue;
             body_columns(st, body, [&](int col, double h, double sign) {
-                joint_forces(st, j, mdot, load_factor, fa, fb);
+                joint_forces(st, j, mdot, load_factor, jw);
                 const double f = -sign * w / (2 * h);
                 S.block(oa, offsets_[body] + col, na, 1) += f * fa;
                 if (fb.size()) S.block(offsets_[j.body_b], offsets_[body] + col, fb.size(), 1) += f * fb;
@@ -307,19 +368,21 @@ void MultibodySystemCore::evaluate(const MbState& s, double mdot, double mdot_ra
         const int o = offsets_[l.body];
         out.F.segment(o, Jp.cols()) -= load_factor * (Jp.transpose() * fo + Ja.transpose() * mo2);
     }
+    out.joint_work.resize(joints_.size());
     for (size_t k = 0; k < joints_.size(); ++k) {
         const MbJoint& j = joints_[k];
+        MbJointWork& w = out.joint_work[k];
         const int r0 = rows_[k], nr = j.rows();
         const int oa = offsets_[j.body_a], na = offsets_[j.body_a + 1] - oa;
         const int ob = j.body_b < 0 ? 0 : offsets_[j.body_b], nb = j.body_b < 0 ? 0 : offsets_[j.body_b + 1] - ob;
-        MatX Jak(nr, na), Jbk(nr, nb);
-        joint_equations(s, j, out.c.segment(r0, nr), Jak, Jbk);
-        out.J.block(r0, oa, nr, na) += Jak;
-        if (nb) out.J.block(r0, ob, nr, nb) += Jbk;
-        VecX fa, fb;
-        if (joint_forces(s, j, mdot, load_factor, fa, fb)) {
-            out.F.segment(oa, na) -= fa;
-            if (nb) out.F.segment(ob, nb) -= fb;
+        w.Ja.resize(nr, na);
+        w.Jb.resize(nr, nb);
+        joint_equations(s, j, out.c.segment(r0, nr), w.Ja, w.Jb, w);
+        out.J.block(r0, oa, nr, na) += w.Ja;
+        if (nb) out.J.block(r0, ob, nr, nb) += w.Jb;
+        if (joint_forces(s, j, mdot, load_factor, w)) {
+            out.F.segment(oa, na) -= w.fa;
+            if (nb) out.F.segment(ob, nb) -= w.fb;
         }
     }
     out.F.noalias() += out.J.transpose() * s.lam;
@@ -363,11 +426,10 @@ MbOutput MultibodySystemCore::integrate(MbState& s, const TimeTable& mass_flow, 
         save(s);
         ++next_out;
     }
-    Eigen::PartialPivLU<MatX> lu;
+    IterationMatrixLU lu(offsets_, rows_, joints_);
     bool have_lu = false;
     double scale = 1.0;
-    MatX A(n_ + nc_, n_ + nc_);
-    VecX rhs(n_ + nc_), x;
+    VecX rhs(n_ + nc_), x(n_ + nc_), dx(n_);
     for (long n = 1; n <= n_steps; ++n) {
         const double t = t0 + static_cast<double>(n) * h;
         const VecX acc_new = (af * s.a - am * acc) / (1 - am);
@@ -378,6 +440,7 @@ MbOutput MultibodySystemCore::integrate(MbState& s, const TimeTable& mass_flow, 
         increment(s, dq);
         const double mdot = mass_flow.at(t), mrate = mass_flow.rate(t);
         double size = 0.0;
+        bool singular = false;
         // Newton on the corrections; full = re-evaluate the iteration matrix every iteration.
         auto newton = [&](bool full, int max_it) {
             bool fresh = false, stale_stall = false;
@@ -388,19 +451,16 @@ MbOutput MultibodySystemCore::integrate(MbState& s, const TimeTable& mass_flow, 
                 evaluate(s, mdot, mrate, 1.0, 1.0, 1.0, gp, bp, refresh, ev);
                 if (refresh) {
                     scale = ev.S.cwiseAbs().maxCoeff();
-                    A.setZero();
-                    A.topLeftCorner(n_, n_) = ev.S;
-                    A.topRightCorner(n_, nc_) = scale * ev.J.transpose();
-                    A.bottomLeftCorner(nc_, n_) = scale * ev.J;
-                    lu.compute(A);
-                    have_lu = true;
+                    have_lu = lu.factorize(ev.S, ev.J, scale);
                     ++out.factorizations;
+                    singular = !have_lu;
+                    if (singular) return false;
                 }
                 rhs.head(n_) = -ev.F;
                 rhs.tail(nc_) = -scale * ev.c;
-                x = lu.solve(rhs);
+                lu.solve(rhs, x);
                 if (!x.allFinite()) return false;
-                const VecX dx = x.head(n_);
+                dx = x.head(n_);
                 increment(s, dx);
                 s.v += gp * dx;
                 s.a += bp * dx;
@@ -425,6 +485,9 @@ MbOutput MultibodySystemCore::integrate(MbState& s, const TimeTable& mass_flow, 
             ++out.retries;
             if (!newton(true, 2 * opt.max_newton)) {
                 std::ostringstream msg;
+                if (singular)
+                    msg << "singular iteration matrix at t = " << t << " s (h = " << h
+                        << " s): the joints lock a motion twice or leave a body's mass matrix singular; ";
                 msg << "Newton did not converge at t = " << t << " s (h = " << h << " s) after " << 2 * opt.max_newton
                     << " full Newton iterations (last increment " << size << ", residual "
                     << ev.F.cwiseAbs().maxCoeff() << " N, constraint violation " << ev.c.cwiseAbs().maxCoeff()

@@ -65,6 +65,12 @@ struct MbState {
     double t = 0.0;
 };
 
+// Scratch of one joint's evaluation (node maps, its Jacobian blocks, applied forces).
+struct MbJointWork {
+    MatX Jpa, Jaa, Jpb, Jab, Ja, Jb;
+    VecX fa, fb;
+};
+
 struct MbEvaluation {
     VecX F;   // body residuals - loads + C_q^T lambda
     VecX c;   // constraint equations
@@ -73,6 +79,7 @@ struct MbEvaluation {
     // scratch, kept between evaluations so that a time loop does not allocate
     std::vector<FfrfBodyWork> work;
     std::vector<FfrfBodyMotion> motion;
+    std::vector<MbJointWork> joint_work;
 };
 
 struct MbOptions {
@@ -113,11 +120,11 @@ class MultibodySystemCore {
 
    private:
     void joint_equations(const MbState& s, const MbJoint& j, Eigen::Ref<VecX> c, Eigen::Ref<MatX> Ja,
-                         Eigen::Ref<MatX> Jb) const;
-    // Applied generalised forces of a joint on bodies a and b (fb empty for the ground):
-    // a hinge's driving torque (times load_factor) and the flow junction force. False if none.
-    bool joint_forces(const MbState& s, const MbJoint& j, double mdot, double load_factor, VecX& fa,
-                      VecX& fb) const;
+                         Eigen::Ref<MatX> Jb, MbJointWork& w) const;
+    // Applied generalised forces of a joint on bodies a and b (w.fa, w.fb; fb empty for the
+    // ground): a hinge's driving torque (times load_factor) and the flow junction force.
+    // False if none.
+    bool joint_forces(const MbState& s, const MbJoint& j, double mdot, double load_factor, MbJointWork& w) const;
     double junction_pressure(int body, double mdot) const;  // P = mu_f sdot^2 [N]
     // w d(C_q^T lambda - Q_loads)/dq by central differences, body by body.
     void geometric_stiffness(const MbState& s, double mdot, double load_factor, MatX& S, double w) const;
