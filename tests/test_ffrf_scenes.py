@@ -88,6 +88,16 @@ def test_two_bodies_reach_the_limit_cycle():
     assert c["period"] == pytest.approx(0.44, rel=0.03)
 
 
+def test_eight_bodies_match_the_eight_element_model():
+    """Seed 004, Fig. 4: with as many elastic coordinates per length as seed 000's 8
+    elements have, 8 FFRF bodies settle into the same limit cycle (docs/validation.md:
+    amplitude 0.424 against 0.422 m, period within 0.3 %)."""
+    ffrf = fs.cycle_summary(fs.ffrf_cantilever_tip(n_bodies=8, t_end=3.0, n_outputs=601), after=2.0)
+    element = fs.cycle_summary(fs.element_cantilever_tip(n_elements=8, t_end=3.0, n_outputs=601), after=2.0)
+    assert ffrf["amplitude"] == pytest.approx(element["amplitude"], rel=0.01)
+    assert ffrf["period"] == pytest.approx(element["period"], rel=0.01)
+
+
 def test_printer_flow_moves_the_nozzle():
     """Seed 004, sec. 8.3: the nozzle stays at the roller's height; the concrete flow
     changes its path, more at 6 m/s than at 3 m/s."""

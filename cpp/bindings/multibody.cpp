@@ -20,6 +20,10 @@ MbState to_state(const MultibodySystemCore& sys, const Arr& r, const Arr& R, con
     const int nb = sys.n_bodies();
     if (r.size() != 3 * nb || R.size() != 9 * nb)
         throw std::invalid_argument("r must be (n_bodies, 3) and R (n_bodies, 3, 3)");
+    const int n = sys.n_coordinates(), nc = sys.n_constraints();
+    if (eta.size() != n || v.size() != n || a.size() != n || lam.size() != nc)
+        throw std::invalid_argument("state: eta, v and a must have " + std::to_string(n) +
+                                    " entries (n_coordinates) and lam " + std::to_string(nc) + " (n_constraints)");
     MbState s;
     auto rr = r.unchecked();
     auto RR = R.unchecked();
@@ -129,7 +133,12 @@ void bind_multibody(py::module_& m) {
         .def(
             "node",
             [](const MultibodySystemCore& sys, const Arr& r, const Arr& R, const VecX& eta, int body, int nd) {
-                if (body < 0 || body >= sys.n_bodies()) throw std::invalid_argument("no such body");
+                if (body < 0 || body >= sys.n_bodies())
+                    throw std::invalid_argument("body must be in [0, " + std::to_string(sys.n_bodies()) + "), got " +
+                                                std::to_string(body));
+                if (nd < 0 || nd >= sys.n_nodes(body))
+                    throw std::invalid_argument("node must be in [0, " + std::to_string(sys.n_nodes(body)) +
+                                                ") on body " + std::to_string(body) + ", got " + std::to_string(nd));
                 const VecX z = VecX::Zero(sys.n_coordinates());
                 const MbState s = to_state(sys, r, R, eta, z, z, VecX::Zero(sys.n_constraints()), 0.0);
                 Vec3d p;

@@ -110,6 +110,7 @@ int MultibodySystemCore::add_body(MbBody body) {
         throw std::invalid_argument("add_body: basis must be 6 n_nodes x m with m = (size of M) - 6");
     length_scale_ = std::max(length_scale_ * (bodies_.empty() ? 0.0 : 1.0), body.s.back() - body.s.front());
     offsets_.push_back(offsets_.back() + 6 + static_cast<int>(m));
+    n_ = offsets_.back();
     bodies_.push_back(std::move(body));
     return n_bodies() - 1;
 }
@@ -123,6 +124,7 @@ void MultibodySystemCore::add_joint(const MbJoint& j) {
     if (j.body_b >= 0) check(j.body_b, j.node_b);
     joints_.push_back(j);
     rows_.push_back(rows_.back() + j.rows());
+    nc_ = rows_.back();
 }
 
 void MultibodySystemCore::add_load(const MbLoad& l) {

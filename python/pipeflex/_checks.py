@@ -7,6 +7,8 @@ import numpy as np
 
 
 def finite(name: str, value) -> float:
+    if isinstance(value, (str, bytes)):  # float("3") would accept text
+        raise ValueError(f"{name} must be a real number, got {value!r}")
     try:
         x = float(value)
     except (TypeError, ValueError):
@@ -50,7 +52,16 @@ def unit_vector(name: str, value) -> np.ndarray:
     return v / n
 
 
+def _integer(name: str, value, low: int, rule: str) -> int:
+    x = 0.5 if isinstance(value, bool) else finite(name, value)  # True is not a count
+    if x != int(x) or x < low:
+        raise ValueError(f"{name} must be a {rule} integer, got {value!r}")
+    return int(x)
+
+
+def non_negative_int(name: str, value) -> int:
+    return _integer(name, value, 0, "non-negative")
+
+
 def positive_int(name: str, value) -> int:
-    if isinstance(value, bool) or int(value) != value or int(value) < 1:
-        raise ValueError(f"{name} must be a positive integer, got {value!r}")
-    return int(value)
+    return _integer(name, value, 1, "positive")

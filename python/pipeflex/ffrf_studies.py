@@ -175,6 +175,10 @@ def curved_pipe_run(E: float, *, n_bodies: int = 8, elements_per_body: int = 20,
 def final_angular_velocity(t: np.ndarray, omega: np.ndarray, *, window: float = 0.5) -> float:
     """abs(omega) [rad/s] averaged over the last ``window`` [s] (the oscillations about the
     steady rotation average out)."""
+    window = _checks.positive("window", window)
+    t, omega = np.asarray(t, dtype=float), np.asarray(omega, dtype=float)
+    if t.ndim != 1 or t.shape != omega.shape or t.size == 0:
+        raise ValueError(f"t and omega must be equal-length 1-D arrays, got shapes {t.shape} and {omega.shape}")
     sel = t >= t[-1] - window
     return float(np.abs(np.mean(omega[sel])))
 

@@ -261,6 +261,13 @@ def _ffrf_chain(bodies, placements, flow_factor=1.0):
     return b, ids
 
 
+def _elements_per_body(value) -> int:
+    n = _checks.positive_int("elements_per_body", value)
+    if n % 2:
+        raise ValueError(f"elements_per_body must be even (the floating frame sits at the centre node), got {n}")
+    return n
+
+
 def ffrf_cantilever_pipe(*, n_bodies: int, elements_per_body: int = 20, internal_modes: int = 0,
                          reduction: str = "craig_bampton", mass_flow: float = 0.0, tip_force: float = 0.0,
                          length: float = 1.0, section: PipeSection = None):
@@ -292,7 +299,7 @@ def ffrf_cantilever_pipe(*, n_bodies: int, elements_per_body: int = 20, internal
                      fluid_density=1000.0)
         section = PipeSection(EI=10.0, pipe_mass=8.0, fluid_mass=2.0, EA=tube.EA, GJ=tube.GJ,
                               rotary_inertia=tube.rotary_inertia)
-    body = flexible_body(length=L / nb, n_elements=elements_per_body, section=section,
+    body = flexible_body(length=L / nb, n_elements=_elements_per_body(elements_per_body), section=section,
                          internal_modes=internal_modes, reduction=reduction)
     b, ids = _ffrf_chain([body] * nb, [(((k + 0.5) * L / nb, 0.0, 0.0), None) for k in range(nb)])
     b.fix(ids[0], "start")
@@ -330,10 +337,12 @@ def ffrf_curved_pipe(*, E: float, n_bodies: int = 8, elements_per_body: int = 20
     E = _checks.positive("E", E)
     R = _checks.positive("radius", radius)
     nb = _checks.positive_int("n_bodies", n_bodies)
+    if nb < 2:
+        raise ValueError(f"n_bodies must be >= 2 (a body spans less than 180 degrees of the semicircle), got {nb}")
     sec = _tube(outer_diameter=0.0368, inner_diameter=0.03568, E=E, G=E / 2.6, density=7870.0,
                 fluid_density=1000.0)
     Lb = np.pi * R / nb
-    body = flexible_body(length=Lb, n_elements=elements_per_body, section=sec, internal_modes=internal_modes,
+    body = flexible_body(length=Lb, n_elements=_elements_per_body(elements_per_body), section=sec, internal_modes=internal_modes,
                          reduction=reduction, curvature=1.0 / R)
     places = []
     for k in range(nb):

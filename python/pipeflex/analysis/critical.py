@@ -87,6 +87,9 @@ def critical_mass_flow(model, *, rtol: float = 1e-10, mass_flow_max: Optional[fl
     ev = _Evaluator(model, model.initial_state() if state is None else state)
 
     eig, ev.state = ev(0.0)
+    if _stiffness_conditioning(eig) < 1e-10:  # before the sign test: a neutral direction's sign is round-off
+        raise ValueError("the model is a mechanism (its stiffness is singular without flow, e.g. a free hinge): "
+                         "there is no static equilibrium to lose stability; support the free motion")
     if stability(eig) != "stable":
         raise ValueError(f"the model is already unstable ({stability(eig)}) without flow")
     h = unit / steps
@@ -106,6 +109,7 @@ def critical_mass_flow(model, *, rtol: float = 1e-10, mass_flow_max: Optional[fl
         # Track the crossing eigenvalue over the scan bracket; bisect only if that fails.
         try:
             mc = _track_root(ev, lo, hi, eig_hi, xtol)
+            _check_not_at_zero(mc, unit, hi, eig_hi)
             return _result(ev, mc, "flutter")
         except (ValueError, ConvergenceError):
             pass  # tracking lost: fall back to bisection on full eigen-analyses
@@ -119,7 +123,16 @@ def critical_mass_flow(model, *, rtol: float = 1e-10, mass_flow_max: Optional[fl
     kind = stability(eig_hi)
 
     if kind == "flutter":
-        mc = _track_root(ev, lo, hi, eig_hi, xtol)  # narrow bracket: tracking is safe
+        try:
+            mc = _track_root(ev, lo, hi, eig_hi, xtol)  # narrow bracket: tracking is safe
+        except ValueError:  # no sign change: Re(lambda) > 0 down to lo
+            _check_not_at_zero(lo, unit, hi, eig_hi)
+            worst = eig_hi.values[np.argmax(eig_hi.values.real)]
+            raise ConvergenceError(f"flutter between {lo:.6g} and {hi:.6g} kg/s (lambda = {worst.real:.3g} "
+                                   f"{worst.imag:+.6g}j 1/s), but the crossing eigenvalue could not be followed "
+                                   "through zero: a weakly growing mode near the noise level (e.g. of a loaded "
+                                   "floating-frame body, docs/theory.md)") from None
+        _check_not_at_zero(mc, unit, hi, eig_hi)
     else:
         def kmin(m):
             e, _ = ev(m)
@@ -128,9 +141,38 @@ def critical_mass_flow(model, *, rtol: float = 1e-10, mass_flow_max: Optional[fl
             scale = np.max(np.abs(vals))
             return vals[np.argmin(np.abs(vals))] / scale
 
-        mc = brentq(kmin, lo, hi, xtol=xtol, rtol=4 * np.finfo(float).eps)
+        try:
+            mc = brentq(kmin, lo, hi, xtol=xtol, rtol=4 * np.finfo(float).eps)
+        except ValueError:
+            raise ConvergenceError(f"divergence between {lo:.6g} and {hi:.6g} kg/s, but no stiffness eigenvalue "
+                                   "changes sign there (a neutral direction, or an unstable eigenvalue that the "
+                                   "stiffness does not show): cannot locate the critical flow") from None
 
     return _result(ev, mc, kind)
+
+
+def _stiffness_conditioning(eig) -> float:
+    """Smallest ratio of least to largest singular value of the blocks' stiffness."""
+    worst = 1.0
+    for b in eig.blocks:
+        if b.K.size:
+            sv = np.linalg.svd(b.K, compute_uv=False)
+            worst = min(worst, sv[-1] / sv[0] if sv[0] > 0 else 0.0)
+    return worst
+
+
+def _check_not_at_zero(mc, unit, hi, eig_hi):
+    """A flutter crossing at mdot -> 0 is no critical flow: the equilibrium is only
+    marginally stable without flow and the first flow destabilises it (e.g. a weakly
+    growing mode of a loaded floating-frame body, docs/theory.md). Say so instead of
+    returning ~0 kg/s."""
+    if mc <= 1e-6 * unit:
+        lam = eig_hi.values
+        worst = lam[np.argmax(lam.real)]
+        raise ConvergenceError(
+            f"the equilibrium loses stability as soon as the flow starts (crossing at mdot = {mc:.3g} kg/s; at "
+            f"{hi:.6g} kg/s lambda = {worst.real:.3g} {worst.imag:+.6g}j 1/s): it is only marginally stable "
+            "without flow, so there is no critical flow to report")
 
 
 def refine_eigenpair(block, lam, x=None, *, tol=1e-10, max_iterations=20):

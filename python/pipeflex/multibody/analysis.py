@@ -27,6 +27,10 @@ from ..errors import ConvergenceError
 from .system import MultibodyState, MultibodySystem, TimeFunction
 
 
+#: Most steps :func:`simulate` accepts (about a day of wall time at 1 ms per step).
+MAX_STEPS = 100_000_000
+
+
 @dataclass
 class MultibodyStatic:
     """Converged static state: ``state`` (with the reactions in ``state.lam``),
@@ -72,7 +76,11 @@ def static_equilibrium(system: MultibodySystem, *, state: Optional[MultibodyStat
     """
     steps = _checks.positive_int("load_steps", load_steps)
     tol = _checks.positive("tol", tol)
+    max_iterations = _checks.positive_int("max_iterations", max_iterations)
+    t = _checks.finite("t", t)
     mdot = system.mass_flow if mass_flow is None else _checks.finite("mass_flow", mass_flow)
+    if state is not None:
+        system.check_state(state)
     st = system.initial_state() if state is None else state.copy()
     st.v[:] = 0.0
     st.a[:] = 0.0
@@ -132,6 +140,8 @@ def linearize(system: MultibodySystem, state: Optional[MultibodyState] = None, *
     the loads and the junction forces. Linearising about a state whose multipliers do
     not balance its forces gives a wrong K."""
     mdot = system.mass_flow if mass_flow is None else _checks.finite("mass_flow", mass_flow)
+    if state is not None:
+        system.check_state(state)
     st = static_equilibrium(system, mass_flow=mdot).state if state is None else state
     _, _, J, K = system.evaluate(st, mass_flow=mdot, wK=1.0)
     C = system.evaluate(st, mass_flow=mdot, wK=0.0, wC=1.0)[3]
@@ -150,7 +160,8 @@ class MultibodyResult:
         frames; eta: (n_out, N) elastic coordinates (frame entries zero); v: (n_out, N)
         velocities; drift: (n_out,) ``max abs(C_q v)`` [m/s] (velocity-level constraint drift;
         positions are enforced); stats: steps, Newton iterations, matrix factorisations,
-        wall time [s].
+        retries (steps redone with full Newton), wall_time [s], step (the step used [s]:
+        the interval divided into whole steps).
     """
 
     system: MultibodySystem
@@ -169,18 +180,17 @@ class MultibodyResult:
 
     def node_position(self, body: int, node) -> np.ndarray:
         """(n_out, 3) global position [m] of a node."""
-        i = self.system.bodies[body].node_index(node)
-        return np.array([self.system.node_kinematics(self.state(k), body, i)[0] for k in range(len(self.t))])
+        return np.array([self.system.node_position(self.state(k), body, node) for k in range(len(self.t))])
 
     def angular_velocity(self, body: int) -> np.ndarray:
         """(n_out, 3) global angular velocity [rad/s] of a body's frame."""
-        o = self.system.offsets[body]
+        o = self.system.body_slice(body).start
         return self.v[:, o + 3:o + 6]
 
     def node_angular_velocity(self, body: int, node) -> np.ndarray:
         """(n_out, 3) global angular velocity [rad/s] of a node: omega + R Phi_theta eta_dot
         (small nodal rotations)."""
-        b = self.system.bodies[body]
+        b = self.system.bodies[self.system.body_index(body)]
         _, Pt, _ = b.node_rows(node)
         sl = self.system.body_slice(body)
         ed = self.v[:, sl][:, 6:]
@@ -223,12 +233,17 @@ def simulate(system: MultibodySystem, t_end: float, *, step: float, state: Optio
     tol = _checks.positive("tol", tol)
     max_iterations = _checks.positive_int("max_iterations", max_iterations)
     refresh = _checks.positive_int("refresh", refresh)
+    if state is not None:
+        system.check_state(state)
     st = system.initial_state() if state is None else state.copy()
     t0 = st.t
     if t_end <= t0:
         raise ValueError(f"t_end = {t_end} must be after the start time {t0}")
     flow = _time_function("mass_flow", system.mass_flow if mass_flow is None else mass_flow)
     n_steps = max(1, int(np.ceil((t_end - t0) / h - 1e-9)))
+    if n_steps > MAX_STEPS:  # the C++ loop cannot be interrupted: refuse a run of days
+        raise ValueError(f"step = {h} s gives {n_steps} steps to t_end = {t_end} s; at most {MAX_STEPS} "
+                         "(raise step or shorten the run)")
     out_steps = [int(k) for k in np.unique(np.round(np.linspace(0, n_steps, n_out)).astype(int))]
     wall = _time.perf_counter()
     try:
@@ -237,5 +252,6 @@ def simulate(system: MultibodySystem, t_end: float, *, step: float, state: Optio
     except _core.SolverError as e:
         raise ConvergenceError(str(e)) from None
     stats["wall_time"] = _time.perf_counter() - wall
+    stats["step"] = (t_end - t0) / n_steps  # the step used: the interval in whole steps
     return MultibodyResult(system, np.array(t), np.array([x[0] for x in states]), np.array([x[1] for x in states]),
                            np.array([x[2] for x in states]), np.array([x[3] for x in states]), np.array(drift), stats)

@@ -182,9 +182,7 @@ def flexible_body(*, length: float, n_elements: int, section: PipeSection, inter
         raise ValueError(f"n_elements must be even (the floating frame sits at the centre node), got {n_el}")
     if not isinstance(section, PipeSection):
         raise ValueError("section must be a pipeflex.PipeSection")
-    if isinstance(internal_modes, bool) or int(internal_modes) != internal_modes or internal_modes < 0:
-        raise ValueError(f"internal_modes must be a non-negative integer, got {internal_modes!r}")
-    internal_modes = int(internal_modes)
+    internal_modes = _checks.non_negative_int("internal_modes", internal_modes)
     kappa = _checks.finite("curvature", curvature)
     if abs(kappa) * L >= np.pi:
         raise ValueError(f"curvature * length must be < pi (a body turns by less than 180 degrees), got {kappa * L}")

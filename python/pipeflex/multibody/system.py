@@ -115,6 +115,14 @@ class MultibodyBuilder:
         self._flow.append(_checks.finite("flow_factor", flow_factor))
         return len(self._bodies) - 1
 
+    def _other(self, body_b, node_b):
+        """The second end of a joint: a body node, or None for the ground."""
+        if body_b is None:
+            if node_b is not None:
+                raise ValueError(f"node_b = {node_b!r} given without body_b (None joins to the ground)")
+            return None
+        return self._ref("body_b", body_b, node_b)
+
     def _ref(self, name: str, body, node) -> Tuple[int, int]:
         if isinstance(body, bool) or not isinstance(body, (int, np.integer)) or not 0 <= body < len(self._bodies):
             raise ValueError(f"{name} refers to body {body!r}, but the system has bodies 0..{len(self._bodies) - 1}")
@@ -137,13 +145,13 @@ class MultibodyBuilder:
         two nodes, or to the ground when ``body_b`` is None. ``torque`` [N m] (a time
         function) drives the joint: +torque about the current axis on body a, -torque on
         body b (a motor between them)."""
-        b = None if body_b is None else self._ref("body_b", body_b, node_b)
+        b = self._other(body_b, node_b)
         self._add("hinge", self._ref("body_a", body_a, node_a), b, axis=_checks.unit_vector("axis", axis),
                   torque=None if torque is None else _time_function("torque", torque))
 
     def spherical(self, body_a: int, node_a, body_b: Optional[int] = None, node_b=None) -> None:
         """Coincident points, orientations free (to the ground when ``body_b`` is None)."""
-        b = None if body_b is None else self._ref("body_b", body_b, node_b)
+        b = self._other(body_b, node_b)
         self._add("spherical", self._ref("body_a", body_a, node_a), b)
 
     def roller(self, body: int, node, direction: Sequence[float]) -> None:
@@ -288,21 +296,47 @@ class MultibodySystem:
         """The assembly configuration (eta = eta0) at rest."""
         return self._state0.copy()
 
+    def body_index(self, body) -> int:
+        """``body`` checked: an integer in [0, n_bodies) (ValueError otherwise)."""
+        j = _checks.non_negative_int("body", body)
+        if j >= len(self.bodies):
+            raise ValueError(f"body must be in [0, {len(self.bodies)}), got {body!r}")
+        return j
+
+    def check_state(self, state: MultibodyState, name: str = "state") -> None:
+        """Raise ValueError unless ``state`` fits this system: sizes, finite entries and
+        orthonormal frame rotations (within 1e-6)."""
+        nb, n, nc = len(self.bodies), self.n_coordinates, self.n_constraints
+        shapes = dict(r=(nb, 3), R=(nb, 3, 3), eta=(n,), v=(n,), a=(n,), lam=(nc,))
+        for attr, shape in shapes.items():
+            x = np.asarray(getattr(state, attr))
+            if x.shape != shape:
+                raise ValueError(f"{name}.{attr} must have shape {shape} for this system, got {x.shape}")
+            if not np.all(np.isfinite(x)):
+                raise ValueError(f"{name}.{attr} must be finite")
+        _checks.finite(f"{name}.t", state.t)
+        err = np.abs(np.einsum("kji,kjl->kil", state.R, state.R) - np.eye(3)).max(initial=0.0)
+        if err > 1e-6:
+            raise ValueError(f"{name}.R must hold rotation matrices (R^T R = I), off by {err:.3g}")
+
     def body_slice(self, j: int) -> slice:
         """The coordinates [r, pi, eta] of body j in the stacked vectors."""
+        j = self.body_index(j)
         return slice(int(self.offsets[j]), int(self.offsets[j + 1]))
 
     def eta(self, state: MultibodyState, j: int) -> np.ndarray:
         """The elastic coordinates of body j (a view into ``state.eta``)."""
-        return state.eta[self.offsets[j] + 6:self.offsets[j + 1]]
+        sl = self.body_slice(j)
+        return state.eta[sl.start + 6:sl.stop]
 
     def node_kinematics(self, state: MultibodyState, body: int, node: int):
         """(position p [m], orientation A, Jp, Ja) of a node: dp = Jp dq_j, d alpha = Ja dq_j."""
-        return self._core.node(state.r, state.R, state.eta, body, node)
+        j = self.body_index(body)
+        return self._core.node(state.r, state.R, state.eta, j, self.bodies[j].node_index(node))
 
     def node_position(self, state: MultibodyState, body: int, node) -> np.ndarray:
         """Global position [m] of a node (index or "start"/"center"/"end")."""
-        return self.node_kinematics(state, body, self.bodies[body].node_index(node))[0]
+        return self.node_kinematics(state, body, node)[0]
 
     def centre_line(self, state: MultibodyState) -> List[np.ndarray]:
         """Per body, the (n_nodes, 3) global node positions [m]."""
@@ -382,6 +416,7 @@ class MultibodySystem:
 
     def energy(self, state: MultibodyState) -> float:
         """Kinetic + elastic + gravitational potential energy [J] (no flow)."""
+        self.check_state(state)
         E = 0.0
         for j, b in enumerate(self.bodies):
             sl = self.body_slice(j)

@@ -106,6 +106,7 @@ class MultibodySystemCore {
     int n_constraints() const { return nc_; }
     int offset(int j) const { return offsets_[j]; }
     int n_bodies() const { return static_cast<int>(bodies_.size()); }
+    int n_nodes(int body) const { return static_cast<int>(bodies_.at(body).s.size()); }
     double length_scale() const { return length_scale_; }
 
     // Node position, orientation and 3 x n_j variation maps.
