@@ -85,7 +85,7 @@ def section_scenes(repeat):
     w_ce, tr = median_time(lambda: fs.element_cantilever_tip(n_elements=8), repeat)
     rows.append(("seed-000 cantilever, 8 elements, 2 s, h = 1 ms", tr.size, w_ce))
     w_cp, (s, res_cp, _) = median_time(lambda: fs.curved_pipe_run(E_SCENE, step=1e-3), repeat)
-    rows.append(("FFRF curved pipe, 8 bodies x 20 el., 4 s, h = 1 ms", s.n_coordinates, w_cp))
+    rows.append(("FFRF curved pipe, 8 bodies x 20 el., 4 s, h = 1 ms", s.n_dofs, w_cp))
     m = fs.element_curved_model(E_SCENE)
     w_se, _ = median_time(lambda: element_output(m, 1e-3), repeat)
     rows.append(("seed-000 curved pipe, 8 elements, 4 s, h = 1 ms", m.n_dofs, w_se))
@@ -93,8 +93,8 @@ def section_scenes(repeat):
     for v in fs.PRINTER_FLOW_SPEEDS:
         w, (s_p, res_p, _) = median_time(lambda: fs.printer_run(v), repeat)
         printer[v] = res_p
-        rows.append((f"FFRF concrete printer, {v:g} m/s, 0.34 s, h = 0.2 ms", s_p.n_coordinates, w))
-    print(f"{'scene':52s} {'coords/DOF':>10s} {'wall [s]':>9s}")
+        rows.append((f"FFRF concrete printer, {v:g} m/s, 0.34 s, h = 0.2 ms", s_p.n_dofs, w))
+    print(f"{'scene':52s} {'DOF':>10s} {'wall [s]':>9s}")
     for name, size, w in rows:
         print(f"{name:52s} {size:10d} {w:9.3f}")
     print(f"ratio FFRF / seed 000: cantilever 8 bodies {rows[1][2] / w_ce:.2f}, 2 bodies {rows[0][2] / w_ce:.2f}; "

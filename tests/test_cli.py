@@ -12,7 +12,7 @@ def test_validate_writes_json_and_figures(tmp_path, capsys):
     assert len(rows) == 6 and all(r["passed"] for r in rows)
     assert {"source", "published", "ours", "deviation", "tolerance"} <= set(rows[0])
     assert "6 of 6 checked published numbers" in capsys.readouterr().out
-    assert {p.name for p in out.iterdir()} >= {"critical_flow_convergence.png", "sprinkler_fig5.png",
+    assert {p.name for p in out.iterdir()} >= {"critical_flow_convergence.png", "sprinkler_fig5.png", "seed004_fig5.png",
                                                "coriolis_fig7.png", "coriolis_fig8.png", "seed002_table3.png",
                                                "seed002_fig6.png"}
 

@@ -107,3 +107,12 @@ def test_final_angular_velocity_window():
             final_angular_velocity(t, np.ones(11), window=window)
     with pytest.raises(ValueError, match="equal-length"):
         final_angular_velocity(t, np.ones(5))
+
+
+def test_a_failed_run_says_when(cantilever):
+    """ConvergenceError.time: the simulated time of the failure, read by until_failure."""
+    loaded = scenes.ffrf_cantilever_pipe(n_bodies=2, elements_per_body=4, tip_force=1.5)
+    with pytest.raises(ConvergenceError, match=r"at t = 0.001 s") as err:  # 2 iterations cannot reach 1e-15
+        simulate(loaded, 0.01, step=1e-3, max_iterations=1, tol=1e-15, mass_flow=30.0)
+    assert err.value.time == pytest.approx(1e-3)
+    assert ConvergenceError.from_solver("static solve failed").time is None

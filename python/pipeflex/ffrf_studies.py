@@ -17,6 +17,7 @@ from .sections import PipeSection
 from .analysis import critical_mass_flow, simulate, static_equilibrium, steady_rotation
 from .limit_cycle import cycle_metrics, limit_cycle_model
 from .multibody import simulate as mb_simulate, static_equilibrium as mb_static
+from .errors import ConvergenceError
 
 #: Seed 004, Table 1 (final angular velocity about y at the base [rad/s]).
 TABLE1_FFRF = dict(scenes.FFRF_CURVED_TABLE1)
@@ -37,15 +38,20 @@ class Trace:
     t: np.ndarray
     y: np.ndarray
     wall_time: float
-    size: int  # coordinates (FFRF: frame + elastic) or free DOF (seed-000 element)
+    size: int  # independent DOF (FFRF: coordinates minus constraint equations)
+    failed_at: Optional[float] = None  # time [s] at which the solver failed (the trace stops before)
 
 
 def ffrf_cantilever_tip(*, n_bodies: int, elements_per_body: int = 20, internal_modes: int = 0,
                         t_end: float = 2.0, step: float = 1e-3, n_outputs: int = 401,
-                        rho_inf: Optional[float] = None) -> Trace:
+                        rho_inf: Optional[float] = None, until_failure: bool = False) -> Trace:
     """Tip deflection [m] (along the 1.5 N tip force, global z) of the FFRF cantilever of
     sec. 8.1: static deflection without flow, then sdot = 15 m/s (mdot = 30 kg/s) from
-    t = 0 on (a sudden start, as seed 000's Fig. 3).
+    t = 0 on (a sudden start, as seed 000's Fig. 3), to ``t_end`` [s] with ``step`` [s].
+
+    ``until_failure``: if the integration fails (a diverging model), return the run up to
+    0.05 s before the failure, with the failure time in ``Trace.failed_at``, instead of
+    raising :class:`~pipeflex.ConvergenceError`.
 
     ``rho_inf`` (generalised-alpha) defaults to 0.9, and to 0.8 with internal modes: their
     high frequencies, coupled by the FFRF's small-deformation terms at a large deflection
@@ -58,11 +64,19 @@ def ffrf_cantilever_tip(*, n_bodies: int, elements_per_body: int = 20, internal_
     mdot = s.bodies[0].section.fluid_mass * sdot
     w = time.perf_counter()
     st = mb_static(s, mass_flow=0.0).state
-    res = mb_simulate(s, t_end, step=step, state=st, mass_flow=mdot, n_outputs=n_outputs, rho_inf=rho)
+    failed_at = None
+    try:
+        res = mb_simulate(s, t_end, step=step, state=st, mass_flow=mdot, n_outputs=n_outputs, rho_inf=rho)
+    except ConvergenceError as e:
+        if not until_failure or e.time is None or e.time - 0.05 <= step:
+            raise
+        failed_at = e.time
+        res = mb_simulate(s, failed_at - 0.05, step=step, state=st, mass_flow=mdot, n_outputs=n_outputs,
+                          rho_inf=rho)
     wall = time.perf_counter() - w
     label = f"FFRF {n_bodies} bod{'ies' if n_bodies > 1 else 'y'}" + \
             (f", {internal_modes} internal modes" if internal_modes else "")
-    return Trace(label, res.t, res.node_position(*s.info["tip"])[:, 2], wall, s.n_coordinates)
+    return Trace(label, res.t, res.node_position(*s.info["tip"])[:, 2], wall, s.n_dofs, failed_at)
 
 
 def element_cantilever_tip(*, n_elements: int = 8, t_end: float = 2.0, step: float = 1e-3,
@@ -210,6 +224,19 @@ def element_curved_pipe(E: float, *, n_elements: int = 8) -> float:
     return float(steady_rotation(element_curved_model(E, n_elements=n_elements)).omega)
 
 
+def element_curved_run(E: float, *, n_elements: int = 8, t_end: float = 4.0, step: float = 1e-3,
+                       n_outputs: int = 401, rho_inf: float = 0.9):
+    """The run of :func:`curved_pipe_run` with seed 000's elements
+    (:func:`element_curved_model`, generalised-alpha with ``step`` [s] and ``rho_inf`` to
+    ``t_end`` [s], from rest, flow from t = 0). Returns (times [s], angular velocity about
+    the hinge axis at the base [rad/s])."""
+    m = element_curved_model(E, n_elements=n_elements)
+    r = simulate(m, _checks.positive("t_end", t_end), integrator="generalized_alpha",
+                 step=_checks.positive("step", step), n_outputs=n_outputs, rho_inf=rho_inf, progress=False,
+                 work=False)
+    return r.t, r.omega[:, 0, 2]
+
+
 def printer_run(flow_speed: float, *, step: float = 2e-4, t_end: float = PRINTER_DURATION, n_outputs: int = 69,
                 junction_forces: bool = True):
     """Seed 004, sec. 8.3: static equilibrium under gravity and M_A(0) = -5000 N m (with the
@@ -263,15 +290,20 @@ def fig7_figure(data: Dict[str, np.ndarray], table2: Dict[int, float]):
     return fig
 
 
-def curved_figures(runs: Dict[float, tuple]):
-    """Figs. 9 (base angular velocity) and 10 (final shapes) from :func:`curved_pipe_run`."""
+def curved_figures(runs: Dict[float, tuple], element_runs: Optional[Dict[float, tuple]] = None):
+    """Figs. 9 (base angular velocity) and 10 (final shapes) from :func:`curved_pipe_run`;
+    ``element_runs`` (per E, the (t, omega) of :func:`element_curved_run`) adds seed 000's
+    transient in grey, as the seed draws Spacar's."""
     import matplotlib.pyplot as plt
 
     fig9, axes = plt.subplots(1, len(runs), figsize=(11, 3.5), sharey=True)
     fig10, ax10 = _axes("seed 004, Fig. 10: deformed shapes at the last step", "x [m]", "z [m]", (6, 4.5))
     for ax, (E, (s, res, w)) in zip(np.atleast_1d(axes), runs.items()):
+        if element_runs and E in element_runs:
+            te, we = element_runs[E]
+            ax.plot(te, np.abs(we), color="0.6", lw=2.5, label="seed-000 element, 8 el.")
         ax.plot(res.t, np.abs(w), "k", lw=1, label="FFRF")
-        ax.axhline(TABLE1_SPACAR[E], color="0.6", lw=2, label="Spacar (Table 1)")
+        ax.axhline(TABLE1_SPACAR[E], color="0.6", lw=0.8, ls=":", label="Spacar (Table 1)")
         ax.set_title(f"E = {E / 1e9:g} GPa", fontsize=10)
         ax.set_xlabel("time [s]")
         ax.grid(lw=0.3)

@@ -259,22 +259,28 @@ def write_figures(out: Path) -> List[Path]:
 
 
 def _seed004_figures():
-    """Seed 004: Figs. 4, 6, 7, 9, 10 and 12 (FFRF bodies; seed-000 element in grey)."""
+    """Seed 004: Figs. 4-7, 9, 10 and 12 (FFRF bodies; seed-000 element in grey)."""
     import numpy as np
 
     from . import ffrf_studies as fs
 
+    element = fs.element_cantilever_tip(n_elements=8, t_end=2.0)
     traces = [fs.ffrf_cantilever_tip(n_bodies=n, t_end=2.0) for n in (2, 4, 8)]
-    fig4 = fs.tip_figure(traces, fs.element_cantilever_tip(n_elements=8, t_end=2.0),
-                         "seed 004, Fig. 4: tip deflection, flow 15 m/s (1 body diverges: see docs)")
+    fig4 = fs.tip_figure(traces, element, "seed 004, Fig. 4: tip deflection, flow 15 m/s (1 body diverges: see docs)")
     yield "seed004_fig4.png", fig4
+    traces = [fs.ffrf_cantilever_tip(n_bodies=n, internal_modes=m, t_end=2.0, until_failure=True)
+              for n, m in ((1, 0), (1, 20), (2, 20))]
+    fig5 = fs.tip_figure(traces, element, "seed 004, Fig. 5: internal modes, flow 15 m/s (1 body diverges)")
+    fig5.axes[0].set_ylim(-0.6, 0.6)
+    yield "seed004_fig5.png", fig5
     s8 = scenes.ffrf_cantilever_pipe(n_bodies=8)
     speeds = np.linspace(0.0, 15.0, 61)
     yield "seed004_fig6.png", fs.eigenvalue_figure(speeds, fs.eigenvalue_curves(speeds),
                                                    fs.critical_flow_speed(s8))
     yield "seed004_fig7.png", fs.fig7_figure(fs.critical_flow_vs_state_size(bodies=(1, 2, 4, 8, 16, 32),
                                                                             modes=(0, 4, 8, 12, 16, 24)), TABLE2)
-    fig9, fig10 = fs.curved_figures({E: fs.curved_pipe_run(E, t_end=4.0) for E in fs.TABLE1_FFRF})
+    fig9, fig10 = fs.curved_figures({E: fs.curved_pipe_run(E, t_end=4.0) for E in fs.TABLE1_FFRF},
+                                    {E: fs.element_curved_run(E, rho_inf=0.8) for E in fs.TABLE1_FFRF})
     yield "seed004_fig9.png", fig9
     yield "seed004_fig10.png", fig10
     yield "seed004_fig12.png", fs.printer_figure({v: fs.printer_run(v)[2] for v in fs.PRINTER_FLOW_SPEEDS})

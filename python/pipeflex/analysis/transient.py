@@ -244,7 +244,7 @@ def simulate(model, t_end: float, *, integrator: str = "ida", state=None, t_star
         msg = str(e)
         if msg.startswith("the mass matrix is singular"):
             raise ValueError(msg) from None
-        raise ConvergenceError(msg) from None
+        raise ConvergenceError.from_solver(msg) from None
     finally:
         if bar is not None:
             bar.close()

@@ -250,7 +250,7 @@ def simulate(system: MultibodySystem, t_end: float, *, step: float, state: Optio
         t, states, drift, stats = system.core.integrate(st.r, st.R, st.eta, st.v, st.a, st.lam, t0, flow, t_end,
                                                         out_steps, h, rho, tol, max_iterations, refresh)
     except _core.SolverError as e:
-        raise ConvergenceError(str(e)) from None
+        raise ConvergenceError.from_solver(str(e)) from None
     stats["wall_time"] = _time.perf_counter() - wall
     stats["step"] = (t_end - t0) / n_steps  # the step used: the interval in whole steps
     return MultibodyResult(system, np.array(t), np.array([x[0] for x in states]), np.array([x[1] for x in states]),
