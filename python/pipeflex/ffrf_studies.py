@@ -114,6 +114,7 @@ def eigenvalue_curves(flow_speeds: Sequence[float], *, n_bodies: int = 8, n_mode
     from .analysis import eigenvalues
     from .multibody import linearize
 
+    n_modes = _checks.positive_int("n_modes", n_modes)
     sec = PipeSection(EI=10.0, pipe_mass=8.0, fluid_mass=2.0, EA=1e6 * 2.5e4, GJ=1e6 * 7.69,
                       rotary_inertia=(6.4e-3, 0.0, 0.0))
     system = scenes.ffrf_cantilever_pipe(n_bodies=n_bodies, section=sec)
@@ -249,7 +250,10 @@ def printer_run(flow_speed: float, *, step: float = 2e-4, t_end: float = PRINTER
 
 
 def nozzle_shift(paths: Dict[float, np.ndarray]) -> Dict[float, float]:
-    """Largest distance [m] between the nozzle path with flow and the one without."""
+    """Largest distance [m] between the nozzle path with flow and the one without (the
+    entry 0.0 of ``paths``: flow speed [m/s] -> (n, 3) path [m])."""
+    if 0.0 not in paths:
+        raise ValueError(f"paths needs the run without flow (key 0.0), got keys {sorted(paths)}")
     ref = paths[0.0]
     return {v: float(np.linalg.norm(p - ref, axis=1).max()) for v, p in paths.items() if v != 0.0}
 
@@ -340,5 +344,8 @@ def timed(fn, *args, **kwargs):
 def cheapest(costs: Sequence[float], errors: Sequence[float], labels: Sequence[str], *, tolerance: float):
     """The label of the cheapest model whose error is within ``tolerance`` (None if none)."""
     tol = _checks.positive("tolerance", tolerance)
+    if not len(costs) == len(errors) == len(labels):
+        raise ValueError(f"costs, errors and labels must have equal lengths, got {len(costs)}, {len(errors)}, "
+                         f"{len(labels)}")
     ok = [(c, lab) for c, e, lab in zip(costs, errors, labels) if e <= tol]
     return min(ok)[1] if ok else None

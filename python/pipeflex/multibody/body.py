@@ -54,6 +54,11 @@ class FlexibleBody:
     data: object
     mass: float
 
+    def __post_init__(self):
+        # the compiled body holds copies: editing these arrays would desynchronise it
+        for a in (self.nodes_s, self.basis, self.eta0):
+            a.flags.writeable = False
+
     @property
     def n_nodes(self) -> int:
         return self.n_elements + 1
@@ -197,9 +202,10 @@ def flexible_body(*, length: float, n_elements: int, section: PipeSection, inter
         Psi0[6 * i:6 * i + 3, 3:6] = _skew(np.array([s[i], 0.0, 0.0])).T
         Psi0[6 * i + 3:6 * i + 6, 3:6] = np.eye(3)
     if basis is not None:
-        Phi = np.asarray(basis, dtype=float)
-        if Phi.ndim != 2 or Phi.shape[0] != n or not np.all(np.isfinite(Phi)):
-            raise ValueError(f"basis must be a finite {n} x m array (6 coordinates per node)")
+        Phi = np.array(basis, dtype=float)  # a copy: the body freezes its arrays
+        if Phi.ndim != 2 or Phi.shape[0] != n or Phi.shape[1] < 1 or not np.all(np.isfinite(Phi)):
+            raise ValueError(f"basis must be a finite {n} x m array with m >= 1 (6 coordinates per node), "
+                             f"got shape {Phi.shape}")
         reduction = "custom"
     elif reduction == "craig_bampton":
         Phi = _craig_bampton(K, M, n_el, internal_modes)

@@ -276,7 +276,9 @@ class MultibodySystem:
         self.joints = joints
         self.loads = loads
         self.gravity = gravity
-        self.gravity.flags.writeable = False
+        # the compiled system holds copies: editing these arrays would desynchronise it
+        for a in (gravity, offsets, flow_factors):
+            a.flags.writeable = False
         self.mass_flow = mass_flow
         self.flow_factors = flow_factors
         self._state0 = state0
