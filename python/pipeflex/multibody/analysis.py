@@ -42,20 +42,50 @@ class MultibodyStatic:
     mass_flow: float
 
 
-def _null_space_step(S, J, F, c, cutoff=1e-9):
+def _null_space_step(S, J, F, c, elastic, cutoff=1e-9):
     """Newton increment (dq, dlam) for S dq + J^T dlam = -F, J dq = -c by the null-space
-    method: dq = -J^+ c + T z with C_q T = 0 and (T^T S T) z = T^T (-F - S dq_c) solved by
-    a pseudo-inverse, so that the neutral directions of a mechanism (no stiffness, e.g.
-    a free hinge, or a toggle before its joints carry load) are left alone instead of
-    wandering with the round-off; dlam from J^T dlam = -F - S dq (least squares)."""
+    method: dq = -J^+ c + T z with C_q T = 0 and (T^T S T) z = T^T (-F - S dq_c);
+    dlam from J^T dlam = -F - S dq (least squares).
+
+    The free motions T are split into the rigid motions of a mechanism (no elastic
+    coordinate moves: ``elastic`` masks those, e.g. a free hinge, or a toggle before its
+    joints carry load) and the rest. The rest is solved exactly; only the mechanism's
+    part, after condensing the rest out, goes through a pseudo-inverse (singular values
+    below ``cutoff`` times the largest of S dropped), so that its neutral directions are
+    left alone instead of wandering with the round-off. (A pseudo-inverse of the whole
+    T^T S T would also drop soft elastic directions: bending is ~1e-10 of the axial
+    stiffness of a nearly inextensible pipe.)"""
     if not (np.all(np.isfinite(S)) and np.all(np.isfinite(F)) and np.all(np.isfinite(c))):
         raise ConvergenceError("non-finite tangent or residual")
-    U, sv, Vt = np.linalg.svd(J) if J.shape[0] else (None, np.zeros(0), np.zeros((0, S.shape[0])))
+    n = S.shape[0]
+    U, sv, Vt = np.linalg.svd(J) if J.shape[0] else (None, np.zeros(0), np.zeros((0, n)))
     rank = int(np.sum(sv > 1e-12 * (sv[0] if len(sv) else 1.0)))
-    dq = -(Vt[:rank].T @ ((U[:, :rank].T @ c) / sv[:rank])) if rank else np.zeros(S.shape[0])
-    T = Vt[rank:].T if J.shape[0] else np.eye(S.shape[0])
+    dq = -(Vt[:rank].T @ ((U[:, :rank].T @ c) / sv[:rank])) if rank else np.zeros(n)
+    T = Vt[rank:].T if J.shape[0] else np.eye(n)
+    # order T's columns: those that deform the bodies first, then the rigid mechanism motions
+    _, se, Qt = np.linalg.svd(T[elastic], full_matrices=True)
+    n_el = int(np.sum(se > 1e-8))
+    T = T @ Qt.T
     Sr = T.T @ S @ T
-    z = np.linalg.pinv(Sr, rcond=cutoff) @ (T.T @ (-F - S @ dq))
+    r = T.T @ (-F - S @ dq)
+    e, m = slice(0, n_el), slice(n_el, T.shape[1])
+    z = np.zeros(T.shape[1])
+    if n_el:
+        See = Sr[e, e]
+        try:
+            Xe = np.linalg.solve(See, np.column_stack([r[e], Sr[e, m]]))
+        except np.linalg.LinAlgError:
+            Xe = np.linalg.pinv(See, rcond=1e-14) @ np.column_stack([r[e], Sr[e, m]])
+        schur, rhs = Sr[m, m] - Sr[m, e] @ Xe[:, 1:], r[m] - Sr[m, e] @ Xe[:, 0]
+    else:
+        Xe, schur, rhs = np.zeros((0, 1 + T.shape[1])), Sr, r
+    if T.shape[1] > n_el:
+        scale = np.abs(S).max()
+        U2, s2, V2t = np.linalg.svd(schur)
+        keep = s2 > cutoff * scale
+        z[m] = V2t[keep].T @ ((U2[:, keep].T @ rhs) / s2[keep])
+    if n_el:
+        z[e] = Xe[:, 0] - Xe[:, 1:] @ z[m]
     dq = dq + T @ z
     dlam = np.linalg.lstsq(J.T, -F - S @ dq, rcond=None)[0] if J.shape[0] else np.zeros(0)
     return dq, dlam
@@ -86,21 +116,29 @@ def static_equilibrium(system: MultibodySystem, *, state: Optional[MultibodyStat
     st.a[:] = 0.0
     st.t = t
     L = system.length_scale
+    elastic = np.zeros(system.n_coordinates, bool)
+    for j in range(len(system.bodies)):
+        sl = system.body_slice(j)
+        elastic[sl.start + 6:sl.stop] = True
     total = 0
     for k in range(1, steps + 1):
         lf = k / steps
         last = np.inf
         for it in range(max_iterations):
             F, c, J, S = system.evaluate(st, mass_flow=mdot, load_factor=lf, gravity_factor=lf)
-            dq, dlam = _null_space_step(S, J, F, c)
-            system.increment(st, dq)
-            st.lam += dlam
+            dq, dlam = _null_space_step(S, J, F, c, elastic)
             total += 1
-            if not np.all(np.isfinite(dq)):
+            if not (np.all(np.isfinite(dq)) and np.all(np.isfinite(dlam))):
                 raise ConvergenceError(f"static solve: non-finite increment at load factor {lf:.3g}, iteration {it}")
+            st.lam += dlam
             size = np.abs(dq).max()
-            # converged, or stalled at round-off close to the tolerance
-            if np.abs(c).max() <= 1e-6 * L and (size <= tol * L or (size >= 0.5 * last and size <= 1e3 * tol * L)):
+            satisfied = np.abs(c).max() <= 1e-6 * L
+            if satisfied and size <= tol * L:
+                # converged; the increment (round-off here) is not applied, so that an exact
+                # state, such as a straight pipe under flow, keeps its exact symmetry
+                break
+            system.increment(st, dq)
+            if satisfied and size >= 0.5 * last and size <= 1e3 * tol * L:  # stalled at round-off
                 break
             last = size
         else:
