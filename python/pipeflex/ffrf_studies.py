@@ -81,8 +81,9 @@ def ffrf_cantilever_tip(*, n_bodies: int, elements_per_body: int = 20, internal_
 
 def element_cantilever_tip(*, n_elements: int = 8, t_end: float = 2.0, step: float = 1e-3,
                            n_outputs: int = 401) -> Trace:
-    """The same run with seed 000's element (the seed's Spacar reference, Fig. 4 grey):
-    tip deflection [m] along the tip force (global y in that model)."""
+    """The same run with seed 000's element (the seed's Spacar reference, Fig. 4 grey), to
+    ``t_end`` [s] with ``step`` [s]: tip deflection [m] along the tip force (global y in
+    that model)."""
     model, tip = limit_cycle_model(n_elements=n_elements, tip_force=CANTILEVER_TIP_FORCE,
                                    mass_flow=2.0 * CANTILEVER_FLOW_SPEED)
     w = time.perf_counter()
@@ -179,8 +180,9 @@ def critical_flow_vs_state_size(*, bodies: Sequence[int] = (1, 2, 4, 8, 16, 32),
 
 def curved_pipe_run(E: float, *, n_bodies: int = 8, elements_per_body: int = 20, internal_modes: int = 0,
                     t_end: float = 4.0, step: float = 1e-3, n_outputs: int = 401, rho_inf: float = 0.8):
-    """Seed 004, sec. 8.2: the semicircular pipe from rest, flow 10 m/s from t = 0.
-    Returns (system, result, base angular velocity about y [rad/s] per output)."""
+    """Seed 004, sec. 8.2: the semicircular pipe (Young's modulus ``E`` [Pa]) from rest,
+    flow 10 m/s from t = 0, to ``t_end`` [s] with ``step`` [s]. Returns (system, result,
+    base angular velocity about y [rad/s] per output)."""
     s = scenes.ffrf_curved_pipe(E=E, n_bodies=n_bodies, elements_per_body=elements_per_body,
                                 internal_modes=internal_modes)
     res = mb_simulate(s, t_end, step=step, n_outputs=n_outputs, rho_inf=rho_inf)
@@ -241,7 +243,8 @@ def element_curved_run(E: float, *, n_elements: int = 8, t_end: float = 4.0, ste
 def printer_run(flow_speed: float, *, step: float = 2e-4, t_end: float = PRINTER_DURATION, n_outputs: int = 69,
                 junction_forces: bool = True):
     """Seed 004, sec. 8.3: static equilibrium under gravity and M_A(0) = -5000 N m (with the
-    flow running), then the driven motion. Returns (system, result, nozzle path (n, 3) [m]).
+    flow of ``flow_speed`` [m/s] running), then the driven motion to ``t_end`` [s] with
+    ``step`` [s]. Returns (system, result, nozzle path (n, 3) [m]).
     ``junction_forces=False``: without the flow's kink forces (the seed's formulation)."""
     s = scenes.concrete_printer(flow_speed=flow_speed, junction_forces=junction_forces)
     st = mb_static(s, load_steps=4).state

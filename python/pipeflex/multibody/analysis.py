@@ -101,7 +101,16 @@ def static_equilibrium(system: MultibodySystem, *, state: Optional[MultibodyStat
     ``tol`` times the largest body length (or stalls at round-off within 1e3 tol).
     Neutral directions of a mechanism (a free hinge) keep their assembly value.
 
+    Args:
+        state: starting guess (default: the assembly configuration).
+        mass_flow: mdot [kg/s] (default: the system's).
+        t: time [s] at which the loads' time functions are evaluated.
+        load_steps: increments of the loads and gravity.
+        tol: Newton tolerance on the increment, relative to the largest body length [-].
+        max_iterations: Newton iterations per load step.
+
     Raises:
+        ValueError: bad options or a state that does not fit the system.
         ConvergenceError: with the load factor, iteration and residual where it failed.
     """
     steps = _checks.positive_int("load_steps", load_steps)

@@ -388,10 +388,13 @@ class MultibodySystem:
     def evaluate(self, state: MultibodyState, *, mass_flow: float, mass_flow_rate: float = 0.0,
                  load_factor: float = 1.0, gravity_factor: float = 1.0, wK: float = 1.0, wC: float = 0.0,
                  wM: float = 0.0, tangent: bool = True):
-        """(F, c, C_q, S): residual F = body forces - loads + C_q^T lambda (N,), the
-        constraint equations c (n_constraints,), their Jacobian and the tangent
-        S = wK dF/dq + wC dF/dv + wM dF/da (dF/dq includes the joint reactions' and the
-        loads' geometric stiffness; None unless ``tangent``), at ``state`` (time state.t)."""
+        """(F, c, C_q, S): residual F = body forces - loads + C_q^T lambda (N,) [N, N m, and
+        N m per elastic coordinate unit], the constraint equations c (n_constraints,) [m,
+        rad], their Jacobian and the tangent S = wK dF/dq + wC dF/dv + wM dF/da (dF/dq
+        includes the joint reactions' and the loads' geometric stiffness; None unless
+        ``tangent``), at ``state`` (time state.t [s]) with the mass flow ``mass_flow`` mdot
+        [kg/s] changing at ``mass_flow_rate`` [kg/s^2]; loads and gravity scaled by
+        ``load_factor`` and ``gravity_factor``."""
         return self._core.evaluate(state.r, state.R, state.eta, state.v, state.a, state.lam, state.t, mass_flow,
                                    mass_flow_rate, load_factor, gravity_factor, wK, wC, wM, tangent)
 
