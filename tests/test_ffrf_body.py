@@ -5,7 +5,7 @@ import pytest
 import pipeflex as pf
 from pipeflex import scenes
 from pipeflex.multibody import MultibodyBuilder, flexible_body, linearize, static_equilibrium
-from pipeflex.multibody.joints import rotation_exp
+from pipeflex.rotation import rotation_exp
 
 
 def _section(**kw):

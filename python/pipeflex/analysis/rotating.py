@@ -33,7 +33,7 @@ from ..errors import ConvergenceError
 from ._assembly import residual_and_tangent
 from .eigen import GROWTH_TOL, eigenvalues
 from .linearize import Linearization
-from .steady import _skew
+from ..rotation import skew
 
 LINEARIZATIONS = ("small_deformation", "steady_state")
 
@@ -81,7 +81,7 @@ class _Frame:
         self.free = model.free_model()
         self.axis = model.hub.axis
         self.center = model.hub.center
-        S = _skew(self.axis)
+        S = skew(self.axis)
         n = model.n_nodes
         A = np.zeros((6 * n, 6 * n))
         B = np.zeros((6 * n, 6 * n))
@@ -124,7 +124,7 @@ class _Frame:
 
     def rigid_rotation(self, state, omega):
         """Velocities and accelerations of the rigid rotation at rate omega (phi = 0)."""
-        S = _skew(self.axis)
+        S = skew(self.axis)
         n = self.model.n_nodes
         v = np.zeros(6 * n)
         a = np.zeros(6 * n)

@@ -19,6 +19,7 @@ import numpy as np
 from .. import _checks, _core
 from ..errors import ConvergenceError
 from ._assembly import residual_and_tangent
+from ..rotation import skew
 
 
 @dataclass
@@ -41,10 +42,6 @@ class SteadyRotation:
     residual: float
 
 
-def _skew(a):
-    return np.array([[0, -a[2], a[1]], [a[2], 0, -a[0]], [-a[1], a[0], 0]])
-
-
 def _hinge(model):
     """The node with one free rotation and fixed position (the hinge), and its axis."""
     found = []
@@ -61,7 +58,7 @@ def _hinge(model):
 
 def _rigid_rotation(model, state, node, axis, omega):
     """Set the velocities and accelerations of a rigid rotation at rate omega (phi = 0)."""
-    S = _skew(axis)
+    S = skew(axis)
     xh = state.q[6 * node:6 * node + 3].copy()
     v = np.zeros(6 * model.n_nodes)
     a = np.zeros(6 * model.n_nodes)
@@ -77,7 +74,7 @@ def _rigid_rotation(model, state, node, axis, omega):
 
 def _jacobian_blocks(model, state, axis, xh, omega):
     """Full-coordinate dv/dq, da/dq (block diagonal) and dv/domega, da/domega at phi = 0."""
-    S = _skew(axis)
+    S = skew(axis)
     S2 = S @ S
     N = model.n_nodes
     Dv = np.zeros((6 * N, 6 * N))

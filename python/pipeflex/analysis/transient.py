@@ -15,6 +15,7 @@ import numpy as np
 
 from .. import _checks, _core
 from ..errors import ConvergenceError
+from ..time_functions import Sine, time_function
 
 INTEGRATORS = ("ida", "generalized_alpha")
 _OPTIONS = {
@@ -85,45 +86,6 @@ class TransientResult:
         with np.load(path) as f:
             arrays = {k: f[k] for k in cls._ARRAYS}
             return cls(**arrays, stats=json.loads(str(f["stats"])), metadata=json.loads(str(f["metadata"])))
-
-
-@dataclass(frozen=True)
-class Sine:
-    """A time function envelope(t) * sin(omega t + phase).
-
-    Attributes:
-        omega: angular frequency [rad/s] (> 0).
-        envelope: a number, or a table (times [s], values) interpolated linearly (e.g. a
-            ramp that starts a drive smoothly).
-        phase: [rad].
-    """
-
-    omega: float
-    envelope: Union[float, Tuple[Sequence[float], Sequence[float]]] = 1.0
-    phase: float = 0.0
-
-
-def _time_function(name, f) -> "_core.TimeTable":
-    """A number, a table (times [s], values) or a :class:`Sine`, as a core TimeTable."""
-    tab = _core.TimeTable()
-    if isinstance(f, Sine):
-        tab = _time_function(f"{name}.envelope", f.envelope)
-        tab.omega = _checks.positive(f"{name}.omega", f.omega)
-        tab.phase = _checks.finite(f"{name}.phase", f.phase)
-        return tab
-    if np.isscalar(f):
-        tab.t, tab.value = [0.0], [_checks.finite(name, f)]
-        return tab
-    try:
-        ts, vs = (np.asarray(a, float) for a in f)
-    except (TypeError, ValueError):
-        raise ValueError(f"{name} must be a number, a pair (times [s], values) or a Sine") from None
-    if ts.ndim != 1 or ts.shape != vs.shape or len(ts) < 1 or not np.all(np.isfinite(ts)) or not np.all(np.isfinite(vs)):
-        raise ValueError(f"{name} table: times and values must be finite 1D arrays of equal length")
-    if np.any(np.diff(ts) <= 0):
-        raise ValueError(f"{name} table: times must increase strictly")
-    tab.t, tab.value = list(ts), list(vs)
-    return tab
 
 
 def simulate(model, t_end: float, *, integrator: str = "ida", state=None, t_start: float = 0.0,
@@ -219,8 +181,8 @@ def simulate(model, t_end: float, *, integrator: str = "ida", state=None, t_star
     opt.length_scale = max(float(np.ptp(model.positions, axis=0).max()), 1e-3)
     st = (model.initial_state() if state is None else state).copy()
     load = model.load_state()
-    flow = _time_function("mass_flow", model.mass_flow if mass_flow is None else mass_flow)
-    loads = _time_function("load_factor", load_factor)
+    flow = time_function("mass_flow", model.mass_flow if mass_flow is None else mass_flow)
+    loads = time_function("load_factor", load_factor)
 
     bar = None
     if progress or (progress is None and (t1 - t0) > 5.0):

@@ -22,7 +22,7 @@ import scipy.linalg as sla
 import scipy.sparse as sp
 
 from .. import _checks, _core
-from ..analysis.transient import _time_function
+from ..time_functions import time_function
 from ..errors import ConvergenceError
 from .system import MultibodyState, MultibodySystem, TimeFunction
 
@@ -286,7 +286,7 @@ def simulate(system: MultibodySystem, t_end: float, *, step: float, state: Optio
     t0 = st.t
     if t_end <= t0:
         raise ValueError(f"t_end = {t_end} must be after the start time {t0}")
-    flow = _time_function("mass_flow", system.mass_flow if mass_flow is None else mass_flow)
+    flow = time_function("mass_flow", system.mass_flow if mass_flow is None else mass_flow)
     n_steps = max(1, int(np.ceil((t_end - t0) / h - 1e-9)))
     if n_steps > MAX_STEPS:  # the C++ loop cannot be interrupted: refuse a run of days
         raise ValueError(f"step = {h} s gives {n_steps} steps to t_end = {t_end} s; at most {MAX_STEPS} "

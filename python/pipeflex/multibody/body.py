@@ -20,7 +20,7 @@ import numpy as np
 import scipy.linalg as sla
 
 from .. import _checks, _core
-from ..analysis.steady import _skew
+from ..rotation import skew
 from ..sections import PipeSection
 
 REDUCTIONS = ("craig_bampton", "full")
@@ -199,7 +199,7 @@ def flexible_body(*, length: float, n_elements: int, section: PipeSection, inter
     Psi0 = np.zeros((n, 6))
     for i in range(n_el + 1):
         Psi0[6 * i:6 * i + 3, 0:3] = np.eye(3)
-        Psi0[6 * i:6 * i + 3, 3:6] = _skew(np.array([s[i], 0.0, 0.0])).T
+        Psi0[6 * i:6 * i + 3, 3:6] = skew(np.array([s[i], 0.0, 0.0])).T
         Psi0[6 * i + 3:6 * i + 6, 3:6] = np.eye(3)
     if basis is not None:
         Phi = np.array(basis, dtype=float)  # a copy: the body freezes its arrays

@@ -19,15 +19,9 @@ from typing import Optional, Tuple
 
 import numpy as np
 
-from .. import _core
 
 JOINT_KINDS = ("rigid", "hinge", "spherical", "roller")
 JOINT_ROWS = {"rigid": 6, "hinge": 5, "spherical": 3, "roller": 1}
-
-
-def rotation_exp(phi) -> np.ndarray:
-    """exp(phi~) of a rotation vector phi [rad] (the core's Rodrigues formula)."""
-    return np.asarray(_core.rotation_exp(np.asarray(phi, dtype=float)))
 
 
 @dataclass(frozen=True)

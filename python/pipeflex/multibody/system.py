@@ -18,9 +18,10 @@ from typing import List, Optional, Sequence, Tuple, Union
 import numpy as np
 
 from .. import _checks, _core
-from ..analysis.transient import Sine, _time_function
+from ..time_functions import Sine, time_function
 from .body import FlexibleBody
-from .joints import JOINT_KINDS, JOINT_ROWS, Joint, rotation_exp
+from ..rotation import rotation_exp
+from .joints import JOINT_KINDS, JOINT_ROWS, Joint
 
 #: A function of time: a number, a table (times [s], values) interpolated linearly, or a
 #: :class:`~pipeflex.Sine` (envelope number or table times a sine carrier).
@@ -147,7 +148,7 @@ class MultibodyBuilder:
         body b (a motor between them)."""
         b = self._other(body_b, node_b)
         self._add("hinge", self._ref("body_a", body_a, node_a), b, axis=_checks.unit_vector("axis", axis),
-                  torque=None if torque is None else _time_function("torque", torque))
+                  torque=None if torque is None else time_function("torque", torque))
 
     def spherical(self, body_a: int, node_a, body_b: Optional[int] = None, node_b=None) -> None:
         """Coincident points, orientations free (to the ground when ``body_b`` is None)."""
@@ -165,8 +166,8 @@ class MultibodyBuilder:
         ref = self._ref("body", body, node)
         if len(force) != 3 or len(moment) != 3:
             raise ValueError("force and moment need 3 components")
-        f = tuple(_time_function(f"force[{i}]", x) for i, x in enumerate(force))
-        m = tuple(_time_function(f"moment[{i}]", x) for i, x in enumerate(moment))
+        f = tuple(time_function(f"force[{i}]", x) for i, x in enumerate(force))
+        m = tuple(time_function(f"moment[{i}]", x) for i, x in enumerate(moment))
         self._loads.append(_Load(ref[0], ref[1], f, m))
 
     def set_gravity(self, g: Sequence[float]) -> None:
