@@ -4,18 +4,18 @@
    included) and of its seed-000 counterpart:
    - FFRF cantilever (sec. 8.1), 2 and 8 bodies x 20 elements, boundary modes: static
      deflection under the 1.5 N tip force, then 2 s at h = 1 ms with mdot = 30 kg/s
-     (``ffrf_studies.ffrf_cantilever_tip``); seed 000: 8 elements, same run
-     (``ffrf_studies.element_cantilever_tip``).
+     (``pipeflex.seeds.seed004.studies.ffrf_cantilever_tip``); seed 000: 8 elements, same run
+     (``pipeflex.seeds.seed004.studies.element_cantilever_tip``).
    - Curved pipe (sec. 8.2), 8 bodies x 20 elements, boundary modes, E = 9.585 GPa, 4 s
-     from rest at h = 1 ms (``ffrf_studies.curved_pipe_run``); seed 000: the same tube
-     (``ffrf_studies.element_curved_pipe``'s model) from 8 curved elements, 4 s at h = 1 ms
+     from rest at h = 1 ms (``pipeflex.seeds.seed004.studies.curved_pipe_run``); seed 000: the same tube
+     (``pipeflex.seeds.seed004.studies.element_curved_pipe``'s model) from 8 curved elements, 4 s at h = 1 ms
      by generalised-alpha.
    - Concrete printer (sec. 8.3), flow 0 / 3 / 6 m/s: static solve, then 0.34 s at
-     h = 0.2 ms (``ffrf_studies.printer_run``).
+     h = 0.2 ms (``pipeflex.seeds.seed004.studies.printer_run``).
 2. The speed requirement: "the curved pipe (8 bodies, CB boundary modes) must simulate
    its full run at least as fast as the foundation element with 8 elements at the same
    output accuracy". Output: the final angular velocity, mean |omega| over the last 0.5 s
-   of a 4 s run (401 outputs, ``ffrf_studies.final_angular_velocity``). For each model and
+   of a 4 s run (401 outputs, ``pipeflex.seeds.seed004.studies.final_angular_velocity``). For each model and
    a step sweep: the time-discretisation error against the model's own reference
    (generalised-alpha at h and h/2, Richardson-extrapolated; the FFRF's with a Newton
    tolerance of 1e-9), and the deviation from the converged seed-000 value (32 and 64
@@ -39,7 +39,7 @@ import numpy as np
 
 import pipeflex as pf
 from pipeflex import ConvergenceError, scenes
-from pipeflex import ffrf_studies as fs
+from pipeflex.seeds.seed004 import references as ref004, studies as fs
 from pipeflex.multibody import simulate as mb_simulate
 from pipeflex.multibody import static_equilibrium as mb_static
 
@@ -115,9 +115,9 @@ def section_accuracy(E_values, steps, ref_step_ffrf, ref_step_element, repeat, t
         ref_f, est_f = richardson(lambda h: ffrf_output(s, h, tol=1e-9)[0], ref_step_ffrf)
         ref_e, est_e = richardson(lambda h: element_output(m, h)[0], ref_step_element)
         print(f"\nE = {E / 1e9:g} GPa. References: FFRF {ref_f:.7f} rad/s (+-{est_f:.0e}; seed 004 Table 1 FFRF "
-              f"{fs.TABLE1_FFRF[E]}), seed 000 8 elements {ref_e:.7f} (+-{est_e:.0e}; steady solver "
+              f"{ref004.TABLE1_FFRF[E]}), seed 000 8 elements {ref_e:.7f} (+-{est_e:.0e}; steady solver "
               f"{steady8:.7f}), seed 000 converged {conv:.5f} (32 el. {c32:.5f}, 64 el. {c64:.5f}; Table 1 "
-              f"Spacar {fs.TABLE1_SPACAR[E]})")
+              f"Spacar {ref004.TABLE1_SPACAR[E]})")
         print(f"model error at h -> 0 vs converged seed 000: FFRF {(ref_f - conv) / conv:+.2%}, "
               f"seed 000 8 elements {(ref_e - conv) / conv:+.2%}")
         print(f"{'model':9s} {'h [ms]':>7s} {'omega [rad/s]':>14s} {'rel. time err.':>14s} "

@@ -7,7 +7,7 @@ the flow start excites: see docs/performance.md).
 Run: .venv/bin/python benchmarks/bench_limit_cycle.py
 """
 import pipeflex as pf
-from pipeflex.limit_cycle import limit_cycle_model
+from pipeflex.seeds.seed000.limit_cycle import limit_cycle_model
 from pipeflex.work_precision import reference_by_extrapolation, work_precision
 
 

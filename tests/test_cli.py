@@ -12,9 +12,8 @@ def test_validate_writes_json_and_figures(tmp_path, capsys):
     assert len(rows) == 6 and all(r["passed"] for r in rows)
     assert {"source", "published", "ours", "deviation", "tolerance"} <= set(rows[0])
     assert "6 of 6 checked published numbers" in capsys.readouterr().out
-    assert {p.name for p in out.iterdir()} >= {"critical_flow_convergence.png", "sprinkler_fig5.png", "seed004_fig5.png",
-                                               "coriolis_fig7.png", "coriolis_fig8.png", "seed002_table3.png",
-                                               "seed002_fig6.png"}
+    # --only computes only the named group: its figure, none of the others
+    assert {p.name for p in out.iterdir()} == {"critical_flow_convergence.png"}
 
 
 def test_shown_rows_do_not_fail_the_run(tmp_path):
@@ -27,18 +26,54 @@ def test_shown_rows_do_not_fail_the_run(tmp_path):
                                      for r in shown)
 
 
-def test_unknown_group_is_an_error():
+def test_unknown_group_is_a_one_line_error_with_status_2(capsys):
     import pytest
 
-    with pytest.raises(ValueError, match="unknown validation group 'table9'"):
+    with pytest.raises(SystemExit) as exit_info:
         main(["validate", "--only", "table9", "--no-figures"])
+    assert exit_info.value.code == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert err[-1].startswith("pipeflex: error: unknown validation group table9")
+
+
+def test_run_names_unknown_groups():
+    import pytest
+
+    from pipeflex.seeds import validate
+
+    with pytest.raises(ValueError, match="unknown validation group.*'table9'.*table1"):
+        validate.run(["table9"])
+
+
+def test_list_and_version(capsys):
+    import pytest
+
+    import pipeflex
+    from pipeflex.seeds.validate import GROUPS
+
+    assert main(["validate", "--list"]) == 0
+    listed = [line.split()[0] for line in capsys.readouterr().out.splitlines()]
+    assert listed == list(GROUPS)
+    with pytest.raises(SystemExit) as exit_info:
+        main(["--version"])
+    assert exit_info.value.code == 0
+    assert capsys.readouterr().out.strip() == f"pipeflex {pipeflex.__version__}"
+
+
+def test_help_is_plain_text(capsys):
+    import pytest
+
+    for argv in (["--help"], ["validate", "--help"]):
+        with pytest.raises(SystemExit):
+            main(argv)
+        assert "``" not in capsys.readouterr().out
 
 
 def test_rows_from_numpy_values_serialise():
     """A group that computes with numpy still writes plain JSON (numpy bools are not JSON)."""
     import numpy as np
 
-    from pipeflex.validate import Row
+    from pipeflex.seeds.checks import Row
 
     row = Row("s", "q [-]", np.float64(2.0), np.float64(2.0 + 1e-9), np.float64(1e-6), checked=np.bool_(True))
     d = json.loads(json.dumps(row.as_dict()))

@@ -3,17 +3,17 @@ import numpy as np
 import pytest
 
 import pipeflex as pf
-from pipeflex import validate
-from pipeflex.plotting import observed_order
+from pipeflex.convergence import observed_order, richardson
+from pipeflex.seeds.seed000 import references as ref000, validation
 
 
-@pytest.mark.parametrize("n", sorted(validate.TABLE1))
+@pytest.mark.parametrize("n", sorted(ref000.TABLE1))
 def test_table1_simply_supported(n):
     """Seed 000, Table 1 (1, 2, 4, 8, 16 elements): 8 significant digits."""
     r = pf.critical_mass_flow(pf.scenes.simply_supported_pipe(n_elements=n))
     assert r.kind == "divergence"
     assert r.frequency == 0.0
-    assert r.mass_flow == pytest.approx(validate.TABLE1[n], rel=validate.TOL_TABLE1)
+    assert r.mass_flow == pytest.approx(ref000.TABLE1[n], rel=validation.TOL_TABLE1)
 
 
 def test_table1_one_element_is_sqrt3():
@@ -22,22 +22,22 @@ def test_table1_one_element_is_sqrt3():
     assert r.mass_flow == pytest.approx(np.sqrt(3.0), rel=1e-12)
 
 
-@pytest.mark.parametrize("n", sorted(validate.TABLE2))
+@pytest.mark.parametrize("n", sorted(ref000.TABLE2))
 def test_table2_cantilever(n):
     """Seed 000, Table 2 (2..32 elements): within 2e-7; flutter (Hopf)."""
     r = pf.critical_mass_flow(pf.scenes.cantilever_pipe(n_elements=n))
     assert r.kind == "flutter"
     assert r.frequency > 0
     assert abs(r.eigenvalue.real) < 1e-8 * abs(r.eigenvalue)
-    assert r.mass_flow == pytest.approx(validate.TABLE2[n], rel=validate.TOL_TABLE2)
+    assert r.mass_flow == pytest.approx(ref000.TABLE2[n], rel=validation.TOL_TABLE2)
 
 
 def test_table2_extrapolated_and_order_four():
     """Seed 000, Table 2 'extrapolated' 25.005520 within 2e-6; observed order ~4."""
     n = [4, 8, 16, 32]
     f = [pf.critical_mass_flow(pf.scenes.cantilever_pipe(n_elements=k)).mass_flow for k in n]
-    ext = validate.richardson(f[-2], f[-1])
-    assert ext == pytest.approx(validate.TABLE2_EXTRAPOLATED, rel=validate.TOL_TABLE2_EXTRAPOLATED)
+    ext = richardson(f[-2], f[-1])
+    assert ext == pytest.approx(ref000.TABLE2_EXTRAPOLATED, rel=validation.TOL_TABLE2_EXTRAPOLATED)
     order = observed_order(n[:-1], np.abs(np.array(f[:-1]) - ext))
     assert order[-1] == pytest.approx(4.0, abs=0.5)
 

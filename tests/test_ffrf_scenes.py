@@ -3,8 +3,9 @@ import numpy as np
 import pytest
 
 import pipeflex as pf
-from pipeflex import ffrf_studies as fs
-from pipeflex import scenes, validate
+from pipeflex import scenes
+from pipeflex.seeds.seed000 import references as ref000, validation as val000
+from pipeflex.seeds.seed004 import references as ref004, studies as fs, validation as val004
 from pipeflex.multibody import MultibodyBuilder, flexible_body, linearize, simulate, static_equilibrium
 
 from conftest import FAST
@@ -15,14 +16,14 @@ def test_n_bodies_reproduce_table2_with_2n_elements(n_bodies):
     """Seed 000, Table 2 (2 and 4 elements: 24.962732, 25.054732 kg/s) from 1 and 2 FFRF
     bodies with boundary modes: a body with its centre node fixed is two Hermite elements."""
     m = pf.critical_mass_flow(scenes.ffrf_cantilever_pipe(n_bodies=n_bodies, elements_per_body=50)).mass_flow
-    assert m == pytest.approx(validate.TABLE2[2 * n_bodies], rel=validate.TOL_TABLE2)
+    assert m == pytest.approx(ref000.TABLE2[2 * n_bodies], rel=val000.TOL_TABLE2)
 
 
 def test_internal_modes_converge_faster_per_state_size():
     """Seed 004, Fig. 7: one body with internal modes approaches the converged critical
     flow with a smaller state vector than more bodies without."""
     d = fs.critical_flow_vs_state_size(bodies=(1, 2, 4), modes=(0, 8, 16))
-    ref = validate.TABLE2_EXTRAPOLATED
+    ref = ref000.TABLE2_EXTRAPOLATED
     err_b = np.abs(d["bodies_flow"] - ref)
     err_m = np.abs(d["modes_flow"] - ref)
     assert err_b[2] < err_b[1] and err_m[-1] < err_m[0]  # (Table 2 is not monotone from 2 to 4 elements)
@@ -45,11 +46,11 @@ def test_curved_pipe_is_assembled_on_the_semicircle():
     assert np.abs(r - 0.5).max() < 2e-4
 
 
-@pytest.mark.parametrize("E", sorted(fs.TABLE1_FFRF))
+@pytest.mark.parametrize("E", sorted(ref004.TABLE1_FFRF))
 def test_curved_pipe_table1(E):
     """Seed 004, Table 1, FFRF column (5.320, 9.117, 9.954 rad/s): within 1%."""
     _, res, w = fs.curved_pipe_run(E, t_end=3.0 if FAST else 4.0, n_outputs=301)
-    assert fs.final_angular_velocity(res.t, w) == pytest.approx(fs.TABLE1_FFRF[E], rel=validate.TOL_SEED004_TABLE1)
+    assert fs.final_angular_velocity(res.t, w) == pytest.approx(ref004.TABLE1_FFRF[E], rel=val004.TOL_TABLE1)
     assert res.drift.max() < 1e-3
 
 
@@ -124,7 +125,7 @@ def test_critical_flow_converges_at_fourth_order_in_bodies():
     """Errors against seed 000's extrapolated 25.005520 kg/s fall as (size)^-4, as for
     Hermite elements (2, 4, 8 bodies = 4, 8, 16 elements)."""
     d = fs.critical_flow_vs_state_size(bodies=(2, 4, 8), modes=())
-    err = np.abs(d["bodies_flow"] - validate.TABLE2_EXTRAPOLATED)
+    err = np.abs(d["bodies_flow"] - ref000.TABLE2_EXTRAPOLATED)
     order = np.log2(err[:-1] / err[1:])
     assert np.all(order > 3.5)
 
@@ -191,4 +192,4 @@ def test_32_bodies_equal_64_elements():
     m = pf.critical_mass_flow(scenes.ffrf_cantilever_pipe(n_bodies=32, elements_per_body=50)).mass_flow
     ref = pf.critical_mass_flow(scenes.cantilever_pipe(n_elements=64)).mass_flow
     assert m == pytest.approx(ref, rel=1e-8)
-    assert m == pytest.approx(validate.TABLE2_EXTRAPOLATED, rel=validate.TOL_TABLE2_EXTRAPOLATED)
+    assert m == pytest.approx(ref000.TABLE2_EXTRAPOLATED, rel=val000.TOL_TABLE2_EXTRAPOLATED)

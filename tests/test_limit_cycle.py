@@ -4,7 +4,8 @@ import pytest
 
 from conftest import FAST
 from pipeflex import simulate, static_equilibrium
-from pipeflex.limit_cycle import cycle_metrics, limit_cycle_model, simulate_limit_cycle
+from pipeflex.seeds.seed000.limit_cycle import limit_cycle_model, simulate_limit_cycle
+from pipeflex.signals import cycle_metrics
 
 
 def test_static_deflection_by_tip_force():

@@ -1,10 +1,9 @@
-"""pipeflex.model_choice: accuracy against cost of FFRF bodies and seed 000's element."""
+"""pipeflex.seeds.seed004.model_choice: accuracy against cost of FFRF bodies and seed 000's element."""
 import numpy as np
 import pytest
 
-from pipeflex import ffrf_studies as fs
-from pipeflex import model_choice as mc
-from pipeflex import validate
+from pipeflex.seeds.seed000 import references as ref000, validation as val000
+from pipeflex.seeds.seed004 import model_choice as mc, studies as fs
 
 
 def test_straight_candidates_n_bodies_equal_2n_elements():
@@ -13,7 +12,7 @@ def test_straight_candidates_n_bodies_equal_2n_elements():
     for nb in (1, 2):
         ffrf, el = by[f"FFRF {nb} b."], by[f"element {2 * nb} el."]
         assert ffrf.value == pytest.approx(el.value, rel=1e-7)
-        assert ffrf.value == pytest.approx(validate.TABLE2[2 * nb], rel=validate.TOL_TABLE2)
+        assert ffrf.value == pytest.approx(ref000.TABLE2[2 * nb], rel=val000.TOL_TABLE2)
         assert ffrf.size == el.size  # 12 n_bodies independent DOF, first-order state twice that
         assert ffrf.error == pytest.approx(abs(ffrf.value / mc.CRITICAL_FLOW_REFERENCE - 1.0))
     assert all(x.wall_time > 0 for x in c)

@@ -5,7 +5,7 @@ import pytest
 
 import pipeflex as pf
 from pipeflex import ConvergenceError, scenes
-from pipeflex.ffrf_studies import final_angular_velocity
+from pipeflex.seeds.seed004.studies import final_angular_velocity
 from pipeflex.multibody import MultibodyBuilder, flexible_body, simulate, static_equilibrium
 
 

@@ -7,7 +7,8 @@ import numpy as np
 import pytest
 
 import pipeflex as pf
-from pipeflex import ModelBuilder, PipeSection, rotating_studies as rs, rotating_tables as rt, scenes
+from pipeflex import ModelBuilder, PipeSection, scenes
+from pipeflex.seeds.seed002 import references as ref002, studies as rs, tables as rt
 
 
 @pytest.fixture(scope="module")
@@ -18,12 +19,12 @@ def tables():
 def test_table2_transverse_to_all_printed_digits():
     """Seed 002, Table 2, 'Simulation' column (10 elements), 4 decimals: half a unit."""
     ours = rt.table2()
-    for N, ref in rt.TABLE2_SIMULATION.items():
+    for N, ref in ref002.TABLE2_SIMULATION.items():
         for j in range(3):
             assert abs(ours[N][j] - ref[j]) <= 0.5e-4 + 1e-9, (N, j, ours[N][j], ref[j])
         # LONGIT-I: Model A's bending matrix also acts on the axial component (EI u''^2),
         # which raises it by ~(pi/2)^2 / (2 s^2) = 2.6e-5 relative to the exact column
-        assert ours[N][3] == pytest.approx(rt.TABLE2_EXACT[N][3], rel=4e-5)
+        assert ours[N][3] == pytest.approx(ref002.TABLE2_EXACT[N][3], rel=4e-5)
 
 
 def test_tables_3_to_5_small_deformation(tables):
@@ -37,8 +38,8 @@ def test_tables_3_to_5_small_deformation(tables):
             for j in range(6):
                 if (mode, key, j) == misprint:
                     continue
-                assert abs(d[j]) <= 1e-3, (mode, key, rt.GAMMAS[j], d[j])
-            ours, ref = tables.values[mode][key], np.array(rt.TABLES[mode][key])
+                assert abs(d[j]) <= 1e-3, (mode, key, ref002.GAMMAS[j], d[j])
+            ours, ref = tables.values[mode][key], np.array(ref002.TABLES[mode][key])
             n_exact += int(np.sum(np.abs(ours[:5] - ref[:5]) <= 0.5e-3 + 1e-9))
     # most entries up to gamma = 5 match all printed digits (3 decimals)
     assert n_exact >= 0.7 * 3 * 30 * 5
@@ -48,7 +49,7 @@ def test_table4_outlier_is_not_smooth_in_hub_radius(tables):
     """Table 4 (mode 2), N = 3, gamma = 10 along R/L = 0..5: our values have second
     differences of one sign, decreasing in size; with the printed 122.896 they do not."""
     ours = np.array([tables.values[2][(3, R)][5] for R in range(6)])
-    printed = np.array([rt.TABLE4[(3, R)][5] for R in range(6)])
+    printed = np.array([ref002.TABLE4[(3, R)][5] for R in range(6)])
     d2_ours, d2_printed = np.diff(ours, 2), np.diff(printed, 2)
     assert np.all(d2_ours < 0) and np.all(np.diff(np.abs(d2_ours)) < 0)
     assert not np.all(np.diff(np.abs(d2_printed)) < 0)
@@ -64,17 +65,17 @@ def test_high_speed_deviations_grow_with_strain(tables):
         for key, d in dev[mode].items():
             for j in (6, 7):
                 if abs(d[j]) > 1e-2:
-                    assert tables.max_strain[key][j] > 5e-3, (mode, key, rt.GAMMAS[j])
+                    assert tables.max_strain[key][j] > 5e-3, (mode, key, ref002.GAMMAS[j])
 
 
 def test_resonance_speed():
     """Seed 002, Section 7: omega_1 = Omega at gamma = 3.88 (N = 0, R = 0)."""
-    m = scenes.rotating_cantilever(slenderness=rt.SLENDERNESS)
+    m = scenes.rotating_cantilever(slenderness=ref002.SLENDERNESS)
     assert pf.resonance_speed(m) == pytest.approx(3.88, abs=0.005)
 
 
 def test_linearizations_agree_at_low_strain_and_differ_at_high():
-    m = scenes.rotating_cantilever(slenderness=rt.SLENDERNESS)
+    m = scenes.rotating_cantilever(slenderness=ref002.SLENDERNESS)
     a = pf.rotating_frequencies(m, gamma=[1.0, 50.0])
     b = pf.rotating_frequencies(m, gamma=[1.0, 50.0], linearization="steady_state")
     assert np.allclose(a.transverse[0], b.transverse[0], rtol=1e-5)

@@ -1,20 +1,42 @@
 """pipeflex: flexible multibody dynamics of beams and fluid-conveying pipes.
 
-SI units throughout. See ``docs/`` for the theory, conventions and user guide.
+SI units throughout. See ``docs/`` for the theory, conventions and user guide. The
+library (models, sections, elements, bodies and joints, analyses, plotting) is
+importable without the seed studies; ``pf.scenes`` (the seeds' test problems) and
+:mod:`pipeflex.seeds` (their published numbers, studies and figures) load on first use.
 """
-from . import coriolis, limit_cycle, scenes, work_precision
+import importlib
+
 from .analysis import (CriticalFlow, EigenResult, Linearization, StaticResult, critical_mass_flow,
                        eigenvalues, linearize, simulate, stability, static_equilibrium,
-                       Sine, TransientResult, SteadyRotation, steady_rotation,
+                       TransientResult, SteadyRotation, steady_rotation,
                        RotatingFrequencies, resonance_speed, rotating_frequencies, rotating_state)
 from .errors import ConvergenceError
 from .model import Model, ModelBuilder
 from .sections import PipeSection
+from .time_functions import Sine
 
 __version__ = "0.1.0"
 
-__all__ = ["scenes", "coriolis", "limit_cycle", "work_precision", "CriticalFlow", "EigenResult", "Linearization", "StaticResult",
+# Attributes that load a module on first access (PEP 562), so that `import pipeflex`
+# does not import the seed studies.
+_LAZY = {"scenes": "pipeflex.scenes", "seeds": "pipeflex.seeds", "work_precision": "pipeflex.work_precision",
+         "plotting": "pipeflex.plotting", "multibody": "pipeflex.multibody",
+         "coriolis": "pipeflex.seeds.seed000.coriolis", "limit_cycle": "pipeflex.seeds.seed000.limit_cycle"}
+
+
+def __getattr__(name):
+    if name in _LAZY:
+        return importlib.import_module(_LAZY[name])
+    raise AttributeError(f"module 'pipeflex' has no attribute {name!r}")
+
+
+def __dir__():
+    return sorted(list(globals()) + list(_LAZY))
+
+
+__all__ = ["CriticalFlow", "EigenResult", "Linearization", "StaticResult",
            "critical_mass_flow", "eigenvalues", "linearize", "simulate", "stability", "static_equilibrium",
            "Sine", "TransientResult", "SteadyRotation", "steady_rotation",
            "RotatingFrequencies", "resonance_speed", "rotating_frequencies", "rotating_state",
-           "ConvergenceError", "Model", "ModelBuilder", "PipeSection"]
+           "ConvergenceError", "Model", "ModelBuilder", "PipeSection", "__version__"]

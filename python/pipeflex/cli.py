@@ -1,4 +1,4 @@
-"""Command line: ``pipeflex validate [--json PATH] [--out DIR] [--only GROUP ...]``."""
+"""Command line of pipeflex (``pipeflex --help``)."""
 from __future__ import annotations
 
 import argparse
@@ -6,26 +6,51 @@ import json
 import sys
 from pathlib import Path
 
+DESCRIPTION = "pipeflex: flexible multibody dynamics of beams and fluid-conveying pipes."
+VALIDATE_HELP = ("Recompute the seeds' published numbers, print them beside ours and draw the "
+                 "figures. Exit status 0 when every checked number is within its tolerance, 1 otherwise.")
+
+
+def _parser() -> argparse.ArgumentParser:
+    from . import __version__
+
+    parser = argparse.ArgumentParser(prog="pipeflex", description=DESCRIPTION)
+    parser.add_argument("--version", action="version", version=f"pipeflex {__version__}")
+    sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
+    val = sub.add_parser("validate", help="recompute the seeds' published numbers and compare",
+                         description=VALIDATE_HELP)
+    val.add_argument("--list", action="store_true", help="list the validation groups and exit")
+    val.add_argument("--only", nargs="+", metavar="GROUP",
+                     help="run only these groups, figures included (default: all; see --list)")
+    val.add_argument("--json", type=Path, metavar="PATH", help="also write the rows as JSON to this file")
+    val.add_argument("--out", type=Path, default=Path("out"), metavar="DIR",
+                     help="folder for the figures (default: out)")
+    val.add_argument("--no-figures", action="store_true", help="skip the figures")
+    return parser
+
 
 def main(argv=None) -> int:
-    parser = argparse.ArgumentParser(prog="pipeflex", description=__doc__)
-    sub = parser.add_subparsers(dest="command", required=True)
-    val = sub.add_parser("validate", help="recompute the seeds' published numbers and compare")
-    val.add_argument("--json", type=Path, help="also write the rows as JSON to this file")
-    val.add_argument("--out", type=Path, default=Path("out"), help="directory for figures (default out/)")
-    val.add_argument("--no-figures", action="store_true", help="skip the figures")
-    val.add_argument("--only", nargs="+", metavar="GROUP", help="validation groups to run (default all)")
+    parser = _parser()
     args = parser.parse_args(argv)
 
-    from . import validate
+    from .seeds import validate
 
+    if args.list:
+        width = max(map(len, validate.GROUPS))
+        for name, group in validate.GROUPS.items():
+            print(f"{name:{width}s}  {group.description}")
+        return 0
+    if args.only:
+        unknown = [g for g in args.only if g not in validate.GROUPS]
+        if unknown:
+            parser.error(f"unknown validation group {', '.join(unknown)} (pipeflex validate --list shows them)")
     rows = validate.run(args.only)
     print(validate.format_rows(rows))
     if args.json:
         args.json.parent.mkdir(parents=True, exist_ok=True)
         args.json.write_text(json.dumps([r.as_dict() for r in rows], indent=2))
     if not args.no_figures:
-        for p in validate.write_figures(args.out):
+        for p in validate.write_figures(args.out, args.only):
             print(f"figure: {p}")
     return 0 if all(r.passed for r in rows) else 1
 

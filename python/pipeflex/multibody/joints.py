@@ -17,7 +17,6 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Optional, Tuple
 
-import numpy as np
 
 
 JOINT_KINDS = ("rigid", "hinge", "spherical", "roller")

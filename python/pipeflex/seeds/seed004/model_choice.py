@@ -11,7 +11,7 @@ element for two quantities:
 Each candidate model is run once (or a few times for the cheap ones, keeping the fastest
 wall time) and reported as a :class:`Candidate`: its state size, wall time [s], value and
 relative error. :func:`choose` picks the cheapest candidate within a tolerance with
-:func:`pipeflex.ffrf_studies.cheapest`. Used by ``notebooks/seed004_model_choice.ipynb``.
+:func:`pipeflex.seeds.seed004.studies.cheapest`. Used by ``notebooks/seed004_model_choice.ipynb``.
 SI units throughout.
 """
 from __future__ import annotations
@@ -22,12 +22,15 @@ from typing import Dict, List, Optional, Sequence
 
 import numpy as np
 
-from . import _checks, ffrf_studies, scenes
-from .analysis import critical_mass_flow
-from .ffrf_studies import element_curved_model
+from ... import _checks
+from ...analysis import critical_mass_flow
+from ..seed000 import scenes as seed000_scenes
+from ..seed000.references import TABLE2_EXTRAPOLATED
+from . import scenes, studies
+from .studies import element_curved_model
 
-#: Seed 000, Table 2: Richardson extrapolation of the critical mass flow [kg/s].
-CRITICAL_FLOW_REFERENCE = 25.005520
+#: Seed 000, Table 2: the extrapolated critical mass flow [kg/s].
+CRITICAL_FLOW_REFERENCE = TABLE2_EXTRAPOLATED
 #: Seed 004, sec. 8.2: flow speed [m/s] of the semicircular pipe.
 CURVED_FLOW_SPEED = 10.0
 #: Smallest relative error drawn on the log axes (an error of exactly 0 is drawn here).
@@ -95,7 +98,7 @@ def straight_pipe_candidates(*, bodies: Sequence[int] = (1, 2, 4, 8, 16), modes:
             label = f"FFRF {nb} b." + (f" + {m} modes" if m else "")
             out.append(Candidate("FFRF", label, 2 * s.n_dofs, wall, c.mass_flow, _relative_error(c.mass_flow, ref)))
     for n in elements:
-        mdl = scenes.cantilever_pipe(n_elements=n)
+        mdl = seed000_scenes.cantilever_pipe(n_elements=n)
         c, wall = best_time(critical_mass_flow, mdl, repeats=repeats)
         out.append(Candidate("seed-000 element", f"element {n} el.", 2 * mdl.n_dofs, wall, c.mass_flow,
                              _relative_error(c.mass_flow, ref)))
@@ -107,15 +110,15 @@ def straight_pipe_candidates(*, bodies: Sequence[int] = (1, 2, 4, 8, 16), modes:
 def element_curved_transient(E: float, *, n_elements: int = 8, t_end: float = 4.0, step: float = 1e-3) -> float:
     """Final angular velocity [rad/s] of :func:`element_curved_model` from a transient
     (generalised-alpha, ``step`` [s], from rest, flow from t = 0), averaged as
-    :func:`pipeflex.ffrf_studies.final_angular_velocity` over the last 0.5 s."""
-    t, w = ffrf_studies.element_curved_run(E, n_elements=n_elements, t_end=t_end, step=step)
-    return ffrf_studies.final_angular_velocity(t, w)
+    :func:`pipeflex.seeds.seed004.studies.final_angular_velocity` over the last 0.5 s."""
+    t, w = studies.element_curved_run(E, n_elements=n_elements, t_end=t_end, step=step)
+    return studies.final_angular_velocity(t, w)
 
 
 def _ffrf_curved(E, n_bodies, modes, elements_per_body, t_end, step):
-    s, res, w = ffrf_studies.curved_pipe_run(E, n_bodies=n_bodies, internal_modes=modes,
+    s, res, w = studies.curved_pipe_run(E, n_bodies=n_bodies, internal_modes=modes,
                                              elements_per_body=elements_per_body, t_end=t_end, step=step)
-    return ffrf_studies.final_angular_velocity(res.t, w), 2 * s.n_dofs
+    return studies.final_angular_velocity(res.t, w), 2 * s.n_dofs
 
 
 def curved_pipe_candidates(E: float, *, reference: float, bodies: Sequence[int] = (2, 4, 8, 16),
@@ -129,7 +132,7 @@ def curved_pipe_candidates(E: float, *, reference: float, bodies: Sequence[int] 
       body (``elements_per_body`` elements each; with boundary modes only the body mesh
       does not change the result): transient to ``t_end`` [s] with ``step`` [s];
     * seed 000's element with ``elements`` elements by the direct steady-rotation solver
-      (:func:`pipeflex.ffrf_studies.element_curved_pipe`);
+      (:func:`pipeflex.seeds.seed004.studies.element_curved_pipe`);
     * if ``transient_elements``, the same elements by the same transient as the FFRF
       chains (so that the model and the analysis can be told apart in the cost).
 
@@ -144,7 +147,7 @@ def curved_pipe_candidates(E: float, *, reference: float, bodies: Sequence[int] 
             out.append(Candidate("FFRF, transient", label, size, wall, w, _relative_error(w, ref)))
     for n in elements:
         size = 2 * element_curved_model(E, n_elements=n).n_dofs
-        w, wall = best_time(ffrf_studies.element_curved_pipe, E, n_elements=n, repeats=repeats)
+        w, wall = best_time(studies.element_curved_pipe, E, n_elements=n, repeats=repeats)
         out.append(Candidate("seed-000 element, steady solver", f"element {n} el.", size, wall, w,
                              _relative_error(w, ref)))
         if transient_elements:
@@ -165,7 +168,7 @@ def choose(candidates: Sequence[Candidate], tolerances: Sequence[float], *,
     costs = [getattr(c, cost) for c in candidates]
     errors = [c.error for c in candidates]
     labels = [c.label for c in candidates]
-    return {tol: ffrf_studies.cheapest(costs, errors, labels, tolerance=tol) for tol in tolerances}
+    return {tol: studies.cheapest(costs, errors, labels, tolerance=tol) for tol in tolerances}
 
 
 def format_candidates(candidates: Sequence[Candidate], *, unit: str) -> str:

@@ -12,16 +12,16 @@ from typing import Dict, Optional, Sequence
 
 import numpy as np
 
-from . import _checks, scenes
-from .sections import PipeSection
-from .analysis import critical_mass_flow, simulate, static_equilibrium, steady_rotation
-from .limit_cycle import cycle_metrics, limit_cycle_model
-from .multibody import simulate as mb_simulate, static_equilibrium as mb_static
-from .errors import ConvergenceError
+from ... import _checks
+from ...analysis import critical_mass_flow, simulate, static_equilibrium, steady_rotation
+from ...errors import ConvergenceError
+from ...multibody import simulate as mb_simulate, static_equilibrium as mb_static
+from ...sections import PipeSection
+from ...signals import cycle_metrics
+from ..seed000.limit_cycle import limit_cycle_model
+from . import scenes
+from .references import TABLE1_SPACAR
 
-#: Seed 004, Table 1 (final angular velocity about y at the base [rad/s]).
-TABLE1_FFRF = dict(scenes.FFRF_CURVED_TABLE1)
-TABLE1_SPACAR = {0.9585e9: 5.218, 9.585e9: 9.010, 95.85e9: 9.882}
 #: Seed 004, sec. 8.1: the cantilever's flow speed [m/s] and tip force [N].
 CANTILEVER_FLOW_SPEED = 15.0
 CANTILEVER_TIP_FORCE = 1.5
@@ -112,8 +112,8 @@ def eigenvalue_curves(flow_speeds: Sequence[float], *, n_bodies: int = 8, n_mode
     eigenvalue to the previous speed's). Axial and torsional stiffness are raised 1e6-fold
     so that only bending modes remain in range (they do not couple with bending in the
     straight pipe). Shape (len(flow_speeds), n_modes), complex."""
-    from .analysis import eigenvalues
-    from .multibody import linearize
+    from ...analysis import eigenvalues
+    from ...multibody import linearize
 
     n_modes = _checks.positive_int("n_modes", n_modes)
     sec = PipeSection(EI=10.0, pipe_mass=8.0, fluid_mass=2.0, EA=1e6 * 2.5e4, GJ=1e6 * 7.69,
@@ -207,7 +207,7 @@ def element_curved_model(E: float, *, n_elements: int = 8, flow_speed: float = 1
     inertia; water at ``flow_speed`` sdot [m/s]. Returns a :class:`~pipeflex.Model`."""
     import dataclasses
 
-    from .model import ModelBuilder
+    from ...model import ModelBuilder
 
     E = _checks.positive("E", E)
     sec = scenes._tube(outer_diameter=0.0368, inner_diameter=0.03568, E=E, G=E / 2.6, density=7870.0,

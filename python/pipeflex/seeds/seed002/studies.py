@@ -7,13 +7,13 @@ from typing import Sequence
 
 import numpy as np
 
-from . import _checks, scenes
-from .analysis.rotating import rotating_frequencies
-from .analysis.transient import simulate
-from .errors import ConvergenceError
+from ... import _checks
+from ...analysis.rotating import rotating_frequencies
+from ...analysis.transient import simulate
+from ...errors import ConvergenceError
+from . import scenes
+from .references import SCHILHANSL
 
-#: Seed 002, eqs. 68-69 (Schilhansl's in-plane coefficients): phi = a + b R/L.
-SCHILHANSL = {1: (0.173, 1.558), 2: (5.380, 8.631)}
 
 
 def schilhansl(mode: int, hub_radius_ratio: float) -> float:

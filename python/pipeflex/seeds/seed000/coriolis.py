@@ -29,10 +29,13 @@ from typing import Optional, Sequence, Tuple
 
 import numpy as np
 
-from . import _checks, scenes
-from .analysis import Sine, TransientResult, eigenvalues, linearize, simulate, static_equilibrium
-from .model import Model
-from .sections import PipeSection
+from ... import _checks
+from ...analysis import TransientResult, eigenvalues, linearize, simulate, static_equilibrium
+from ...model import Model
+from ...sections import PipeSection
+from ...signals import zero_crossings
+from ...time_functions import Sine
+from . import scenes
 
 #: Seed 000, section 4: radius a [m] of the arc.
 RADIUS = 0.150
@@ -308,12 +311,6 @@ class DrivenMeter:
     time_lag_mode: float
     crossings: int
     result: TransientResult
-
-
-def zero_crossings(t: np.ndarray, y: np.ndarray) -> np.ndarray:
-    """Times [s] of upward zero crossings of y(t), by linear interpolation."""
-    k = np.nonzero((y[:-1] < 0.0) & (y[1:] >= 0.0))[0]
-    return t[k] - y[k] * (t[k + 1] - t[k]) / (y[k + 1] - y[k])
 
 
 def driven_time_lag(*, leg_length: float = LEG_FIG8, fluid_density: float = WATER, flow_scaled: float = 0.01,

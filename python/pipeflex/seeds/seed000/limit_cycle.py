@@ -13,10 +13,11 @@ from typing import Tuple
 
 import numpy as np
 
-from . import _checks
-from .analysis import TransientResult, simulate, static_equilibrium
-from .model import Model, ModelBuilder
-from .sections import PipeSection
+from ... import _checks
+from ...analysis import TransientResult, simulate, static_equilibrium
+from ...model import Model, ModelBuilder
+from ...sections import PipeSection
+from ...signals import cycle_metrics
 
 
 @dataclass
@@ -58,21 +59,6 @@ def limit_cycle_model(*, n_elements: int, tip_force: float = 1.5, mass_flow: flo
     b.clamp(n0)
     b.add_load(nodes[-1], force=(0.0, _checks.finite("tip_force", tip_force), 0.0))
     return b.build(mass_flow=_checks.finite("mass_flow", mass_flow)), nodes[-1]
-
-
-def cycle_metrics(t: np.ndarray, y: np.ndarray, *, after: float) -> Tuple[float, float, float]:
-    """(amplitude [m], period [s], mean [m]) of the signal y(t) for t >= after; the period
-    from linearly interpolated upward crossings of the mean (nan if fewer than two)."""
-    s = t >= after
-    ts, ys = t[s], y[s]
-    if len(ys) < 3:
-        raise ValueError("too few samples after the settling time")
-    mean = float(ys.mean())
-    c = ys - mean
-    up = np.nonzero((c[:-1] < 0) & (c[1:] >= 0))[0]
-    tz = ts[up] - c[up] * (ts[up + 1] - ts[up]) / (c[up + 1] - c[up])
-    period = float(np.diff(tz).mean()) if len(tz) > 1 else float("nan")
-    return float((ys.max() - ys.min()) / 2), period, mean
 
 
 def simulate_limit_cycle(n_elements: int, *, t_end: float = 6.0, settle: float = 3.0,

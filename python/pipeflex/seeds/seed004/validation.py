@@ -1,0 +1,90 @@
+"""Seed 004's validation groups: Fig. 7 (critical flow against bodies), Table 1 (final
+angular velocity of the semicircular pipe), the cantilever's Figs. 4-6 and the printer's
+Fig. 12."""
+from __future__ import annotations
+
+from typing import List
+
+import numpy as np
+
+from ..checks import Group, Row
+from ..seed000.references import TABLE2
+from ..seed000.validation import TOL_TABLE2
+from . import scenes, studies
+from .references import TABLE1_FFRF, TABLE1_SPACAR
+
+# Table 1 prints 3 decimals; the issue asks for the FFRF column within 1%.
+TOL_TABLE1 = 1e-2
+
+
+def fig7() -> List[Row]:
+    """Fig. 7 text: n FFRF bodies (51 nodes, Craig-Bampton boundary modes, centre node
+    fixed) against seed 000's Table 2. With the centre node fixed a body is exactly two
+    Hermite elements, so n bodies reproduce Table 2's 2n elements (checked to the Table 2
+    tolerance); the seed's statement "n bodies = n elements" is shown."""
+    d = studies.critical_flow_vs_state_size(bodies=(1, 2, 4, 8, 16), modes=())
+    rows = []
+    for n, m in zip(d["bodies"], d["bodies_flow"]):
+        rows.append(Row(f"seed 004 Fig. 7, {n} bod{'ies' if n > 1 else 'y'} vs s000 T2 {2 * n} el.",
+                        "critical mass flow [kg/s]", TABLE2[2 * n], m, TOL_TABLE2))
+    for n, m in zip(d["bodies"], d["bodies_flow"]):
+        if n in TABLE2:
+            rows.append(Row(f"seed 004 Fig. 7, {n} bodies vs s000 T2 {n} el. (text)", "critical mass flow [kg/s]",
+                            TABLE2[n], m, TOL_TABLE2, checked=False))
+    return rows
+
+
+def table1() -> List[Row]:
+    """Table 1: final angular velocity of the semicircular pipe (8 bodies x 20 elements,
+    boundary modes), averaged over the last 0.5 s of a 4 s run: the FFRF column within 1%
+    (checked); the Spacar column (seed 000's element) shown."""
+    rows = []
+    for E, ref in TABLE1_FFRF.items():
+        _, res, w = studies.curved_pipe_run(E, n_outputs=401)
+        ours = studies.final_angular_velocity(res.t, w)
+        rows.append(Row(f"seed 004, Table 1, FFRF, E = {E / 1e9:g} GPa", "final angular velocity [rad/s]", ref, ours,
+                        TOL_TABLE1))
+        rows.append(Row(f"seed 004, Table 1, Spacar, E = {E / 1e9:g} GPa", "final angular velocity [rad/s]",
+                        TABLE1_SPACAR[E], ours, TOL_TABLE1, checked=False))
+    return rows
+
+
+def _fig7_figures():
+    yield "seed004_fig7.png", studies.fig7_figure(studies.critical_flow_vs_state_size(
+        bodies=(1, 2, 4, 8, 16, 32), modes=(0, 4, 8, 12, 16, 24)), TABLE2)
+
+
+def _table1_figures():
+    fig9, fig10 = studies.curved_figures({E: studies.curved_pipe_run(E, t_end=4.0) for E in TABLE1_FFRF},
+                                         {E: studies.element_curved_run(E, rho_inf=0.8) for E in TABLE1_FFRF})
+    yield "seed004_fig9.png", fig9
+    yield "seed004_fig10.png", fig10
+
+
+def _cantilever_figures():
+    element = studies.element_cantilever_tip(n_elements=8, t_end=2.0)
+    traces = [studies.ffrf_cantilever_tip(n_bodies=n, t_end=2.0) for n in (2, 4, 8)]
+    yield "seed004_fig4.png", studies.tip_figure(
+        traces, element, "seed 004, Fig. 4: tip deflection, flow 15 m/s (1 body diverges: see docs)")
+    traces = [studies.ffrf_cantilever_tip(n_bodies=n, internal_modes=m, t_end=2.0, until_failure=True)
+              for n, m in ((1, 0), (1, 20), (2, 20))]
+    fig5 = studies.tip_figure(traces, element, "seed 004, Fig. 5: internal modes, flow 15 m/s (1 body diverges)")
+    fig5.axes[0].set_ylim(-0.6, 0.6)
+    yield "seed004_fig5.png", fig5
+    speeds = np.linspace(0.0, 15.0, 61)
+    yield "seed004_fig6.png", studies.eigenvalue_figure(
+        speeds, studies.eigenvalue_curves(speeds), studies.critical_flow_speed(scenes.ffrf_cantilever_pipe(n_bodies=8)))
+
+
+def _printer_figures():
+    yield "seed004_fig12.png", studies.printer_figure({v: studies.printer_run(v)[2] for v in studies.PRINTER_FLOW_SPEEDS})
+
+
+GROUPS = (
+    Group("seed004_fig7", "seed 004, Fig. 7: critical flow against FFRF bodies", fig7, _fig7_figures),
+    Group("seed004_table1", "seed 004, Table 1 and Figs. 9-10: the semicircular pipe", table1, _table1_figures),
+    Group("seed004_cantilever", "seed 004, Figs. 4-6: the FFRF cantilever (figures only)", lambda: [],
+          _cantilever_figures),
+    Group("seed004_printer", "seed 004, Fig. 12: the concrete printer (figures only)", lambda: [],
+          _printer_figures),
+)
