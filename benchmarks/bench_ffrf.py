@@ -60,7 +60,7 @@ def median_time(fn, repeat):
 
 
 def ffrf_output(system, step, tol=1e-7):
-    res = mb_simulate(system, T_END, step=step, n_outputs=N_OUT, rho_inf=RHO_INF, tol=tol)
+    res = mb_simulate(system, T_END, step=step, n_outputs=N_OUT, rho_inf=RHO_INF, newton_tol=tol)
     return fs.final_angular_velocity(res.t, res.node_angular_velocity(*system.info["base"])[:, 1]), res
 
 
@@ -174,10 +174,10 @@ def section_cost(res_cp, printer, quick):
         res = mb_simulate(s, 2.0, step=1e-3, state=st, mass_flow=s.bodies[0].section.fluid_mass * 15.0,
                           n_outputs=401)
         rows.append((f"cantilever, {nb} bodies", s.n_coordinates, s.n_constraints, res.stats))
-    rows.append(("curved pipe, 8 bodies, E = 9.585 GPa", res_cp.system.n_coordinates,
-                 res_cp.system.n_constraints, res_cp.stats))
+    rows.append(("curved pipe, 8 bodies, E = 9.585 GPa", res_cp.n_coordinates,
+                 res_cp.n_constraints, res_cp.stats))
     for v, r in printer.items():
-        rows.append((f"printer, {v:g} m/s", r.system.n_coordinates, r.system.n_constraints, r.stats))
+        rows.append((f"printer, {v:g} m/s", r.n_coordinates, r.n_constraints, r.stats))
     print(f"{'run':38s} {'N':>4s} {'m':>3s} {'steps':>6s} {'it/step':>7s} {'fact/step':>9s} {'us/step':>8s}")
     for name, n, nc, st in rows:
         print(f"{name:38s} {n:4d} {nc:3d} {st['steps']:6d} {st['iterations'] / st['steps']:7.2f} "

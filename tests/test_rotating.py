@@ -113,27 +113,27 @@ def test_southwell_coefficients_against_schilhansl():
 def test_spin_up_stability(n, model, omega, diverges):
     if diverges:
         with pytest.raises(pf.ConvergenceError, match="diverged"):
-            rs.spin_up(reference="ref21", n_elements=n, model=model, omega=omega, t_end=20.0, step=5e-3)
+            rs.spin_up(reference="ref21", n_elements=n, elastic=model, omega=omega, t_end=20.0, step=5e-3)
     else:
-        t, y = rs.spin_up(reference="ref21", n_elements=n, model=model, omega=omega, t_end=20.0, step=5e-3)
+        t, y = rs.spin_up(reference="ref21", n_elements=n, elastic=model, omega=omega, t_end=20.0, step=5e-3)
         assert np.all(np.isfinite(y)) and np.abs(y).max() < 3.0  # metres, an 8 m beam
 
 
 def test_model0_converges_to_model_a_with_refinement():
     """Fig. 6: with ten elements Model 0 and Model A are almost identical (10 rad/s)."""
-    ta, ya = rs.spin_up(n_elements=10, model="A", omega=10.0, t_end=16.0, step=5e-3, n_outputs=81)
-    t0, y0 = rs.spin_up(n_elements=10, model="0", omega=10.0, t_end=16.0, step=5e-3, n_outputs=81)
+    ta, ya = rs.spin_up(n_elements=10, elastic="A", omega=10.0, t_end=16.0, step=5e-3, n_outputs=81)
+    t0, y0 = rs.spin_up(n_elements=10, elastic="0", omega=10.0, t_end=16.0, step=5e-3, n_outputs=81)
     assert np.abs(ya - y0).max() < 0.03 * np.abs(ya).max()
 
 
 def test_model0_critical_rate_grows_with_elements():
     """The rate at which Model 0's steady rotation loses stability (linear analysis)
     brackets the seed's observations and grows with the number of elements."""
-    c1 = rs.critical_rate(n_elements=1, rtol=1e-2)
-    c2 = rs.critical_rate(n_elements=2, rtol=1e-2)
+    c1 = rs.critical_rate(n_elements=1, tol=1e-2)
+    c2 = rs.critical_rate(n_elements=2, tol=1e-2)
     assert 4.0 < c1 < 10.0
     assert 10.0 < c2 < 40.0
-    assert rs.critical_rate(n_elements=1, model="A", rtol=1e-2) == float("inf")
+    assert rs.critical_rate(n_elements=1, elastic="A", tol=1e-2) == float("inf")
 
 
 def test_spin_up_hub_law_eq13():
@@ -153,7 +153,7 @@ def test_co_rotating_model_at_rest_in_its_steady_state():
     """Start the transient from the rotating steady state at constant Omega: nothing moves."""
     m = scenes.rotating_cantilever(n_elements=4, length=8.0, EI=566.4, mass_per_length=0.2, slenderness=754.0,
                                    omega=3.0)
-    st = pf.rotating_state(m, 3.0, steps=3)
+    st = pf.rotating_state(m, 3.0, continuation_steps=3)
     st.v = np.zeros_like(np.asarray(st.v))  # co-rotating coordinates: at rest
     st.a = np.zeros_like(np.asarray(st.a))
     r = pf.simulate(m, 1.0, state=st, integrator="generalized_alpha", step=1e-2, n_outputs=11, work=False,
@@ -185,7 +185,7 @@ def test_pipe_element_cross_check():
 
 @pytest.mark.parametrize("kwargs, match", [
     (dict(formulation="shell"), "formulation"),
-    (dict(model="B"), "elastic"),
+    (dict(elastic="B"), "elastic"),
     (dict(hub_radius_ratio=-1.0), "hub_radius_ratio"),
     (dict(slenderness=0.0), "slenderness"),
 ])
@@ -203,7 +203,7 @@ def test_bad_analysis_input():
     with pytest.raises(ValueError, match="hub"):
         pf.rotating_frequencies(scenes.cantilever_pipe(n_elements=2), gamma=1.0)
     with pytest.raises(ValueError, match="Model A"):
-        pf.rotating_frequencies(scenes.rotating_cantilever(n_elements=2, model="0"), gamma=1.0)
+        pf.rotating_frequencies(scenes.rotating_cantilever(n_elements=2, elastic="0"), gamma=1.0)
     b = ModelBuilder()
     n0 = b.add_ancf_node((0, 0, 0))
     with pytest.raises(ValueError, match="ANCF node"):

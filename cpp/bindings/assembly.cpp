@@ -69,22 +69,13 @@ void bind_assembly(py::module_& m) {
                  md.hub.angle(t, &a, &b, &c);
                  return py::make_tuple(a, b, c);
              })
-        .def_property_readonly("n_ancf", [](const Model& md) { return md.ancf.size(); })
-        .def("ancf_element", [](const Model& md, int i) { return md.ancf.at(i).data; })
         .def("ancf_nodes", [](const Model& md, int i) { return py::make_tuple(md.ancf.at(i).p, md.ancf.at(i).q); })
-        .def("is_ancf_node", [](const Model& md, int i) { return md.kinds.at(i) == NodeKind::ancf; })
         .def("set_bases", [](Model& md, const std::vector<Eigen::MatrixXd>& b) { md.bases = b; })
         .def("finalize", &Model::finalize)
         .def_property_readonly("n_nodes", &Model::n_nodes)
         .def_readonly("n_dofs", &Model::n_dofs)
         .def_readonly("first_dof", &Model::first_dof)
-        .def_property_readonly("n_pipes", [](const Model& md) { return md.pipes.size(); })
-        .def("pipe", [](const Model& md, int i) { return md.pipes.at(i).data; })
-        .def("set_end_terms", [](Model& md, int i, bool p, bool q) {
-            md.pipes.at(i).data.end_terms_p = p;
-            md.pipes.at(i).data.end_terms_q = q;
-        })
-        .def("pipe_nodes", [](const Model& md, int i) { return py::make_tuple(md.pipes.at(i).p, md.pipes.at(i).q); });
+        .def("pipe", [](const Model& md, int i) { return md.pipes.at(i).data; });
 
     py::class_<State>(m, "State")
         .def(py::init<const Model&>())
@@ -129,16 +120,12 @@ void bind_assembly(py::module_& m) {
         },
         py::arg("model"), py::arg("state"), py::arg("dq"),
         "Prestress stiffness triplets of the first-order strains of the full displacement dq.");
-    m.def("apply_hub", &apply_hub, py::arg("model"), py::arg("state"), py::arg("t"));
     m.def("external_forces", &external_forces);
     m.def("add_increment", [](const Model& md, State& s, const Eigen::VectorXd& dz, const std::string& which) {
+        if (which != "q" && which != "v" && which != "a")
+            throw std::invalid_argument("add_increment: which must be \"q\", \"v\" or \"a\", got \"" + which + "\"");
         Eigen::VectorXd& x = which == "q" ? s.q : which == "v" ? s.v : s.a;
         add_increment(md, x, dz);
     });
     m.def("reduce", &reduce);
-    m.def("energies", [](const Model& md, const State& s) {
-        double t, u;
-        energies(md, s, &t, &u);
-        return py::make_tuple(t, u);
-    });
 }

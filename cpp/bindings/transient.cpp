@@ -56,7 +56,6 @@ py::dict run(Integrator f, const Model& model, State& state, const LoadState& lo
 }  // namespace
 
 void bind_transient(py::module_& m) {
-    py::register_exception<SolverError>(m, "SolverError", PyExc_RuntimeError);
     py::class_<TimeTable>(m, "TimeTable")
         .def(py::init<>())
         .def_readwrite("t", &TimeTable::t)

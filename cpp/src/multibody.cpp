@@ -443,10 +443,12 @@ MbOutput MultibodySystemCore::integrate(MbState& s, const TimeTable& mass_flow, 
         const double mdot = mass_flow.at(t), mrate = mass_flow.rate(t);
         double size = 0.0;
         bool singular = false;
+        int done = 0;  // iterations of the last Newton attempt
         // Newton on the corrections; full = re-evaluate the iteration matrix every iteration.
         auto newton = [&](bool full, int max_it) {
             bool fresh = false, stale_stall = false;
             double last = INFINITY;
+            done = 0;
             for (int it = 0; it < max_it; ++it) {
                 const bool refresh = full || !have_lu || it >= opt.refresh || stale_stall;
                 fresh = fresh || refresh;
@@ -468,6 +470,7 @@ MbOutput MultibodySystemCore::integrate(MbState& s, const TimeTable& mass_flow, 
                 s.a += bp * dx;
                 s.lam += scale * x.tail(nc_);
                 ++out.iterations;
+                ++done;
                 size = dx.cwiseAbs().maxCoeff();
                 // Converged; or stalled at round-off near the tolerance with a matrix
                 // evaluated in this step (a stall with an older matrix is slow
@@ -490,11 +493,17 @@ MbOutput MultibodySystemCore::integrate(MbState& s, const TimeTable& mass_flow, 
                 if (singular)
                     msg << "singular iteration matrix at t = " << t << " s (h = " << h
                         << " s): the joints lock a motion twice or leave a body's mass matrix singular; ";
-                msg << "Newton did not converge at t = " << t << " s (h = " << h << " s) after " << 2 * opt.max_newton
+                msg << "Newton did not converge at t = " << t << " s (h = " << h << " s) after " << done
                     << " full Newton iterations (last increment " << size << ", residual "
                     << ev.F.cwiseAbs().maxCoeff() << " N, constraint violation " << ev.c.cwiseAbs().maxCoeff()
                     << " m): reduce the step";
-                throw SolverError(msg.str());
+                ConvergenceError::Where where;
+                where.time = t;
+                where.iteration = done;
+                where.residual = ev.F.cwiseAbs().maxCoeff();
+                where.mass_flow = mdot;
+                if (singular) throw SingularMatrixError(msg.str(), where);
+                throw ConvergenceError(msg.str(), where);
             }
         }
         acc = acc_new + (1 - af) / (1 - am) * s.a;

@@ -167,7 +167,10 @@ class System {
                    << (finite ? " moved " + fmt(std::sqrt(d2)) + " m from its reference position (limit " +
                                     fmt(lim) + " m)"
                               : " has a non-finite position or velocity");
-                throw SolverError(os.str());
+                ConvergenceError::Where where;
+                where.time = t;
+                where.mass_flow = load_at(t).mass_flow;
+                throw ConvergenceError(os.str(), where);
             }
         }
     }
@@ -240,7 +243,7 @@ class System {
         Eigen::LDLT<Eigen::MatrixXd> ldlt(0.5 * (M + M.transpose()));
         const Eigen::VectorXd d = ldlt.vectorD();
         if (ldlt.info() != Eigen::Success || d.minCoeff() <= 1e-12 * d.cwiseAbs().maxCoeff()) {
-            throw SolverError(
+            throw std::invalid_argument(
                 "the mass matrix is singular: some coordinates have no inertia (e.g. torsion or "
                 "rotation about the pipe axis without rotary inertia). Give the sections "
                 "rotary_inertia, or constrain those coordinates.");
@@ -352,7 +355,7 @@ TransientOutput integrate_ida(const Model& model, State& state, const LoadState&
                  Eigen::VectorXd::Zero(n), 0, {}};
 
     SUNContext ctx = nullptr;
-    if (SUNContext_Create(nullptr, &ctx) != 0) throw SolverError("SUNDIALS: could not create a context");
+    if (SUNContext_Create(nullptr, &ctx) != 0) throw std::runtime_error("SUNDIALS: could not create a context");
     Handle<SUNContext, free_ctx> ctx_guard{ctx};
     const int N = 2 * n;
     std::unique_ptr<_generic_N_Vector, void (*)(N_Vector)> yy(N_VNew_Serial(N, ctx), N_VDestroy);
@@ -362,7 +365,7 @@ TransientOutput integrate_ida(const Model& model, State& state, const LoadState&
     std::unique_ptr<_generic_SUNLinearSolver, int (*)(SUNLinearSolver)> LS(SUNLinSol_Band(yy.get(), A.get(), ctx),
                                                                           SUNLinSolFree);
     void* mem = IDACreate(ctx);
-    if (mem == nullptr) throw SolverError("SUNDIALS: IDACreate failed");
+    if (mem == nullptr) throw std::runtime_error("SUNDIALS: IDACreate failed");
     Handle<void*, free_ida> mem_guard{mem};
 
     // Consistent initial values: z = 0 at the base, v from the state, v_dot from M a = -R.
@@ -382,7 +385,7 @@ TransientOutput integrate_ida(const Model& model, State& state, const LoadState&
     };
     load_y(v, a);
     auto check = [&](int flag, const char* what) {
-        if (flag < 0) throw SolverError(std::string("SUNDIALS: ") + what + " failed (flag " + std::to_string(flag) + ")");
+        if (flag < 0) throw std::runtime_error(std::string("SUNDIALS: ") + what + " failed (flag " + std::to_string(flag) + ")");
     };
     check(IDAInit(mem, ida_residual, t, yy.get(), yp.get()), "IDAInit");
     check(IDASStolerances(mem, opt.rtol, opt.atol), "IDASStolerances");
@@ -409,8 +412,12 @@ TransientOutput integrate_ida(const Model& model, State& state, const LoadState&
             IDAGetLastStep(mem, &h);
             IDAGetCurrentTime(mem, &tc);
             std::string why = data.error.empty() ? IDAGetReturnFlagName(flag) : data.error;
-            throw SolverError("IDA failed at t = " + fmt(tc) + " s (last step " + fmt(h) + " s): " + why +
-                              ". The motion may diverge or the tolerances be too tight.");
+            ConvergenceError::Where where;
+            where.time = tc;
+            where.mass_flow = sys.load_at(tc).mass_flow;
+            throw ConvergenceError("IDA failed at t = " + fmt(tc) + " s (last step " + fmt(h) + " s): " + why +
+                                       ". The motion may diverge or the tolerances be too tight.",
+                                   where);
         }
         ++out.steps;
         unpack(NV_DATA_S(yy.get()), data.z, data.v, n);
@@ -542,9 +549,16 @@ TransientOutput integrate_generalized_alpha(const Model& model, State& state, co
                 fresh = false;
                 h = 0.5 * hs;
                 if (h < opt.min_step) {
-                    throw SolverError("generalised-alpha failed at t = " + fmt(t) + " s: Newton did not converge "
-                                      "with step " + fmt(hs) + " s (residual " + fmt(rnorm) + " after " +
-                                      std::to_string(it - 1) + " iterations); the motion may diverge");
+                    ConvergenceError::Where where;
+                    where.time = t;
+                    where.mass_flow = sys.load_at(t).mass_flow;
+                    where.iteration = it - 1;
+                    where.residual = rnorm;
+                    throw ConvergenceError("generalised-alpha failed at t = " + fmt(t) + " s: Newton did not "
+                                           "converge with step " + fmt(hs) + " s (residual " + fmt(rnorm) +
+                                           " after " + std::to_string(it - 1) + " iterations); the motion may "
+                                           "diverge",
+                                           where);
                 }
                 continue;
             }

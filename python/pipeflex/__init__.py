@@ -11,9 +11,11 @@ from .analysis import (CriticalFlow, EigenResult, Linearization, StaticResult, c
                        eigenvalues, linearize, simulate, stability, static_equilibrium,
                        TransientResult, SteadyRotation, steady_rotation,
                        RotatingFrequencies, resonance_speed, rotating_frequencies, rotating_state)
-from .errors import ConvergenceError
+from .errors import ConvergenceError, SingularMatrixError
 from .model import Model, ModelBuilder
+from .results import Result
 from .sections import PipeSection
+from .state import State
 from .time_functions import Sine
 
 __version__ = "0.1.0"
@@ -39,4 +41,4 @@ __all__ = ["CriticalFlow", "EigenResult", "Linearization", "StaticResult",
            "critical_mass_flow", "eigenvalues", "linearize", "simulate", "stability", "static_equilibrium",
            "Sine", "TransientResult", "SteadyRotation", "steady_rotation",
            "RotatingFrequencies", "resonance_speed", "rotating_frequencies", "rotating_state",
-           "ConvergenceError", "Model", "ModelBuilder", "PipeSection", "__version__"]
+           "ConvergenceError", "SingularMatrixError", "Model", "ModelBuilder", "PipeSection", "Result", "State", "__version__"]

@@ -1,24 +1,48 @@
-"""Exceptions raised by pipeflex analyses."""
+"""Exceptions raised by pipeflex analyses.
+
+The C++ core raises the same classes (translated in its bindings), with the same
+attributes; no caller needs to parse a message.
+"""
 from __future__ import annotations
 
-import re
 from typing import Optional
 
 
 class ConvergenceError(RuntimeError):
-    """A solver failed; the message says where (load factor, time, iteration) and why.
+    """A solver failed; the message says where and why, the attributes say where.
+
+    Every attribute is None when the failing solver does not know it.
 
     Attributes:
-        time: the simulated time t [s] at which a time integration failed (None for
-            other solvers).
+        time: simulated time t [s] at which a time integration failed (the last
+            accepted time for generalised-alpha, IDA's current time for IDA).
+        iteration: Newton iterations done in the attempt that failed.
+        residual: force residual norm at the failure [N] (the largest component
+            for multibody systems).
+        load_factor: load factor [-] of the load step that failed (static solves).
+        mass_flow: mdot [kg/s] at which the solve failed (for
+            :func:`~pipeflex.critical_mass_flow`: the trial flow of a failed static
+            solve, the lowest unstable flow found if the crossing could not be located,
+            the end of the searched range if nothing was unstable).
     """
 
-    def __init__(self, message: str, *, time: Optional[float] = None):
+    def __init__(self, message: str, *, time: Optional[float] = None, iteration: Optional[int] = None,
+                 residual: Optional[float] = None, load_factor: Optional[float] = None,
+                 mass_flow: Optional[float] = None):
         super().__init__(message)
         self.time = time
+        self.iteration = iteration
+        self.residual = residual
+        self.load_factor = load_factor
+        self.mass_flow = mass_flow
 
-    @classmethod
-    def from_solver(cls, message: str) -> "ConvergenceError":
-        """From a C++ integrator's message, which names the time as "t = <value> s"."""
-        m = re.search(r"\bt = ([-+0-9.eE]+) s", message)
-        return cls(message, time=float(m.group(1)) if m else None)
+
+class SingularMatrixError(ConvergenceError):
+    """The iteration matrix or tangent of a Newton solve is singular (a mechanism, joints
+    that lock a motion twice, a bifurcation point).
+
+    A :class:`ConvergenceError` (same attributes), so that one ``except
+    ConvergenceError`` catches every solver failure. Deliberately not a
+    ``numpy.linalg.LinAlgError``: analyses catch that around their own linear solves
+    to fall back to another method, which must not swallow a failed solve.
+    """

@@ -10,6 +10,7 @@ position in m and the slope dr/dx [-] (z and z' are fixed: the element is planar
 """
 from __future__ import annotations
 
+import copy
 from dataclasses import dataclass
 from typing import Iterable, List, Optional, Sequence, Tuple
 
@@ -17,7 +18,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from . import _checks, _core
-from .sections import PipeSection
+from .sections import PipeSection, refuse_unsupported
 
 COMPONENTS = ("ux", "uy", "uz", "rx", "ry", "rz")
 ANCF_COMPONENTS = ("ux", "uy", "uz", "dx", "dy", "dz")  # position, slope dr/dx
@@ -133,8 +134,11 @@ class ModelBuilder:
 
         Args:
             section: ``EA`` [N] axial stiffness, ``EIz`` [N m^2] in-plane bending
-                stiffness (the section's EI unless EIz is given), ``pipe_mass`` [kg/m]
-                rho A; ``fluid_mass`` must be 0 (no flow in ANCF elements).
+                stiffness (bending about z; the section's EI unless EIz is given: ``EI``,
+                the out-of-plane ``E I_y``, is otherwise unused), ``pipe_mass`` [kg/m]
+                rho A; ``fluid_mass`` must be 0 (no flow in ANCF elements) and ``kv``,
+                ``GAy``, ``GAz``, ``rotary_inertia``, ``GJ`` at their defaults (refused by
+                name otherwise: the element has none of them).
             elastic: elastic force model, ``"A"`` (continuum strain, captures centrifugal
                 stiffening) or ``"0"`` (linear strain in a local element frame).
         """
@@ -144,6 +148,11 @@ class ModelBuilder:
             raise ValueError("section must be a pipeflex.PipeSection")
         if section.fluid_mass != 0.0:
             raise ValueError("ANCF beams carry no fluid: section.fluid_mass must be 0")
+        refuse_unsupported(section, {"kv": "the ANCF beam carries no fluid",
+                                     "GAy": "the ANCF beam is rigid in shear (Euler-Bernoulli)",
+                                     "GAz": "the ANCF beam is rigid in shear (Euler-Bernoulli)",
+                                     "rotary_inertia": "the ANCF beam has no rotary inertia of the cross-section",
+                                     "GJ": "the planar ANCF beam has no torsion"}, "add_ancf_beam")
         n = _checks.positive_int("n_elements", n_elements)
         x1 = _checks.vector3("end", end)
         if isinstance(start, (int, np.integer)) and not isinstance(start, bool):
@@ -420,7 +429,7 @@ class ModelBuilder:
         free_core, _ = self._make_core(free_bases, None)
         model = Model(core, np.array(self._positions), tuple(infos), bases, mdot, self._gravity.copy(),
                       hub=self._hub, ancf_nodes=tuple(sorted(self._ancf_nodes)),
-                      free=(free_core, free_bases))
+                      free=(free_core, free_bases), description=copy.deepcopy(vars(self)))
         return model
 
     def _make_core(self, bases, hub):
@@ -484,8 +493,19 @@ class ModelBuilder:
         return d
 
 
+def _rebuild_model(description: dict, mass_flow: float, free: bool) -> "Model":
+    """A model built again from :meth:`Model.__reduce__`'s description."""
+    b = ModelBuilder()
+    vars(b).update(copy.deepcopy(description))
+    model = b.build(mass_flow=mass_flow)
+    return model.free_model() if free else model
+
+
 class Model:
     """An immutable model: the compiled core model plus what Python needs to know.
+
+    Pickling and :func:`copy.deepcopy` rebuild the model from a copy of the builder's
+    description (the compiled core is not picklable); ``mass_flow`` and ``info`` are kept.
 
     Attributes:
         n_nodes, n_dofs: number of nodes and of free (reduced) coordinates.
@@ -499,7 +519,9 @@ class Model:
     """
 
     def __init__(self, core, positions, elements, bases, mass_flow, gravity, *, hub=None, ancf_nodes=(),
-                 free=None):
+                 free=None, description=None, is_free=False):
+        self._description = description
+        self._is_free = is_free
         self._core = core
         self.positions = positions
         self.positions.flags.writeable = False
@@ -537,7 +559,12 @@ class Model:
             raise ValueError("this model has no unconstrained variant")
         core, bases = self._free
         return Model(core, self.positions.copy(), self.elements, bases, self.mass_flow, self.gravity.copy(),
-                     ancf_nodes=self.ancf_nodes)
+                     ancf_nodes=self.ancf_nodes, description=self._description, is_free=True)
+
+    def __reduce__(self):
+        if self._description is None:
+            raise TypeError("this Model was not built by ModelBuilder.build: it cannot be pickled")
+        return _rebuild_model, (self._description, self.mass_flow, self._is_free), {"info": self.info}
 
     @property
     def core(self):
@@ -583,7 +610,8 @@ class Model:
         """A force level [N] of the model, to judge residuals: the largest of EI/l0^2 of
         the elements, the weight, the nodal loads and the fluid momentum flux P."""
         mdot = self.mass_flow if mass_flow is None else mass_flow
-        f = max(max(e.section.EI, e.section.EIz) / e.length**2 for e in self.elements)
+        f = max((e.section.EIz if e.kind == "ancf" else max(e.section.EI, e.section.EIz)) / e.length**2
+                for e in self.elements)
         f = max(f, self.total_mass * float(np.linalg.norm(self.gravity)))
         f = max(f, float(np.abs(_core.external_forces(self._core, self.initial_state())).max(initial=0.0)))
         for e in self.elements:

@@ -2,6 +2,12 @@
 
 A catalogue over :mod:`pipeflex.seeds` (seed 000: pipes with flow; seed 002: rotating
 ANCF beams; seed 004: floating-frame pipe systems), kept as ``pipeflex.scenes``.
+
+One vocabulary across them (all keyword-only): every scene that carries fluid takes
+``mass_flow`` mdot [kg/s]; the seed-004 scenes, whose paper gives flow speeds, take
+``flow_speed`` sdot [m/s] instead (mdot = rho_f A_f sdot; giving both is a ValueError);
+the ANCF elastic force model is ``elastic`` (``"A"`` or ``"0"``; ``model=`` still works
+with a DeprecationWarning). The seed-002 beams carry no fluid and take no flow.
 """
 from .seeds.seed000.scenes import (RIGID_EI, SPRINKLER_EA, cantilever_pipe, coriolis_meter,
                                    simply_supported_pipe, sprinkler)

@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
-from typing import Optional, Tuple
+from typing import Dict, Optional, Tuple
 
 from . import _checks
 
@@ -18,8 +18,13 @@ class PipeSection:
     """Properties of a pipe (or beam, with ``fluid_mass = 0``) cross-section.
 
     Attributes:
-        EI: ``E I_y`` [N m^2] bending stiffness about the section's local y axis.
-        EIz: ``E I_z`` [N m^2] bending stiffness about local z (default: ``EI``).
+        EI: ``E I_y`` [N m^2] bending stiffness about the section's local y axis (for the
+            planar ANCF beam, which bends about z only, the out-of-plane stiffness: it
+            is not used there except as the default of ``EIz``).
+        EIz: ``E I_z`` [N m^2] bending stiffness about local z (default: ``EI``). The
+            planar ANCF beam (:meth:`~pipeflex.ModelBuilder.add_ancf_beam`) bends about
+            global z and reads ``EIz``: ``EI`` and ``EIz`` mean the same for every
+            formulation (see ``docs/conventions.md``, Frames).
         EA: ``E A_p`` [N] axial stiffness. Default ``1e10 m^-2 * EI``: practically
             inextensible, as the seed's pipes (an axial strain of order P/EA < 1e-9 then
             shifts a critical flow by less than the tables' last digit).
@@ -32,6 +37,13 @@ class PipeSection:
         rotary_inertia: ``(rho I_p, rho I_y, rho I_z)`` [kg m] mass moments of inertia per
             unit length about the local x, y, z axes, lumped at the nodes (default zero,
             as in the seed's tables).
+
+    Which formulation reads what: the seed-000 pipe element reads every field; the
+    floating-frame body (:func:`~pipeflex.multibody.flexible_body`) has no shear
+    flexibility and plug flow only, and refuses ``GAy``, ``GAz`` and ``kv != 1``; the
+    planar ANCF beam reads ``EA``, ``EIz`` and ``pipe_mass`` and refuses ``fluid_mass``,
+    ``kv``, ``GAy``, ``GAz``, ``rotary_inertia`` and a ``GJ`` other than its default.
+    A field a formulation cannot honour is refused by name, never silently dropped.
     """
 
     EI: float
@@ -107,6 +119,19 @@ class PipeSection:
                    GAy=k_shear * G * A if shear else None, GAz=k_shear * G * A if shear else None,
                    pipe_mass=rho * A, fluid_mass=rho_f * Af, kv=kv,
                    rotary_inertia=(2 * rho * I, rho * I, rho * I) if rotary_inertia else (0.0, 0.0, 0.0))
+
+
+def refuse_unsupported(section: PipeSection, reasons: Dict[str, str], where: str) -> None:
+    """Raise ValueError naming every field in ``reasons`` that ``section`` sets to other
+    than its default (``GAy``/``GAz`` None, ``kv`` 1, ``rotary_inertia`` zero, ``GJ``
+    EI / 1.3): ``where`` would ignore it; ``reasons[name]`` says why."""
+    default = {"GAy": None, "GAz": None, "kv": 1.0, "rotary_inertia": (0.0, 0.0, 0.0), "GJ": section.EI / 1.3}
+    shown = {"GJ": "EI / 1.3"}
+    bad = [f"section.{name} = {getattr(section, name)!r}: {why} (leave it at its default, "
+           f"{shown.get(name, repr(default[name]))})" for name, why in reasons.items()
+           if getattr(section, name) != default[name]]
+    if bad:
+        raise ValueError(f"{where} cannot use this section; " + "; ".join(bad))
 
 
 def pressure_coupling_factor(*, E: float, G: float, wall: float, radius: float, bulk_modulus: float) -> float:

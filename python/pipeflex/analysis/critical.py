@@ -19,22 +19,24 @@ import scipy.linalg as sla
 from scipy.optimize import brentq
 
 from .. import _checks
+from ..results import Result
+from .._options import renamed
 from ..errors import ConvergenceError
 from .eigen import eigen_from_blocks, split_blocks, stability
 from .linearize import linearize
 from .static import static_equilibrium
 
 
-@dataclass
-class CriticalFlow:
+@dataclass(frozen=True)
+class CriticalFlow(Result):
     """Result of :func:`critical_mass_flow`.
 
     Attributes:
-        mass_flow: critical mdot [kg/s].
+        mass_flow: mdot [kg/s] critical mass flow.
         kind: "divergence" (static buckling) or "flutter" (Hopf bifurcation).
-        frequency: angular frequency [rad/s] of the mode at the critical flow (0 for divergence).
-        eigenvalue: the critical eigenvalue lambda [1/s] (Re ~ 0).
-        mode: critical mode shape (complex, reduced coordinates).
+        frequency: omega [rad/s] angular frequency of the mode at the critical flow (0 for divergence).
+        eigenvalue: lambda [1/s] the critical eigenvalue (Re ~ 0).
+        mode: (n_dofs,) critical mode shape [-] (complex, reduced coordinates, largest entry 1).
         evaluations: number of eigen-analyses used.
     """
 
@@ -55,7 +57,12 @@ class _Evaluator:
         self.count = 0
 
     def blocks(self, mdot):
-        st = static_equilibrium(self.model, state=self.state, mass_flow=mdot).state
+        try:
+            st = static_equilibrium(self.model, state=self.state, mass_flow=mdot).state
+        except ConvergenceError as e:
+            raise type(e)(f"critical_mass_flow: the static solve failed at mdot = {mdot:.6g} kg/s: {e}",
+                          load_factor=e.load_factor, iteration=e.iteration, residual=e.residual,
+                          mass_flow=mdot) from e
         lin = linearize(self.model, st, mass_flow=mdot)
         return split_blocks(lin.K, lin.C, lin.M), st
 
@@ -65,22 +72,27 @@ class _Evaluator:
         return eigen_from_blocks(blocks, self.model.n_dofs, vectors=vectors), st
 
 
-def critical_mass_flow(model, *, rtol: float = 1e-10, mass_flow_max: Optional[float] = None,
+@renamed(rtol="tol")
+def critical_mass_flow(model, *, tol: float = 1e-10, mass_flow_max: Optional[float] = None,
                        steps_per_unit: int = 4, state=None) -> CriticalFlow:
     """Lowest mass flow at which the static equilibrium becomes unstable.
 
     Args:
         model: the model (its loads and gravity are applied; the flow is varied).
-        rtol: relative tolerance on the critical mass flow.
+        tol: relative tolerance on the critical mass flow [-] (``rtol=`` is its
+            deprecated name; ``tol`` as in the static solvers, ``rtol`` is IDA's).
         mass_flow_max: mdot [kg/s] up to which to search (default 20 flow units).
         steps_per_unit: scan points per flow unit (:meth:`Model.flow_scale`).
         state: starting guess for the static solves.
 
     Raises:
         ValueError: bad options, or the model is unstable already without flow.
-        ConvergenceError: no instability up to ``mass_flow_max``.
+        ConvergenceError: no instability up to ``mass_flow_max`` (``mass_flow`` is that
+            end of the bracket), or a static solve failed at a trial flow (``mass_flow``
+            is that flow; the static solver's error is chained), or the crossing could
+            not be located (``mass_flow``: the lowest unstable flow found).
     """
-    rtol = _checks.positive("rtol", rtol)
+    rtol = _checks.positive("tol", tol)
     unit = model.flow_scale()
     mmax = 20 * unit if mass_flow_max is None else _checks.positive("mass_flow_max", mass_flow_max)
     steps = _checks.positive_int("steps_per_unit", steps_per_unit)
@@ -102,7 +114,8 @@ def critical_mass_flow(model, *, rtol: float = 1e-10, mass_flow_max: Optional[fl
         else:
             lo, ev.state = m, st
             if m >= mmax:
-                raise ConvergenceError(f"no instability found for mass flows up to {mmax:.6g} kg/s")
+                raise ConvergenceError(f"no instability found in the searched bracket of mass flows [0, {mmax:.6g}] "
+                                       "kg/s (raise mass_flow_max)", mass_flow=mmax)
     eig_hi = eig
     xtol = 0.25 * rtol * hi
     if stability(eig_hi) == "flutter":
@@ -131,7 +144,7 @@ def critical_mass_flow(model, *, rtol: float = 1e-10, mass_flow_max: Optional[fl
             raise ConvergenceError(f"flutter between {lo:.6g} and {hi:.6g} kg/s (lambda = {worst.real:.3g} "
                                    f"{worst.imag:+.6g}j 1/s), but the crossing eigenvalue could not be followed "
                                    "through zero: a weakly growing mode near the noise level (e.g. of a loaded "
-                                   "floating-frame body, docs/theory.md)") from None
+                                   "floating-frame body, docs/theory.md)", mass_flow=hi) from None
         _check_not_at_zero(mc, unit, hi, eig_hi)
     else:
         def kmin(m):
@@ -146,7 +159,7 @@ def critical_mass_flow(model, *, rtol: float = 1e-10, mass_flow_max: Optional[fl
         except ValueError:
             raise ConvergenceError(f"divergence between {lo:.6g} and {hi:.6g} kg/s, but no stiffness eigenvalue "
                                    "changes sign there (a neutral direction, or an unstable eigenvalue that the "
-                                   "stiffness does not show): cannot locate the critical flow") from None
+                                   "stiffness does not show): cannot locate the critical flow", mass_flow=hi) from None
 
     return _result(ev, mc, kind)
 
@@ -172,7 +185,7 @@ def _check_not_at_zero(mc, unit, hi, eig_hi):
         raise ConvergenceError(
             f"the equilibrium loses stability as soon as the flow starts (crossing at mdot = {mc:.3g} kg/s; at "
             f"{hi:.6g} kg/s lambda = {worst.real:.3g} {worst.imag:+.6g}j 1/s): it is only marginally stable "
-            "without flow, so there is no critical flow to report")
+            "without flow, so there is no critical flow to report", mass_flow=mc)
 
 
 def refine_eigenpair(block, lam, x=None, *, tol=1e-10, max_iterations=20):
@@ -205,7 +218,8 @@ def refine_eigenpair(block, lam, x=None, *, tol=1e-10, max_iterations=20):
         if polish:
             return lam, x
         polish = abs(step) <= tol * abs(lam)
-    raise ConvergenceError(f"eigenvalue refinement did not converge near lambda = {lam:.6g}")
+    raise ConvergenceError(f"eigenvalue refinement did not converge near lambda = {lam:.6g}",
+                           iteration=max_iterations)
 
 
 def _track_root(ev, lo, hi, eig_hi, xtol):
@@ -245,7 +259,7 @@ def _result(ev, mc, kind):
     if kind == "flutter":
         if np.any(lam.real > np.maximum(1e-6 * np.abs(lam), 1e3 * eig_c.noise)):
             raise ConvergenceError(f"at the computed flutter point mdot = {mc:.10g} kg/s another eigenvalue "
-                                   "is unstable: the tracked crossing was not the first one")
+                                   "is unstable: the tracked crossing was not the first one", mass_flow=mc)
         i = int(np.argmin(np.abs(lam.real) + 1e300 * (lam.imag < 0)))
         block = eig_c.blocks[eig_c.block_of[i]]
         lam_c, x = refine_eigenpair(block, lam[i])

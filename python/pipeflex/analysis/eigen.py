@@ -17,14 +17,17 @@ import scipy.linalg as sla
 import scipy.sparse as sp
 from scipy.sparse.csgraph import connected_components
 
+from ..results import Result
+
 #: An eigenvalue counts as growing when Re(lambda) exceeds GROWTH_TOL * |lambda| and
 #: its round-off bound (see :func:`block_eigenvalues`).
 GROWTH_TOL = 1e-9
 
 
-@dataclass
-class Block:
-    """One decoupled block: its reduced coordinates and dense K, C, M."""
+@dataclass(frozen=True)
+class Block(Result):
+    """One decoupled block: its reduced coordinates ``dofs`` and dense ``K``, ``C``, ``M``
+    (units as in :class:`~pipeflex.analysis.Linearization`)."""
 
     dofs: np.ndarray
     K: np.ndarray
@@ -32,16 +35,17 @@ class Block:
     M: np.ndarray
 
 
-@dataclass
-class EigenResult:
+@dataclass(frozen=True)
+class EigenResult(Result):
     """Finite eigenvalues lambda [1/s] (complex; Im = angular frequency [rad/s]).
 
     Attributes:
-        values: eigenvalues sorted by abs(Im) then Re.
+        values: lambda [1/s] eigenvalues sorted by abs(Im) then Re.
         vectors: (n_dofs, k) complex mode shapes (columns) if requested, else None.
         block_of: index of the block each eigenvalue belongs to.
         static_negative: number of negative stiffness eigenvalues in massless blocks.
         noise: round-off bound on each eigenvalue [1/s].
+        blocks: the decoupled blocks (:class:`Block`) the eigenvalues were found in.
     """
 
     values: np.ndarray

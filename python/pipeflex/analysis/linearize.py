@@ -7,23 +7,27 @@ from typing import Optional
 import scipy.sparse as sp
 
 from .. import _checks
+from ..results import Result
+from ..state import State, as_core
 from ._assembly import residual_and_tangent
 
 
 @dataclass(frozen=True)
-class Linearization:
+class Linearization(Result):
     """Sparse (CSC) matrices of the linearised equations in the reduced coordinates.
 
     ``M`` [kg, kg m, kg m^2] mass, ``C`` damping/gyroscopic (Coriolis of the flow
     included), ``K`` stiffness (elastic, geometric, follower and fluid centripetal terms).
     The rotation coordinates are spatial rotation increments [rad] about the state.
+    ``mass_flow`` mdot [kg/s]; ``state`` the :class:`~pipeflex.state.State` linearised
+    about (re-based: phi = 0).
     """
 
     M: sp.csc_matrix
     C: sp.csc_matrix
     K: sp.csc_matrix
     mass_flow: float
-    state: object
+    state: Optional[State]
 
 
 def linearize(model, state=None, *, mass_flow: Optional[float] = None) -> Linearization:
@@ -34,7 +38,8 @@ def linearize(model, state=None, *, mass_flow: Optional[float] = None) -> Linear
 
     Args:
         model: the model.
-        state: state to linearise about (positions, velocities, accelerations); not modified.
+        state: state to linearise about (positions, velocities, accelerations; a
+            :class:`~pipeflex.state.State` or ``_core.State``); not modified.
         mass_flow: mdot [kg/s] (default the model's).
 
     A :class:`~pipeflex.multibody.MultibodySystem` is linearised in independent
@@ -44,11 +49,11 @@ def linearize(model, state=None, *, mass_flow: Optional[float] = None) -> Linear
 
     if isinstance(model, MultibodySystem):
         return multibody_linearize(model, state, mass_flow=mass_flow)
-    s = model.initial_state() if state is None else state.copy()
+    s = as_core(model, state)
     s.rebase(0.0)
     mdot = model.mass_flow if mass_flow is None else _checks.finite("mass_flow", mass_flow)
     load = model.load_state(mass_flow=mdot)
     _, K = residual_and_tangent(model, s, load, wK=1.0, wC=0.0, wM=0.0)
     _, C = residual_and_tangent(model, s, load, load_factor=0.0, wK=0.0, wC=1.0, wM=0.0)
     _, M = residual_and_tangent(model, s, load, load_factor=0.0, wK=0.0, wC=0.0, wM=1.0)
-    return Linearization(M, C, K, mdot, s)
+    return Linearization(M, C, K, mdot, State.from_core(s, model))

@@ -29,7 +29,10 @@ import numpy as np
 import scipy.sparse as sp
 
 from .. import _checks, _core
+from .._options import renamed
 from ..errors import ConvergenceError
+from ..results import Result
+from ..state import State, as_core
 from ._assembly import residual_and_tangent
 from .eigen import GROWTH_TOL, eigenvalues
 from .linearize import Linearization
@@ -38,8 +41,8 @@ from ..rotation import skew
 LINEARIZATIONS = ("small_deformation", "steady_state")
 
 
-@dataclass
-class RotatingFrequencies:
+@dataclass(frozen=True)
+class RotatingFrequencies(Result):
     """Dimensionless frequencies omega / omega0 in the rotating frame.
 
     Attributes:
@@ -176,26 +179,34 @@ def _axial_strains(model, state) -> float:
     return worst
 
 
-def rotating_state(model, omega: float, *, state=None, state_omega: float = 0.0, steps: int = 1,
+@renamed(steps="continuation_steps")
+def rotating_state(model, omega: float, *, state=None, state_omega: float = 0.0, continuation_steps: int = 1,
                    tol: float = 1e-10, max_iterations: int = 30):
     """The steady state of the model turning at rate ``omega`` [rad/s] with its hub.
 
     Newton's method on R(q, v(q), a(q)) = 0 with the rotating-frame Jacobian
     K + Omega C A + Omega^2 M B, continued in Omega^2 from ``state`` (default: the
-    undeformed state) at rate ``state_omega`` over ``steps`` equal steps, a step being
-    halved when Newton fails. Returns the state (positions at t = 0, with the velocities
-    and accelerations of the rigid rotation).
+    undeformed state) at rate ``state_omega`` over ``continuation_steps`` equal steps
+    (``steps=`` is its deprecated name), a step being halved when Newton fails; ``tol``
+    [-]: Newton tolerance on the increment relative to the model size; ``max_iterations``:
+    Newton iterations per step (the names of :func:`pipeflex.steady_rotation`). Returns
+    the state (positions at t = 0, with the velocities and accelerations of the rigid
+    rotation).
 
     Raises:
-        ConvergenceError: Newton failed (the message gives Omega, iteration, residual).
+        ConvergenceError: Newton failed (the message gives Omega; attributes
+            ``iteration``, ``residual``).
     """
     fr = _Frame(model)
     omega = _checks.finite("omega", omega)
-    st = (model.initial_state() if state is None else state).copy()
+    tol = _checks.positive("tol", tol)
+    max_iterations = _checks.positive_int("max_iterations", max_iterations)
+    st = as_core(model, state)
     st.rebase(0.0)
     size = max(float(np.ptp(model.positions, axis=0).max()), 1e-3)
     w2_good = _checks.finite("state_omega", state_omega) ** 2
-    targets = list(np.linspace(w2_good, omega**2, _checks.positive_int("steps", steps) + 1)[1:])
+    n_steps = _checks.positive_int("continuation_steps", continuation_steps)
+    targets = list(np.linspace(w2_good, omega**2, n_steps + 1)[1:])
     load = model.load_state()
     scale = model.force_scale()
     last_good = st
@@ -228,7 +239,8 @@ def rotating_state(model, omega: float, *, state=None, state_omega: float = 0.0,
             continue
         if w2 - w2_good < 1e-8 * max(omega**2, 1e-30):
             raise ConvergenceError(f"rotating_state: Newton failed at Omega = {w:.6g} rad/s after {it} iterations "
-                                   f"(residual {rnorm:.3e} N, force scale {scale:.3e} N)")
+                                   f"(residual {rnorm:.3e} N, force scale {scale:.3e} N)", iteration=it,
+                                   residual=rnorm)
         targets.insert(0, 0.5 * (w2 + w2_good))
     last_good.rebase(0.0)
     fr.rigid_rotation(last_good, omega)
@@ -237,7 +249,8 @@ def rotating_state(model, omega: float, *, state=None, state_omega: float = 0.0,
 
 def _modes(fr, M, C, K, state, n_modes):
     """Frequencies sorted into transverse, longitudinal and out-of-plane families."""
-    lin = Linearization(sp.csc_matrix(M), sp.csc_matrix(C), sp.csc_matrix(K), 0.0, state)
+    lin = Linearization(sp.csc_matrix(M), sp.csc_matrix(C), sp.csc_matrix(K), 0.0,
+                        State.from_core(state, fr.model))
     eig = eigenvalues(lin, vectors=True)
     up = eig.values.imag > 0
     lam, V = eig.values[up], eig.vectors[:, up]
@@ -316,7 +329,7 @@ def rotating_frequencies(model, *, gamma, linearization: str = "small_deformatio
         st, w_prev = None, 0.0
         for i in order:
             w = g[i] * w0
-            st = rotating_state(model, w, steps=4) if st is None else _continue(model, st, w_prev, w)
+            st = rotating_state(model, w, continuation_steps=4) if st is None else _continue(model, st, w_prev, w)
             w_prev = w
             fam, growth[i], shapes[i] = _modes(fr, *fr.matrices(st, w), st, n_modes)
             res[i] = fam
@@ -330,7 +343,7 @@ def _continue(model, state, state_omega, omega):
     try:
         return rotating_state(model, omega, state=state, state_omega=state_omega)
     except ConvergenceError:
-        return rotating_state(model, omega, steps=8)
+        return rotating_state(model, omega, continuation_steps=8)
 
 
 def _unit_prestress(model, fr, s0, K0):

@@ -8,23 +8,25 @@ import numpy as np
 import scipy.sparse.linalg as spla
 
 from .. import _checks, _core
-from ..errors import ConvergenceError
+from ..errors import ConvergenceError, SingularMatrixError
+from ..results import Result
+from ..state import State, as_core
 from ._assembly import residual_and_tangent
 
 
-@dataclass
-class StaticResult:
+@dataclass(frozen=True)
+class StaticResult(Result):
     """Converged static state.
 
     Attributes:
-        state: the equilibrium (``_core.State``: ``q`` positions [m] / rotation vectors
-            [rad] per node, relative to ``state.frame(n)``).
+        state: the equilibrium (:class:`~pipeflex.state.State`: ``q`` positions [m] /
+            rotation vectors [rad] per node, relative to ``state.frame(n)``).
         iterations: total Newton iterations.
         residual: final residual norm [N].
         mass_flow: mdot [kg/s] of the equilibrium.
     """
 
-    state: "_core.State"
+    state: State
     iterations: int
     residual: float
     mass_flow: float
@@ -39,7 +41,8 @@ def static_equilibrium(model, *, state=None, mass_flow: Optional[float] = None, 
 
     Args:
         model: the :class:`~pipeflex.Model`.
-        state: starting state (default the reference configuration); not modified.
+        state: starting state (a :class:`~pipeflex.state.State` or ``_core.State``;
+            default the reference configuration); not modified.
         mass_flow: mdot [kg/s] (default the model's).
         load_steps: number of load increments.
         tol: relative tolerance on the increment norm (to the model size) and on the
@@ -47,7 +50,9 @@ def static_equilibrium(model, *, state=None, mass_flow: Optional[float] = None, 
         max_iterations: Newton iterations per load step.
 
     Raises:
-        ConvergenceError: with the load factor, iteration and residual where it failed.
+        ConvergenceError: with the load factor, iteration and residual where it failed
+            (attributes ``load_factor``, ``iteration``, ``residual``, ``mass_flow``);
+            :class:`~pipeflex.errors.SingularMatrixError` if the tangent was singular.
 
     A :class:`~pipeflex.multibody.MultibodySystem` is solved by
     :func:`pipeflex.multibody.static_equilibrium` (same options).
@@ -59,7 +64,7 @@ def static_equilibrium(model, *, state=None, mass_flow: Optional[float] = None, 
                                 max_iterations=max(max_iterations, 30))
     load_steps = _checks.positive_int("load_steps", load_steps)
     tol = _checks.positive("tol", tol)
-    state = model.initial_state() if state is None else state.copy()
+    state = as_core(model, state)
     mdot = model.mass_flow if mass_flow is None else _checks.finite("mass_flow", mass_flow)
     size = max(float(np.ptp(model.positions, axis=0).max()), model.total_length / max(1, len(model.elements)))
     total_iter = 0
@@ -68,17 +73,18 @@ def static_equilibrium(model, *, state=None, mass_flow: Optional[float] = None, 
     while lf < 1.0 - 1e-14:
         target = min(1.0, lf + dlf)
         trial = state.copy()
-        ok, it, rnorm, why = _newton(model, trial, mdot, target, tol, size, max_iterations)
+        ok, it, rnorm, why, singular = _newton(model, trial, mdot, target, tol, size, max_iterations)
         total_iter += it
         if ok:
             state, lf = trial, target
             continue
         bis += 1
         if bis > max_bisections:
-            raise ConvergenceError(f"static equilibrium failed at load factor {target:.6g} (from {lf:.6g}) "
-                                   f"after {it} iterations: {why}")
+            error = SingularMatrixError if singular else ConvergenceError
+            raise error(f"static equilibrium failed at load factor {target:.6g} (from {lf:.6g}) after {it} "
+                        f"iterations: {why}", load_factor=target, iteration=it, residual=rnorm, mass_flow=mdot)
         dlf /= 2
-    return StaticResult(state, total_iter, rnorm, mdot)
+    return StaticResult(State.from_core(state, model), total_iter, rnorm, mdot)
 
 
 def _newton(model, state, mdot, load_factor, tol, size, max_iterations):
@@ -88,24 +94,24 @@ def _newton(model, state, mdot, load_factor, tol, size, max_iterations):
     rnorm = float(np.linalg.norm(r))
     fscale = model.force_scale(mass_flow=mdot)
     if rnorm <= tol * fscale or model.n_dofs == 0:
-        return True, 0, rnorm, ""
+        return True, 0, rnorm, "", False
     for it in range(1, max_iterations + 1):
         r, J = residual_and_tangent(model, state, load, load_factor=load_factor)
         rnorm = float(np.linalg.norm(r))
         if not np.isfinite(rnorm):
-            return False, it, rnorm, "the residual is not finite"
+            return False, it, rnorm, "the residual is not finite", False
         fscale = max(fscale, rnorm)
         try:
             lu = spla.splu(J)
             dz = lu.solve(-r)
         except RuntimeError:
             return False, it, rnorm, ("the tangent is singular (a mechanism: missing supports, or a "
-                                      "bifurcation point)")
+                                      "bifurcation point)"), True
         if not np.all(np.isfinite(dz)):
-            return False, it, rnorm, "the tangent is singular or ill-conditioned"
+            return False, it, rnorm, "the tangent is singular or ill-conditioned", True
         _core.add_increment(model.core, state, dz, "q")
         state.rebase(np.pi)
         if np.linalg.norm(dz, np.inf) <= tol * size or rnorm <= 1e-3 * tol * max(fscale, 1e-300) or rnorm == 0.0:
             r2, _ = residual_and_tangent(model, state, load, load_factor=load_factor, matrix=False)
-            return True, it, float(np.linalg.norm(r2)), ""
-    return False, max_iterations, rnorm, f"no convergence in {max_iterations} iterations (residual {rnorm:.3e} N)"
+            return True, it, float(np.linalg.norm(r2)), "", False
+    return False, max_iterations, rnorm, f"no convergence in {max_iterations} iterations (residual {rnorm:.3e} N)", False

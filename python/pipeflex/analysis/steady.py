@@ -17,25 +17,27 @@ from typing import Optional
 import numpy as np
 
 from .. import _checks, _core
-from ..errors import ConvergenceError
+from ..errors import ConvergenceError, SingularMatrixError
+from ..results import Result
+from ..state import State, as_core
 from ._assembly import residual_and_tangent
 from ..rotation import skew
 
 
-@dataclass
-class SteadyRotation:
+@dataclass(frozen=True)
+class SteadyRotation(Result):
     """Steady rotation found by :func:`steady_rotation`.
 
     Attributes:
         omega: angular velocity [rad/s] about the hinge axis (right-hand rule).
-        state: the deformed, rotating state (positions, rotation vectors, velocities,
-            accelerations of the rigid rotation).
-        axis: unit hinge axis; hinge_node: its node.
+        state: the deformed, rotating state (:class:`~pipeflex.state.State`: positions,
+            rotation vectors, velocities, accelerations of the rigid rotation).
+        axis: (3,) unit hinge axis [-]; hinge_node: its node.
         iterations: Newton iterations; residual: final residual norm [N].
     """
 
     omega: float
-    state: object
+    state: State
     axis: np.ndarray
     hinge_node: int
     iterations: int
@@ -111,12 +113,15 @@ def steady_rotation(model, *, omega_guess: Optional[float] = None, mass_flow: Op
 
     Raises:
         ValueError: no or several hinges; bad options.
-        ConvergenceError: Newton failed (the message gives the step and the residual).
+        ConvergenceError: Newton failed (the message gives the step and the residual;
+            attributes ``mass_flow`` of the continuation step, ``iteration``, ``residual``).
     """
     node, axis, hinge_dof = _hinge(model)
     steps = _checks.positive_int("continuation_steps", continuation_steps)
+    tol = _checks.positive("tol", tol)
+    max_iterations = _checks.positive_int("max_iterations", max_iterations)
     mdot = model.mass_flow if mass_flow is None else _checks.finite("mass_flow", mass_flow)
-    st = (model.initial_state() if state is None else state).copy()
+    st = as_core(model, state)
     size = max(float(np.ptp(model.positions, axis=0).max()), 1e-3)
     T = model.basis
     omega = None if omega_guess is None else _checks.finite("omega_guess", omega_guess)
@@ -145,8 +150,9 @@ def steady_rotation(model, *, omega_guess: Optional[float] = None, mass_flow: Op
             try:
                 dz = np.linalg.solve(J, -r)
             except np.linalg.LinAlgError:
-                raise ConvergenceError(f"steady_rotation: singular Jacobian at flow step {k}/{steps}, "
-                                       f"iteration {it} (omega = {omega:.6g} rad/s)") from None
+                raise SingularMatrixError(f"steady_rotation: singular Jacobian at flow step {k}/{steps}, "
+                                          f"iteration {it} (omega = {omega:.6g} rad/s)", iteration=it,
+                                          residual=rnorm, mass_flow=m_k) from None
             domega = dz[hinge_dof]
             dz[hinge_dof] = 0.0
             # damp large steps (the first iterations from the undeformed shape)
@@ -159,11 +165,12 @@ def steady_rotation(model, *, omega_guess: Optional[float] = None, mass_flow: Op
         if not ok:
             raise ConvergenceError(f"steady_rotation: no convergence at flow step {k}/{steps} "
                                    f"(mdot = {m_k:.6g} kg/s) after {max_iterations} iterations; "
-                                   f"residual {rnorm:.3e} N, omega = {omega:.6g} rad/s")
+                                   f"residual {rnorm:.3e} N, omega = {omega:.6g} rad/s", iteration=max_iterations,
+                                   residual=rnorm, mass_flow=m_k)
     st.rebase(0.0)
     _rigid_rotation(model, st, node, axis, omega)
     r, _ = residual_and_tangent(model, st, model.load_state(mass_flow=mdot), matrix=False)
-    return SteadyRotation(float(omega), st, axis, node, total, float(np.linalg.norm(r)))
+    return SteadyRotation(float(omega), State.from_core(st, model), axis, node, total, float(np.linalg.norm(r)))
 
 
 def _rigid_guess(model, st, node, axis, hinge_dof, load):

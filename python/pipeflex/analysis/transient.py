@@ -8,13 +8,13 @@ from __future__ import annotations
 import json
 import time as _time
 from dataclasses import dataclass, field
-from pathlib import Path
 from typing import Optional, Sequence, Tuple, Union
 
 import numpy as np
 
 from .. import _checks, _core
-from ..errors import ConvergenceError
+from ..results import Result
+from ..state import as_core
 from ..time_functions import Sine, time_function
 
 INTEGRATORS = ("ida", "generalized_alpha")
@@ -25,8 +25,8 @@ _OPTIONS = {
 }
 
 
-@dataclass
-class TransientResult:
+@dataclass(frozen=True)
+class TransientResult(Result):
     """Motion at the output times; arrays are numpy, SI units.
 
     Attributes:
@@ -75,17 +75,11 @@ class TransientResult:
         ang = np.arctan2(np.einsum("j,ij->i", k, np.cross(ref, rot)), rot @ ref)
         return np.unwrap(ang)
 
-    def save(self, path: Union[str, Path]) -> None:
-        """Write to ``.npz`` (arrays) with the stats and metadata as JSON, losslessly."""
-        np.savez(path, **{k: getattr(self, k) for k in self._ARRAYS},
-                 stats=json.dumps(self.stats), metadata=json.dumps(self.metadata))
-
     @classmethod
-    def load(cls, path: Union[str, Path]) -> "TransientResult":
-        """Read a result written by :meth:`save`."""
-        with np.load(path) as f:
-            arrays = {k: f[k] for k in cls._ARRAYS}
-            return cls(**arrays, stats=json.loads(str(f["stats"])), metadata=json.loads(str(f["metadata"])))
+    def _load_legacy(cls, f) -> "TransientResult":
+        """A file of the earlier format: the arrays, stats and metadata as JSON."""
+        return cls(**{k: f[k] for k in cls._ARRAYS}, stats=json.loads(str(f["stats"])),
+                   metadata=json.loads(str(f["metadata"])))
 
 
 def simulate(model, t_end: float, *, integrator: str = "ida", state=None, t_start: float = 0.0,
@@ -101,7 +95,8 @@ def simulate(model, t_end: float, *, integrator: str = "ida", state=None, t_star
         integrator: ``"ida"`` (SUNDIALS IDA, variable-order variable-step BDF with error
             control) or ``"generalized_alpha"`` (second order, numerical damping set by
             ``rho_inf``; fixed step, halved when Newton fails).
-        state: initial state (default: the reference configuration at rest); not modified.
+        state: initial state (a :class:`~pipeflex.state.State` or ``_core.State``;
+            default: the reference configuration at rest); not modified.
         t_start: initial time [s].
         n_outputs: number of equally spaced output times (ignored if ``times`` is given).
         times: output times [s], increasing, from t_start to t_end.
@@ -114,17 +109,23 @@ def simulate(model, t_end: float, *, integrator: str = "ida", state=None, t_star
             more than a few seconds — i.e. when tqdm is available and t_end is long).
         **options: for ``ida``: ``rtol`` (1e-6), ``atol`` (1e-8), ``rebase_angle`` [rad]
             (1.0), ``max_steps``; for ``generalized_alpha``: ``step`` [s] (1e-3),
-            ``rho_inf`` (0.9, in [0, 1]), ``newton_tol`` (1e-10), ``max_newton`` (12),
-            ``min_step`` [s], ``max_steps``. Both: ``divergence_limit`` (1e3): a node
+            ``rho_inf`` [-] (0.9, in [0, 1]: damps the unresolved high modes a step
+            start of the flow excites, while 1, no damping, is allowed: the supports are
+            eliminated, there are no constraint multipliers; the index-3 multibody
+            integrator, :func:`pipeflex.multibody.simulate`, defaults to 0.8 and needs
+            < 1), ``newton_tol`` [-] (1e-10, on the position correction relative to the
+            model size), ``max_newton`` (12, Newton iterations per step), ``min_step`` [s],
+            ``max_steps``; the same names as :func:`pipeflex.multibody.simulate`'s. Both: ``divergence_limit`` (1e3): a node
             farther than this many model sizes from its reference position stops the run
-            with :class:`ConvergenceError`; ``work`` (True): integrate the work of the
+            with :class:`~pipeflex.ConvergenceError`; ``work`` (True): integrate the work of the
             fluid forces and loads at every step (two extra residual evaluations per
             step; without it ``fluid_work`` and ``load_work`` are NaN).
 
     Raises:
         ValueError: bad time span, tolerances, unknown integrator or option, a singular
             mass matrix (coordinates without inertia).
-        ConvergenceError: a failed step or a diverging motion, with the time and step.
+        ConvergenceError: a failed step or a diverging motion; ``time`` [s] (and for
+            generalised-alpha ``iteration`` and ``residual``) say where.
     """
     from ..multibody import MultibodySystem
 
@@ -179,7 +180,7 @@ def simulate(model, t_end: float, *, integrator: str = "ida", state=None, t_star
     if "work" in options:
         opt.work = bool(options["work"])
     opt.length_scale = max(float(np.ptp(model.positions, axis=0).max()), 1e-3)
-    st = (model.initial_state() if state is None else state).copy()
+    st = as_core(model, state)
     load = model.load_state()
     flow = time_function("mass_flow", model.mass_flow if mass_flow is None else mass_flow)
     loads = time_function("load_factor", load_factor)
@@ -202,11 +203,6 @@ def simulate(model, t_end: float, *, integrator: str = "ida", state=None, t_star
     wall = _time.perf_counter()
     try:
         out = run(model.core, st, load, flow, loads, list(times), opt, tick if bar is not None else None)
-    except _core.SolverError as e:
-        msg = str(e)
-        if msg.startswith("the mass matrix is singular"):
-            raise ValueError(msg) from None
-        raise ConvergenceError.from_solver(msg) from None
     finally:
         if bar is not None:
             bar.close()

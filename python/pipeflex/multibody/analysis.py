@@ -14,16 +14,19 @@ more than ``refresh`` iterations.
 from __future__ import annotations
 
 import time as _time
-from dataclasses import dataclass, field
-from typing import Optional
+from dataclasses import dataclass, field, replace
+from typing import Optional, Tuple
 
 import numpy as np
 import scipy.linalg as sla
 import scipy.sparse as sp
 
-from .. import _checks, _core
+from .. import _checks
+from .._options import renamed
 from ..time_functions import time_function
 from ..errors import ConvergenceError
+from ..results import Result
+from .body import node_index
 from .system import MultibodyState, MultibodySystem, TimeFunction
 
 
@@ -31,10 +34,10 @@ from .system import MultibodyState, MultibodySystem, TimeFunction
 MAX_STEPS = 100_000_000
 
 
-@dataclass
-class MultibodyStatic:
+@dataclass(frozen=True)
+class MultibodyStatic(Result):
     """Converged static state: ``state`` (with the reactions in ``state.lam``),
-    ``iterations``, ``residual`` [N], ``mass_flow`` [kg/s]."""
+    ``iterations``, ``residual`` [N], ``mass_flow`` mdot [kg/s]."""
 
     state: MultibodyState
     iterations: int
@@ -55,8 +58,6 @@ def _null_space_step(S, J, F, c, elastic, cutoff=1e-9):
     left alone instead of wandering with the round-off. (A pseudo-inverse of the whole
     T^T S T would also drop soft elastic directions: bending is ~1e-10 of the axial
     stiffness of a nearly inextensible pipe.)"""
-    if not (np.all(np.isfinite(S)) and np.all(np.isfinite(F)) and np.all(np.isfinite(c))):
-        raise ConvergenceError("non-finite tangent or residual")
     n = S.shape[0]
     U, sv, Vt = np.linalg.svd(J) if J.shape[0] else (None, np.zeros(0), np.zeros((0, n)))
     rank = int(np.sum(sv > 1e-12 * (sv[0] if len(sv) else 1.0)))
@@ -120,10 +121,9 @@ def static_equilibrium(system: MultibodySystem, *, state: Optional[MultibodyStat
     mdot = system.mass_flow if mass_flow is None else _checks.finite("mass_flow", mass_flow)
     if state is not None:
         system.check_state(state)
-    st = system.initial_state() if state is None else state.copy()
+    st = replace(system.initial_state() if state is None else state.copy(), t=t)
     st.v[:] = 0.0
     st.a[:] = 0.0
-    st.t = t
     L = system.length_scale
     elastic = np.zeros(system.n_coordinates, bool)
     for j in range(len(system.bodies)):
@@ -135,11 +135,16 @@ def static_equilibrium(system: MultibodySystem, *, state: Optional[MultibodyStat
         last = np.inf
         for it in range(max_iterations):
             F, c, J, S = system.evaluate(st, mass_flow=mdot, load_factor=lf, gravity_factor=lf)
+            where = dict(load_factor=lf, iteration=it, mass_flow=mdot)
+            if not (np.all(np.isfinite(S)) and np.all(np.isfinite(F)) and np.all(np.isfinite(c))):
+                raise ConvergenceError(f"static solve: non-finite tangent or residual at load factor {lf:.3g}, "
+                                       f"iteration {it}", **where)
             dq, dlam = _null_space_step(S, J, F, c, elastic)
             total += 1
             if not (np.all(np.isfinite(dq)) and np.all(np.isfinite(dlam))):
-                raise ConvergenceError(f"static solve: non-finite increment at load factor {lf:.3g}, iteration {it}")
-            st.lam += dlam
+                raise ConvergenceError(f"static solve: non-finite increment at load factor {lf:.3g}, iteration {it}",
+                                       residual=float(np.abs(F).max()), **where)
+            st.lam[:] += dlam
             size = np.abs(dq).max()
             satisfied = np.abs(c).max() <= 1e-6 * L
             if satisfied and size <= tol * L:
@@ -153,16 +158,18 @@ def static_equilibrium(system: MultibodySystem, *, state: Optional[MultibodyStat
         else:
             raise ConvergenceError(f"static solve did not converge at load factor {lf:.3g} after {max_iterations} "
                                    f"iterations (last increment {np.abs(dq).max():.3g}, constraint violation "
-                                   f"{np.abs(c).max():.3g} m)")
+                                   f"{np.abs(c).max():.3g} m)", load_factor=lf, iteration=max_iterations,
+                                   residual=float(np.abs(F).max()), mass_flow=mdot)
     F, _, _, _ = system.evaluate(st, mass_flow=mdot, tangent=False)
     res = float(np.abs(F).max())
     return MultibodyStatic(st, total, res, mdot)
 
 
 @dataclass(frozen=True)
-class MultibodyLinearization:
+class MultibodyLinearization(Result):
     """M, C, K (CSC) in independent coordinates z (q = q0 (+) T z, C_q T = 0), the basis
-    T (N x n_dofs) and the state. Same use as :class:`pipeflex.Linearization`."""
+    T (N x n_dofs) and the state. Same use as :class:`pipeflex.Linearization`
+    (``mass_flow`` mdot [kg/s])."""
 
     M: sp.csc_matrix
     C: sp.csc_matrix
@@ -198,55 +205,80 @@ def linearize(system: MultibodySystem, state: Optional[MultibodyState] = None, *
     return MultibodyLinearization(red(M), red(C), red(K), mdot, st, Tb)
 
 
-@dataclass
-class MultibodyResult:
-    """A multibody transient.
+@dataclass(frozen=True)
+class MultibodyResult(Result):
+    """A multibody transient, with the layout of the system's coordinates that its
+    methods need.
 
     Attributes:
-        t: (n_out,) output times [s]; r: (n_out, n_bodies, 3), R: (n_out, n_bodies, 3, 3)
-        frames; eta: (n_out, N) elastic coordinates (frame entries zero); v: (n_out, N)
-        velocities; drift: (n_out,) ``max abs(C_q v)`` [m/s] (velocity-level constraint drift;
-        positions are enforced); stats: steps, Newton iterations, matrix factorisations,
-        retries (steps redone with full Newton), wall_time [s], step (the step used [s]:
-        the interval divided into whole steps).
+        t: (n_out,) output times [s]; r: (n_out, n_bodies, 3) frame origins [m], R:
+        (n_out, n_bodies, 3, 3) frame rotations [-]; eta: (n_out, N) elastic coordinates
+        (frame entries zero); v: (n_out, N) velocities [m/s, rad/s, ...]; drift: (n_out,)
+        ``max abs(C_q v)`` [m/s] (velocity-level constraint drift; positions are
+        enforced); offsets: (n_bodies + 1,) first coordinate of each body (as
+        :attr:`MultibodySystem.offsets`); n_constraints: number of constraint equations;
+        nodes_s: per body, its node coordinates s [m]; bases: per body, its reduction
+        basis Phi (6 n_nodes x m) [-]; stats: steps, Newton iterations, matrix
+        factorisations, retries (steps redone with full Newton), wall_time [s], step (the
+        step used [s]: the interval divided into whole steps).
     """
 
-    system: MultibodySystem
     t: np.ndarray
     r: np.ndarray
     R: np.ndarray
     eta: np.ndarray
     v: np.ndarray
     drift: np.ndarray
+    offsets: np.ndarray
+    n_constraints: int
+    nodes_s: Tuple[np.ndarray, ...]
+    bases: Tuple[np.ndarray, ...]
     stats: dict = field(default_factory=dict)
+
+    @property
+    def n_coordinates(self) -> int:
+        """N = sum(6 + m_j) stacked coordinates."""
+        return int(self.offsets[-1])
+
+    def _body(self, body) -> int:
+        j = _checks.non_negative_int("body", body)
+        if j >= len(self.nodes_s):
+            raise ValueError(f"body must be in [0, {len(self.nodes_s)}), got {body!r}")
+        return j
 
     def state(self, k: int) -> MultibodyState:
         """The k-th output as a state (accelerations and multipliers not kept: zero)."""
         return MultibodyState(self.r[k].copy(), self.R[k].copy(), self.eta[k].copy(), self.v[k].copy(),
-                              np.zeros_like(self.v[k]), np.zeros(self.system.n_constraints), float(self.t[k]))
+                              np.zeros_like(self.v[k]), np.zeros(self.n_constraints), float(self.t[k]))
 
     def node_position(self, body: int, node) -> np.ndarray:
-        """(n_out, 3) global position [m] of a node."""
-        return np.array([self.system.node_position(self.state(k), body, node) for k in range(len(self.t))])
+        """(n_out, 3) global position [m] of a node (index or "start"/"center"/"end"):
+        r + R (x + Phi_u eta)."""
+        j = self._body(body)
+        i = node_index(len(self.nodes_s[j]) - 1, node)
+        o, e = int(self.offsets[j]), int(self.offsets[j + 1])
+        x = np.array([self.nodes_s[j][i], 0.0, 0.0]) + self.eta[:, o + 6:e] @ self.bases[j][6 * i:6 * i + 3].T
+        return self.r[:, j] + np.einsum("kij,kj->ki", self.R[:, j], x)
 
     def angular_velocity(self, body: int) -> np.ndarray:
         """(n_out, 3) global angular velocity [rad/s] of a body's frame."""
-        o = self.system.body_slice(body).start
+        o = int(self.offsets[self._body(body)])
         return self.v[:, o + 3:o + 6]
 
     def node_angular_velocity(self, body: int, node) -> np.ndarray:
         """(n_out, 3) global angular velocity [rad/s] of a node: omega + R Phi_theta eta_dot
         (small nodal rotations)."""
-        b = self.system.bodies[self.system.body_index(body)]
-        _, Pt, _ = b.node_rows(node)
-        sl = self.system.body_slice(body)
-        ed = self.v[:, sl][:, 6:]
-        return self.angular_velocity(body) + np.einsum("kij,kj->ki", self.R[:, body], ed @ Pt.T)
+        j = self._body(body)
+        i = node_index(len(self.nodes_s[j]) - 1, node)
+        Pt = self.bases[j][6 * i + 3:6 * i + 6]
+        ed = self.v[:, int(self.offsets[j]) + 6:int(self.offsets[j + 1])]
+        return self.angular_velocity(j) + np.einsum("kij,kj->ki", self.R[:, j], ed @ Pt.T)
 
 
+@renamed(tol="newton_tol", max_iterations="max_newton")
 def simulate(system: MultibodySystem, t_end: float, *, step: float, state: Optional[MultibodyState] = None,
              mass_flow: Optional[TimeFunction] = None, n_outputs: int = 201, rho_inf: float = 0.8,
-             tol: float = 1e-8, max_iterations: int = 12, refresh: int = 5) -> MultibodyResult:
+             newton_tol: float = 1e-8, max_newton: int = 12, refresh: int = 5) -> MultibodyResult:
     """Integrate the constrained equations of motion from ``state`` (default: the
     assembly configuration at rest) to ``t_end`` [s] with the fixed ``step`` h [s].
 
@@ -260,10 +292,15 @@ def simulate(system: MultibodySystem, t_end: float, *, step: float, state: Optio
             multipliers' errors grow like 1/h^2 and a spinning body blows up). Default
             0.8: bodies with a preimposed curvature need <= 0.8 when they spin (a freely
             spinning semicircular pipe diverges at 0.9 with h = 1 ms, 0.95 at any step).
-        tol: Newton tolerance on the increment, relative to the largest body length
-            (an iteration that stalls within 10 tol with an iteration matrix evaluated in
-            the step is accepted: round-off; a stall with an older matrix re-evaluates it).
-        max_iterations: Newton iterations per step.
+            (:func:`pipeflex.simulate`'s generalised-alpha defaults to 0.9 and allows 1:
+            its supports are eliminated, there are no multipliers to damp.)
+        newton_tol: Newton tolerance on the increment, relative to the largest body length
+            (an iteration that stalls within 10 newton_tol with an iteration matrix
+            evaluated in the step is accepted: round-off; a stall with an older matrix
+            re-evaluates it). ``tol=`` is its deprecated name.
+        max_newton: Newton iterations per step (``max_iterations=`` is its deprecated name).
+        Option names as :func:`pipeflex.simulate`'s generalised-alpha (``step``,
+        ``rho_inf``, ``newton_tol``, ``max_newton``).
         refresh: re-evaluate the iteration matrix when a step needs more Newton
             iterations than this (modified Newton).
 
@@ -277,8 +314,8 @@ def simulate(system: MultibodySystem, t_end: float, *, step: float, state: Optio
     rho = _checks.non_negative("rho_inf", rho_inf)
     if rho >= 1:
         raise ValueError(f"rho_inf must be in [0, 1) (index-3 constraints need numerical damping), got {rho}")
-    tol = _checks.positive("tol", tol)
-    max_iterations = _checks.positive_int("max_iterations", max_iterations)
+    tol = _checks.positive("newton_tol", newton_tol)
+    max_iterations = _checks.positive_int("max_newton", max_newton)
     refresh = _checks.positive_int("refresh", refresh)
     if state is not None:
         system.check_state(state)
@@ -293,12 +330,12 @@ def simulate(system: MultibodySystem, t_end: float, *, step: float, state: Optio
                          "(raise step or shorten the run)")
     out_steps = [int(k) for k in np.unique(np.round(np.linspace(0, n_steps, n_out)).astype(int))]
     wall = _time.perf_counter()
-    try:
-        t, states, drift, stats = system.core.integrate(st.r, st.R, st.eta, st.v, st.a, st.lam, t0, flow, t_end,
-                                                        out_steps, h, rho, tol, max_iterations, refresh)
-    except _core.SolverError as e:
-        raise ConvergenceError.from_solver(str(e)) from None
+    t, states, drift, stats = system.core.integrate(st.r, st.R, st.eta, st.v, st.a, st.lam, t0, flow, t_end,
+                                                    out_steps, h, rho, tol, max_iterations, refresh)
     stats["wall_time"] = _time.perf_counter() - wall
     stats["step"] = (t_end - t0) / n_steps  # the step used: the interval in whole steps
-    return MultibodyResult(system, np.array(t), np.array([x[0] for x in states]), np.array([x[1] for x in states]),
-                           np.array([x[2] for x in states]), np.array([x[3] for x in states]), np.array(drift), stats)
+    return MultibodyResult(np.array(t), np.array([x[0] for x in states]), np.array([x[1] for x in states]),
+                           np.array([x[2] for x in states]), np.array([x[3] for x in states]), np.array(drift),
+                           np.array(system.offsets), system.n_constraints,
+                           tuple(np.array(b.nodes_s) for b in system.bodies),
+                           tuple(np.array(b.basis) for b in system.bodies), stats)

@@ -13,7 +13,7 @@ evaluates the mass matrix, quadratic-velocity and fluid terms at run time.
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Optional
 
 import numpy as np
@@ -21,7 +21,7 @@ import scipy.linalg as sla
 
 from .. import _checks, _core
 from ..rotation import skew
-from ..sections import PipeSection
+from ..sections import PipeSection, refuse_unsupported
 
 REDUCTIONS = ("craig_bampton", "full")
 
@@ -41,6 +41,9 @@ class FlexibleBody:
         eta0: preimposed elastic coordinates (m) [m, rad mixed].
         data: the compiled constants (``_core.FfrfBodyData``).
         mass: total mass (pipe + fluid) [kg].
+
+    Pickling and :func:`copy.deepcopy` rebuild the body with :func:`flexible_body` from
+    the arguments it was made with (the compiled constants are not picklable).
     """
 
     length: float
@@ -53,6 +56,12 @@ class FlexibleBody:
     eta0: np.ndarray
     data: object
     mass: float
+    _arguments: Optional[dict] = field(default=None, repr=False)
+
+    def __reduce__(self):
+        if self._arguments is None:
+            raise TypeError("this FlexibleBody was not made by flexible_body(): it cannot be pickled")
+        return _rebuild_body, (self._arguments,)
 
     def __post_init__(self):
         # the compiled body holds copies: editing these arrays would desynchronise it
@@ -75,19 +84,29 @@ class FlexibleBody:
 
     def node_index(self, node) -> int:
         """Node index from an int or ``"start"``, ``"center"``, ``"end"``."""
-        names = {"start": 0, "center": self.n_elements // 2, "end": self.n_elements}
-        if isinstance(node, str):
-            if node not in names:
-                raise ValueError(f"node must be an index 0..{self.n_elements} or one of {tuple(names)}, got {node!r}")
-            return names[node]
-        if isinstance(node, bool) or not isinstance(node, (int, np.integer)) or not 0 <= node <= self.n_elements:
-            raise ValueError(f"node must be an index 0..{self.n_elements} or one of {tuple(names)}, got {node!r}")
-        return int(node)
+        return node_index(self.n_elements, node)
 
     def node_rows(self, node: int):
         """(Phi_u (3 x m), Phi_theta (3 x m), x (3,)) of a node in the body frame."""
         i = self.node_index(node)
         return self.basis[6 * i:6 * i + 3], self.basis[6 * i + 3:6 * i + 6], np.array([self.nodes_s[i], 0.0, 0.0])
+
+
+def node_index(n_elements: int, node) -> int:
+    """Index of a node of a body of ``n_elements`` elements from an int or ``"start"``,
+    ``"center"``, ``"end"``."""
+    names = {"start": 0, "center": n_elements // 2, "end": n_elements}
+    if isinstance(node, str):
+        if node not in names:
+            raise ValueError(f"node must be an index 0..{n_elements} or one of {tuple(names)}, got {node!r}")
+        return names[node]
+    if isinstance(node, bool) or not isinstance(node, (int, np.integer)) or not 0 <= node <= n_elements:
+        raise ValueError(f"node must be an index 0..{n_elements} or one of {tuple(names)}, got {node!r}")
+    return int(node)
+
+
+def _rebuild_body(arguments: dict) -> "FlexibleBody":
+    return flexible_body(**arguments)
 
 
 def _assemble(length, n_el, sec: PipeSection):
@@ -172,6 +191,7 @@ def flexible_body(*, length: float, n_elements: int, section: PipeSection, inter
         length: L [m] > 0 (for a curved body the arc length).
         n_elements: number of elements, even (the frame sits at the centre node).
         section: :class:`~pipeflex.PipeSection`; ``fluid_mass`` > 0 for a pipe that carries flow.
+            Not supported yet (refused by name): ``kv`` != 1, shear flexibility ``GAy``, ``GAz``.
         internal_modes: fixed-interface modes added to the 12 boundary modes (Craig-Bampton).
         reduction: ``"craig_bampton"`` (default) or ``"full"`` (all nodal coordinates but the
             centre node's: the unreduced body, as a check).
@@ -187,6 +207,10 @@ def flexible_body(*, length: float, n_elements: int, section: PipeSection, inter
         raise ValueError(f"n_elements must be even (the floating frame sits at the centre node), got {n_el}")
     if not isinstance(section, PipeSection):
         raise ValueError("section must be a pipeflex.PipeSection")
+    refuse_unsupported(section, {
+        "kv": "the FFRF body does not support a momentum-flux factor kv != 1 yet (its fluid forces are plug flow's)",
+        "GAy": "the FFRF body does not support shear flexibility yet (Euler-Bernoulli elements)",
+        "GAz": "the FFRF body does not support shear flexibility yet (Euler-Bernoulli elements)"}, "flexible_body")
     internal_modes = _checks.non_negative_int("internal_modes", internal_modes)
     kappa = _checks.finite("curvature", curvature)
     if abs(kappa) * L >= np.pi:
@@ -239,5 +263,7 @@ def flexible_body(*, length: float, n_elements: int, section: PipeSection, inter
         GPhi=[B.T @ G[k] @ Phi for k in range(3)], Gx=[B.T @ G[k] @ xbar for k in range(3)],
         CPhi=B.T @ C @ Phi, HPhi=B.T @ H @ Phi, Cx=B.T @ C @ xbar, Hx=B.T @ H @ xbar, Ng=B.T @ Ng)
     mass = L * (section.pipe_mass + section.fluid_mass)
+    arguments = dict(length=L, n_elements=n_el, section=section, internal_modes=internal_modes,
+                     reduction=reduction, curvature=kappa, basis=None if basis is None else Phi)
     return FlexibleBody(L, n_el, section, reduction, internal_modes if reduction == "craig_bampton" else 0,
-                        s, Phi, eta0, data, mass)
+                        s, Phi, eta0, data, mass, arguments)

@@ -12,12 +12,14 @@ model's mass flow mdot [kg/s]). Coordinates are stacked body after body.
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
+import copy
+from dataclasses import dataclass, replace
 from typing import List, Optional, Sequence, Tuple, Union
 
 import numpy as np
 
 from .. import _checks, _core
+from ..results import Result
 from ..time_functions import Sine, time_function
 from .body import FlexibleBody
 from ..rotation import rotation_exp
@@ -28,16 +30,21 @@ from .joints import JOINT_KINDS, JOINT_ROWS, Joint
 TimeFunction = Union[float, Tuple[Sequence[float], Sequence[float]], Sine]
 
 
-@dataclass
-class MultibodyState:
+@dataclass(frozen=True)
+class MultibodyState(Result):
     """Configuration and motion of a multibody system at time ``t`` [s].
 
+    Frozen: the fields cannot be re-bound, but the arrays can be edited in place (e.g.
+    ``st.v[3:6] = omega`` for an initial spin); :func:`dataclasses.replace` gives a
+    state with other arrays.
+
     Attributes:
-        r: (n_bodies, 3) frame origins [m]; R: (n_bodies, 3, 3) frame rotations.
+        r: (n_bodies, 3) frame origins [m]; R: (n_bodies, 3, 3) frame rotations [-].
         eta: (N,) stacked coordinate vector of which only the elastic entries are used
             (the frame entries are kept at zero; positions live in ``r``, ``R``).
         v, a: (N,) velocities [m/s, rad/s, ...] and accelerations.
         lam: Lagrange multipliers [N, N m] (one per constraint equation).
+        t: time [s].
     """
 
     r: np.ndarray
@@ -58,8 +65,24 @@ class MultibodyState:
 class _Load:
     body: int
     node: int
-    force: Tuple  # three _core.TimeTable [N]
-    moment: Tuple  # three _core.TimeTable [N m]
+    force: Tuple  # three plain time functions [N]
+    moment: Tuple  # three plain time functions [N m]
+
+
+def _plain_time_function(name, f):
+    """A checked copy of a time function as plain data: a float, a (times, values) pair
+    of float arrays or a :class:`~pipeflex.Sine` of those (``time_function`` compiles it)."""
+    if isinstance(f, Sine):
+        f = replace(f, envelope=_plain_time_function(f"{name}.envelope", f.envelope))
+    elif np.isscalar(f) and not isinstance(f, (str, bytes)):
+        f = _checks.finite(name, f)
+    else:
+        try:
+            f = tuple(np.array(a, dtype=float) for a in f)
+        except (TypeError, ValueError):
+            pass  # time_function names the problem
+    time_function(name, f)
+    return f
 
 
 class MultibodyBuilder:
@@ -148,7 +171,7 @@ class MultibodyBuilder:
         body b (a motor between them)."""
         b = self._other(body_b, node_b)
         self._add("hinge", self._ref("body_a", body_a, node_a), b, axis=_checks.unit_vector("axis", axis),
-                  torque=None if torque is None else time_function("torque", torque))
+                  torque=None if torque is None else _plain_time_function("torque", torque))
 
     def spherical(self, body_a: int, node_a, body_b: Optional[int] = None, node_b=None) -> None:
         """Coincident points, orientations free (to the ground when ``body_b`` is None)."""
@@ -166,8 +189,8 @@ class MultibodyBuilder:
         ref = self._ref("body", body, node)
         if len(force) != 3 or len(moment) != 3:
             raise ValueError("force and moment need 3 components")
-        f = tuple(time_function(f"force[{i}]", x) for i, x in enumerate(force))
-        m = tuple(time_function(f"moment[{i}]", x) for i, x in enumerate(moment))
+        f = tuple(_plain_time_function(f"force[{i}]", x) for i, x in enumerate(force))
+        m = tuple(_plain_time_function(f"moment[{i}]", x) for i, x in enumerate(moment))
         self._loads.append(_Load(ref[0], ref[1], f, m))
 
     def set_gravity(self, g: Sequence[float]) -> None:
@@ -241,7 +264,8 @@ class MultibodyBuilder:
             if kind == "hinge":
                 ax = extra["axis"]
                 perp = np.linalg.svd(ax.reshape(1, 3))[2][1:]
-                ref.update(axis_b=Ab.T @ ax, perp0=Aa.T @ perp[0], perp1=Aa.T @ perp[1], torque=extra["torque"])
+                torque = None if extra["torque"] is None else time_function("torque", extra["torque"])
+                ref.update(axis_b=Ab.T @ ax, perp0=Aa.T @ perp[0], perp1=Aa.T @ perp[1], torque=torque)
             elif kind == "roller":
                 ref["direction"] = extra["direction"]
             junction = self._junction(a, b) if (junction_forces and kind == "rigid") else 0.0
@@ -249,18 +273,35 @@ class MultibodyBuilder:
                            junction=junction, **ref)
             joints.append(Joint(kind, a, b, ref, name))
         for ld in self._loads:
-            core.add_load(ld.body, ld.node, list(ld.force), list(ld.moment))
+            core.add_load(ld.body, ld.node, [time_function(f"force[{i}]", x) for i, x in enumerate(ld.force)],
+                          [time_function(f"moment[{i}]", x) for i, x in enumerate(ld.moment)])
         core.set_gravity(self._gravity)
         core.finalize()
         system = MultibodySystem(core, tuple(self._bodies), offsets, tuple(joints), tuple(self._loads),
-                                 self._gravity.copy(), mdot, np.array(self._flow), state0)
+                                 self._gravity.copy(), mdot, np.array(self._flow), state0,
+                                 description=(self._description(), bool(junction_forces)))
         system.check_constraints()
         return system
+
+    def _description(self) -> dict:
+        """The builder's plain data (bodies rebuild from their own description)."""
+        return {k: copy.copy(v) for k, v in vars(self).items()}
+
+
+def _rebuild_system(description, mass_flow):
+    """A system built again from :meth:`MultibodySystem.__reduce__`'s description."""
+    data, junction_forces = description
+    b = MultibodyBuilder()
+    vars(b).update(data)
+    return b.build(mass_flow=mass_flow, junction_forces=junction_forces)
 
 
 class MultibodySystem:
     """An immutable system of flexible bodies, joints and loads (evaluated by the C++
     ``_core.MultibodySystemCore``).
+
+    Pickling and :func:`copy.deepcopy` rebuild the system from the builder's
+    description (the compiled core is not picklable); ``mass_flow`` and ``info`` are kept.
 
     Attributes:
         bodies: the :class:`FlexibleBody` of each body; offsets: first coordinate of each.
@@ -270,7 +311,9 @@ class MultibodySystem:
         info: free-form description a scene attaches.
     """
 
-    def __init__(self, core, bodies, offsets, joints, loads, gravity, mass_flow, flow_factors, state0):
+    def __init__(self, core, bodies, offsets, joints, loads, gravity, mass_flow, flow_factors, state0, *,
+                 description=None):
+        self._description = description
         self._core = core
         self.bodies = bodies
         self.offsets = offsets
@@ -288,6 +331,11 @@ class MultibodySystem:
         self.n_constraints = int(self.joint_rows[-1])
         self.n_dofs = self.n_coordinates - self.n_constraints
         self.info: dict = {}
+
+    def __reduce__(self):
+        if self._description is None:
+            raise TypeError("this MultibodySystem was not built by MultibodyBuilder.build: it cannot be pickled")
+        return _rebuild_system, (self._description, self.mass_flow), {"info": self.info}
 
     @property
     def core(self):

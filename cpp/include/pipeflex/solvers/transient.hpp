@@ -13,6 +13,7 @@
 #pragma once
 
 #include "pipeflex/assembly/model.hpp"
+#include "pipeflex/errors.hpp"
 
 #include <functional>
 #include <stdexcept>
@@ -20,12 +21,6 @@
 #include <vector>
 
 namespace pipeflex {
-
-// A solver failure: the message says when (t, h) and why (residual, iterations).
-class SolverError : public std::runtime_error {
-   public:
-    using std::runtime_error::runtime_error;
-};
 
 // Function of time: a piecewise-linear table (constant beyond its ends), optionally an
 // envelope modulating a sine carrier: f(t) = table(t) sin(omega t + phase) if omega != 0.

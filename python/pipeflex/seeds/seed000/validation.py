@@ -23,7 +23,7 @@ TOL_SPRINKLER = 5e-6
 
 
 def table1(*, rtol: float = 1e-10) -> List[Row]:
-    vals = {n: critical_mass_flow(scenes.simply_supported_pipe(n_elements=n), rtol=rtol).mass_flow
+    vals = {n: critical_mass_flow(scenes.simply_supported_pipe(n_elements=n), tol=rtol).mass_flow
             for n in TABLE1}
     rows = [Row(f"seed 000, Table 1, {n} element{'s' * (n > 1)}", "critical mass flow [kg/s]",
                 TABLE1[n], vals[n], TOL_TABLE1) for n in TABLE1]
@@ -33,7 +33,7 @@ def table1(*, rtol: float = 1e-10) -> List[Row]:
 
 
 def table2(*, rtol: float = 1e-10) -> List[Row]:
-    vals = {n: critical_mass_flow(scenes.cantilever_pipe(n_elements=n), rtol=rtol).mass_flow for n in TABLE2}
+    vals = {n: critical_mass_flow(scenes.cantilever_pipe(n_elements=n), tol=rtol).mass_flow for n in TABLE2}
     rows = [Row(f"seed 000, Table 2, {n} elements", "critical mass flow [kg/s]", TABLE2[n], vals[n],
                 TOL_TABLE2) for n in TABLE2]
     rows.append(Row("seed 000, Table 2, extrapolated", "Richardson 16/32 elements [kg/s]",

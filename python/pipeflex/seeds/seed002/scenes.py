@@ -4,6 +4,7 @@ from __future__ import annotations
 import numpy as np
 
 from ... import _checks
+from ..._options import renamed
 from ...model import Model, ModelBuilder
 from ...sections import PipeSection
 
@@ -17,7 +18,8 @@ SPIN_UP_BEAMS = {
 }
 
 
-def rotating_cantilever(*, n_elements: int = 10, formulation: str = "ancf", model: str = "A",
+@renamed(model="elastic")
+def rotating_cantilever(*, n_elements: int = 10, formulation: str = "ancf", elastic: str = "A",
                         hub_radius_ratio: float = 0.0, tip_mass_ratio: float = 0.0,
                         slenderness: float = 216.22, length: float = 1.0, EI: float = 1.0,
                         mass_per_length: float = 1.0, omega: float = 0.0, spin_up_time: float = 0.0) -> Model:
@@ -32,7 +34,8 @@ def rotating_cantilever(*, n_elements: int = 10, formulation: str = "ancf", mode
         n_elements: number of equal elements.
         formulation: ``"ancf"`` (planar ANCF beam, seed 002) or ``"pipe"`` (the 3D
             beam element of seed 000 without fluid: in-plane and flapwise bending).
-        model: ANCF elastic force model, ``"A"`` or ``"0"`` (ignored for ``"pipe"``).
+        elastic: ANCF elastic force model, ``"A"`` or ``"0"`` (ignored for ``"pipe"``), as
+            :meth:`~pipeflex.ModelBuilder.add_ancf_beam`; ``model=`` is its deprecated name.
         hub_radius_ratio: R / L [-]. tip_mass_ratio: N = m_t / m [-] (eq. 66).
         slenderness: L sqrt(A / I) [-]; sets EA = slenderness^2 EI / L^2. The default
             216.22 is the value implied by Table 2's LONGIT-I frequency (seed 002 notes).
@@ -53,7 +56,7 @@ def rotating_cantilever(*, n_elements: int = 10, formulation: str = "ancf", mode
     b = ModelBuilder()
     if formulation == "ancf":
         sec = PipeSection(EI=EI, EA=EA, pipe_mass=rho_a)
-        nodes = b.add_ancf_beam((R, 0.0, 0.0), (R + L, 0.0, 0.0), n_elements, sec, elastic=model)
+        nodes = b.add_ancf_beam((R, 0.0, 0.0), (R + L, 0.0, 0.0), n_elements, sec, elastic=elastic)
     else:
         # torsion: GJ = EI / 1.3 (thin tube), massless, hence condensed in eigen-analyses
         sec = PipeSection(EI=EI, EA=EA, pipe_mass=rho_a)
@@ -64,18 +67,20 @@ def rotating_cantilever(*, n_elements: int = 10, formulation: str = "ancf", mode
         b.add_point_mass(nodes[-1], N * rho_a * L)
     m = b.build()
     m.info.update(omega0=float(np.sqrt(EI / (rho_a * L**4))), length=L, hub_radius=R, tip_mass_ratio=N,
-                  tip_node=nodes[-1], beam_nodes=tuple(nodes), formulation=formulation, elastic=model)
+                  tip_node=nodes[-1], beam_nodes=tuple(nodes), formulation=formulation, elastic=elastic)
     return m
 
 
-def spin_up_beam(*, reference: str = "ref21", n_elements: int = 2, model: str = "A",
+@renamed(model="elastic")
+def spin_up_beam(*, reference: str = "ref21", n_elements: int = 2, elastic: str = "A",
                  omega: float = None, spin_up_time: float = 15.0) -> Model:
     """A beam of seed 002's Table 1 on a hub that spins it up by eq. 13 (Figs. 2-7).
 
     Args:
         reference: ``"ref19"`` (L = 10 m, eccentricity 1 m, Omega = 6 rad/s) or
             ``"ref21"`` (L = 8 m, hub at the beam's end; Omega = 2, 4, 10, 40 rad/s).
-        n_elements: ANCF elements. model: elastic force model ``"A"`` or ``"0"``.
+        n_elements: ANCF elements. elastic: elastic force model ``"A"`` or ``"0"``
+            (``model=`` is its deprecated name).
         omega: final rate Omega [rad/s] (default: the reference's, 6 or 4 rad/s).
         spin_up_time: T [s] (the seed's 15 s).
     """
@@ -85,7 +90,7 @@ def spin_up_beam(*, reference: str = "ref21", n_elements: int = 2, model: str = 
     L, rho_a = p["length"], p["density"] * p["area"]
     EI, EA = p["E"] * p["second_moment"], p["E"] * p["area"]
     w = p["omega"] if omega is None else _checks.finite("omega", omega)
-    return rotating_cantilever(n_elements=n_elements, model=model, hub_radius_ratio=p["hub_radius"] / L,
+    return rotating_cantilever(n_elements=n_elements, elastic=elastic, hub_radius_ratio=p["hub_radius"] / L,
                                slenderness=L * np.sqrt(EA / EI), length=L, EI=EI, mass_per_length=rho_a,
                                omega=w, spin_up_time=spin_up_time)
 

@@ -8,6 +8,7 @@ from typing import Sequence
 import numpy as np
 
 from ... import _checks
+from ..._options import renamed
 from ...analysis.rotating import rotating_frequencies
 from ...analysis.transient import simulate
 from ...errors import ConvergenceError
@@ -58,21 +59,25 @@ def tip_deflection(model, result) -> np.ndarray:
     return (result.x[:, tip, :] - model.positions[tip]) @ np.cross(axis, er)
 
 
-def spin_up(*, reference: str = "ref21", n_elements: int = 2, model: str = "A", omega=None,
+@renamed(model="elastic")
+def spin_up(*, reference: str = "ref21", n_elements: int = 2, elastic: str = "A", omega=None,
             t_end: float = 20.0, step: float = 2e-3, n_outputs: int = 401):
     """Simulate the spin-up manoeuvre (eq. 13, T = 15 s) of a Table 1 beam with
-    generalised-alpha; returns (times [s], tip deflection [m]). A diverging run raises
-    :class:`~pipeflex.ConvergenceError`."""
-    m = scenes.spin_up_beam(reference=reference, n_elements=n_elements, model=model, omega=omega)
+    generalised-alpha; returns (times [s], tip deflection [m]). ``elastic``: ANCF elastic
+    force model ``"A"`` or ``"0"`` (``model=`` is its deprecated name). A diverging run
+    raises :class:`~pipeflex.ConvergenceError`."""
+    m = scenes.spin_up_beam(reference=reference, n_elements=n_elements, elastic=elastic, omega=omega)
     r = simulate(m, t_end, integrator="generalized_alpha", step=step, n_outputs=n_outputs, work=False,
                  progress=False)
     return r.t, tip_deflection(m, r)
 
 
-def unstable(*, n_elements: int, omega: float, model: str = "0", reference: str = "ref21") -> bool:
+@renamed(model="elastic")
+def unstable(*, n_elements: int, omega: float, elastic: str = "0", reference: str = "ref21") -> bool:
     """Is the steady rotation at ``omega`` [rad/s] unstable (linear analysis about the
-    nonlinear steady state in the rotating frame), or has it no steady state?"""
-    m = scenes.spin_up_beam(reference=reference, n_elements=n_elements, model=model, omega=omega)
+    nonlinear steady state in the rotating frame), or has it no steady state? ``elastic``:
+    ANCF elastic force model (``model=`` is its deprecated name)."""
+    m = scenes.spin_up_beam(reference=reference, n_elements=n_elements, elastic=elastic, omega=omega)
     gamma = omega / m.info["omega0"]
     try:
         r = rotating_frequencies(m, gamma=[gamma], linearization="steady_state", n_modes=1)
@@ -81,18 +86,23 @@ def unstable(*, n_elements: int, omega: float, model: str = "0", reference: str 
     return bool(r.growth[0] > 0.0)
 
 
-def critical_rate(*, n_elements: int, model: str = "0", reference: str = "ref21", low: float = 0.5,
-                  high: float = 400.0, rtol: float = 1e-3) -> float:
+@renamed(model="elastic", rtol="tol")
+def critical_rate(*, n_elements: int, elastic: str = "0", reference: str = "ref21", low: float = 0.5,
+                  high: float = 400.0, tol: float = 1e-3) -> float:
     """Smallest rotation rate [rad/s] at which the steady rotation loses stability
-    (bisection between ``low`` stable and ``high`` unstable); inf if stable at ``high``."""
+    (bisection between ``low`` stable and ``high`` unstable); inf if stable at ``high``.
+    ``elastic``: ANCF elastic force model (``model=`` is its deprecated name); ``tol`` [-]:
+    relative tolerance on the rate, as :func:`pipeflex.critical_mass_flow`'s (``rtol=`` is
+    its deprecated name)."""
     _checks.positive_int("n_elements", n_elements)
-    if unstable(n_elements=n_elements, omega=low, model=model, reference=reference):
+    rtol = _checks.positive("tol", tol)
+    if unstable(n_elements=n_elements, omega=low, elastic=elastic, reference=reference):
         raise ValueError(f"already unstable at the lower bound {low} rad/s")
-    if not unstable(n_elements=n_elements, omega=high, model=model, reference=reference):
+    if not unstable(n_elements=n_elements, omega=high, elastic=elastic, reference=reference):
         return float("inf")
     while high - low > rtol * high:
         mid = 0.5 * (low + high)
-        if unstable(n_elements=n_elements, omega=mid, model=model, reference=reference):
+        if unstable(n_elements=n_elements, omega=mid, elastic=elastic, reference=reference):
             high = mid
         else:
             low = mid

@@ -1,6 +1,6 @@
 """Seed 002 (Berzeri & Shabana), rotating cantilever: recomputation of the published
 Tables 2-5 from the ANCF model with the library's rotating-frame linearisation (the
-printed values are in :mod:`.references`)."""
+printed values are in :mod:`pipeflex.seeds.seed002.references`)."""
 from __future__ import annotations
 
 from dataclasses import dataclass

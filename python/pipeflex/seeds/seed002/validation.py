@@ -70,7 +70,7 @@ def spin_up_figure():
     for n, model in ((2, "A"), (1, "0"), (2, "0"), (10, "0")):
         label = f"Model {model}, {n} element{'s' * (n > 1)}"
         try:
-            t, y = studies.spin_up(n_elements=n, model=model, omega=10.0, t_end=20.0)
+            t, y = studies.spin_up(n_elements=n, elastic=model, omega=10.0, t_end=20.0)
             ax.plot(t, y, label=label)
         except ConvergenceError as e:
             ax.plot([], [], label=f"{label}: diverged" + (f" at t = {e.time:.2f} s" if e.time is not None else ""))

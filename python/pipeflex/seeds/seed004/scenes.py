@@ -2,10 +2,12 @@
 from __future__ import annotations
 
 import dataclasses
+from typing import Optional
 
 import numpy as np
 
 from ... import _checks
+from ..._options import scene_mass_flow
 from ...multibody import MultibodyBuilder, flexible_body
 from ...sections import PipeSection
 from ...time_functions import Sine
@@ -37,8 +39,9 @@ def _elements_per_body(value) -> int:
 
 
 def ffrf_cantilever_pipe(*, n_bodies: int, elements_per_body: int = 20, internal_modes: int = 0,
-                         reduction: str = "craig_bampton", mass_flow: float = 0.0, tip_force: float = 0.0,
-                         length: float = 1.0, section: PipeSection = None):
+                         reduction: str = "craig_bampton", mass_flow: Optional[float] = None,
+                         flow_speed: Optional[float] = None, tip_force: float = 0.0, length: float = 1.0,
+                         section: PipeSection = None):
     """Straight cantilever pipe of seed 004, section 8.1, as a chain of floating-frame bodies.
 
     Along global x from the clamped origin; the free end carries ``tip_force`` [N] along
@@ -52,7 +55,9 @@ def ffrf_cantilever_pipe(*, n_bodies: int, elements_per_body: int = 20, internal
         n_bodies: bodies of equal length L / n_bodies, rigidly connected.
         elements_per_body: beam elements per body (even). internal_modes: Craig-Bampton
             fixed-interface modes per body (0: boundary modes only, 18 coordinates per body).
-        reduction: ``"craig_bampton"`` or ``"full"``. mass_flow: mdot [kg/s].
+        reduction: ``"craig_bampton"`` or ``"full"``.
+        mass_flow: mdot [kg/s] (default 0); or instead flow_speed: sdot [m/s] relative
+            to the pipe, mdot = fluid_mass sdot (the seed's 15 m/s is 30 kg/s).
         tip_force: [N] along global z at the free end. length: L [m].
         section: replaces the default :class:`~pipeflex.PipeSection`.
 
@@ -66,31 +71,35 @@ def ffrf_cantilever_pipe(*, n_bodies: int, elements_per_body: int = 20, internal
                      fluid_density=1000.0)
         section = PipeSection(EI=10.0, pipe_mass=8.0, fluid_mass=2.0, EA=tube.EA, GJ=tube.GJ,
                               rotary_inertia=tube.rotary_inertia)
+    mdot = scene_mass_flow(mass_flow, flow_speed, section.fluid_mass)
     body = flexible_body(length=L / nb, n_elements=_elements_per_body(elements_per_body), section=section,
                          internal_modes=internal_modes, reduction=reduction)
     b, ids = _ffrf_chain([body] * nb, [(((k + 0.5) * L / nb, 0.0, 0.0), None) for k in range(nb)])
     b.fix(ids[0], "start")
     if tip_force:
         b.add_load(ids[-1], "end", force=(0.0, 0.0, _checks.finite("tip_force", tip_force)))
-    system = b.build(mass_flow=mass_flow)
+    system = b.build(mass_flow=mdot)
     system.info.update(tip=(ids[-1], body.n_elements), scene="seed 004, sec. 8.1")
     return system
 
 
 def ffrf_curved_pipe(*, E: float, n_bodies: int = 8, elements_per_body: int = 20, internal_modes: int = 0,
-                     flow_speed: float = 10.0, radius: float = 0.5, reduction: str = "craig_bampton"):
+                     mass_flow: Optional[float] = None, flow_speed: Optional[float] = None, radius: float = 0.5,
+                     reduction: str = "craig_bampton"):
     """Semicircular pipe hinged at its inlet (seed 004, section 8.2; seed 000's sprinkler).
 
     The semicircle of radius R lies in the global x-z plane: it leaves the hinge at the
     origin along +z, has its centre at (R, 0, 0) and ends at (2R, 0, 0). The hinge turns
     about global y. Tube: OD 36.80 mm, ID 35.68 mm, 7870 kg/m^3, Young's modulus E [Pa],
-    nu = 0.3; water (1000 kg/m^3) at ``flow_speed`` sdot [m/s] relative to the pipe.
+    nu = 0.3; water (1000 kg/m^3) at ``flow_speed`` sdot [m/s] relative to the pipe
+    (default 10 m/s, the seed's), or at the mass flow ``mass_flow`` mdot [kg/s] = mu_f sdot.
     Each body is straight with the arc preimposed (eta0) and made stress-free.
 
     Args:
         E: Young's modulus [Pa] (seed: 0.9585e9, 9.585e9, 95.85e9).
         n_bodies: bodies along the semicircle. elements_per_body: elements per body.
-        internal_modes: Craig-Bampton internal modes per body. flow_speed: sdot [m/s].
+        internal_modes: Craig-Bampton internal modes per body.
+        mass_flow: mdot [kg/s]; or instead flow_speed: sdot [m/s] (neither: 10 m/s).
         radius: R [m]. reduction: ``"craig_bampton"`` or ``"full"``.
 
     Returns a :class:`~pipeflex.multibody.MultibodySystem` whose mass flow is mu_f sdot.
@@ -103,6 +112,7 @@ def ffrf_curved_pipe(*, E: float, n_bodies: int = 8, elements_per_body: int = 20
         raise ValueError(f"n_bodies must be >= 2 (a body spans less than 180 degrees of the semicircle), got {nb}")
     sec = _tube(outer_diameter=0.0368, inner_diameter=0.03568, E=E, G=E / 2.6, density=7870.0,
                 fluid_density=1000.0)
+    mdot = scene_mass_flow(mass_flow, flow_speed, sec.fluid_mass, default=sec.fluid_mass * 10.0)
     Lb = np.pi * R / nb
     body = flexible_body(length=Lb, n_elements=_elements_per_body(elements_per_body), section=sec, internal_modes=internal_modes,
                          reduction=reduction, curvature=1.0 / R)
@@ -115,7 +125,7 @@ def ffrf_curved_pipe(*, E: float, n_bodies: int = 8, elements_per_body: int = 20
         places.append((pos, np.column_stack([ex, ey, np.cross(ex, ey)])))
     b, ids = _ffrf_chain([body] * nb, places)
     b.hinge(ids[0], "start", (0.0, 1.0, 0.0))
-    system = b.build(mass_flow=sec.fluid_mass * _checks.finite("flow_speed", flow_speed))
+    system = b.build(mass_flow=mdot)
     system.info.update(E=E, base=(ids[0], 0), tip=(ids[-1], body.n_elements), scene="seed 004, sec. 8.2")
     return system
 
@@ -139,7 +149,8 @@ def _apex(p, q, side, leg):
     return m + np.sqrt(leg**2 - (d @ d) / 4) * n / np.linalg.norm(n)
 
 
-def concrete_printer(*, flow_speed: float, gravity: float = 9.81, junction_forces: bool = True):
+def concrete_printer(*, mass_flow: Optional[float] = None, flow_speed: Optional[float] = None,
+                     gravity: float = 9.81, junction_forces: bool = True):
     """The concrete-printing robot of seed 004, section 8.3 (Figs. 11-12).
 
     Arm: four solid steel rods (diameter 4 cm, 7870 kg/m^3, E = 200 GPa, G = 77 GPa),
@@ -150,7 +161,8 @@ def concrete_printer(*, flow_speed: float, gravity: float = 9.81, junction_force
     nozzle D. Pipe: PET tube (OD 4 cm, ID 3.5 cm, 1330 kg/m^3, E = 3.4 GPa, G = 1.2 GPa),
     bodies OE, EB (0.20 m), BF, FD (0.28 m), 4 elements each, rigidly joined, hinged
     about global z at O and attached at B and D with free orientation. Concrete
-    (2400 kg/m^3) flows from O to the nozzle at ``flow_speed`` sdot [m/s]. Gravity
+    (2400 kg/m^3) flows from O to the nozzle at ``flow_speed`` sdot [m/s] (the seed's 0, 3
+    and 6 m/s), or give ``mass_flow`` mdot [kg/s] = mu_f sdot instead (one of the two). Gravity
     ``gravity`` [m/s^2] along -z. All bodies use Craig-Bampton boundary modes.
     ``junction_forces``: the concrete's momentum flux turning at the kinks E, B, F pushes
     the pipe (P = mu_f sdot^2 = 83 N at 6 m/s; see
@@ -165,12 +177,13 @@ def concrete_printer(*, flow_speed: float, gravity: float = 9.81, junction_force
     Returns a :class:`~pipeflex.multibody.MultibodySystem`; ``info["nozzle"]`` = (body, node).
     """
 
-    sdot = _checks.finite("flow_speed", flow_speed)
     g = _checks.non_negative("gravity", gravity)
     rod = PipeSection.tube(outer_diameter=0.04, inner_diameter=0.0, E=200e9, G=77e9, density=7870.0,
                            rotary_inertia=True)
     rod = dataclasses.replace(rod, rotary_inertia=(rod.rotary_inertia[0], 0.0, 0.0))
     tube = _tube(outer_diameter=0.04, inner_diameter=0.035, E=3.4e9, G=1.2e9, density=1330.0, fluid_density=2400.0)
+    mdot = scene_mass_flow(mass_flow, flow_speed, tube.fluid_mass, default=None)
+    sdot = _checks.finite("flow_speed", flow_speed) if flow_speed is not None else mdot / tube.fluid_mass
     P = {k: np.array(v) for k, v in PRINTER_POINTS.items()}
     P["E"] = _apex(P["O"], P["B"], (-1.0, 0.0, 1.0), 0.20)
     P["F"] = _apex(P["B"], P["D"], (1.0, 0.0, 0.0), 0.28)
@@ -199,7 +212,7 @@ def concrete_printer(*, flow_speed: float, gravity: float = 9.81, junction_force
     b.spherical(pipe["EB"], "end", arm["AB"], "end")
     b.spherical(pipe["FD"], "end", arm["CD"], "end")
     b.set_gravity((0.0, 0.0, -g))
-    system = b.build(mass_flow=tube.fluid_mass * sdot, junction_forces=junction_forces)
+    system = b.build(mass_flow=mdot, junction_forces=junction_forces)
     system.info.update(nozzle=(arm["CD"], 14), arm=arm, pipe=pipe, points=P, flow_speed=sdot,
                        scene="seed 004, sec. 8.3")
     return system

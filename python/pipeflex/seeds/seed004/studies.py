@@ -13,6 +13,7 @@ from typing import Dict, Optional, Sequence
 import numpy as np
 
 from ... import _checks
+from ..._options import scene_mass_flow
 from ...analysis import critical_mass_flow, simulate, static_equilibrium, steady_rotation
 from ...errors import ConvergenceError
 from ...multibody import simulate as mb_simulate, static_equilibrium as mb_static
@@ -200,11 +201,14 @@ def final_angular_velocity(t: np.ndarray, omega: np.ndarray, *, window: float = 
     return float(np.abs(np.mean(omega[sel])))
 
 
-def element_curved_model(E: float, *, n_elements: int = 8, flow_speed: float = 10.0):
+def element_curved_model(E: float, *, n_elements: int = 8, mass_flow: Optional[float] = None,
+                         flow_speed: Optional[float] = None):
     """Seed 000's curved elements for the tube of seed 004, sec. 8.2: semicircle of radius
     0.5 m from a hinge at the origin (about global z, in the x-y plane), OD 36.80 mm, ID
     35.68 mm, 7870 kg/m^3, Young's modulus ``E`` [Pa], G = E / 2.6, finite EA, polar rotary
-    inertia; water at ``flow_speed`` sdot [m/s]. Returns a :class:`~pipeflex.Model`."""
+    inertia; water at ``flow_speed`` sdot [m/s] (default 10 m/s) or, instead, ``mass_flow``
+    mdot [kg/s] = mu_f sdot, as :func:`~pipeflex.scenes.ffrf_curved_pipe`. Returns a
+    :class:`~pipeflex.Model`."""
     import dataclasses
 
     from ...model import ModelBuilder
@@ -218,7 +222,7 @@ def element_curved_model(E: float, *, n_elements: int = 8, flow_speed: float = 1
               n_elements=_checks.positive_int("n_elements", n_elements),
               section=dataclasses.replace(sec, rotary_inertia=(sec.rotary_inertia[0], 0.0, 0.0)))
     b.hinge(n0, (0.0, 0.0, 1.0))
-    return b.build(mass_flow=sec.fluid_mass * _checks.finite("flow_speed", flow_speed))
+    return b.build(mass_flow=scene_mass_flow(mass_flow, flow_speed, sec.fluid_mass, default=sec.fluid_mass * 10.0))
 
 
 def element_curved_pipe(E: float, *, n_elements: int = 8) -> float:
