@@ -3,7 +3,7 @@ VENV := .venv
 PY := $(VENV)/bin/python
 SOURCES := $(shell find cpp -type f) CMakeLists.txt setup.py pyproject.toml
 
-.PHONY: all setup demo test validate-all docs bench clean
+.PHONY: all setup notebooks demo test validate-all docs bench clean
 
 all: test
 
@@ -22,7 +22,23 @@ $(VENV)/.installed: $(VENV)/pyvenv.cfg $(SOURCES)
 
 setup: $(VENV)/.installed
 
-demo: setup
+# Jupyter kernel "pipeflex" (the notebooks ask for it by name) running the venv's Python.
+# Registered for the user (~/.local/share/jupyter); without a usable home directory, in the
+# venv (.venv/share/jupyter), which Jupyter finds through JUPYTER_PATH. A failed registration
+# only warns (make demo depends on it).
+KERNEL_INSTALL := $(PY) -Xfrozen_modules=off -m ipykernel install --name pipeflex \
+	--display-name "Python (pipeflex)" --env PYDEVD_DISABLE_FILE_VALIDATION 1
+
+notebooks: setup
+	@if [ -n "$$HOME" ] && $(KERNEL_INSTALL) --user 2>/dev/null; then :; \
+	elif $(KERNEL_INSTALL) --sys-prefix 2>/dev/null; then \
+	  echo "(no writable home directory: start Jupyter with JUPYTER_PATH=$(CURDIR)/$(VENV)/share/jupyter)"; \
+	else echo "warning: the Jupyter kernel could not be registered ($(PY) -m ipykernel install --user says why)"; fi
+	@echo "Notebooks: notebooks/*.ipynb, committed with their outputs. Open them with Jupyter"
+	@echo "('jupyter notebook notebooks/'; Debian: apt-get install jupyter-notebook) or VS Code,"
+	@echo "kernel 'Python (pipeflex)'. Re-run one in fast mode: PIPEFLEX_FAST=1 in Jupyter's environment."
+
+demo: notebooks
 	$(VENV)/bin/pipeflex validate --out out
 
 test: setup

@@ -1,25 +1,138 @@
-"""Execute every notebook (fast mode, PIPEFLEX_FAST=1) with the venv's interpreter."""
+"""Execute every notebook in fast mode (PIPEFLEX_FAST=1) with the venv's interpreter, then
+evaluate numbers it computed in its kernel and compare them with their references.
+
+The notebooks ask for the Jupyter kernel "pipeflex" (``make notebooks`` registers it). The
+tests do not rely on that registration: they write a temporary kernelspec of that name
+running this interpreter and put it first on JUPYTER_PATH.
+"""
 import json
 import os
 import sys
+from dataclasses import dataclass
 from pathlib import Path
 
 import nbformat
 import pytest
 from nbclient import NotebookClient
 
+from pipeflex.seeds.seed000 import references as ref000, validation as val000
+from pipeflex.seeds.seed002 import references as ref002
+from pipeflex.seeds.seed004 import references as ref004
+
 NOTEBOOKS = sorted((Path(__file__).parent.parent / "notebooks").glob("*.ipynb"))
+KERNEL = "pipeflex"
+
+
+@dataclass(frozen=True)
+class Check:
+    """``expression``, evaluated in the notebook's kernel after its last cell, must lie in
+    [low, high]; ``source`` says where the bounds come from."""
+    expression: str
+    low: float
+    high: float
+    source: str
+
+
+def near(expression, reference, tol, source):
+    """|value - reference| <= tol (absolute)."""
+    return Check(expression, reference - tol, reference + tol, f"{source}: {reference!r} +- {tol:g}")
+
+
+def within(expression, low, high, source):
+    return Check(expression, low, high, f"{source}: in [{low:g}, {high:g}]")
+
+
+# Printed digits: a value printed with k decimals is matched to half a unit of its last digit,
+# except where ours differ by about one unit and the validation's tolerance is used:
+# seed 000's Table 2 (6 decimals; ours up to 1.0e-6 off, e.g. 25.0089106 for 25.008910).
+TABLE2_TOL = val000.TOL_TABLE2          # relative, 2e-7: about 5 units of the last digit
+CHECKS = {
+    "seed000_coriolis_meter.ipynb": [
+        # The seed prints no numbers for Figs. 7-8; its plotted range and statements are the checks.
+        within("fig7.omega_scaled[0]", 0.06, 0.18,
+               "seed 000, Fig. 7 (b = 3a, water): first frequency omega/omega0 at zero flow, inside the plot's range"),
+        near("fig7.omega_scaled[0]", 0.1772, 5e-5,
+             "ours, not the seed's: docs/validation.md (seed 000, section 4), 4 decimals"),
+        within("abs(kero.sensitivity / water.sensitivity - 1)", 0.0, 0.01,
+               "seed 000, Fig. 8: time-lag sensitivity 'very nearly independent of the density' (water, kerosene)"),
+    ],
+    "seed000_dynamics.ipynb": [
+        # fast mode: EI = 1000 N m^2, transients to 3 s (full mode: EI = 100 N m^2, 8 s)
+        near("direct", ref000.SPRINKLER[1000.0], val000.TOL_SPRINKLER * ref000.SPRINKLER[1000.0],
+             "seed 000, section 3.3, EI = 1000 N m^2: final angular velocity [rad/s] (7 digits printed; "
+             "ours 3.5e-7 relative below, within the validation's 5e-6)"),
+        near("richardson(w[0], w[1], order=2) / direct", 1.0, 2e-7,
+             "the transient, extrapolated over two steps, settles at the direct solver's speed "
+             "(as tests/test_sprinkler.py)"),
+        within("np.abs(rev.omega[:, 0, 2]).max() / np.abs(fwd.omega[:, 0, 2]).max()", 0.0, 0.01,
+               "seed 000, section 3.3, the reverse sprinkler: 'almost no motion occurs' (peak |omega| below "
+               "1 % of the blowing pipe's)"),
+    ],
+    "seed000_tables_1_2.ipynb": [
+        near("crit.mass_flow", ref000.TABLE2[8], TABLE2_TOL * ref000.TABLE2[8],
+             "seed 000, Table 2, 8 elements: critical mass flow [kg/s]"),
+        near("crit_ss.mass_flow", ref000.TABLE1[8], 5e-10,
+             "seed 000, Table 1, 8 elements: critical mass flow [kg/s], 9 decimals"),
+    ],
+    "seed002_rotating_tables.ipynb": [
+        within("transverse_gap", 0.0, 5e-5,
+               "seed 002, Table 2, simulation column: all 15 transverse frequencies (N = 0..4), 4 decimals"),
+        near("ours[1][keys.index((0, 0)), 0]", ref002.TABLE3[(0, 0)][0], 5e-4,
+             "seed 002, Table 3, N = 0, R/L = 0, gamma = 1: omega/omega0 of mode 1, 3 decimals"),
+        within("digits[1][:, 0].sum()", 30, 30,
+               "seed 002, Table 3, gamma = 1: all 30 (N, R/L) entries match every printed digit"),
+        near("g_res", 3.88, 5e-3, "seed 002, section 7: resonance omega_1 = Omega at gamma = 3.88, 2 decimals"),
+    ],
+    "seed002_spin_up.ipynb": [
+        # The seed prints no numbers for its spin-ups; Figs. 6-7 show which runs diverge.
+        within("crit[1]", 0.0, 10.0,
+               "seed 002, Fig. 6: Model 0 with one element unstable at Omega = 10 rad/s (critical rate below)"),
+        within("crit[2]", 0.0, 40.0,
+               "seed 002, Fig. 7: Model 0 with two elements unstable at Omega = 40 rad/s (critical rate below)"),
+        within("RUNS[('ref21', 40.0, '0', 2)]['t_fail']", 0.0, 16.0,
+               "seed 002, Fig. 7: the transient of Model 0, two elements, Omega = 40 rad/s diverges (t [s] "
+               "within the fast run's 16 s)"),
+    ],
+    "seed004_cantilever.ipynb": [
+        # n FFRF bodies with boundary modes = 2n seed-000 elements
+        near("dict(zip(fig7['bodies'], fig7['bodies_flow']))[4]", ref000.TABLE2[8], TABLE2_TOL * ref000.TABLE2[8],
+             "seed 000, Table 2, 8 elements (= 4 bodies): critical mass flow [kg/s]"),
+        near("dict(zip(fig7['bodies'], fig7['bodies_flow']))[1]", ref000.TABLE2[2], TABLE2_TOL * ref000.TABLE2[2],
+             "seed 000, Table 2, 2 elements (= 1 body): critical mass flow [kg/s]"),
+    ],
+    "seed004_curved_pipe.ipynb": [
+        # fast mode: 1.5 s instead of 4 s
+        near("final[95.85e9]", ref004.TABLE1_FFRF[95.85e9], 5e-3,
+             "seed 004, Table 1, FFRF column, E = 95.85 GPa: final angular velocity [rad/s], 3 decimals"),
+    ],
+    "seed004_model_choice.ipynb": [
+        near("lookup['FFRF 4 b.'].value", ref000.TABLE2[8], TABLE2_TOL * ref000.TABLE2[8],
+             "seed 000, Table 2, 8 elements (= 4 FFRF bodies): critical mass flow [kg/s]"),
+        near("lookup['element 8 el.'].value", ref000.TABLE2[8], TABLE2_TOL * ref000.TABLE2[8],
+             "seed 000, Table 2, 8 elements: critical mass flow [kg/s]"),
+    ],
+    "seed004_printer.ipynb": [
+        # Not a validation: the seed's Fig. 12 compares with nothing; its specification does.
+        within("max(np.ptp(p[:, 2]) for p in paths.values())", 0.0, 1e-8,
+               "seed 004, section 8.3: a roller keeps the nozzle's height [m]"),
+        near("sum(np.linalg.norm(P[b] - P[a]) for a, b in ('OE', 'EB', 'BF', 'FD'))", 0.96, 5e-3,
+             "seed 004, section 8.3: hose OE = EB = 0.20 m, BF = FD = 0.28 m [m], 2 decimals"),
+        near("shift[6.0] * 1e3", 8.8, 0.05,
+             "ours, not the seed's: docs/validation.md (seed 004, section 8.3), nozzle shift at 6 m/s [mm]"),
+    ],
+}
 
 
 @pytest.fixture(scope="module")
 def kernel_env(tmp_path_factory):
-    # Debian's kernelspec runs /usr/bin/python3, which cannot import the venv's package.
+    # Debian's kernelspec runs /usr/bin/python3, which cannot import the venv's package;
+    # the user's "pipeflex" kernel may be missing or stale: this one comes first.
     root = tmp_path_factory.mktemp("jupyter")
-    spec = root / "kernels" / "python3"
+    spec = root / "kernels" / KERNEL
     spec.mkdir(parents=True)
     (spec / "kernel.json").write_text(json.dumps({
         "argv": [sys.executable, "-Xfrozen_modules=off", "-m", "ipykernel_launcher", "-f", "{connection_file}"],
-        "display_name": "pipeflex venv", "language": "python"}))
+        "display_name": "Python (pipeflex), tests", "language": "python"}))
     old = {k: os.environ.get(k) for k in ("JUPYTER_PATH", "MPLBACKEND", "PIPEFLEX_FAST")}
     os.environ.update(JUPYTER_PATH=str(root), MPLBACKEND="Agg", PIPEFLEX_FAST="1")
     yield
@@ -30,9 +143,31 @@ def kernel_env(tmp_path_factory):
             os.environ[k] = v
 
 
+def test_every_notebook_is_checked():
+    assert sorted(CHECKS) == [p.name for p in NOTEBOOKS]
+
+
+@pytest.mark.parametrize("path", NOTEBOOKS, ids=[p.name for p in NOTEBOOKS])
+def test_notebook_committed_executed(path):
+    """Committed with its outputs, run top to bottom in one kernel, asking for the "pipeflex" kernel."""
+    nb = nbformat.read(path, as_version=4)
+    assert nb.metadata.kernelspec.name == KERNEL
+    counts = [c.execution_count for c in nb.cells if c.cell_type == "code"]
+    assert counts == list(range(1, len(counts) + 1))
+
+
 @pytest.mark.parametrize("path", NOTEBOOKS, ids=[p.name for p in NOTEBOOKS])
 def test_notebook_runs(path, kernel_env):
     nb = nbformat.read(path, as_version=4)
-    NotebookClient(nb, timeout=600, kernel_name="python3", resources={"metadata": {"path": str(path.parent)}}).execute()
+    checks = CHECKS[path.name]
+    # one extra cell, run in the same kernel after the notebook's own cells
+    nb.cells.append(nbformat.v4.new_code_cell("\n".join(f"print(repr(float({c.expression})))" for c in checks)))
+    NotebookClient(nb, timeout=600, kernel_name=KERNEL, resources={"metadata": {"path": str(path.parent)}}).execute()
     errors = [o for c in nb.cells if c.cell_type == "code" for o in c.get("outputs", []) if o.output_type == "error"]
     assert not errors
+    text = "".join(o.text for o in nb.cells[-1].outputs if o.output_type == "stream" and o.name == "stdout")
+    values = [float(v) for v in text.split()]
+    assert len(values) == len(checks)
+    print("\n".join(f"{c.expression} = {v!r}  ({c.source})" for c, v in zip(checks, values)))
+    bad = [f"{c.expression} = {v!r}, expected {c.source}" for c, v in zip(checks, values) if not c.low <= v <= c.high]
+    assert not bad, "\n".join(bad)
