@@ -108,3 +108,10 @@ def test_public_entry_points_keep_working():
     assert callable(pf.scenes.cantilever_pipe) and callable(pf.scenes.ffrf_curved_pipe)
     assert callable(pf.critical_mass_flow) and callable(pf.multibody.simulate)
     from pipeflex import scenes  # noqa: F401 (the from-import form works too)
+
+
+def test_the_library_speaks_of_physics_not_of_the_seeds():
+    """Sources are cited by their authors; "seed" belongs to pipeflex.seeds."""
+    offenders = [f"{name}:{i}" for name, path in _modules().items() if path and _is_library(name)
+                 for i, line in enumerate(path.read_text().splitlines(), 1) if "seed" in line.lower()]
+    assert not offenders

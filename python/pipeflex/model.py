@@ -4,8 +4,8 @@ A :class:`ModelBuilder` collects the description; :meth:`ModelBuilder.build` che
 and returns an immutable :class:`Model`. Analyses are free functions of a model and a
 state (see :mod:`pipeflex.analysis`). Conventions (DOF order, signs, units) are in
 ``docs/conventions.md``: every node has six coordinates: a frame node (pipe/beam
-element of seed 000) ``[x, y, z, phi_x, phi_y, phi_z]``, position in m and a spatial
-rotation vector in rad; an ANCF node (planar beam of seed 002) ``[x, y, z, x', y', z']``,
+element of Meijaard & Hakvoort) ``[x, y, z, phi_x, phi_y, phi_z]``, position in m and a spatial
+rotation vector in rad; an ANCF node (planar beam of Berzeri & Shabana) ``[x, y, z, x', y', z']``,
 position in m and the slope dr/dx [-] (z and z' are fixed: the element is planar).
 """
 from __future__ import annotations
@@ -57,8 +57,8 @@ def _strain_free_length(chord: np.ndarray, Ep: np.ndarray, Eq: np.ndarray) -> fl
 class ElementInfo:
     """What the builder recorded of an element (for plotting and post-processing).
 
-    ``kind`` is ``"pipe"`` (seed 000 element) or ``"ancf"`` (planar ANCF beam of seed
-    002, whose elastic force model ``elastic`` is ``"A"`` or ``"0"``)."""
+    ``kind`` is ``"pipe"`` (3D pipe element with flow) or ``"ancf"`` (planar ANCF beam of
+    Berzeri & Shabana, whose elastic force model ``elastic`` is ``"A"`` or ``"0"``)."""
 
     nodes: Tuple[int, int]
     section: PipeSection
@@ -71,7 +71,7 @@ class ElementInfo:
 @dataclass(frozen=True)
 class HubInfo:
     """A rigid hub turning the ``nodes`` about ``axis`` through ``center`` [m]: angle
-    theta(t) of seed 002's eq. 13 with final rate ``omega`` [rad/s] reached after
+    theta(t) of Berzeri & Shabana's eq. 13 with final rate ``omega`` [rad/s] reached after
     ``spin_up_time`` [s] (0: constant omega from t = 0)."""
 
     nodes: Tuple[int, ...]
@@ -128,7 +128,7 @@ class ModelBuilder:
 
     def add_ancf_beam(self, start, end: Sequence[float], n_elements: int, section: PipeSection, *,
                       elastic: str = "A") -> List[int]:
-        """A straight planar ANCF beam (seed 002) from ``start`` (an ANCF node index, or a
+        """A straight planar ANCF beam (Berzeri & Shabana) from ``start`` (an ANCF node index, or a
         point [m]) to the point ``end`` [m] in ``n_elements`` equal elements; returns the
         node indices (start first).
 
@@ -184,7 +184,7 @@ class ModelBuilder:
                      center: Sequence[float] = (0.0, 0.0, 0.0), axis: Sequence[float] = (0.0, 0.0, 1.0)) -> None:
         """Clamp ``node`` to a rigid hub turning about ``axis`` through ``center`` [m].
 
-        The angle is prescribed: theta(t) of seed 002's eq. 13, a smooth spin-up from rest
+        The angle is prescribed: theta(t) of Berzeri & Shabana's eq. 13, a smooth spin-up from rest
         to ``omega`` [rad/s] over ``spin_up_time`` T [s], then theta = omega (t - T/2); with
         T = 0 the hub turns at constant omega from t = 0 (the model's initial state is
         then at rest: start such runs from a steady state). Rotating-frame analyses
@@ -218,13 +218,13 @@ class ModelBuilder:
                 element (default: the chord). The element is stress-free as built.
             length: l0 [m] reference length. Default: the chord for a straight element;
                 for a curved one the length at which the axial strain eps_1 of eq. 1
-                vanishes in the stress-free shape (seed 000: sigma_1 has no eps_1^0, "an
+                vanishes in the stress-free shape (Meijaard & Hakvoort: sigma_1 has no eps_1^0, "an
                 initial elongation can be taken into account by modifying l0"); for a
                 circular arc of angle t this is the chord / (1 - sin^2(t/2)/6), shorter than
                 the arc by about 17 (t/2)^4 / 360 relative (7e-5 for t = pi/8).
             flow_factor: [-] this element's mass flow as a multiple of the model's
                 (1: in series with the flow, 0: no flow, -1: reversed).
-            fluid_end_terms: keep the split-off end terms of eqs. 19-20 of seed 000
+            fluid_end_terms: keep the split-off end terms of eqs. 19-20 of Meijaard & Hakvoort
                 (default). ``False`` gives the paper's split form, to which the kink
                 forces of eqs. 21-22 (:meth:`add_load`) must then be added by hand.
         """
@@ -313,7 +313,7 @@ class ModelBuilder:
 
     def clamp(self, node: int) -> None:
         """Fix position and orientation of a node. At an ANCF node the slope's direction
-        is fixed but not its length: the axial strain at the clamp stays free (seed 002,
+        is fixed but not its length: the axial strain at the clamp stays free (Berzeri & Shabana,
         eq. 18: five free coordinates for one clamped element)."""
         node = self._node("node", node)
         if node not in self._ancf_nodes:
@@ -368,7 +368,7 @@ class ModelBuilder:
                                                    for i, x in enumerate(inertia)])))
 
     def reservoir_inlet(self, node: int) -> None:
-        """Mark ``node`` as an inlet fed from a still reservoir (seed 000, end of 2.2).
+        """Mark ``node`` as an inlet fed from a still reservoir (Meijaard & Hakvoort, end of sec. 2.2).
 
         The fluid there is accelerated by suction from rest, not by the pipe: the inlet
         end term of the element that starts at ``node`` (in the flow direction) is

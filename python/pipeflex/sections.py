@@ -1,7 +1,7 @@
 """Cross-section and material data of pipes and beams, as immutable dataclasses.
 
 All quantities are SI. A :class:`PipeSection` holds the stiffness and mass per unit
-length that the element of seed 000 needs; :meth:`PipeSection.tube` builds one from a
+length that the 3D pipe element needs; :meth:`PipeSection.tube` builds one from a
 circular tube's geometry and materials.
 """
 from __future__ import annotations
@@ -26,19 +26,19 @@ class PipeSection:
             global z and reads ``EIz``: ``EI`` and ``EIz`` mean the same for every
             formulation (see ``docs/conventions.md``, Frames).
         EA: ``E A_p`` [N] axial stiffness. Default ``1e10 m^-2 * EI``: practically
-            inextensible, as the seed's pipes (an axial strain of order P/EA < 1e-9 then
+            inextensible, as the pipes of the validation cases (an axial strain of order P/EA < 1e-9 then
             shifts a critical flow by less than the tables' last digit).
         GJ: ``k_x G I_p`` [N m^2] torsional stiffness (default: ``EI / 1.3``, a thin tube).
         GAy, GAz: ``k_y G A_p``, ``k_z G A_p`` [N] shear stiffnesses; ``None`` means
-            rigid in shear (Euler-Bernoulli, ``Phi = 0`` in eq. 7 of seed 000).
+            rigid in shear (Euler-Bernoulli, ``Phi = 0`` in eq. 7 of Meijaard & Hakvoort).
         pipe_mass: ``rho_p A_p`` [kg/m] pipe mass per unit length.
         fluid_mass: ``rho_f A_f`` [kg/m] fluid mass per unit length.
         kv: ``k_v`` [-] momentum-flux factor of eq. 18 (1: plug flow, 4/3: laminar).
         rotary_inertia: ``(rho I_p, rho I_y, rho I_z)`` [kg m] mass moments of inertia per
             unit length about the local x, y, z axes, lumped at the nodes (default zero,
-            as in the seed's tables).
+            as in Meijaard & Hakvoort's tables).
 
-    Which formulation reads what: the seed-000 pipe element reads every field; the
+    Which formulation reads what: the 3D pipe element reads every field; the
     floating-frame body (:func:`~pipeflex.multibody.flexible_body`) has no shear
     flexibility and plug flow only, and refuses ``GAy``, ``GAz`` and ``kv != 1``; the
     planar ANCF beam reads ``EA``, ``EIz`` and ``pipe_mass`` and refuses ``fluid_mass``,
@@ -92,7 +92,7 @@ class PipeSection:
             shear: include shear flexibility (shear coefficient of a thin tube, 0.5).
             rotary_inertia: lump the cross-section's rotary inertia at the nodes.
             fluid_bulk_modulus: K [Pa] of the fluid. If given, the pressure coupling of
-                eq. 8 of seed 000 is included: with the flow prescribed (no fluid
+                eq. 8 of Meijaard & Hakvoort is included: with the flow prescribed (no fluid
                 accumulates, eps_7 = 0) the enclosed fluid resists the Poisson change of
                 the bore, which stiffens the pipe axially to
                 EA / (1 - (1 - 2 nu)^2 / (5 - 4 nu + 2 E t / (K r))),
@@ -137,7 +137,7 @@ def refuse_unsupported(section: PipeSection, reasons: Dict[str, str], where: str
 def pressure_coupling_factor(*, E: float, G: float, wall: float, radius: float, bulk_modulus: float) -> float:
     """Axial stiffening factor [-] of a fluid-filled thin tube with no fluid accumulation.
 
-    From eq. 8 of seed 000, [eps1, eps7] = l0/(E A) [[1, c], [c, d]] [sigma1, sigma7] with
+    From eq. 8 of Meijaard & Hakvoort, [eps1, eps7] = l0/(E A) [[1, c], [c, d]] [sigma1, sigma7] with
     c = 1 - 2 nu, d = 5 - 4 nu + 2 E t / (K r): setting eps7 = 0 eliminates the fluid
     force sigma7 = -c sigma1 / d and leaves eps1 = l0 (1 - c^2/d) sigma1 / (E A).
 

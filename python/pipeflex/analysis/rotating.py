@@ -1,4 +1,4 @@
-"""Linear vibration about a steady rotation, in the co-rotating frame (seed 002, §5-7).
+"""Linear vibration about a steady rotation, in the co-rotating frame (Berzeri & Shabana, §5-7).
 
 A model with a rotating hub (:meth:`ModelBuilder.rotating_hub`) turns rigidly at the rate
 Omega about the hub axis a through its centre c. Seen from the frame turning with it, a
@@ -15,7 +15,7 @@ prestress. Two choices of the state about which K is taken:
 
 * ``"steady_state"``: the nonlinear relative equilibrium R(q, v(q), a(q)) = 0 in the
   rotating frame (Newton with continuation in Omega^2); any element type.
-* ``"small_deformation"``: the seed's Section 5: geometry and strain gradients at the
+* ``"small_deformation"``: Berzeri & Shabana's Section 5: geometry and strain gradients at the
   undeformed configuration, prestress from the first-order static strains under the
   centrifugal load of the undeformed beam, K = K_0 + Omega^2 G (ANCF Model A only).
   The matrices K_0, G, M are computed once; each Omega costs one eigen-solution.
@@ -279,13 +279,13 @@ def _modes(fr, M, C, K, state, n_modes):
 
 def rotating_frequencies(model, *, gamma, linearization: str = "small_deformation",
                          n_modes: int = 3) -> RotatingFrequencies:
-    """Natural frequencies of a rotating model, dimensionless as in seed 002 (Tables 3-5).
+    """Natural frequencies of a rotating model, dimensionless as in Berzeri & Shabana (Tables 3-5).
 
     Args:
         model: a model with a rotating hub and ``model.info['omega0']`` (e.g.
             :func:`pipeflex.scenes.rotating_cantilever`).
         gamma: Omega / omega0 [-], a number or a sequence (computed in ascending order).
-        linearization: ``"small_deformation"`` (seed's Section 5: undeformed geometry,
+        linearization: ``"small_deformation"`` (Berzeri & Shabana's Section 5: undeformed geometry,
             first-order prestress; ANCF Model A) or ``"steady_state"`` (the full nonlinear
             steady state in the rotating frame; any element).
         n_modes: how many frequencies of each family to return.
@@ -366,7 +366,7 @@ def _unit_prestress(model, fr, s0, K0):
 def resonance_speed(model, *, mode: int = 1, gamma_range: Sequence[float] = (0.5, 20.0),
                     linearization: str = "small_deformation") -> float:
     """gamma at which the ``mode``-th transverse frequency equals the rotation rate
-    (omega_mode = Omega, seed 002 Section 7: 3.88 for mode 1, N = 0, R = 0)."""
+    (omega_mode = Omega, Berzeri & Shabana, Section 7: 3.88 for mode 1, N = 0, R = 0)."""
     from scipy.optimize import brentq
 
     j = _checks.positive_int("mode", mode) - 1

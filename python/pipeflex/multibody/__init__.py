@@ -1,4 +1,4 @@
-"""Floating frame of reference (seed 004): flexible bodies, joints, analyses."""
+"""Floating frame of reference (van Voorthuizen et al.): flexible bodies, joints, analyses."""
 from .analysis import (MultibodyLinearization, MultibodyResult, MultibodyStatic, linearize,
                        simulate, static_equilibrium)
 from .body import FlexibleBody, flexible_body

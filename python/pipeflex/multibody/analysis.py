@@ -4,7 +4,7 @@ Time integration (C++, ``MultibodySystemCore::integrate``): the index-3 equation
 (positions constrained exactly) with the Lie group generalised-alpha method of Arnold &
 Bruls (2007) / Bruls, Cardona & Arnold (2012): rotations are updated as
 R <- exp(h Dq~) R, so there is no rotation singularity and no normalisation constraint.
-Index 3 rather than the seed's index-1 form (eq. 70, accelerations of the constraints)
+Index 3 rather than van Voorthuizen et al.'s index-1 form (eq. 70, accelerations of the constraints)
 because the position constraints then hold to the Newton tolerance at every step with
 no drift stabilisation; the velocity-level drift ``max abs(C_q v)`` (not enforced) is
 reported. Constraint rows are scaled by the iteration matrix's size. Newton is

@@ -1,4 +1,4 @@
-"""Flexible bodies in the floating frame of reference (seed 004, sections 5 and 7).
+"""Flexible bodies in the floating frame of reference (van Voorthuizen et al., sections 5 and 7).
 
 A body is a straight beam or pipe of ``n_elements`` two-node 3-D beam elements along
 its local x axis, from s = -L/2 to L/2; the floating frame sits at the centre node. The

@@ -1,4 +1,4 @@
-"""Joint descriptions and rotation helpers for the multibody systems (seed 004, sec. 6).
+"""Joint descriptions and rotation helpers for the multibody systems (van Voorthuizen et al., sec. 6).
 
 The joint equations themselves are evaluated in C++ (``cpp/src/multibody.cpp``). Each
 joint constrains a node of one body against a node of another body or the ground:

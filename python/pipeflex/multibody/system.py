@@ -1,6 +1,6 @@
 """Multibody systems of floating-frame bodies joined by Lagrange-multiplier joints.
 
-Governing equations (seed 004, eq. 70, prescribed flow), per body j with coordinates
+Governing equations (van Voorthuizen et al., eq. 70, prescribed flow), per body j with coordinates
 q_j = [r_j; pi_j; eta_j] and velocities v_j = [r_dot_j; omega_j; eta_dot_j] (global r,
 omega; pi a rotation increment):
 
@@ -222,7 +222,7 @@ class MultibodyBuilder:
                 flux turning there, P_up t_up - P_down t_down (t the node tangents along
                 the flow, P = mu_f sdot^2 [N]): the kink force, which the bodies' own
                 terms (int N^T N'' over each body) do not contain. It vanishes where
-                bodies join smoothly. ``False`` is seed 004's formulation as printed.
+                bodies join smoothly. ``False`` is van Voorthuizen et al.'s formulation as printed.
 
         Raises:
             ValueError: no bodies or joints; joints whose nodes do not coincide in the
