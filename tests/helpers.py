@@ -38,3 +38,16 @@ def residual(data, q, v, a, ld, frames=(np.eye(3), np.eye(3))):
 def tangent(data, q, v, a, ld, wK, wC, wM, frames=(np.eye(3), np.eye(3))):
     _, J = _core.pipe_tangent(data, frames[0], frames[1], ld, q, v, a, wK, wC, wM)
     return J
+
+
+def fluttering_cantilever():
+    """Two elements beyond the flutter flow (40 kg/s), with a small initial tip velocity."""
+    b = pf.ModelBuilder()
+    n0 = b.add_node((0, 0, 0))
+    b.add_line(n0, (1, 0, 0), 2, pf.PipeSection(EI=10.0, pipe_mass=8.0, fluid_mass=2.0, EA=1e6, GJ=8.0,
+                                                rotary_inertia=(1e-2, 1e-3, 1e-3)))
+    b.clamp(n0)
+    m = b.build(mass_flow=40.0)
+    st = m.initial_state()
+    st.v[6 * 2 + 1] = 1e-3
+    return m, st

@@ -12,17 +12,7 @@ from pipeflex import _core
 from pipeflex.errors import ConvergenceError, SingularMatrixError
 from pipeflex.multibody import MultibodyBuilder, flexible_body, simulate
 
-
-def fluttering_cantilever():
-    b = pf.ModelBuilder()
-    n0 = b.add_node((0, 0, 0))
-    b.add_line(n0, (1, 0, 0), 2, pf.PipeSection(EI=10.0, pipe_mass=8.0, fluid_mass=2.0, EA=1e6, GJ=8.0,
-                                                rotary_inertia=(1e-2, 1e-3, 1e-3)))
-    b.clamp(n0)
-    m = b.build(mass_flow=40.0)
-    st = m.initial_state()
-    st.v[6 * 2 + 1] = 1e-3
-    return m, st
+from helpers import fluttering_cantilever
 
 
 def u_tube():

@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 
 import pipeflex as pf
+from helpers import fluttering_cantilever
 
 
 def swinging_cantilever(n=4):
@@ -102,14 +103,7 @@ def test_singular_mass_matrix_is_reported():
 def test_divergence_stops_with_time(integrator):
     """A cantilever beyond its flutter flow grows (into a limit cycle); with a divergence
     limit of 5 % of its length the run stops with a message that says when and how."""
-    b = pf.ModelBuilder()
-    n0 = b.add_node((0, 0, 0))
-    b.add_line(n0, (1, 0, 0), 2, pf.PipeSection(EI=10.0, pipe_mass=8.0, fluid_mass=2.0, EA=1e6, GJ=8.0,
-                                                rotary_inertia=(1e-2, 1e-3, 1e-3)))
-    b.clamp(n0)
-    m = b.build(mass_flow=40.0)
-    st = m.initial_state()
-    st.v[6 * 2 + 1] = 1e-3
+    m, st = fluttering_cantilever()
     with pytest.raises(pf.ConvergenceError, match=r"diverged at t = [0-9.e+-]+ s .*node 2 moved"):
         pf.simulate(m, 20.0, integrator=integrator, state=st, progress=False, divergence_limit=0.05,
                     **({"step": 1e-3} if integrator == "generalized_alpha" else {}))
