@@ -36,8 +36,14 @@ MAX_STEPS = 100_000_000
 
 @dataclass(frozen=True)
 class MultibodyStatic(Result):
-    """Converged static state: ``state`` (with the reactions in ``state.lam``),
-    ``iterations``, ``residual`` [N], ``mass_flow`` mdot [kg/s]."""
+    """Converged static state.
+
+    Attributes:
+        state: the equilibrium, with the joint reactions in ``state.lam``.
+        iterations: total Newton iterations.
+        residual: final residual norm [N].
+        mass_flow: mdot [kg/s] of the equilibrium.
+    """
 
     state: MultibodyState
     iterations: int
@@ -281,6 +287,8 @@ def simulate(system: MultibodySystem, t_end: float, *, step: float, state: Optio
              newton_tol: float = 1e-8, max_newton: int = 12, refresh: int = 5) -> MultibodyResult:
     """Integrate the constrained equations of motion from ``state`` (default: the
     assembly configuration at rest) to ``t_end`` [s] with the fixed ``step`` h [s].
+    Option names as :func:`pipeflex.simulate`'s generalised-alpha (``step``,
+    ``rho_inf``, ``newton_tol``, ``max_newton``).
 
     Args:
         mass_flow: mdot [kg/s]: a number, a table (times [s], values) or a
@@ -299,8 +307,6 @@ def simulate(system: MultibodySystem, t_end: float, *, step: float, state: Optio
             evaluated in the step is accepted: round-off; a stall with an older matrix
             re-evaluates it). ``tol=`` is its deprecated name.
         max_newton: Newton iterations per step (``max_iterations=`` is its deprecated name).
-        Option names as :func:`pipeflex.simulate`'s generalised-alpha (``step``,
-        ``rho_inf``, ``newton_tol``, ``max_newton``).
         refresh: re-evaluate the iteration matrix when a step needs more Newton
             iterations than this (modified Newton).
 
