@@ -1,4 +1,5 @@
 #include "convert.hpp"
+#include "pipeflex/assembly/model.hpp"
 #include "pipeflex/core/rotation.hpp"
 #include "pipeflex/elements/ancf_beam2d.hpp"
 #include "pipeflex/elements/pipe_beam3d.hpp"
@@ -140,6 +141,9 @@ void bind_elements(py::module_& m) {
             return out;
         },
         py::arg("data"), py::arg("which"), "K_A, K_M, K_B, K_t or M (which = 0..4) of seed 002's appendix.");
+    m.def(
+        "planar_triad", [](const Eigen::Vector3d& slope) { return from_mat3(planar_triad(to_vec3(slope))); },
+        py::arg("slope"), "Triad (columns e1, e2, e3) of a planar ANCF node: e1 along the slope, e3 = z.");
     m.def(
         "rotation_exp",
         [](const Eigen::Vector3d& phi) { return from_mat3(rotation_exp(to_vec3(phi))); },

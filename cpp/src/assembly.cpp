@@ -298,21 +298,22 @@ double State::max_rotation() const {
     return big;
 }
 
-Mat3<double> State::rotation(int node) const {
-    if (kinds[node] == NodeKind::ancf) {
-        Vec3<double> e1 = node_vec(q, node, 3);
-        e1 = (1.0 / norm(e1)) * e1;
-        Vec3<double> e3{{0.0, 0.0, 1.0}};
-        const Vec3<double> e2 = cross(e3, e1);
-        e3 = cross(e1, e2);
-        Mat3<double> R;
-        for (int k = 0; k < 3; ++k) {
-            R(k, 0) = e1[k];
-            R(k, 1) = e2[k];
-            R(k, 2) = e3[k];
-        }
-        return R;
+Mat3<double> planar_triad(const Vec3<double>& slope) {
+    Vec3<double> e1 = (1.0 / norm(slope)) * slope;
+    Vec3<double> e3{{0.0, 0.0, 1.0}};
+    const Vec3<double> e2 = cross(e3, e1);
+    e3 = cross(e1, e2);
+    Mat3<double> R;
+    for (int k = 0; k < 3; ++k) {
+        R(k, 0) = e1[k];
+        R(k, 1) = e2[k];
+        R(k, 2) = e3[k];
     }
+    return R;
+}
+
+Mat3<double> State::rotation(int node) const {
+    if (kinds[node] == NodeKind::ancf) return planar_triad(node_vec(q, node, 3));
     return rotation_exp(node_vec(q, node, 3)) * frames[node];
 }
 

@@ -12,7 +12,7 @@ import numpy as np
 
 from . import _core
 from .results import Result
-from .rotation import rotation_exp
+from .rotation import planar_triad, rotation_exp
 
 
 @dataclass(frozen=True)
@@ -73,11 +73,7 @@ class State(Result):
         """Rotation matrix (3 x 3) of ``node``: exp(phi) frames[node]; at an ANCF node the
         triad with e1 along the slope and e3 = z."""
         d = self.q[6 * node + 3:6 * node + 6]
-        if not self.ancf[node]:
-            return rotation_exp(d) @ self.frames[node]
-        e1 = d / np.linalg.norm(d)
-        e2 = np.cross((0.0, 0.0, 1.0), e1)
-        return np.column_stack([e1, e2, np.cross(e1, e2)])
+        return planar_triad(d) if self.ancf[node] else rotation_exp(d) @ self.frames[node]
 
     def copy(self) -> "State":
         """A deep copy."""

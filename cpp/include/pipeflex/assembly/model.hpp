@@ -84,6 +84,9 @@ struct Model {
     void finalize();  // numbers the reduced coordinates; checks consistency
 };
 
+// Triad of a planar (ANCF) node: e1 along the slope dr/dx, e3 = z, e2 = e3 x e1.
+Mat3<double> planar_triad(const Vec3<double>& slope);
+
 struct State {
     Eigen::VectorXd q, v, a;              // 6 per node: positions, rotation vectors
     std::vector<Mat3<double>> frames;     // reference rotation of each node
