@@ -1,10 +1,8 @@
 #include "pipeflex/multibody/multibody.hpp"
+#include "pipeflex/solvers/sparse_lu.hpp"
 
 #include <Eigen/LU>
-#include <Eigen/OrderingMethods>
 #include <Eigen/QR>
-#include <Eigen/SparseCore>
-#include <Eigen/SparseLU>
 
 #include <algorithm>
 #include <cmath>
@@ -50,10 +48,13 @@ class IterationMatrixLU {
         for (int b = 0; b < nb; ++b) coupled[b * nb + b] = 1;
         for (const MbJoint& j : joints)
             if (j.body_b >= 0) coupled[j.body_a * nb + j.body_b] = coupled[j.body_b * nb + j.body_a] = 1;
-        std::vector<Eigen::Triplet<double>> t;
+        std::vector<int> pr, pc;
         auto block = [&](int r0, int nr, int c0, int ncol) {
             for (int c = c0; c < c0 + ncol; ++c)
-                for (int r = r0; r < r0 + nr; ++r) t.emplace_back(r, c, 1.0);
+                for (int r = r0; r < r0 + nr; ++r) {
+                    pr.push_back(r);
+                    pc.push_back(c);
+                }
         };
         for (int a = 0; a < nb; ++a)
             for (int b = 0; b < nb; ++b)
@@ -67,29 +68,25 @@ class IterationMatrixLU {
                 block(o, nbody, r0, nr);
             }
         }
-        A_.resize(n + nc, n + nc);
-        A_.setFromTriplets(t.begin(), t.end(), [](double a, double) { return a; });
-        A_.makeCompressed();
-        lu_.analyzePattern(A_);
+        lu_.analyze(n + nc, pr, pc);
     }
 
     // False if the matrix is singular.
     bool factorize(const MatX& S, const MatX& J, double scale) {
-        for (Eigen::Index c = 0; c < A_.outerSize(); ++c)
-            for (Eigen::SparseMatrix<double>::InnerIterator it(A_, c); it; ++it) {
+        FixedPatternLU::Matrix& A = lu_.matrix();
+        for (Eigen::Index c = 0; c < A.outerSize(); ++c)
+            for (FixedPatternLU::Matrix::InnerIterator it(A, c); it; ++it) {
                 const Eigen::Index r = it.row();
                 it.valueRef() = r < n_ ? (c < n_ ? S(r, c) : scale * J(c - n_, r)) : (c < n_ ? scale * J(r - n_, c) : 0.0);
             }
-        lu_.factorize(A_);
-        return lu_.info() == Eigen::Success;
+        return lu_.factorize();
     }
 
-    void solve(const VecX& rhs, VecX& x) { x = lu_.solve(rhs); }
+    void solve(const VecX& rhs, VecX& x) { lu_.solve(rhs, x); }
 
    private:
     Eigen::Index n_ = 0;
-    Eigen::SparseMatrix<double> A_;
-    Eigen::SparseLU<Eigen::SparseMatrix<double>, Eigen::COLAMDOrdering<int>> lu_;
+    FixedPatternLU lu_;
 };
 
 }  // namespace

@@ -1,8 +1,10 @@
 #include "pipeflex/solvers/transient.hpp"
 
 #include "pipeflex/elements/hermite.hpp"
+#include "pipeflex/solvers/sparse_lu.hpp"
 
 #include <Eigen/Dense>
+#include <Eigen/SparseCholesky>
 #include <ida/ida.h>
 #include <nvector/nvector_serial.h>
 #include <sunlinsol/sunlinsol_band.h>
@@ -238,11 +240,19 @@ class System {
         const Eigen::VectorXd r = residual(t);
         Triplets trip;
         assemble(model, state, load_at(t), load_factor(t), 0.0, 0.0, 1.0, nullptr, &trip);
-        Eigen::MatrixXd M = Eigen::MatrixXd::Zero(n, n);
-        for (std::size_t k = 0; k < trip.values.size(); ++k) M(trip.rows[k], trip.cols[k]) += trip.values[k];
-        Eigen::LDLT<Eigen::MatrixXd> ldlt(0.5 * (M + M.transpose()));
-        const Eigen::VectorXd d = ldlt.vectorD();
-        if (ldlt.info() != Eigen::Success || d.minCoeff() <= 1e-12 * d.cwiseAbs().maxCoeff()) {
+        // sparse (banded) mass matrix, symmetrised: 0.5 (M + M^T)
+        std::vector<Eigen::Triplet<double>> sym;
+        sym.reserve(2 * trip.values.size());
+        for (std::size_t k = 0; k < trip.values.size(); ++k) {
+            sym.emplace_back(trip.rows[k], trip.cols[k], 0.5 * trip.values[k]);
+            sym.emplace_back(trip.cols[k], trip.rows[k], 0.5 * trip.values[k]);
+        }
+        Eigen::SparseMatrix<double> M(n, n);
+        M.setFromTriplets(sym.begin(), sym.end());
+        Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>> ldlt(M);
+        const bool factored = ldlt.info() == Eigen::Success;
+        const Eigen::VectorXd d = factored ? Eigen::VectorXd(ldlt.vectorD()) : Eigen::VectorXd::Zero(n);
+        if (!factored || n == 0 || d.minCoeff() <= 1e-12 * d.cwiseAbs().maxCoeff()) {
             throw std::invalid_argument(
                 "the mass matrix is singular: some coordinates have no inertia (e.g. torsion or "
                 "rotation about the pipe axis without rotary inertia). Give the sections "
@@ -251,12 +261,6 @@ class System {
         return ldlt.solve(-r);
     }
 };
-
-Eigen::MatrixXd dense(const Triplets& t, int n) {
-    Eigen::MatrixXd A = Eigen::MatrixXd::Zero(n, n);
-    for (std::size_t k = 0; k < t.values.size(); ++k) A(t.rows[k], t.cols[k]) += t.values[k];
-    return A;
-}
 
 // ---------------------------------------------------------------- IDA ----------------
 
@@ -331,6 +335,9 @@ struct Handle {
 };
 void free_ida(void* p) { IDAFree(&p); }
 void free_ctx(SUNContext c) { SUNContext_Free(&c); }
+
+// Below this many unknowns the iteration matrix is factorised densely (measured crossover).
+constexpr int kDenseBelow = 100;
 
 // Half bandwidth of the reduced tangent pattern.
 int bandwidth(const Model& model, const State& state, const LoadState& load) {
@@ -489,9 +496,14 @@ TransientOutput integrate_generalized_alpha(const Model& model, State& state, co
     sys.record(t, out, 0.0, 0.0);
 
     double h = opt.step;
-    Eigen::PartialPivLU<Eigen::MatrixXd> lu;
+    // Sparse LU of the banded iteration matrix: pattern analysed once (the first
+    // assembly's triplets), numeric factorisation at each refresh; dense below
+    // kDenseBelow unknowns, where it is cheaper (docs/performance.md).
+    FixedPatternLU lu(kDenseBelow);
     bool fresh = false;  // is lu the iteration matrix for the current step size?
     double lu_step = -1.0;
+    Triplets J;
+    Eigen::VectorXd r(n), da(n);
     for (std::size_t next = 1; next < times.size(); ++next) {
         // Equal steps within each output interval (a short last step would disturb the
         // method's history); halved after a failed Newton iteration, restored after.
@@ -511,25 +523,28 @@ TransientOutput integrate_generalized_alpha(const Model& model, State& state, co
             bool ok = false;
             double rnorm = 0.0, prev = 0.0;
             int it = 0;
+            bool singular = false;
             // Modified Newton: the factorised iteration matrix is kept across iterations and
             // steps while the corrections contract fast; it is rebuilt otherwise.
             if (std::abs(lu_step - hs) > 1e-10 * hs) fresh = false;  // same step up to round-off
             for (it = 1; it <= opt.max_newton; ++it) {
                 sys.set(zn, vn, an, tn);
-                Eigen::VectorXd r;
                 if (!fresh) {
-                    Triplets J;
                     assemble(model, state, sys.load_at(tn), sys.load_factor(tn), bp, gp, 1.0, &r, &J);
-                    lu.compute(dense(J, n));
+                    ++out.jacobians;
+                    if (!lu.factorize(n, J.rows, J.cols, J.values)) {
+                        singular = true;
+                        rnorm = r.norm();
+                        break;
+                    }
                     fresh = true;
                     lu_step = hs;
-                    ++out.jacobians;
                 } else {
                     assemble(model, state, sys.load_at(tn), sys.load_factor(tn), 0.0, 0.0, 0.0, &r, nullptr);
                 }
                 rnorm = r.norm();
                 if (!std::isfinite(rnorm)) break;
-                const Eigen::VectorXd da = lu.solve(-r);
+                lu.solve(-r, da);
                 an += da;
                 update();
                 ++out.newton_iterations;
@@ -554,6 +569,12 @@ TransientOutput integrate_generalized_alpha(const Model& model, State& state, co
                     where.mass_flow = sys.load_at(t).mass_flow;
                     where.iteration = it - 1;
                     where.residual = rnorm;
+                    if (singular)
+                        throw SingularMatrixError("generalised-alpha failed at t = " + fmt(t) + " s: singular "
+                                                  "iteration matrix with step " + fmt(hs) + " s (residual " +
+                                                  fmt(rnorm) + " after " + std::to_string(it - 1) +
+                                                  " iterations): a mechanism, or coordinates without inertia",
+                                                  where);
                     throw ConvergenceError("generalised-alpha failed at t = " + fmt(t) + " s: Newton did not "
                                            "converge with step " + fmt(hs) + " s (residual " + fmt(rnorm) +
                                            " after " + std::to_string(it - 1) + " iterations); the motion may "
