@@ -71,3 +71,21 @@ def test_no_instability_in_range_is_reported():
     m = pf.scenes.cantilever_pipe(n_elements=2)
     with pytest.raises(pf.ConvergenceError, match="no instability"):
         pf.critical_mass_flow(m, mass_flow_max=10.0)
+
+
+def test_table2_cantilever_128_elements_converges_with_order_four():
+    """128 elements (768 coordinates: the sparse path). No ConvergenceError (Newton's
+    tolerance follows the round-off level of the size), and order-4 convergence holds
+    on 32, 64, 128: the differences shrink ~16-fold (observed 15.7), and the 128-element
+    flow is within ~2.4e-8 of the seed's extrapolated 25.005520 (itself truncated, 2.2e-8
+    low; the 64/128 Richardson value is 25.00552055)."""
+    r = pf.critical_mass_flow(pf.scenes.cantilever_pipe(n_elements=128))
+    assert r.kind == "flutter"
+    assert abs(r.eigenvalue.real) < 1e-8 * abs(r.eigenvalue)
+    assert r.mass_flow == pytest.approx(ref000.TABLE2_EXTRAPOLATED, rel=4e-8)
+    f32 = pf.critical_mass_flow(pf.scenes.cantilever_pipe(n_elements=32)).mass_flow
+    f64 = pf.critical_mass_flow(pf.scenes.cantilever_pipe(n_elements=64)).mass_flow
+    order = np.log2((f32 - f64) / (f64 - r.mass_flow))
+    assert order == pytest.approx(4.0, abs=0.1)
+    ext = richardson(f64, r.mass_flow)
+    assert abs(r.mass_flow - ext) < 1e-7  # kg/s: 128 elements are converged to ~2e-9 relative

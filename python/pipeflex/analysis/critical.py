@@ -8,6 +8,14 @@ by Newton refinement in its block (bisection on full eigen-analyses only if the
 tracking is lost); divergence: bisection to 1e-3 relative, then Brent's method on the
 stiffness eigenvalue through zero (det K = 0); (3) a full eigen-analysis at the result
 checks that no other eigenvalue is unstable.
+
+Large models (at least :data:`~pipeflex.analysis.eigen.SPARSE_MIN_DOFS` coordinates):
+the scan and the checks compute only the :data:`SCAN_MODES` eigenvalues nearest 0 in
+each block (the lowest modes, by sparse shift-invert Arnoldi), and the tracking takes
+the few eigenvalues nearest the predicted crossing eigenvalue before the Newton
+refinement, so that the cost grows about linearly with the number of elements. A pipe's
+flutter and divergence are instabilities of its lowest modes; an instability of a mode
+above the SCAN_MODES lowest of each block would be missed.
 """
 from __future__ import annotations
 
@@ -16,15 +24,21 @@ from typing import Optional
 
 import numpy as np
 import scipy.linalg as sla
+import scipy.sparse as sp
+import scipy.sparse.linalg as spla
 from scipy.optimize import brentq
 
 from .. import _checks
 from ..results import Result
 from .._options import renamed
 from ..errors import ConvergenceError
-from .eigen import eigen_from_blocks, split_blocks, stability
+from .eigen import (SPARSE_MIN_DOFS, eigen_from_blocks, sparse_block_eigenvalues, sparse_eigen_from_blocks,
+                    split_blocks, stability)
 from .linearize import linearize
 from .static import static_equilibrium
+
+#: Eigenvalues per block (nearest 0) in the scan of a large model (sparse path).
+SCAN_MODES = 16
 
 
 @dataclass(frozen=True)
@@ -55,6 +69,7 @@ class _Evaluator:
         self.model = model
         self.state = state
         self.count = 0
+        self.sparse = model.n_dofs >= SPARSE_MIN_DOFS
 
     def blocks(self, mdot):
         try:
@@ -64,11 +79,13 @@ class _Evaluator:
                           load_factor=e.load_factor, iteration=e.iteration, residual=e.residual,
                           mass_flow=mdot) from e
         lin = linearize(self.model, st, mass_flow=mdot)
-        return split_blocks(lin.K, lin.C, lin.M), st
+        return split_blocks(lin.K, lin.C, lin.M, sparse=self.sparse), st
 
     def __call__(self, mdot, vectors=False):
         self.count += 1
         blocks, st = self.blocks(mdot)
+        if self.sparse:
+            return sparse_eigen_from_blocks(blocks, self.model.n_dofs, SCAN_MODES, vectors=vectors), st
         return eigen_from_blocks(blocks, self.model.n_dofs, vectors=vectors), st
 
 
@@ -99,7 +116,10 @@ def critical_mass_flow(model, *, tol: float = 1e-10, mass_flow_max: Optional[flo
     ev = _Evaluator(model, model.initial_state() if state is None else state)
 
     eig, ev.state = ev(0.0)
-    if _stiffness_conditioning(eig) < 1e-10:  # before the sign test: a neutral direction's sign is round-off
+    # before the sign test: a neutral direction's sign is round-off. A beam's stiffness
+    # conditioning falls like N^-3 (1.6e-10 at 128 elements), so the sparse path (large
+    # models) only rejects what is singular to round-off (64 eps).
+    if _stiffness_conditioning(eig) < (64 * np.finfo(float).eps if ev.sparse else 1e-10):
         raise ValueError("the model is a mechanism (its stiffness is singular without flow, e.g. a free hinge): "
                          "there is no static equilibrium to lose stability; support the free motion")
     if stability(eig) != "stable":
@@ -138,24 +158,44 @@ def critical_mass_flow(model, *, tol: float = 1e-10, mass_flow_max: Optional[flo
     if kind == "flutter":
         try:
             mc = _track_root(ev, lo, hi, eig_hi, xtol)  # narrow bracket: tracking is safe
-        except ValueError:  # no sign change: Re(lambda) > 0 down to lo
+        except (ValueError, ConvergenceError):  # no sign change (Re(lambda) > 0 down to lo) or lost
             _check_not_at_zero(lo, unit, hi, eig_hi)
-            worst = eig_hi.values[np.argmax(eig_hi.values.real)]
+            iw = int(np.argmax(eig_hi.values.real))
+            worst = eig_hi.values[iw]
+            why = ("a weakly growing mode near the noise level (e.g. of a loaded floating-frame body, "
+                   "docs/theory.md)")
+            if ev.sparse:
+                why += (f"; or round-off: at {ev.model.n_dofs} coordinates this eigenvalue is only good to about "
+                        f"{eig_hi.noise[iw]:.2g} 1/s (it grows like N^4 with the number of elements N: the "
+                        "stiffness of short elements; use fewer elements)")
             raise ConvergenceError(f"flutter between {lo:.6g} and {hi:.6g} kg/s (lambda = {worst.real:.3g} "
                                    f"{worst.imag:+.6g}j 1/s), but the crossing eigenvalue could not be followed "
-                                   "through zero: a weakly growing mode near the noise level (e.g. of a loaded "
-                                   "floating-frame body, docs/theory.md)", mass_flow=hi) from None
+                                   f"through zero: {why}", mass_flow=hi) from None
         _check_not_at_zero(mc, unit, hi, eig_hi)
     else:
         def kmin(m):
             e, _ = ev(m)
-            vals = np.concatenate([np.linalg.eigvals(b.K) for b in e.blocks])
+            vals = np.concatenate([_stiffness_eigenvalues_near_zero(b.K) if sp.issparse(b.K)
+                                   else np.linalg.eigvals(b.K) for b in e.blocks])
             vals = vals[np.abs(vals.imag) <= 1e-9 * np.abs(vals)].real
-            scale = np.max(np.abs(vals))
+            scale = (max(spla.norm(b.K, 1) for b in e.blocks) if ev.sparse else np.max(np.abs(vals)))
             return vals[np.argmin(np.abs(vals))] / scale
 
         try:
-            mc = brentq(kmin, lo, hi, xtol=xtol, rtol=4 * np.finfo(float).eps)
+            try:
+                mc = brentq(kmin, lo, hi, xtol=xtol, rtol=4 * np.finfo(float).eps)
+            except ValueError:
+                if not ev.sparse:
+                    raise
+                # Large models: near the crossing the real eigenvalue lambda ~ sqrt(-k_min / m)
+                # is within its round-off bound, so a flow just past the crossing may have been
+                # called stable: widen the bracket downward until the stiffness changes sign.
+                k_hi, a = kmin(hi), lo
+                while np.sign(kmin(a)) == np.sign(k_hi):
+                    if a <= 0.0:
+                        raise
+                    a = max(0.0, hi - 2.0 * (hi - a))
+                mc = brentq(kmin, a, hi, xtol=xtol, rtol=4 * np.finfo(float).eps)
         except ValueError:
             raise ConvergenceError(f"divergence between {lo:.6g} and {hi:.6g} kg/s, but no stiffness eigenvalue "
                                    "changes sign there (a neutral direction, or an unstable eigenvalue that the "
@@ -164,11 +204,38 @@ def critical_mass_flow(model, *, tol: float = 1e-10, mass_flow_max: Optional[flo
     return _result(ev, mc, kind)
 
 
+def _stiffness_eigenvalues_near_zero(K, k=3):
+    """The k eigenvalues of a sparse stiffness block nearest 0 (real ones only)."""
+    n = K.shape[0]
+    if n <= 64:
+        vals = np.linalg.eigvals(K.toarray())
+    else:
+        try:
+            vals = spla.eigs(sp.csc_matrix(K), k=min(k, n - 2), sigma=0.0, which="LM", tol=0.0,
+                             v0=np.random.default_rng(0).standard_normal(n), return_eigenvectors=False)
+        except RuntimeError:  # exactly singular
+            return np.zeros(1)
+    return vals
+
+
 def _stiffness_conditioning(eig) -> float:
-    """Smallest ratio of least to largest singular value of the blocks' stiffness."""
+    """Smallest ratio of least to largest singular value of the blocks' stiffness
+    (sparse blocks: its bound n / (|K|_1 |K^-1|_1), |K^-1|_1 estimated)."""
     worst = 1.0
     for b in eig.blocks:
-        if b.K.size:
+        if sp.issparse(b.K):
+            n = b.K.shape[0]
+            if n == 0:
+                continue
+            K = sp.csc_matrix(b.K)
+            try:
+                lu = spla.splu(K)
+            except RuntimeError:
+                return 0.0
+            inv = spla.LinearOperator(K.shape, matvec=lu.solve, rmatvec=lambda v: lu.solve(v, trans="T"),
+                                      dtype=float)
+            worst = min(worst, n / (spla.norm(K, 1) * spla.onenormest(inv)))
+        elif b.K.size:
             sv = np.linalg.svd(b.K, compute_uv=False)
             worst = min(worst, sv[-1] / sv[0] if sv[0] > 0 else 0.0)
     return worst
@@ -193,31 +260,63 @@ def refine_eigenpair(block, lam, x=None, *, tol=1e-10, max_iterations=20):
 
     Each step solves T(lam) u = T'(lam) x and sets lam <- lam - (c^H x)/(c^H u),
     x <- u / (c^H u): quadratic convergence to a simple eigenvalue. Once a step is below
-    tol |lam|, one more step reaches the round-off level (~1e-14 |lam|).
+    tol |lam|, one more step reaches the round-off level. That level grows with the
+    model: the step is computed from T(lam) = lam^2 M + lam C + K, whose largest terms
+    (the stiffness of the shortest elements, ~ N^3) cancel to the small T(lam) x, so
+    lam is only determined to about eps kappa |lam| / sqrt(n)
+    (:func:`~pipeflex.analysis.eigen.eigen_noise`, kappa ~ (omega_max / omega)^2 ~ N^4):
+    ~1e-12 relative at 32 elements, ~1e-9 at 128. The test is therefore
+    |step| <= max(tol |lam|, that round-off level); with a fixed 1e-10 the iteration
+    wandered in the round-off and never stopped from about 96 elements on.
+    Sparse blocks (large models) are factorised by a sparse LU.
     """
     n = len(block.dofs)
+    sparse = sp.issparse(block.K)
+    if sparse:
+        K, C, M = (sp.csc_matrix(X) for X in (block.K, block.C, block.M))
+        norms = [spla.norm(X, 1) for X in (K, C, M)]
+
+        def solve(lam_, rhs):
+            T = (lam_ * lam_ * M + lam_ * C + K).astype(complex).tocsc()
+            return spla.splu(T).solve(np.asarray(rhs, complex))
+    else:
+        K, C, M = block.K, block.C, block.M
+        norms = [np.linalg.norm(X, 1) for X in (K, C, M)]
+    eps = np.finfo(float).eps
     if x is None:
         # A few inverse-iteration steps at the fixed shift lam give a starting vector.
         x = np.random.default_rng(0).standard_normal(n) + 0j
-        lu = sla.lu_factor(lam * lam * block.M + lam * block.C + block.K)
-        dT = 2 * lam * block.M + block.C
+        if sparse:
+            lu = spla.splu((lam * lam * M + lam * C + K).astype(complex).tocsc())
+            fsolve = lu.solve
+        else:
+            lu = sla.lu_factor(lam * lam * M + lam * C + K)
+            fsolve = lambda r: sla.lu_solve(lu, r)  # noqa: E731
+        dT = 2 * lam * M + C
         for _ in range(4):
-            x = sla.lu_solve(lu, dT @ x)
+            x = fsolve(np.asarray(dT @ x, complex))
             x /= np.linalg.norm(x)
     c = x / np.vdot(x, x)
     x = x / np.vdot(c, x)
     polish = False
     for _ in range(max_iterations):
-        T = lam * lam * block.M + lam * block.C + block.K
-        dT = 2 * lam * block.M + block.C
-        u = np.linalg.solve(T, dT @ x)
+        if sparse:
+            dTx = 2 * lam * (M @ x) + C @ x
+            u = solve(lam, dTx)
+        else:  # the arithmetic of the original dense iteration (small models: same numbers)
+            T = lam * lam * M + lam * C + K
+            dTx = (2 * lam * M + C) @ x
+            u = np.linalg.solve(T, dTx)
         cu = np.vdot(c, u)
         step = np.vdot(c, x) / cu
+        # round-off level of lam (eigen_noise), from the current pair
+        scale = (abs(lam) ** 2 * norms[2] + abs(lam) * norms[1] + norms[0]) * np.vdot(x, x).real
+        noise = eps * scale / max(abs(np.vdot(x, dTx)), 1e-300) / np.sqrt(n)
         lam = lam - step
         x = u / cu
         if polish:
             return lam, x
-        polish = abs(step) <= tol * abs(lam)
+        polish = abs(step) <= max(tol * abs(lam), noise)
     raise ConvergenceError(f"eigenvalue refinement did not converge near lambda = {lam:.6g}",
                            iteration=max_iterations)
 
@@ -227,7 +326,9 @@ def _track_root(ev, lo, hi, eig_hi, xtol):
 
     The eigenvalue is followed by Newton refinement (:func:`refine_eigenpair`) from the
     value predicted linearly in mdot by the evaluations nearest to the new flow, in the
-    decoupled block it belongs to. A full eigen-analysis at the end checks the result.
+    decoupled block it belongs to (large models: from the eigenpair nearest that
+    prediction by sparse shift-invert Arnoldi). A full eigen-analysis at the end checks
+    the result.
     """
     lam = eig_hi.values
     i = int(np.argmax(lam.real - 1e300 * (lam.imag < 0)))
@@ -245,6 +346,13 @@ def _track_root(ev, lo, hi, eig_hi, xtol):
         if block is None:
             raise ValueError("the block structure changed")
         ev.count += 1
+        if sp.issparse(block.K):
+            # The shift is kept 5 % of |lambda| off the prediction: at a shift within the
+            # round-off of an eigenvalue (~1e-4 |lambda| at 2048 elements) T(sigma) is
+            # singular to working precision and Arnoldi returns spurious values.
+            near, _, X, _ = sparse_block_eigenvalues(block, 3, lam0 - 0.05 * abs(lam0), vectors=True)
+            j = int(np.argmin(np.abs(near - lam0)))
+            lam0, x0 = near[j], X[:, j]
         near, x = refine_eigenpair(block, lam0, x0)
         seen[m] = (near, x)
         return near.real
@@ -268,9 +376,16 @@ def _result(ev, mc, kind):
         # null vector of the stiffness block through zero
         best = None
         for b in eig_c.blocks:
-            u, sv, vt = np.linalg.svd(b.K)
-            if best is None or sv[-1] / sv[0] < best[0]:
-                best = (sv[-1] / sv[0], b, vt[-1])
+            if sp.issparse(b.K) and b.K.shape[0] > 64:
+                nk = b.K.shape[0]
+                w, V = spla.eigs(sp.csc_matrix(b.K), k=1, sigma=0.0, which="LM", tol=0.0,
+                                 v0=np.random.default_rng(0).standard_normal(nk))
+                ratio, vec = abs(w[0]) / spla.norm(b.K, 1), V[:, 0]
+            else:
+                u, sv, vt = np.linalg.svd(b.K.toarray() if sp.issparse(b.K) else b.K)
+                ratio, vec = sv[-1] / sv[0], vt[-1]
+            if best is None or ratio < best[0]:
+                best = (ratio, b, vec)
         _, block, x = best
         lam_c, freq = 0j, 0.0
     mode = np.zeros(ev.model.n_dofs, complex)
