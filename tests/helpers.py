@@ -51,3 +51,16 @@ def fluttering_cantilever():
     st = m.initial_state()
     st.v[6 * 2 + 1] = 1e-3
     return m, st
+
+
+def u_tube():
+    """The user guide's example (docs/user_guide.md, "A model")."""
+    sec = pf.PipeSection.tube(outer_diameter=0.0508, inner_diameter=0.0472, E=208e9, G=80e9,
+                              density=8027.0, fluid_density=1000.0)
+    b = pf.ModelBuilder()
+    inlet = b.add_node((0.0, 0.0, 0.0))
+    leg = b.add_line(inlet, (0.0, 0.45, 0.0), 2, sec)
+    arc = b.add_arc(leg[-1], center=(0.15, 0.45, 0.0), angle=-np.pi, normal=(0, 0, 1), n_elements=12, section=sec)
+    b.clamp(inlet)
+    b.add_load(arc[6], force=(0.0, 0.0, 10.0))
+    return b.build(mass_flow=1.5)

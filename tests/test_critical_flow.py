@@ -3,6 +3,7 @@ import numpy as np
 import pytest
 
 import pipeflex as pf
+from helpers import u_tube
 from pipeflex.convergence import observed_order, richardson
 from pipeflex.seeds.seed000 import references as ref000, validation
 
@@ -89,3 +90,63 @@ def test_table2_cantilever_128_elements_converges_with_order_four():
     assert order == pytest.approx(4.0, abs=0.1)
     ext = richardson(f64, r.mass_flow)
     assert abs(r.mass_flow - ext) < 1e-7  # kg/s: 128 elements are converged to ~2e-9 relative
+
+
+def test_static_flow_continuation_equals_hand_steps():
+    """static_equilibrium(from_mass_flow=0) ramps flow and loads together from rest to
+    375 kg/s (one solve from rest at 375 kg/s fails) and reaches the equilibrium of a
+    by-hand sequence of 25 kg/s steps, to the Newton tolerance."""
+    m = u_tube()
+    with pytest.raises(pf.ConvergenceError):
+        pf.static_equilibrium(m, mass_flow=375.0, max_bisections=2)
+    r = pf.static_equilibrium(m, mass_flow=375.0, from_mass_flow=0.0)
+    assert r.mass_flow == 375.0
+    st = None
+    for mdot in np.arange(25.0, 376.0, 25.0):
+        st = pf.static_equilibrium(m, state=st, mass_flow=mdot).state
+    assert np.abs(np.asarray(r.state.q) - np.asarray(st.q)).max() < 1e-9
+    # from a converged state the loads stay applied and only the flow moves (a plain
+    # warm-started solve fails on this step)
+    with pytest.raises(pf.ConvergenceError):
+        pf.static_equilibrium(m, state=st, mass_flow=400.0)
+    r2 = pf.static_equilibrium(m, state=st, mass_flow=400.0, from_mass_flow=375.0)
+    st = pf.static_equilibrium(m, mass_flow=400.0, from_mass_flow=0.0).state
+    assert np.abs(np.asarray(r2.state.q) - np.asarray(st.q)).max() < 1e-9
+    # beyond the fold the ramp fails, naming the flow and the last equilibrium it reached
+    with pytest.raises(pf.ConvergenceError, match="mdot = 46") as e:
+        pf.static_equilibrium(m, state=r2.state, mass_flow=500.0, from_mass_flow=400.0, max_bisections=6)
+    assert 460.0 < e.value.reached_mass_flow < 461.8 < e.value.mass_flow < 464.0  # steps of 100/64 kg/s
+    assert e.value.reached_state is not None
+
+
+def test_u_tube_static_path_ends_in_a_fold():
+    """The scan used to stop at 296.84 kg/s (no static solve in one quarter flow unit).
+    With the flow continuation it follows the path to its fold at ~461.7227 kg/s, where
+    the tube's free end has swung round: the stiffness turns singular (k_min^2 linear in
+    mdot), a real eigenvalue goes through 0 and there is no equilibrium beyond: a static
+    instability, reported as divergence at the fold flow, independent of the scan step."""
+    m = u_tube()
+    r = pf.critical_mass_flow(m)
+    assert r.kind == "divergence" and r.frequency == 0.0 and r.eigenvalue == 0
+    assert r.mass_flow == pytest.approx(461.72265891, rel=1e-8)
+    assert pf.critical_mass_flow(m, steps_per_unit=3).mass_flow == pytest.approx(r.mass_flow, rel=1e-9)
+    below = 0.9999 * r.mass_flow
+    st = pf.static_equilibrium(m, mass_flow=below, from_mass_flow=0.0).state
+    eig = pf.eigenvalues(pf.linearize(m, st, mass_flow=below))
+    assert pf.stability(eig) == "stable"
+    assert eig.values.real.max() > -20.0 and abs(eig.values[np.argmax(eig.values.real)].imag) == 0.0
+    with pytest.raises(pf.ConvergenceError):
+        pf.static_equilibrium(m, state=st, mass_flow=1.0001 * r.mass_flow, from_mass_flow=below)
+
+
+def test_round_off_damping_coupling_gives_no_infinite_eigenvalue():
+    """Without rotary inertia (PipeSection.tube) the rotations are massless; on the
+    deformed U-tube C's coupling to them is round-off (~1e-12 of |C|). It used to send
+    the block to QZ, which returned infinite eigenvalues as finite (lambda ~ 9e11 at
+    420 kg/s: a spurious divergence); now the massless coordinates are condensed out."""
+    m = u_tube()
+    st = pf.static_equilibrium(m, mass_flow=420.0, from_mass_flow=0.0).state
+    eig = pf.eigenvalues(pf.linearize(m, st, mass_flow=420.0))
+    assert pf.stability(eig) == "stable"
+    assert np.abs(eig.values).max() < 1e8
+    assert len(eig.values) == 2 * (m.n_dofs - 14)  # 14 massless rotations

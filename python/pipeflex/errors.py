@@ -24,17 +24,23 @@ class ConvergenceError(RuntimeError):
             :func:`~pipeflex.critical_mass_flow`: the trial flow of a failed static
             solve, the lowest unstable flow found if the crossing could not be located,
             the end of the searched range if nothing was unstable).
+        reached_mass_flow: for a static solve with a flow ramp, the last flow mdot
+            [kg/s] at which it converged.
+        reached_state: the equilibrium (:class:`~pipeflex.State`) at ``reached_mass_flow``.
     """
 
     def __init__(self, message: str, *, time: Optional[float] = None, iteration: Optional[int] = None,
                  residual: Optional[float] = None, load_factor: Optional[float] = None,
-                 mass_flow: Optional[float] = None):
+                 mass_flow: Optional[float] = None, reached_mass_flow: Optional[float] = None,
+                 reached_state=None):
         super().__init__(message)
         self.time = time
         self.iteration = iteration
         self.residual = residual
         self.load_factor = load_factor
         self.mass_flow = mass_flow
+        self.reached_mass_flow = reached_mass_flow
+        self.reached_state = reached_state
 
 
 class SingularMatrixError(ConvergenceError):

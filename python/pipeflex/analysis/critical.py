@@ -2,7 +2,11 @@
 
 Method: (1) scan mdot upward in steps of a quarter of the model's natural flow unit
 (:meth:`Model.flow_scale`), each point a static solve, a linearisation and a dense
-block eigen-analysis, up to the first unstable point; (2) flutter: Brent's method on
+block eigen-analysis, up to the first unstable point; the static solve continues the
+flow from the last equilibrium (:func:`static_equilibrium` with ``from_mass_flow``),
+halving the step down to 1/64 of the scan step where Newton fails; if even that cannot
+pass a flow and the stiffness vanishes there, the static path ends in a fold, reported
+as a divergence at the fold flow (:func:`_path_end`); (2) flutter: Brent's method on
 the real part of the crossing eigenvalue over the scan bracket, the eigenvalue followed
 by Newton refinement in its block (bisection on full eigen-analyses only if the
 tracking is lost); divergence: bisection to 1e-3 relative, then Brent's method on the
@@ -40,6 +44,9 @@ from .static import static_equilibrium
 #: Eigenvalues per block (nearest 0) in the scan of a large model (sparse path).
 SCAN_MODES = 16
 
+#: Halvings of a scan step allowed to the static flow continuation (down to 1/64 of it).
+FLOW_BISECTIONS = 6
+
 
 @dataclass(frozen=True)
 class CriticalFlow(Result):
@@ -47,7 +54,8 @@ class CriticalFlow(Result):
 
     Attributes:
         mass_flow: mdot [kg/s] critical mass flow.
-        kind: "divergence" (static buckling) or "flutter" (Hopf bifurcation).
+        kind: "divergence" (static buckling, or the fold where the static equilibrium
+            path ends) or "flutter" (Hopf bifurcation).
         frequency: omega [rad/s] angular frequency of the mode at the critical flow (0 for divergence).
         eigenvalue: lambda [1/s] the critical eigenvalue (Re ~ 0).
         mode: (n_dofs,) critical mode shape [-] (complex, reduced coordinates, largest entry 1).
@@ -66,18 +74,32 @@ class _Evaluator:
     """Static solve + linearisation + eigen-analysis at a mass flow, warm-started."""
 
     def __init__(self, model, state):
+        from ..multibody import MultibodySystem
+
         self.model = model
         self.state = state
+        self.flow = None  # mdot of self.state once it is an equilibrium
         self.count = 0
         self.sparse = model.n_dofs >= SPARSE_MIN_DOFS
+        self.continuation = not isinstance(model, MultibodySystem)
+
+    def accept(self, mdot, state):
+        """Warm-start the next static solves from this equilibrium at mdot."""
+        self.state, self.flow = state, mdot
 
     def blocks(self, mdot):
+        # From the last accepted equilibrium the flow is continued to mdot, the step
+        # halved (at most FLOW_BISECTIONS times) where Newton fails; the first try is the
+        # full step, as a plain warm-started solve.
+        ramp = (dict(from_mass_flow=self.flow, max_bisections=FLOW_BISECTIONS)
+                if self.continuation and self.flow is not None else {})
         try:
-            st = static_equilibrium(self.model, state=self.state, mass_flow=mdot).state
+            st = static_equilibrium(self.model, state=self.state, mass_flow=mdot, **ramp).state
         except ConvergenceError as e:
-            raise type(e)(f"critical_mass_flow: the static solve failed at mdot = {mdot:.6g} kg/s: {e}",
+            err = type(e)(f"critical_mass_flow: the static solve failed at mdot = {mdot:.6g} kg/s: {e}",
                           load_factor=e.load_factor, iteration=e.iteration, residual=e.residual,
-                          mass_flow=mdot) from e
+                          mass_flow=mdot, reached_mass_flow=e.reached_mass_flow, reached_state=e.reached_state)
+            raise err from e
         lin = linearize(self.model, st, mass_flow=mdot)
         return split_blocks(lin.K, lin.C, lin.M, sparse=self.sparse), st
 
@@ -102,11 +124,19 @@ def critical_mass_flow(model, *, tol: float = 1e-10, mass_flow_max: Optional[flo
         steps_per_unit: scan points per flow unit (:meth:`Model.flow_scale`).
         state: starting guess for the static solves.
 
+    A static equilibrium path that ends in a fold (a limit point: the stable equilibrium
+    meets an unstable one and there is none beyond, e.g. a stiff U-tube whose free end
+    swings round as the flow rises) before any dynamic instability is returned as
+    kind="divergence" at the fold flow (det K = 0, a real eigenvalue through 0), located
+    to about the static solver's tolerance (~1e-9 relative); ``eigenvalue`` is 0 and
+    ``mode`` the stiffness null vector at the last equilibrium before the fold.
+
     Raises:
         ValueError: bad options, or the model is unstable already without flow.
         ConvergenceError: no instability up to ``mass_flow_max`` (``mass_flow`` is that
-            end of the bracket), or a static solve failed at a trial flow (``mass_flow``
-            is that flow; the static solver's error is chained), or the crossing could
+            end of the bracket), or a static solve failed at a trial flow even with the
+            flow continuation, and not at a fold (``mass_flow`` is that flow; the static
+            solver's error is chained), or the crossing could
             not be located (``mass_flow``: the lowest unstable flow found).
     """
     rtol = _checks.positive("tol", tol)
@@ -115,7 +145,8 @@ def critical_mass_flow(model, *, tol: float = 1e-10, mass_flow_max: Optional[flo
     steps = _checks.positive_int("steps_per_unit", steps_per_unit)
     ev = _Evaluator(model, model.initial_state() if state is None else state)
 
-    eig, ev.state = ev(0.0)
+    eig, st0 = ev(0.0)
+    ev.accept(0.0, st0)
     # before the sign test: a neutral direction's sign is round-off. A beam's stiffness
     # conditioning falls like N^-3 (1.6e-10 at 128 elements), so the sparse path (large
     # models) only rejects what is singular to round-off (64 eps).
@@ -124,15 +155,25 @@ def critical_mass_flow(model, *, tol: float = 1e-10, mass_flow_max: Optional[flo
                          "there is no static equilibrium to lose stability; support the free motion")
     if stability(eig) != "stable":
         raise ValueError(f"the model is already unstable ({stability(eig)}) without flow")
+    k0, eig_lo = abs(_kmin(eig, ev.sparse)), eig
     h = unit / steps
     lo, hi = 0.0, None
     while hi is None:
         m = min(lo + h, mmax)
-        eig, st = ev(m)
+        try:
+            eig, st = ev(m)
+        except ConvergenceError as e:
+            if e.reached_state is None:
+                raise
+            fold = _path_end(ev, lo, eig_lo, e, k0, rtol)
+            if isinstance(fold, CriticalFlow):
+                return fold
+            lo, m, eig = fold  # an instability before the path ends: bracket [lo, m]
         if stability(eig) != "stable":
             hi = m
         else:
-            lo, ev.state = m, st
+            lo, eig_lo = m, eig
+            ev.accept(m, st)
             if m >= mmax:
                 raise ConvergenceError(f"no instability found in the searched bracket of mass flows [0, {mmax:.6g}] "
                                        "kg/s (raise mass_flow_max)", mass_flow=mmax)
@@ -152,7 +193,8 @@ def critical_mass_flow(model, *, tol: float = 1e-10, mass_flow_max: Optional[flo
         if stability(eig) != "stable":
             hi, eig_hi = mid, eig
         else:
-            lo, ev.state = mid, st
+            lo = mid
+            ev.accept(mid, st)
     kind = stability(eig_hi)
 
     if kind == "flutter":
@@ -175,11 +217,7 @@ def critical_mass_flow(model, *, tol: float = 1e-10, mass_flow_max: Optional[flo
     else:
         def kmin(m):
             e, _ = ev(m)
-            vals = np.concatenate([_stiffness_eigenvalues_near_zero(b.K) if sp.issparse(b.K)
-                                   else np.linalg.eigvals(b.K) for b in e.blocks])
-            vals = vals[np.abs(vals.imag) <= 1e-9 * np.abs(vals)].real
-            scale = (max(spla.norm(b.K, 1) for b in e.blocks) if ev.sparse else np.max(np.abs(vals)))
-            return vals[np.argmin(np.abs(vals))] / scale
+            return _kmin(e, ev.sparse)
 
         try:
             try:
@@ -202,6 +240,84 @@ def critical_mass_flow(model, *, tol: float = 1e-10, mass_flow_max: Optional[flo
                                    "stiffness does not show): cannot locate the critical flow", mass_flow=hi) from None
 
     return _result(ev, mc, kind)
+
+
+def _kmin(eig, sparse):
+    """The real stiffness eigenvalue nearest 0 of the blocks, relative to the stiffness scale."""
+    vals = np.concatenate([_stiffness_eigenvalues_near_zero(b.K) if sp.issparse(b.K)
+                           else np.linalg.eigvals(b.K) for b in eig.blocks])
+    vals = vals[np.abs(vals.imag) <= 1e-9 * np.abs(vals)].real
+    scale = (max(spla.norm(b.K, 1) for b in eig.blocks) if sparse else np.max(np.abs(vals)))
+    return vals[np.argmin(np.abs(vals))] / scale
+
+
+def _path_end(ev, lo, eig_lo, err, k0, rtol):
+    """The flow continuation from the stable equilibrium at ``lo`` failed (``err``).
+
+    If the last flow it reached is unstable, or a flow on the way to the fold is, the
+    last stable flow, that flow and its eigen-analysis are returned: the scan brackets
+    that instability as usual. Otherwise the static path ends in a fold (a saddle-node,
+    a limit point in mdot): the smallest stiffness eigenvalue k_min -> 0 like sqrt(mdot_f - mdot) along
+    the stable branch, and a real eigenvalue lambda ~ -k_min/c goes through 0 with it
+    (det K = 0); beyond mdot_f there is no nearby equilibrium and the pipe jumps away.
+    That is a static loss of stability, returned as kind="divergence" at mdot_f: the
+    fold is located by secant steps on k_min^2 (linear in mdot near a fold) over
+    static solves continued ever closer to it. A failure that is no fold raises.
+    """
+    m_fail = err.__cause__.mass_flow  # the flow of the failed ramp step (err names the target)
+    m_r, st_r = err.reached_mass_flow, err.reached_state
+    pts = [(0.0, k0)] + ([(lo, abs(_kmin(eig_lo, ev.sparse)))] if lo > 0.0 else [])
+    eig_last = None
+    if m_r is not None and m_r > lo:
+        start = ev.flow, ev.state
+        ev.accept(m_r, st_r)
+        eig_last, _ = ev(m_r)
+        if stability(eig_last) != "stable":
+            ev.accept(*start)
+            return lo, m_r, eig_last
+        pts.append((m_r, abs(_kmin(eig_last, ev.sparse))))
+    best = (np.inf, m_fail)  # (gap to the estimated fold, estimate)
+    for _ in range(60):
+        m2, k2 = pts[-1]
+        m_f = m_fail
+        if len(pts) > 1:
+            m1, k1 = pts[-2]
+            slope = (k2 * k2 - k1 * k1) / (m2 - m1)
+            if slope < 0:
+                m_f = min(m2 - k2 * k2 / slope, m_fail)
+        gap = m_f - m2
+        if gap >= best[0] and best[0] <= 1e-6 * best[1]:
+            break  # no more progress: the flow is resolved to the Newton tolerance
+        if gap < best[0]:
+            best = (gap, m_f)
+        if gap <= 0.25 * rtol * m_f:
+            break
+        trial, done = m2 + 0.9 * gap, False
+        for _ in range(8):
+            try:
+                eig_t, st_t = ev(trial)
+            except ConvergenceError:
+                trial = m2 + 0.5 * (trial - m2)
+                continue
+            k_t = _kmin(eig_t, ev.sparse)
+            if k_t <= 0.0:  # the other branch of the fold (or beyond it): not ours
+                trial = m2 + 0.5 * (trial - m2)
+                continue
+            if stability(eig_t) != "stable":
+                return ev.flow, trial, eig_t
+            ev.accept(trial, st_t)
+            pts.append((trial, k_t))
+            eig_last, done = eig_t, True
+            break
+        if not done:
+            break
+    gap, m_f = best
+    if eig_last is None or not (gap <= 1e-6 * m_f and pts[-1][1] <= 1e-2 * k0):
+        raise ConvergenceError(
+            f"{err} (the flow continuation from {lo:.6g} kg/s reached {pts[-1][0]:.6g} kg/s; the stiffness does "
+            "not vanish there, so this is no fold of the static path)", load_factor=err.load_factor,
+            iteration=err.iteration, residual=err.residual, mass_flow=m_fail) from err
+    return _result(ev, m_f, "divergence", eig_last)
 
 
 def _stiffness_eigenvalues_near_zero(K, k=3):
@@ -360,9 +476,11 @@ def _track_root(ev, lo, hi, eig_hi, xtol):
     return brentq(f, lo, hi, xtol=xtol, rtol=4 * np.finfo(float).eps)
 
 
-def _result(ev, mc, kind):
-    """Final check with a full eigen-analysis at mc, and the critical mode."""
-    eig_c, _ = ev(mc)
+def _result(ev, mc, kind, eig_c=None):
+    """Final check with a full eigen-analysis at mc (or ``eig_c``, that of a flow next to
+    it, e.g. of the last equilibrium before a fold), and the critical mode."""
+    if eig_c is None:
+        eig_c, _ = ev(mc)
     lam = eig_c.values
     if kind == "flutter":
         if np.any(lam.real > np.maximum(1e-6 * np.abs(lam), 1e3 * eig_c.noise)):

@@ -229,7 +229,14 @@ def block_eigenvalues(b: Block, *, vectors: bool = False):
     zero = w <= 1e-12 * w.max()
     Q0, Qm = Q[:, zero], Q[:, ~zero]
     c_scale = max(np.abs(C).max(), 1e-300)
-    if np.abs(Q0.T @ C).max() > 1e-12 * c_scale or np.abs(C @ Q0).max() > 1e-12 * c_scale:
+    # Does C act on the massless coordinates? The null space Q0 is only known to about
+    # eps |M| / w_gap (w_gap: the smallest nonzero mass eigenvalue; Davis-Kahan), and
+    # so is C's coupling to it: below that it is round-off (e.g. ~1e-12 on a deformed
+    # U-tube without rotary inertia), and QZ on such a pencil returned infinite
+    # eigenvalues as finite ones (lambda ~ 1e11: a spurious divergence).
+    w_gap = w[~zero].min() if np.any(~zero) else w.max()
+    coupling_tol = min(1e-8, max(1e-12, 10 * np.finfo(float).eps * w.max() / w_gap))
+    if np.abs(Q0.T @ C).max() > coupling_tol * c_scale or np.abs(C @ Q0).max() > coupling_tol * c_scale:
         lam, noise, V = _generalized(K, C, M, vectors)
         return lam, noise, V, 0
     K00 = Q0.T @ K @ Q0

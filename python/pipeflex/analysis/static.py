@@ -33,11 +33,21 @@ class StaticResult(Result):
 
 
 def static_equilibrium(model, *, state=None, mass_flow: Optional[float] = None, load_steps: int = 1,
-                       tol: float = 1e-10, max_iterations: int = 25, max_bisections: int = 8) -> StaticResult:
+                       tol: float = 1e-10, max_iterations: int = 25, max_bisections: int = 8,
+                       from_mass_flow: Optional[float] = None) -> StaticResult:
     """Solve R(q) = 0 for the static equilibrium under loads, gravity and mass flow.
 
     The loads and gravity are applied in ``load_steps`` equal increments (halved
     automatically, at most ``max_bisections`` times, when Newton fails).
+
+    Flow continuation: with ``from_mass_flow`` the flow is ramped from that value to
+    ``mass_flow`` in the same increments (and the same halving): a path parameter
+    t = 0 ... 1 sets the flow ``from_mass_flow + t (mass_flow - from_mass_flow)`` and the
+    load factor, which is t from the reference configuration (no ``state``: loads and
+    flow are ramped together) and 1 from a given ``state``, which is then taken to be
+    the equilibrium at ``from_mass_flow`` under the full loads (e.g. a previous
+    result's ``state``). Without ``from_mass_flow`` the flow is ``mass_flow`` throughout
+    and only the loads are stepped.
 
     Args:
         model: the :class:`~pipeflex.Model`.
@@ -48,11 +58,16 @@ def static_equilibrium(model, *, state=None, mass_flow: Optional[float] = None, 
         tol: relative tolerance on the increment norm (to the model size) and on the
             residual (to the applied force level).
         max_iterations: Newton iterations per load step.
+        max_bisections: halvings of the increment allowed in all.
+        from_mass_flow: mdot [kg/s] at which the flow ramp starts (see above).
 
     Raises:
         ConvergenceError: with the load factor, iteration and residual where it failed
-            (attributes ``load_factor``, ``iteration``, ``residual``, ``mass_flow``);
-            :class:`~pipeflex.errors.SingularMatrixError` if the tangent was singular.
+            (attributes ``load_factor``, ``iteration``, ``residual``, ``mass_flow``: the
+            flow of the failed step); :class:`~pipeflex.errors.SingularMatrixError` if
+            the tangent was singular. With ``from_mass_flow``, its further attributes
+            ``reached_mass_flow`` and ``reached_state`` are the flow and the state of
+            the last converged step (the start if none converged; else None).
 
     A :class:`~pipeflex.multibody.MultibodySystem` is solved by
     :func:`pipeflex.multibody.static_equilibrium` (same options).
@@ -60,20 +75,32 @@ def static_equilibrium(model, *, state=None, mass_flow: Optional[float] = None, 
     from ..multibody import MultibodySystem, static_equilibrium as multibody_static
 
     if isinstance(model, MultibodySystem):
+        if from_mass_flow is not None:
+            raise NotImplementedError("from_mass_flow (flow continuation) for a MultibodySystem")
         return multibody_static(model, state=state, mass_flow=mass_flow, load_steps=load_steps, tol=tol,
                                 max_iterations=max(max_iterations, 30))
     load_steps = _checks.positive_int("load_steps", load_steps)
     tol = _checks.positive("tol", tol)
+    cold = state is None
     state = as_core(model, state)
     mdot = model.mass_flow if mass_flow is None else _checks.finite("mass_flow", mass_flow)
+    if from_mass_flow is None:
+        def path(t):  # load stepping at the full flow
+            return mdot, t
+    else:
+        mdot0 = _checks.finite("from_mass_flow", from_mass_flow)
+
+        def path(t):  # flow continuation (the loads ramped with it only from the reference configuration)
+            return (mdot if t >= 1.0 else mdot0 + t * (mdot - mdot0)), (t if cold else 1.0)
     size = max(float(np.ptp(model.positions, axis=0).max()), model.total_length / max(1, len(model.elements)))
     total_iter = 0
     lf, dlf, bis = 0.0, 1.0 / load_steps, 0
     rnorm = 0.0
     while lf < 1.0 - 1e-14:
         target = min(1.0, lf + dlf)
+        m_t, lf_t = path(target)
         trial = state.copy()
-        ok, it, rnorm, why, singular = _newton(model, trial, mdot, target, tol, size, max_iterations)
+        ok, it, rnorm, why, singular = _newton(model, trial, m_t, lf_t, tol, size, max_iterations)
         total_iter += it
         if ok:
             state, lf = trial, target
@@ -81,8 +108,13 @@ def static_equilibrium(model, *, state=None, mass_flow: Optional[float] = None, 
         bis += 1
         if bis > max_bisections:
             error = SingularMatrixError if singular else ConvergenceError
-            raise error(f"static equilibrium failed at load factor {target:.6g} (from {lf:.6g}) after {it} "
-                        f"iterations: {why}", load_factor=target, iteration=it, residual=rnorm, mass_flow=mdot)
+            where = (f"load factor {lf_t:.6g} (from {path(lf)[1]:.6g})" if from_mass_flow is None else
+                     f"mdot = {m_t:.6g} kg/s, load factor {lf_t:.6g} (from {path(lf)[0]:.6g} kg/s)")
+            ramp = from_mass_flow is not None
+            raise error(f"static equilibrium failed at {where} after {it} iterations: {why}",
+                        load_factor=lf_t, iteration=it, residual=rnorm, mass_flow=m_t,
+                        reached_mass_flow=path(lf)[0] if ramp else None,
+                        reached_state=State.from_core(state, model) if ramp else None)
         dlf /= 2
     return StaticResult(State.from_core(state, model), total_iter, rnorm, mdot)
 
