@@ -75,13 +75,67 @@ def test_save_and_load_round_trip(tmp_path):
     assert q.stats == r.stats and q.metadata == r.metadata
 
 
+def test_auto_default_serves_the_undamped_sprinkler():
+    """The default (integrator "auto") runs generalised-alpha at a step from the model:
+    400 steps per period of the slowest rate (|lambda_1| = 7.9 1/s), divided into the
+    2.5 ms output spacing: 1.25 ms, a few hundred steps where IDA takes ~1e5. Against a
+    0.1 ms run the mean hinge speed over the second half agrees to 5e-5 and the final
+    hinge angle to 1.4e-5 (measured; the runs differ in the undamped elastic ripple the
+    fine step keeps, 1.5 % of omega pointwise, which the mean averages out)."""
+    m = pf.scenes.sprinkler(EI=100.0)
+    r = pf.simulate(m, 0.5, progress=False)
+    assert r.metadata["integrator"] == "generalized_alpha" and r.metadata["requested"] == "auto"
+    assert r.metadata["step"] == pytest.approx(1.25e-3, rel=1e-12)
+    assert r.stats["steps"] < 1000
+    fine = pf.simulate(m, 0.5, integrator="generalized_alpha", step=1e-4, progress=False)
+    assert fine.metadata["step"] == 1e-4 and fine.metadata["requested"] == "generalized_alpha"
+    late = r.t >= 0.25
+    assert r.omega[late, 0, 2].mean() == pytest.approx(fine.omega[late, 0, 2].mean(), rel=2e-4)
+    assert r.angle(0)[-1] == pytest.approx(fine.angle(0)[-1], rel=1e-4)
+
+
+def test_auto_step_skips_rigid_modes():
+    """Without flow the sprinkler's hinge is free: its double zero eigenvalue, split by
+    round-off to ~1e-3 1/s, is rigid, and the step follows the first bending mode
+    (13.06 rad/s); with flow the slowest rate is the spin-up's 7.9 1/s."""
+    from pipeflex.analysis.transient import default_step, slowest_rate
+    m = pf.scenes.sprinkler(EI=100.0)
+    assert slowest_rate(m, mass_flow=0.0) == pytest.approx(13.0598, rel=1e-4)
+    assert slowest_rate(m) == pytest.approx(7.9064, rel=1e-4)
+    # 2 pi / (400 * 7.9064) = 1.99 ms, into the 5 ms spacing: 3 steps
+    assert default_step(m, np.linspace(0.0, 1.0, 201)) == pytest.approx(5e-3 / 3, rel=1e-12)
+    assert default_step(m, [0.0, 0.001, 0.5]) == pytest.approx(1e-3, rel=1e-12)
+
+
+def test_auto_follows_the_options():
+    """An IDA-only option selects IDA (the former default's calls run as before); a step
+    selects generalised-alpha at that step; an explicit integrator is run as asked."""
+    m, st, _ = swinging_cantilever(2)
+    run = lambda **kw: pf.simulate(m, 0.05, state=st, n_outputs=6, progress=False, **kw)
+    ida, by_rtol = run(integrator="ida"), run(rtol=1e-6, atol=1e-8)  # IDA's defaults
+    for r in (ida, by_rtol):
+        assert r.metadata["integrator"] == "ida" and r.metadata["step"] is None
+    assert by_rtol.metadata["requested"] == "auto"
+    for k in pf.TransientResult._ARRAYS:
+        assert np.array_equal(getattr(ida, k), getattr(by_rtol, k), equal_nan=True)
+    assert ida.stats["steps"] == by_rtol.stats["steps"]
+    ga, by_step = run(integrator="generalized_alpha", step=2e-3), run(step=2e-3)
+    assert by_step.metadata["integrator"] == "generalized_alpha" and by_step.metadata["step"] == 2e-3
+    for k in pf.TransientResult._ARRAYS:
+        assert np.array_equal(getattr(ga, k), getattr(by_step, k), equal_nan=True)
+    from pipeflex.analysis.transient import choose_integrator
+    assert choose_integrator("auto", {"divergence_limit": 10.0, "work": False}) == "generalized_alpha"
+    assert choose_integrator("auto", {"max_order": 2}) == "ida"
+
+
 @pytest.mark.parametrize("kwargs,match", [
     (dict(t_end=-1.0), "t_end must be > t_start"),
     (dict(t_end=math.nan), "t_end must be finite"),
     (dict(t_end=1.0, rtol=0.0), "rtol must be > 0"),
     (dict(t_end=1.0, atol=-1e-9), "atol must be > 0"),
     (dict(t_end=1.0, integrator="rk4"), "unknown integrator 'rk4'"),
-    (dict(t_end=1.0, step=1e-3), "unknown option.*'step'.*'ida'"),
+    (dict(t_end=1.0, integrator="ida", step=1e-3), "unknown option.*'step'.*'ida'"),
+    (dict(t_end=1.0, rtol=1e-6, step=1e-3), "options of both integrators.*'rtol'.*'step'"),
     (dict(t_end=1.0, integrator="generalized_alpha", rho_inf=1.5), "rho_inf must be in"),
     (dict(t_end=1.0, times=[0.0, 0.5, 0.4]), "strictly increasing"),
     (dict(t_end=1.0, mass_flow=([0.0, 1.0], [1.0])), "mass_flow table.*equal length"),

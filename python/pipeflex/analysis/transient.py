@@ -1,7 +1,9 @@
-"""Time integration: ``simulate(model, t_end, integrator="ida" | "generalized_alpha")``.
+"""Time integration: ``simulate(model, t_end, integrator="auto" | "generalized_alpha" | "ida")``.
 
 Both integrators run in the C++ core on the element residuals and their analytic
-(automatic-differentiation) tangents; see ``docs/theory.md``.
+(automatic-differentiation) tangents; see ``docs/theory.md``. ``"auto"`` (the default)
+picks one from the options (:func:`choose_integrator`) and, for generalised-alpha, a
+step from the model (:func:`default_step`).
 """
 from __future__ import annotations
 
@@ -17,12 +19,78 @@ from ..results import Result
 from ..state import as_core
 from ..time_functions import Sine, time_function
 
-INTEGRATORS = ("ida", "generalized_alpha")
+INTEGRATORS = ("auto", "ida", "generalized_alpha")
 _OPTIONS = {
     "ida": {"rtol", "atol", "rebase_angle", "max_steps", "max_order", "divergence_limit", "work"},
     "generalized_alpha": {"step", "rho_inf", "newton_tol", "max_newton", "min_step", "max_steps",
                           "divergence_limit", "work"},
 }
+_OPTIONS["auto"] = _OPTIONS["ida"] | _OPTIONS["generalized_alpha"]
+#: options that only IDA takes: passing one with ``integrator="auto"`` selects IDA.
+IDA_ONLY = frozenset(_OPTIONS["ida"] - _OPTIONS["generalized_alpha"])
+#: "auto"'s generalised-alpha step: this many steps per period 2 pi/|lambda_1| of the
+#: slowest non-rigid eigenvalue lambda_1 of the linearised model (i.e. >= 40 steps per
+#: period of every mode up to 10 |lambda_1|).
+STEPS_PER_SLOWEST_PERIOD = 400
+_MODES_FOR_STEP = 12  # eigenvalues nearest 0 examined for lambda_1 (sparse path on large models)
+
+
+def choose_integrator(integrator: str, options) -> str:
+    """The integrator ``simulate`` runs: ``integrator`` itself unless it is ``"auto"``;
+    then ``"ida"`` if an IDA-only option (``rtol``, ``atol``, ``rebase_angle``,
+    ``max_order``) is given, else ``"generalized_alpha"``. The structural models have no
+    damping: IDA's error control resolves the undamped axial and bending modes a flow
+    start excites (~1e6 steps per second of motion on the fluid-conveying pipes),
+    where generalised-alpha's numerical damping (``rho_inf``) leaves them behind at a
+    step set by the slow motion."""
+    if integrator not in INTEGRATORS:
+        raise ValueError(f"unknown integrator {integrator!r}; choose from {INTEGRATORS}")
+    if integrator != "auto":
+        return integrator
+    ida = sorted(set(options) & IDA_ONLY)
+    ga = sorted(set(options) & (_OPTIONS["generalized_alpha"] - _OPTIONS["ida"]))
+    if ida and ga:
+        raise ValueError(f"options of both integrators: {ida} (IDA) and {ga} (generalised-alpha); "
+                         "choose one with integrator='ida' or 'generalized_alpha'")
+    return "ida" if ida else "generalized_alpha"
+
+
+def slowest_rate(model, state=None, mass_flow: Optional[float] = None) -> float:
+    """|lambda_1| [1/s]: the smallest magnitude of the non-rigid eigenvalues of the model
+    linearised about ``state`` (an angular frequency or, for a real eigenvalue, a growth or
+    decay rate) among the 12 nearest 0. An eigenvalue within 1e4 times its round-off bound
+    (``EigenResult.noise``) of 0 counts as rigid (a free hinge without flow: round-off
+    splits its double zero to ~1e2 noise; the elastic ones lie > 1e6 noise away). NaN if
+    there is none."""
+    from .eigen import eigenvalues
+    from .linearize import linearize
+
+    e = eigenvalues(linearize(model, state, mass_flow=mass_flow), n_modes=_MODES_FOR_STEP)
+    lam = np.abs(e.values)
+    noise = np.zeros_like(lam) if e.noise is None else np.asarray(e.noise, float)
+    lam = lam[np.isfinite(lam) & (lam > 1e4 * noise)]
+    return float(lam.min()) if len(lam) else float("nan")
+
+
+def default_step(model, times: Sequence[float], state=None, mass_flow: Optional[float] = None) -> float:
+    """The generalised-alpha step [s] of ``simulate(..., integrator="auto")`` without ``step``:
+    h_max = 2 pi / (STEPS_PER_SLOWEST_PERIOD |lambda_1|) (:func:`slowest_rate`, about the
+    initial state), shortened to divide the smallest output spacing dt into whole steps:
+    h = dt / ceil(dt / h_max). Without a non-rigid eigenvalue, h_max = 1e-3 s.
+
+    For the rotating sprinkler (``scenes.sprinkler``, EI = 100 N m^2, |lambda_1| = 7.9 1/s)
+    a 1 s run with 201 outputs gets h = 5 ms / 3 = 1.67 ms: its mean hinge speed over
+    0.5-1 s is within 3e-6 (relative) of a 25 us run; 5 ms steps (dt alone) err by 2e-4
+    (docs/performance.md).
+    """
+    rate = slowest_rate(model, state, mass_flow)
+    h_max = 2 * np.pi / (STEPS_PER_SLOWEST_PERIOD * rate) if np.isfinite(rate) and rate > 0 else 1e-3
+    times = np.asarray(times, float)
+    gaps = np.diff(times)
+    dt = float(gaps.min())
+    if gaps.max() - dt <= 1e-9 * dt:  # equally spaced: the exact spacing, not a rounded difference
+        dt = (times[-1] - times[0]) / len(gaps)
+    return dt / np.ceil(dt / h_max - 1e-9)
 
 
 @dataclass(frozen=True)
@@ -39,7 +107,9 @@ class TransientResult(Result):
         load_work: (nt,) work of the nodal loads [J].
         stats: integrator statistics (steps, Newton iterations, Jacobians, re-basings,
             failed steps, wall time [s]).
-        metadata: integrator, options and model description.
+        metadata: ``integrator`` (the one that ran), ``requested`` (e.g. ``"auto"``),
+            ``step`` (generalised-alpha's step [s], None for IDA), options and model
+            description.
     """
 
     t: np.ndarray
@@ -82,7 +152,7 @@ class TransientResult(Result):
                    metadata=json.loads(str(f["metadata"])))
 
 
-def simulate(model, t_end: float, *, integrator: str = "ida", state=None, t_start: float = 0.0,
+def simulate(model, t_end: float, *, integrator: str = "auto", state=None, t_start: float = 0.0,
              n_outputs: int = 201, times: Optional[Sequence[float]] = None,
              mass_flow: Union[None, float, Tuple[Sequence[float], Sequence[float]], Sine] = None,
              load_factor: Union[float, Tuple[Sequence[float], Sequence[float]], Sine] = 1.0,
@@ -92,9 +162,20 @@ def simulate(model, t_end: float, *, integrator: str = "ida", state=None, t_star
     Args:
         model: the model.
         t_end: final time [s] (> t_start).
-        integrator: ``"ida"`` (SUNDIALS IDA, variable-order variable-step BDF with error
-            control) or ``"generalized_alpha"`` (second order, numerical damping set by
-            ``rho_inf``; fixed step, halved when Newton fails).
+        integrator: ``"auto"`` (default), ``"generalized_alpha"`` (second order, numerical
+            damping set by ``rho_inf``; fixed step, halved when Newton fails) or ``"ida"``
+            (SUNDIALS IDA, variable-order variable-step BDF with error control: for smooth,
+            damped motions; on the undamped pipe and beam models it resolves every axial
+            and bending mode the start excites, ~1e6 steps per second of motion).
+            ``"auto"`` runs IDA if an IDA-only option (``rtol``, ``atol``,
+            ``rebase_angle``, ``max_order``) is given, else generalised-alpha, with the
+            ``step`` given or else :func:`default_step`: 400 steps per period
+            2 pi/|lambda_1| of the slowest non-rigid eigenvalue of the model linearised
+            about ``state`` (at the largest ``mass_flow`` of the run), shortened to divide
+            the output spacing (e.g. 1.67 ms for the sprinkler with EI = 100 N m^2 over 1 s).
+            Options of both integrators together are an error with ``"auto"``.
+            ``result.metadata["integrator"]`` and ``["step"]`` [s] (None for IDA) say
+            what ran.
         state: initial state (a :class:`~pipeflex.state.State` or ``_core.State``;
             default: the reference configuration at rest); not modified.
         t_start: initial time [s].
@@ -108,7 +189,8 @@ def simulate(model, t_end: float, *, integrator: str = "ida", state=None, t_star
         progress: show a progress bar (default: only when the run is expected to take
             more than a few seconds — i.e. when tqdm is available and t_end is long).
         **options: for ``ida``: ``rtol`` (1e-6), ``atol`` (1e-8), ``rebase_angle`` [rad]
-            (1.0), ``max_steps``; for ``generalized_alpha``: ``step`` [s] (1e-3),
+            (1.0), ``max_steps``; for ``generalized_alpha``: ``step`` [s] (1e-3 with
+            ``integrator="generalized_alpha"``, :func:`default_step` with ``"auto"``),
             ``rho_inf`` [-] (0.9, in [0, 1]: damps the unresolved high modes a step
             start of the flow excites, while 1, no damping, is allowed: the supports are
             eliminated, there are no constraint multipliers; the index-3 multibody
@@ -135,8 +217,8 @@ def simulate(model, t_end: float, *, integrator: str = "ida", state=None, t_star
     if hub is not None and hub.nodes and hub.nodes[0] in model.ancf_nodes and np.any(model.gravity[:2] != 0):
         raise ValueError("gravity in the x-y plane: an ANCF model on a hub is integrated in the co-rotating frame, "
                          "where in-plane gravity would have to turn; keep gravity along the hub axis (z)")
-    if integrator not in INTEGRATORS:
-        raise ValueError(f"unknown integrator {integrator!r}; choose from {INTEGRATORS}")
+    requested = integrator
+    integrator = choose_integrator(integrator, options)
     unknown = set(options) - _OPTIONS[integrator]
     if unknown:
         raise ValueError(f"unknown option(s) {sorted(unknown)} for integrator {integrator!r}; "
@@ -175,8 +257,6 @@ def simulate(model, t_end: float, *, integrator: str = "ida", state=None, t_star
     for name in ("max_newton", "max_steps"):
         if name in options:
             setattr(opt, name, _checks.positive_int(name, options[name]))
-    if integrator == "generalized_alpha" and opt.step > (t1 - t0):
-        opt.step = t1 - t0
     if "work" in options:
         opt.work = bool(options["work"])
     opt.length_scale = max(float(np.ptp(model.positions, axis=0).max()), 1e-3)
@@ -184,6 +264,11 @@ def simulate(model, t_end: float, *, integrator: str = "ida", state=None, t_star
     load = model.load_state()
     flow = time_function("mass_flow", model.mass_flow if mass_flow is None else mass_flow)
     loads = time_function("load_factor", load_factor)
+    if requested == "auto" and integrator == "generalized_alpha" and "step" not in options:
+        peak = float(np.asarray(flow.value)[np.argmax(np.abs(flow.value))])
+        opt.step = default_step(model, times, state, mass_flow=peak)
+    if integrator == "generalized_alpha" and opt.step > (t1 - t0):
+        opt.step = t1 - t0
 
     bar = None
     if progress or (progress is None and (t1 - t0) > 5.0):
@@ -213,7 +298,8 @@ def simulate(model, t_end: float, *, integrator: str = "ida", state=None, t_star
     if not opt.work:
         out["fluid_work"][:] = np.nan
         out["load_work"][:] = np.nan
-    meta = {"integrator": integrator, "options": {k: float(v) for k, v in options.items()},
+    meta = {"integrator": integrator, "requested": requested,
+            "step": float(opt.step) if integrator == "generalized_alpha" else None, "options": {k: float(v) for k, v in options.items()},
             "t_start": t0, "t_end": t1, "n_nodes": model.n_nodes, "n_dofs": model.n_dofs,
             "mass_flow": [list(flow.t), list(flow.value), flow.omega, flow.phase],
             "load_factor": [list(loads.t), list(loads.value), loads.omega, loads.phase]}
