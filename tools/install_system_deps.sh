@@ -5,7 +5,8 @@ packages=(build-essential cmake ninja-build libeigen3-dev libsundials-dev pybind
   python3-pybind11 python3-dev python3-numpy python3-scipy python3-matplotlib python3-pytest
   python3-pytest-timeout python3-nbclient python3-nbformat python3-ipykernel python3-tqdm
   python3-venv python3-pip python3-setuptools python3-wheel python3-sphinx python3-myst-parser
-  libopenblas0-pthread)
+  libopenblas0-pthread python3-distributed python3-xarray python3-netcdf4 python3-threadpoolctl
+  python3-hypothesis)
 missing=()
 for p in "${packages[@]}"; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")

@@ -1,5 +1,6 @@
 // pipeflex._core: thin bindings, one file per C++ area. Validation, defaults and
 // documentation with units live in the Python package.
+#include "pipeflex/core/interrupt.hpp"
 #include "pipeflex/errors.hpp"
 
 #include <pybind11/pybind11.h>
@@ -32,6 +33,13 @@ void raise_python(const char* name, const pipeflex::ConvergenceError& e) {
     PyErr_SetObject(cls.ptr(), exc.ptr());
 }
 
+// The core's loops poll this, some with the GIL released: take it for the check. A
+// pending KeyboardInterrupt stays set for the translator below.
+bool python_interrupted() {
+    py::gil_scoped_acquire gil;
+    return PyErr_CheckSignals() != 0;
+}
+
 }  // namespace
 
 PYBIND11_MODULE(_core, m) {
@@ -39,12 +47,16 @@ PYBIND11_MODULE(_core, m) {
     py::register_exception_translator([](std::exception_ptr p) {
         try {
             if (p) std::rethrow_exception(p);
+        } catch (const pipeflex::Interrupted&) {
+            // PyErr_CheckSignals has set the KeyboardInterrupt (or the handler's error)
+            if (!PyErr_Occurred()) PyErr_SetNone(PyExc_KeyboardInterrupt);
         } catch (const pipeflex::SingularMatrixError& e) {
             raise_python("SingularMatrixError", e);
         } catch (const pipeflex::ConvergenceError& e) {
             raise_python("ConvergenceError", e);
         }
     });
+    pipeflex::set_interrupt_check(python_interrupted);
     bind_elements(m);
     bind_assembly(m);
     bind_transient(m);

@@ -1,5 +1,6 @@
 #include "pipeflex/solvers/transient.hpp"
 
+#include "pipeflex/core/interrupt.hpp"
 #include "pipeflex/elements/hermite.hpp"
 #include "pipeflex/solvers/sparse_lu.hpp"
 
@@ -413,6 +414,7 @@ TransientOutput integrate_ida(const Model& model, State& state, const LoadState&
     std::unique_ptr<_generic_N_Vector, void (*)(N_Vector)> dky_guard(dky, N_VDestroy);
     while (next < times.size()) {
         double tret = 0.0;
+        poll_interrupt();
         const int flag = IDASolve(mem, times.back(), &tret, yy.get(), yp.get(), IDA_ONE_STEP);
         if (flag < 0) {
             double h = 0.0, tc = 0.0;
@@ -508,6 +510,7 @@ TransientOutput integrate_generalized_alpha(const Model& model, State& state, co
         // Equal steps within each output interval (a short last step would disturb the
         // method's history); halved after a failed Newton iteration, restored after.
         while (t < times[next] - 1e-14 * std::max(1.0, std::abs(t))) {
+            poll_interrupt();
             const double left = times[next] - t;
             const double hs = left / std::ceil(left / h - 1e-9);
             const double tn = t + hs;
