@@ -112,7 +112,9 @@ def test_southwell_coefficients_against_schilhansl():
 ])
 def test_spin_up_stability(n, model, omega, diverges):
     if diverges:
-        with pytest.raises(pf.ConvergenceError, match="diverged"):
+        # the integrator stops either at the divergence limit or when Newton fails at a
+        # tiny step in the growing motion; both messages say the motion diverges
+        with pytest.raises(pf.ConvergenceError, match="diverge"):
             rs.spin_up(reference="ref21", n_elements=n, elastic=model, omega=omega, t_end=20.0, step=5e-3)
     else:
         t, y = rs.spin_up(reference="ref21", n_elements=n, elastic=model, omega=omega, t_end=20.0, step=5e-3)

@@ -469,7 +469,7 @@ void add_increment(const Model& model, Eigen::Ref<Eigen::VectorXd> full, const E
     for (int n = 0; n < model.n_nodes(); ++n) {
         const Eigen::MatrixXd& T = model.bases[n];
         if (T.cols() == 0) continue;
-        full.segment<6>(6 * n) += T * dz.segment(model.first_dof[n], T.cols());
+        full.segment<6>(6 * n).noalias() += T * dz.segment(model.first_dof[n], T.cols());
     }
 }
 
