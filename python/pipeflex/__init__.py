@@ -24,12 +24,15 @@ __version__ = "0.1.0"
 # does not import the seed studies.
 _LAZY = {"scenes": "pipeflex.scenes", "seeds": "pipeflex.seeds", "work_precision": "pipeflex.work_precision",
          "plotting": "pipeflex.plotting", "multibody": "pipeflex.multibody",
-         "coriolis": "pipeflex.seeds.seed000.coriolis", "limit_cycle": "pipeflex.seeds.seed000.limit_cycle"}
+         "coriolis": "pipeflex.seeds.seed000.coriolis", "limit_cycle": "pipeflex.seeds.seed000.limit_cycle",
+         "sweep": "pipeflex.sweeps:sweep"}  # "module:attribute" for a module's attribute
 
 
 def __getattr__(name):
     if name in _LAZY:
-        return importlib.import_module(_LAZY[name])
+        module, _, attribute = _LAZY[name].partition(":")
+        module = importlib.import_module(module)
+        return getattr(module, attribute) if attribute else module
     raise AttributeError(f"module 'pipeflex' has no attribute {name!r}")
 
 
