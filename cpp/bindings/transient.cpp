@@ -88,5 +88,24 @@ void bind_transient(py::module_& m) {
                                             const TransientOptions& o, py::object p) {
         return run(integrate_generalized_alpha, md, s, l, f, lf, t, o, p);
     });
+    m.def("generalized_alpha_flow_map",
+          [](const Model& md, State& s, const LoadState& l, const Eigen::VectorXd& z0, const Eigen::VectorXd& v0,
+             double duration, int n_steps, bool sensitivity, const TransientOptions& o) {
+              FlowMapOutput out;
+              {
+                  py::gil_scoped_release release;
+                  out = generalized_alpha_flow_map(md, s, l, z0, v0, duration, n_steps, sensitivity, o);
+              }
+              py::dict d;
+              d["z"] = as_array(out.z, {static_cast<py::ssize_t>(n_steps) + 1, md.n_dofs});
+              d["v"] = out.v;
+              d["a"] = out.a;
+              d["a0"] = out.a0;
+              d["monodromy"] = out.monodromy;
+              d["steps"] = out.steps;
+              d["newton_iterations"] = out.newton_iterations;
+              d["jacobians"] = out.jacobians;
+              return d;
+          });
     m.def("gravity_potential", &gravity_potential);
 }

@@ -478,6 +478,143 @@ TransientOutput integrate_ida(const Model& model, State& state, const LoadState&
 
 // ------------------------------------------------------- generalised-alpha ------------
 
+namespace {
+
+// Chung-Hulbert parameters from rho_inf and the update formulas of one step
+//   pa' = c1 a' + c2 a + c3 pa,  z' = z + h v + h^2 ((1/2 - beta) pa + beta pa'),
+//   v' = v + h ((1 - gamma) pa + gamma pa').
+struct AlphaMethod {
+    double am, af, gamma, beta, c1, c2, c3;
+    explicit AlphaMethod(double rho)
+        : am((2.0 * rho - 1.0) / (rho + 1.0)), af(rho / (rho + 1.0)), gamma(0.5 + af - am),
+          beta(0.25 * (gamma + 0.5) * (gamma + 0.5)), c1((1.0 - af) / (1.0 - am)), c2(af / (1.0 - am)),
+          c3(-am / (1.0 - am)) {}
+    double bp(double h) const { return h * h * beta * c1; }  // d z' / d a'
+    double gp(double h) const { return h * gamma * c1; }     // d v' / d a'
+};
+
+// Newton on the acceleration of one step, with the iteration matrix M + gp C + bp K
+// factorised sparsely and kept (modified Newton) across iterations and steps while the
+// corrections contract fast. Shared by the integrator and the flow map.
+class AlphaNewton {
+   public:
+    AlphaNewton(System& sys, const AlphaMethod& m, int n)
+        : sys_(sys), m_(m), lu_(kDenseBelow), r_(n), da_(n) {}
+
+    struct Failure {
+        bool singular = false;
+        int iterations = 0;
+        double residual = 0.0;
+    };
+
+    // Solves for an (initial guess on entry) and fills pan, zn, vn; z is the displacement
+    // at t in the current chart. False if Newton did not converge (why in failure).
+    bool solve(double t, double h, const Eigen::VectorXd& z, const Eigen::VectorXd& v, const Eigen::VectorXd& a,
+               const Eigen::VectorXd& pa, Eigen::VectorXd& an, Eigen::VectorXd& pan, Eigen::VectorXd& zn,
+               Eigen::VectorXd& vn, TransientOutput& stats, Failure& failure) {
+        const TransientOptions& opt = sys_.opt;
+        const double tn = t + h, bp = m_.bp(h), gp = m_.gp(h);
+        auto update = [&]() {
+            pan = m_.c1 * an + m_.c2 * a + m_.c3 * pa;
+            zn = z + h * v + h * h * ((0.5 - m_.beta) * pa + m_.beta * pan);
+            vn = v + h * ((1.0 - m_.gamma) * pa + m_.gamma * pan);
+        };
+        update();
+        double prev = 0.0;
+        if (std::abs(lu_step_ - h) > 1e-10 * h) fresh_ = false;  // same step up to round-off
+        int it = 0;
+        for (it = 1; it <= opt.max_newton; ++it) {
+            sys_.set(zn, vn, an, tn);
+            const LoadState load = sys_.load_at(tn);
+            if (!fresh_) {
+                assemble(sys_.model, sys_.state, load, sys_.load_factor(tn), bp, gp, 1.0, &r_, &J_);
+                ++stats.jacobians;
+                if (!lu_.factorize(sys_.n, J_.rows, J_.cols, J_.values)) {
+                    failure = {true, it - 1, r_.norm()};
+                    return false;
+                }
+                fresh_ = true;
+                lu_step_ = h;
+                contraction_ = kUnknownContraction;
+            } else {
+                assemble(sys_.model, sys_.state, load, sys_.load_factor(tn), 0.0, 0.0, 0.0, &r_, nullptr);
+            }
+            const double rnorm = r_.norm();
+            failure = {false, it - 1, rnorm};
+            if (!std::isfinite(rnorm)) break;
+            r_ = -r_;
+            lu_.solve(r_, da_);
+            an += da_;
+            update();
+            ++stats.newton_iterations;
+            // Converged when the position error left after this correction, estimated
+            // from the contraction rate as rate / (1 - rate) |correction| (the test of
+            // SUNDIALS' IDA), is below newton_tol model sizes. The rate is measured
+            // within the step, else carried over from earlier steps with this matrix.
+            const double corr = bp * da_.lpNorm<Eigen::Infinity>();
+            if (it > 1) {
+                const double rate = prev > 0.0 ? corr / prev : 0.0;
+                if (rate > 0.25) fresh_ = false;  // slow contraction: refresh
+                // floored: one fast contraction must not license large corrections later
+                contraction_ = rate < 0.9 ? std::max(rate / (1.0 - rate), kMinContraction) : 1e3;
+            }
+            if (contraction_ * corr <= opt.newton_tol * opt.length_scale) {
+                if (it > 3) fresh_ = false;
+                return true;
+            }
+            prev = corr;
+        }
+        failure.iterations = it - 1;  // corrections done
+        fresh_ = false;
+        return false;
+    }
+
+    void invalidate() { fresh_ = false; }
+
+   private:
+    // rate / (1 - rate) of the modified Newton iteration; pessimistic until measured
+    static constexpr double kUnknownContraction = 20.0, kMinContraction = 0.1;
+    System& sys_;
+    const AlphaMethod& m_;
+    FixedPatternLU lu_;
+    bool fresh_ = false;  // is lu_ the iteration matrix for the current step size?
+    double lu_step_ = -1.0, contraction_ = kUnknownContraction;
+    Triplets J_;
+    Eigen::VectorXd r_, da_;
+};
+
+std::string newton_failure_message(double t, double h, const AlphaNewton::Failure& f) {
+    if (f.singular)
+        return "generalised-alpha failed at t = " + fmt(t) + " s: singular iteration matrix with step " + fmt(h) +
+               " s (residual " + fmt(f.residual) + " after " + std::to_string(f.iterations) +
+               " iterations): a mechanism, or coordinates without inertia";
+    return "generalised-alpha failed at t = " + fmt(t) + " s: Newton did not converge with step " + fmt(h) +
+           " s (residual " + fmt(f.residual) + " after " + std::to_string(f.iterations) +
+           " iterations); the motion may diverge";
+}
+
+[[noreturn]] void throw_newton_failure(const System& sys, double t, double h, const AlphaNewton::Failure& f) {
+    ConvergenceError::Where where;
+    where.time = t;
+    where.mass_flow = sys.load_at(t).mass_flow;
+    where.iteration = f.iterations;
+    where.residual = f.residual;
+    if (f.singular) throw SingularMatrixError(newton_failure_message(t, h, f), where);
+    throw ConvergenceError(newton_failure_message(t, h, f), where);
+}
+
+// Sparse matrix of triplets (repeats summed).
+Eigen::SparseMatrix<double> sparse(int n, const Triplets& t) {
+    std::vector<Eigen::Triplet<double>> tr;
+    tr.reserve(t.values.size());
+    for (std::size_t k = 0; k < t.values.size(); ++k) tr.emplace_back(t.rows[k], t.cols[k], t.values[k]);
+    Eigen::SparseMatrix<double> A(n, n);
+    A.setFromTriplets(tr.begin(), tr.end());
+    return A;
+}
+
+}  // namespace
+
 TransientOutput integrate_generalized_alpha(const Model& model, State& state, const LoadState& load,
                                             const TimeFunctions& functions, const std::vector<double>& times,
                                             const TransientOptions& opt, const ProgressFn& progress) {
@@ -485,9 +622,7 @@ TransientOutput integrate_generalized_alpha(const Model& model, State& state, co
     if (times.empty()) return out;
     System sys(model, state, load, functions, opt);
     const int n = sys.n;
-    const double rho = opt.rho_inf;
-    const double am = (2.0 * rho - 1.0) / (rho + 1.0), af = rho / (rho + 1.0);
-    const double gamma = 0.5 + af - am, beta = 0.25 * (gamma + 0.5) * (gamma + 0.5);
+    const AlphaMethod method(opt.rho_inf);
 
     double t = times.front();
     Eigen::VectorXd v = reduce(model, state.v), a;
@@ -500,19 +635,11 @@ TransientOutput integrate_generalized_alpha(const Model& model, State& state, co
     sys.record(t, out, 0.0, 0.0);
 
     double h = opt.step;
-    // Sparse LU of the banded iteration matrix: pattern analysed once (the first
-    // assembly's triplets), numeric factorisation at each refresh; dense below
-    // kDenseBelow unknowns, where it is cheaper (docs/performance.md).
-    FixedPatternLU lu(kDenseBelow);
-    bool fresh = false;  // is lu the iteration matrix for the current step size?
-    double lu_step = -1.0;
-    Triplets J;
+    AlphaNewton newton(sys, method, n);
     // Buffers reused by every step: the loop allocates nothing.
-    Eigen::VectorXd r(n), da(n), an(n), pan(n), zn(n), vn(n), a_prev = a, offset(n);
+    const Eigen::VectorXd zero = Eigen::VectorXd::Zero(n);
+    Eigen::VectorXd an(n), pan(n), zn(n), vn(n), a_prev = a, offset(n);
     double h_prev = 0.0;  // last accepted step (0: none yet)
-    // rate / (1 - rate) of the modified Newton iteration; pessimistic until measured
-    constexpr double kUnknownContraction = 20.0, kMinContraction = 0.1;
-    double contraction = kUnknownContraction;
     for (std::size_t next = 1; next < times.size(); ++next) {
         // Equal steps within each output interval (a short last step would disturb the
         // method's history); halved after a failed Newton iteration, restored after.
@@ -521,91 +648,18 @@ TransientOutput integrate_generalized_alpha(const Model& model, State& state, co
             const double left = times[next] - t;
             const double hs = left / std::ceil(left / h - 1e-9);
             const double tn = t + hs;
-            const double bp = hs * hs * beta * (1.0 - af) / (1.0 - am);
-            const double gp = hs * gamma * (1.0 - af) / (1.0 - am);
             // Predictor: the acceleration extrapolated linearly from the last two steps. Its
             // error is O(h^2) instead of O(h), so one correction usually converges.
             if (h_prev > 0.0)
                 an = a + (hs / h_prev) * (a - a_prev);
             else
                 an = a;
-            auto update = [&]() {
-                pan = ((1.0 - af) * an + af * a - am * pa) / (1.0 - am);
-                zn = hs * v + hs * hs * ((0.5 - beta) * pa + beta * pan);
-                vn = v + hs * ((1.0 - gamma) * pa + gamma * pan);
-            };
-            update();
-            bool ok = false;
-            double rnorm = 0.0, prev = 0.0;
-            int it = 0;
-            bool singular = false;
-            // Modified Newton: the factorised iteration matrix is kept across iterations and
-            // steps while the corrections contract fast; it is rebuilt otherwise.
-            if (std::abs(lu_step - hs) > 1e-10 * hs) fresh = false;  // same step up to round-off
-            for (it = 1; it <= opt.max_newton; ++it) {
-                sys.set(zn, vn, an, tn);
-                if (!fresh) {
-                    assemble(model, state, sys.load_at(tn), sys.load_factor(tn), bp, gp, 1.0, &r, &J);
-                    ++out.jacobians;
-                    if (!lu.factorize(n, J.rows, J.cols, J.values)) {
-                        singular = true;
-                        rnorm = r.norm();
-                        break;
-                    }
-                    fresh = true;
-                    lu_step = hs;
-                    contraction = kUnknownContraction;
-                } else {
-                    assemble(model, state, sys.load_at(tn), sys.load_factor(tn), 0.0, 0.0, 0.0, &r, nullptr);
-                }
-                rnorm = r.norm();
-                if (!std::isfinite(rnorm)) break;
-                r = -r;
-                lu.solve(r, da);
-                an += da;
-                update();
-                ++out.newton_iterations;
-                // Converged when the position error left after this correction, estimated
-                // from the contraction rate as rate / (1 - rate) |correction| (the test of
-                // SUNDIALS' IDA), is below newton_tol model sizes. The rate is measured
-                // within the step, else carried over from earlier steps with this matrix.
-                const double corr = bp * da.lpNorm<Eigen::Infinity>();
-                if (it > 1) {
-                    const double rate = prev > 0.0 ? corr / prev : 0.0;
-                    if (rate > 0.25) fresh = false;  // slow contraction: refresh
-                    // floored: one fast contraction must not license large corrections later
-                    contraction = rate < 0.9 ? std::max(rate / (1.0 - rate), kMinContraction) : 1e3;
-                }
-                if (contraction * corr <= opt.newton_tol * opt.length_scale) {
-                    ok = true;
-                    break;
-                }
-                prev = corr;
-            }
-            if (it > 3) fresh = false;
-            if (!ok) {
+            AlphaNewton::Failure failure;
+            if (!newton.solve(t, hs, zero, v, a, pa, an, pan, zn, vn, out, failure)) {
                 ++out.convergence_failures;
-                fresh = false;
                 h_prev = 0.0;  // retry from the constant predictor: extrapolation may have misled
                 h = 0.5 * hs;
-                if (h < opt.min_step) {
-                    ConvergenceError::Where where;
-                    where.time = t;
-                    where.mass_flow = sys.load_at(t).mass_flow;
-                    where.iteration = it - 1;
-                    where.residual = rnorm;
-                    if (singular)
-                        throw SingularMatrixError("generalised-alpha failed at t = " + fmt(t) + " s: singular "
-                                                  "iteration matrix with step " + fmt(hs) + " s (residual " +
-                                                  fmt(rnorm) + " after " + std::to_string(it - 1) +
-                                                  " iterations): a mechanism, or coordinates without inertia",
-                                                  where);
-                    throw ConvergenceError("generalised-alpha failed at t = " + fmt(t) + " s: Newton did not "
-                                           "converge with step " + fmt(hs) + " s (residual " + fmt(rnorm) +
-                                           " after " + std::to_string(it - 1) + " iterations); the motion may "
-                                           "diverge",
-                                           where);
-                }
+                if (h < opt.min_step) throw_newton_failure(sys, t, hs, failure);
                 continue;
             }
             sys.set(zn, vn, an, tn);
@@ -627,6 +681,113 @@ TransientOutput integrate_generalized_alpha(const Model& model, State& state, co
         sys.set(Eigen::VectorXd::Zero(n), v, a, t);
         sys.record(t, out, sys.fluid_work, sys.load_work);
         if (progress) progress(t);
+    }
+    return out;
+}
+
+FlowMapOutput generalized_alpha_flow_map(const Model& model, State& state, const LoadState& load,
+                                         const Eigen::VectorXd& z0, const Eigen::VectorXd& v0, double duration,
+                                         int n_steps, bool sensitivity, const TransientOptions& opt) {
+    const int n = model.n_dofs;
+    if (z0.size() != n || v0.size() != n)
+        throw std::invalid_argument("flow map: z0 and v0 must have " + std::to_string(n) + " entries (the model's "
+                                    "reduced coordinates), got " + std::to_string(z0.size()) + " and " +
+                                    std::to_string(v0.size()));
+    if (!(duration > 0.0) || n_steps < 1)
+        throw std::invalid_argument("flow map: duration must be positive and n_steps at least 1");
+    if (!model.hub.nodes.empty())
+        throw std::invalid_argument("flow map: a model with a hub drive is not autonomous");
+    // Autonomous: constant flow and loads (load factor 1).
+    TimeTable flow, loads;
+    flow.t = {0.0};
+    flow.value = {load.mass_flow};
+    loads.t = {0.0};
+    loads.value = {1.0};
+    TimeFunctions functions{flow, loads};
+    System sys(model, state, load, functions, opt);
+    const AlphaMethod m(opt.rho_inf);
+    const double h = duration / n_steps;
+
+    FlowMapOutput out;
+    Eigen::VectorXd z = z0, v = v0;
+    sys.set(z, v, Eigen::VectorXd::Zero(n), 0.0);
+    Eigen::VectorXd a = sys.initial_acceleration(0.0), pa = a;
+    out.a0 = a;
+    Eigen::VectorXd an(n), pan(n), zn(n), vn(n), a_prev = a;
+    out.z.reserve(static_cast<std::size_t>(n) * (n_steps + 1));
+    out.z.insert(out.z.end(), z.data(), z.data() + n);
+
+    // Sensitivities of (z, v, a, pa) to (z0, v0): n x 2n each.
+    Eigen::MatrixXd Sz, Sv, Sa, Spa;
+    Triplets tK, tC, tS;
+    FixedPatternLU exact_lu(kDenseBelow);
+    // K dz + C dv + M da = 0 at the state just set; returns -(K X + C Y) for the tangents
+    auto tangents = [&](double t, double wK, double wC, Eigen::SparseMatrix<double>& K, Eigen::SparseMatrix<double>& C) {
+        const LoadState l = sys.load_at(t);
+        assemble(model, state, l, 1.0, 1.0, 0.0, 0.0, nullptr, &tK);
+        assemble(model, state, l, 1.0, 0.0, 1.0, 0.0, nullptr, &tC);
+        assemble(model, state, l, 1.0, wK, wC, 1.0, nullptr, &tS);
+        K = sparse(n, tK);
+        C = sparse(n, tC);
+        ++out.jacobians;
+        if (!exact_lu.factorize(n, tS.rows, tS.cols, tS.values))
+            throw SingularMatrixError("flow map: singular tangent at t = " + fmt(t) + " s", ConvergenceError::Where{});
+    };
+    Eigen::SparseMatrix<double> K, C;
+    if (sensitivity) {
+        sys.set(z, v, a, 0.0);
+        tangents(0.0, 0.0, 0.0, K, C);  // M da0 = -(K dz0 + C dv0)
+        Sz = Eigen::MatrixXd::Zero(n, 2 * n);
+        Sv = Eigen::MatrixXd::Zero(n, 2 * n);
+        Sz.leftCols(n).setIdentity();
+        Sv.rightCols(n).setIdentity();
+        Eigen::MatrixXd rhs = -(K * Sz + C * Sv);
+        Sa.resize(n, 2 * n);
+        exact_lu.solve(rhs, Sa);
+        Spa = Sa;
+    }
+
+    AlphaNewton newton(sys, m, n);
+    TransientOutput stats;
+    double t = 0.0;
+    for (int k = 0; k < n_steps; ++k) {
+        poll_interrupt();
+        an = k > 0 ? Eigen::VectorXd(2.0 * a - a_prev) : a;
+        AlphaNewton::Failure failure;
+        if (!newton.solve(t, h, z, v, a, pa, an, pan, zn, vn, stats, failure)) throw_newton_failure(sys, t, h, failure);
+        const double tn = t + h;
+        if (sensitivity) {
+            // tangent-linear step: the exact iteration matrix at the converged state
+            sys.set(zn, vn, an, tn);
+            tangents(tn, m.bp(h), m.gp(h), K, C);
+            const Eigen::MatrixXd Pz = Sz + h * Sv + (h * h * (0.5 - m.beta)) * Spa +
+                                       (h * h * m.beta) * (m.c2 * Sa + m.c3 * Spa);
+            const Eigen::MatrixXd Pv = Sv + (h * (1.0 - m.gamma)) * Spa + (h * m.gamma) * (m.c2 * Sa + m.c3 * Spa);
+            Eigen::MatrixXd rhs = -(K * Pz + C * Pv), San(n, 2 * n);
+            exact_lu.solve(rhs, San);
+            Spa = m.c1 * San + m.c2 * Sa + m.c3 * Spa;
+            Sz = Pz + m.bp(h) * San;
+            Sv = Pv + m.gp(h) * San;
+            Sa = San;
+        }
+        a_prev = a;
+        z = zn;
+        v = vn;
+        a = an;
+        pa = pan;
+        t = tn;
+        sys.set(z, v, a, t);
+        sys.check_divergence(t, h);
+        out.z.insert(out.z.end(), z.data(), z.data() + n);
+    }
+    out.v = v;
+    out.a = a;
+    out.steps = n_steps;
+    out.newton_iterations = stats.newton_iterations;
+    out.jacobians += stats.jacobians;
+    if (sensitivity) {
+        out.monodromy.resize(2 * n, 2 * n);
+        out.monodromy << Sz, Sv;
     }
     return out;
 }

@@ -10,7 +10,8 @@ import importlib
 from .analysis import (CriticalFlow, EigenResult, Linearization, StaticResult, critical_mass_flow,
                        eigenvalues, linearize, simulate, stability, static_equilibrium,
                        TransientResult, SteadyRotation, steady_rotation,
-                       RotatingFrequencies, resonance_speed, rotating_frequencies, rotating_state)
+                       RotatingFrequencies, resonance_speed, rotating_frequencies, rotating_state,
+                       OrbitBranch, PeriodicOrbit, continue_orbits, periodic_orbit)
 from .errors import ConvergenceError, SingularMatrixError
 from .model import Model, ModelBuilder
 from .results import Result
@@ -44,4 +45,5 @@ __all__ = ["CriticalFlow", "EigenResult", "Linearization", "StaticResult",
            "critical_mass_flow", "eigenvalues", "linearize", "simulate", "stability", "static_equilibrium",
            "Sine", "TransientResult", "SteadyRotation", "steady_rotation",
            "RotatingFrequencies", "resonance_speed", "rotating_frequencies", "rotating_state",
+           "OrbitBranch", "PeriodicOrbit", "continue_orbits", "periodic_orbit",
            "ConvergenceError", "SingularMatrixError", "Model", "ModelBuilder", "PipeSection", "Result", "State", "__version__"]

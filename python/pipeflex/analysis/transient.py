@@ -16,7 +16,7 @@ import numpy as np
 
 from .. import _checks, _core
 from ..results import Result
-from ..state import as_core
+from ..state import State, as_core
 from ..time_functions import Sine, time_function
 
 INTEGRATORS = ("auto", "ida", "generalized_alpha")
@@ -105,6 +105,8 @@ class TransientResult(Result):
         fluid_work: (nt,) work done by the fluid forces on the structure since t[0] [J]
             (momentum flux in and out, Coriolis and centripetal forces).
         load_work: (nt,) work of the nodal loads [J].
+        final_state: the state at the end (to continue the run, or to start a periodic
+            orbit from a settled transient).
         stats: integrator statistics (steps, Newton iterations, Jacobians, re-basings,
             failed steps, wall time [s]).
         metadata: ``integrator`` (the one that ran), ``requested`` (e.g. ``"auto"``),
@@ -124,6 +126,7 @@ class TransientResult(Result):
     load_work: np.ndarray
     stats: dict = field(default_factory=dict)
     metadata: dict = field(default_factory=dict)
+    final_state: Optional[State] = None
 
     _ARRAYS = ("t", "x", "R", "xd", "omega", "kinetic", "elastic", "gravity_potential", "fluid_work", "load_work")
 
@@ -303,4 +306,4 @@ def simulate(model, t_end: float, *, integrator: str = "auto", state=None, t_sta
             "t_start": t0, "t_end": t1, "n_nodes": model.n_nodes, "n_dofs": model.n_dofs,
             "mass_flow": [list(flow.t), list(flow.value), flow.omega, flow.phase],
             "load_factor": [list(loads.t), list(loads.value), loads.omega, loads.phase]}
-    return TransientResult(**out, stats=stats, metadata=meta)
+    return TransientResult(**out, stats=stats, metadata=meta, final_state=State.from_core(st, model))

@@ -74,6 +74,26 @@ TransientOutput integrate_generalized_alpha(const Model& model, State& state, co
                                             const TimeFunctions& functions, const std::vector<double>& times,
                                             const TransientOptions& opt, const ProgressFn& progress);
 
+// The generalised-alpha flow map of an autonomous model (constant flow and loads) over
+// `duration` [s] in n_steps equal steps, in the fixed chart of `state` (its positions and
+// node frames; no re-basing, so rotations must stay well below pi from it): from the
+// reduced displacement z0 [m, rad] and velocity v0 to z, v at the end. With sensitivity,
+// also the tangent-linear map d(z, v)_end / d(z0, v0) (2n x 2n; the initial acceleration
+// consistent with z0, v0), propagated step by step with the exact iteration matrix:
+// the monodromy matrix of a periodic orbit, whose eigenvalues are its Floquet
+// multipliers.
+struct FlowMapOutput {
+    std::vector<double> z;   // displacement after each step, (n_steps + 1) x n, row-major
+    Eigen::VectorXd v, a;    // velocity and acceleration at the end
+    Eigen::VectorXd a0;      // consistent initial acceleration
+    Eigen::MatrixXd monodromy;
+    long steps = 0, newton_iterations = 0, jacobians = 0;
+};
+
+FlowMapOutput generalized_alpha_flow_map(const Model& model, State& state, const LoadState& load,
+                                         const Eigen::VectorXd& z0, const Eigen::VectorXd& v0, double duration,
+                                         int n_steps, bool sensitivity, const TransientOptions& opt);
+
 // Gravitational potential energy [J] of pipes and point masses: -sum m g . x.
 double gravity_potential(const Model& model, const State& state, const LoadState& load);
 

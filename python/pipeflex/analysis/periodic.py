@@ -1,0 +1,372 @@
+"""Periodic orbits (limit cycles) by shooting, their Floquet multipliers, and their
+continuation in the mass flow.
+
+A periodic orbit of the autonomous equations of motion (constant flow and loads) is a
+state x0 = (z0, v0) and a period T with  phi_T(x0) = x0, where phi_T is the flow map of
+the generalised-alpha integrator over T in N equal steps (N fixed, h = T / N). Shooting
+solves the 2 n + 1 equations
+
+    phi_T(x0) - x0 = 0,      xdot_ref . (x0 - x_ref) = 0   (phase condition)
+
+for (x0, T) by Newton. The Jacobian's block d phi_T / d x0 (the monodromy matrix) comes
+from the integrator's tangent-linear step (the exact iteration matrix of every step), not
+from finite differences; d phi_T / dT is approximated by the vector field at the end,
+which only slows Newton where it is inexact, never the answer. The eigenvalues of the
+monodromy matrix are the Floquet multipliers: one is 1 (the shift along the orbit), the
+orbit is stable when all others lie inside the unit circle.
+
+Coordinates z are reduced displacements from a base state (its node frames held fixed:
+no re-basing along the orbit, so rotations must stay well below pi from the base), v
+their rates. Continuation is pseudo-arclength in (x0, T, mdot), starting at a Hopf point
+found by :func:`~pipeflex.critical_mass_flow` (its critical mode and frequency give the
+first direction and period), with step control and fold detection.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Optional
+
+import numpy as np
+
+from .. import _checks, _core
+from ..errors import ConvergenceError
+from ..results import Result
+from ..state import State, as_core
+
+#: steps of the integrator per period unless given
+STEPS_PER_PERIOD = 512
+
+
+@dataclass(frozen=True)
+class PeriodicOrbit(Result):
+    """A periodic orbit of a model at a constant mass flow.
+
+    Attributes:
+        mass_flow: mdot [kg/s].
+        period: T [s].
+        base: the base state (positions and node frames of the chart; reduced
+            coordinates z are measured from it).
+        z0: (n_dofs,) reduced displacement at t = 0 [m, rad]; v0: their rates [m/s, rad/s].
+        start: the state at t = 0 on the orbit (in the base's frames).
+        t: (N + 1,) times over one period [s].
+        x: (N + 1, n_nodes, 3) node positions over one period [m].
+        amplitude: (n_nodes, 3) half the peak-to-peak excursion of each node coordinate [m].
+        multipliers: (2 n_dofs,) Floquet multipliers by decreasing modulus [-].
+        trivial: index in ``multipliers`` of the one closest to 1 (the shift along the orbit).
+        stable: all other multipliers inside the unit circle.
+        residual: max |phi_T(x0) - x0| at the solution [m, m/s].
+        iterations: Newton iterations of the shooting.
+        steps: N, integrator steps per period.
+    """
+
+    mass_flow: float
+    period: float
+    base: State
+    z0: np.ndarray
+    v0: np.ndarray
+    start: State
+    t: np.ndarray
+    x: np.ndarray
+    amplitude: np.ndarray
+    multipliers: np.ndarray
+    trivial: int
+    stable: bool
+    residual: float
+    iterations: int
+    steps: int
+    stats: dict = field(default_factory=dict)
+
+    def node_amplitude(self, node: int, component: int) -> float:
+        """Half peak-to-peak of one coordinate (0, 1, 2 = x, y, z) of a node [m]."""
+        return float(self.amplitude[node, component])
+
+
+@dataclass(frozen=True)
+class OrbitBranch(Result):
+    """A branch of periodic orbits continued in the mass flow.
+
+    Attributes:
+        mass_flow: (k,) mdot [kg/s] of each orbit.
+        period: (k,) T [s].
+        amplitude: (k, n_nodes, 3) half peak-to-peak excursions [m].
+        stable: (k,) stability from the Floquet multipliers.
+        max_multiplier: (k,) largest modulus of the non-trivial multipliers [-].
+        folds: mass flows [kg/s] where the branch turns back (d mdot / ds changes sign).
+        hopf: (mdot_c [kg/s], omega_c [rad/s]) of the Hopf point the branch starts at.
+    """
+
+    mass_flow: np.ndarray
+    period: np.ndarray
+    amplitude: np.ndarray
+    stable: np.ndarray
+    max_multiplier: np.ndarray
+    folds: np.ndarray
+    hopf: tuple
+    stats: dict = field(default_factory=dict)
+
+
+def _state_at(base: State, basis, z, v) -> State:
+    return State(base.q + basis @ z, basis @ v, np.zeros_like(base.a), base.frames.copy(), base.ancf.copy())
+
+
+class _Shooter:
+    """The flow map of a model at one mass flow in the chart of a base state."""
+
+    def __init__(self, model, base, steps: int, opt):
+        self.model = model
+        self.base = base if isinstance(base, State) else State.from_core(as_core(model, base), model)
+        self.base.q.flags.writeable = False
+        self.steps = steps
+        self.opt = opt
+        self.n = model.n_dofs
+        self.calls = 0
+        self.newton_iterations = 0
+
+    def __call__(self, z0, v0, period, mass_flow, sensitivity):
+        load = self.model.load_state(mass_flow=mass_flow)
+        self.calls += 1
+        out = _core.generalized_alpha_flow_map(self.model.core, self.base.to_core(self.model), load,
+                                               np.asarray(z0, float), np.asarray(v0, float), float(period),
+                                               self.steps, bool(sensitivity), self.opt)
+        self.newton_iterations += int(out["newton_iterations"])
+        return out
+
+    def defect(self, out, z0, v0):
+        return np.concatenate([out["z"][-1] - z0, out["v"] - v0])
+
+
+def _options(model, newton_tol, rho_inf):
+    opt = _core.TransientOptions()
+    opt.newton_tol = _checks.positive("newton_tol", newton_tol)
+    rho = _checks.finite("rho_inf", rho_inf)
+    if not 0.0 <= rho <= 1.0:
+        raise ValueError(f"rho_inf must be in [0, 1], got {rho}")
+    opt.rho_inf = rho
+    opt.max_newton = 30
+    opt.length_scale = max(float(np.ptp(model.positions, axis=0).max()), 1e-3)
+    return opt
+
+
+def _finish(shooter, z0, v0, period, mass_flow, out, iterations, residual) -> PeriodicOrbit:
+    model, n = shooter.model, shooter.n
+    Phi = out["monodromy"]
+    mu = np.linalg.eigvals(Phi)
+    mu = mu[np.argsort(-np.abs(mu), kind="stable")]
+    trivial = int(np.argmin(np.abs(mu - 1.0)))
+    others = np.delete(np.abs(mu), trivial)
+    z = out["z"]
+    basis = model.basis
+    q = shooter.base.q[None, :] + (basis @ z.T).T
+    x = q.reshape(len(z), model.n_nodes, 6)[:, :, :3]
+    amplitude = 0.5 * (x.max(axis=0) - x.min(axis=0))
+    orbit = PeriodicOrbit(mass_flow=float(mass_flow), period=float(period), base=shooter.base, z0=np.array(z0),
+                          v0=np.array(v0), start=_state_at(shooter.base, basis, z0, v0), t=np.linspace(0.0, period, len(z)), x=x, amplitude=amplitude,
+                          multipliers=mu, trivial=trivial, stable=bool(others.max(initial=0.0) < 1.0),
+                          residual=float(residual), iterations=int(iterations), steps=shooter.steps,
+                          stats={"flow_maps": shooter.calls, "newton_iterations": shooter.newton_iterations})
+    return orbit
+
+
+def _solve(shooter, y, mass_flow, *, tol, max_iterations, phase=None, arclength=None):
+    """Newton on (z0, v0, T) [and mdot with an arclength row].
+
+    ``phase`` = (y_ref, xdot_ref): the phase condition xdot_ref . (x0 - x_ref) = 0
+    (default: the starting y and its vector field). ``arclength`` = (y_prev, mdot_prev,
+    tangent, ds): the extra unknown mdot and the equation tangent . ((y, mdot) - (y_prev,
+    mdot_prev)) = ds; its parameter column is differenced once, at the start (a chord:
+    it sets Newton's rate, not the solution)."""
+    n = shooter.n
+    y = np.array(y, float)
+    mdot = float(mass_flow)
+    if phase is None:
+        out0 = shooter(y[:n], y[n:2 * n], y[-1], mdot, False)
+        phase = (y.copy(), np.concatenate([y[n:2 * n], out0["a0"]]))
+    y_ref, xdot_ref = phase
+    dF_dm = None
+    residual = np.inf
+    for it in range(1, max_iterations + 1):
+        z0, v0, T = y[:n], y[n:2 * n], y[-1]
+        out = shooter(z0, v0, T, mdot, True)
+        F = shooter.defect(out, z0, v0)
+        residual = float(np.abs(F).max())
+        if not np.isfinite(residual):
+            raise ConvergenceError(f"periodic orbit: the shooting residual is not finite at mdot = {mdot:.6g} kg/s "
+                                   f"(iteration {it})", iteration=it, mass_flow=mdot)
+        g = float(xdot_ref @ (y[:2 * n] - y_ref[:2 * n]))
+        rows = [F, [g]]
+        J = np.zeros((2 * n + 1, 2 * n + 1))
+        J[:2 * n, :2 * n] = out["monodromy"] - np.eye(2 * n)
+        J[:2 * n, -1] = np.concatenate([out["v"], out["a"]])
+        J[-1, :2 * n] = xdot_ref
+        done = residual <= tol and abs(g) <= tol * max(1.0, np.abs(xdot_ref).max())
+        if arclength is not None:
+            y_prev, m_prev, tangent, ds = arclength
+            if dF_dm is None:
+                dF_dm = _flow_derivative(shooter, z0, v0, T, mdot)
+            J = np.block([[J, np.concatenate([dF_dm, [0.0]])[:, None]], [tangent[None, :]]])
+            s = float(tangent @ np.concatenate([y - y_prev, [mdot - m_prev]])) - ds
+            rows.append([s])
+            done = done and abs(s) <= tol * max(1.0, abs(ds))
+        if done:
+            return y, mdot, out, it, residual
+        step = np.linalg.solve(J, -np.concatenate(rows))
+        y = y + step[:2 * n + 1]
+        if arclength is not None:
+            mdot += step[-1]
+        if y[-1] <= 0.0:
+            raise ConvergenceError(f"periodic orbit: the period became non-positive at mdot = {mdot:.6g} kg/s "
+                                   f"(iteration {it}); start closer to the orbit", iteration=it, mass_flow=mdot)
+    raise ConvergenceError(f"periodic orbit: shooting did not converge in {max_iterations} iterations at "
+                           f"mdot = {mdot:.6g} kg/s (periodicity defect {residual:.3g})",
+                           iteration=max_iterations, residual=residual, mass_flow=mdot)
+
+
+def _flow_derivative(shooter, z0, v0, T, mdot, rel=1e-6):
+    """d(phi_T(x0) - x0)/d mdot by a central difference of two flow maps (a parameter
+    column of the Jacobian; it affects Newton's rate, not the solution)."""
+    d = rel * max(abs(mdot), 1.0)
+    hi = shooter(z0, v0, T, mdot + d, False)
+    lo = shooter(z0, v0, T, mdot - d, False)
+    return (shooter.defect(hi, z0, v0) - shooter.defect(lo, z0, v0)) / (2 * d)
+
+
+def periodic_orbit(model, *, period: float, state=None, base=None, mass_flow: Optional[float] = None,
+                   steps: int = STEPS_PER_PERIOD, tol: float = 1e-8, max_iterations: int = 20,
+                   newton_tol: float = 1e-12, rho_inf: float = 0.9) -> PeriodicOrbit:
+    """The periodic orbit through (near) ``state`` with period near ``period``.
+
+    Args:
+        model: an autonomous model (constant flow and loads, no hub drive).
+        period: T [s] first guess of the period (e.g. from a transient, or 2 pi / omega
+            at a Hopf point).
+        state: a state on or near the orbit (e.g. the end of a transient that has settled
+            on the cycle); default the model's reference state.
+        base: the chart (positions and node frames the reduced coordinates are measured
+            from); default ``state`` itself.
+        mass_flow: mdot [kg/s] (default the model's).
+        steps: N, generalised-alpha steps per period (h = T / N) [-].
+        tol: Newton tolerance on the periodicity defect max |phi_T(x0) - x0| [m, m/s].
+        max_iterations: Newton iterations of the shooting.
+        newton_tol, rho_inf: the integrator's options (as in :func:`pipeflex.simulate`).
+
+    Returns:
+        :class:`PeriodicOrbit` with the orbit over one period, its amplitude and its
+        Floquet multipliers.
+
+    Raises:
+        ConvergenceError: the shooting did not converge (``iteration``, ``residual``).
+    """
+    T = _checks.positive("period", period)
+    steps = _checks.positive_int("steps", steps)
+    tol = _checks.positive("tol", tol)
+    max_iterations = _checks.positive_int("max_iterations", max_iterations)
+    mdot = model.mass_flow if mass_flow is None else _checks.finite("mass_flow", mass_flow)
+    start = State.from_core(as_core(model, state), model)
+    chart = start if base is None else State.from_core(as_core(model, base), model)
+    shooter = _Shooter(model, chart, steps, _options(model, newton_tol, rho_inf))
+    # the start in the chart's reduced coordinates (least squares through the basis)
+    basis = model.basis
+    z0 = _reduced(basis, start.q - chart.q, chart, start)
+    v0 = _reduced(basis, start.v, chart, start)
+    y = np.concatenate([z0, v0, [T]])
+    y, mdot, out, it, res = _solve(shooter, y, mdot, tol=tol, max_iterations=max_iterations)
+    n = model.n_dofs
+    return _finish(shooter, y[:n], y[n:2 * n], y[-1], mdot, out, it, res)
+
+
+def _reduced(basis, full, chart, start):
+    if not np.allclose(chart.frames, start.frames, atol=1e-12):
+        raise ValueError("state and base have different node frames: pass states in the same chart "
+                         "(e.g. base=None)")
+    z, *_ = np.linalg.lstsq(basis.toarray(), full, rcond=None)
+    return z
+
+
+def continue_orbits(model, *, start, mass_flow_end: float, amplitude: float = 1e-3, ds: Optional[float] = None,
+                    max_points: int = 40, steps: int = STEPS_PER_PERIOD, tol: float = 1e-8,
+                    max_iterations: int = 12, newton_tol: float = 1e-12, rho_inf: float = 0.9,
+                    state=None) -> OrbitBranch:
+    """Continue the periodic orbits born at a Hopf point in the mass flow.
+
+    Args:
+        model: an autonomous model (constant loads, no hub drive).
+        start: the :class:`~pipeflex.CriticalFlow` of kind "flutter" at which the branch
+            starts (its mass flow, frequency and critical mode).
+        mass_flow_end: mdot [kg/s] at which to stop (either side of the Hopf point: a
+            subcritical branch first turns back).
+        amplitude: size of the first orbit's excursion along the critical mode [m].
+        ds: pseudo-arclength step (default from ``amplitude``); halved on failure,
+            grown after easy steps.
+        max_points: orbits on the branch at most.
+        steps, tol, max_iterations, newton_tol, rho_inf: as :func:`periodic_orbit`.
+        state: starting guess for the static solve at the Hopf point.
+
+    Returns:
+        :class:`OrbitBranch`; its ``stats`` hold the orbits' counts and the flow maps used.
+    """
+    from .static import static_equilibrium
+
+    if getattr(start, "kind", None) != "flutter":
+        raise ValueError("start must be a CriticalFlow of kind 'flutter' (a Hopf point); got "
+                         f"{getattr(start, 'kind', type(start).__name__)!r}")
+    m_end = _checks.finite("mass_flow_end", mass_flow_end)
+    amp = _checks.positive("amplitude", amplitude)
+    max_points = _checks.positive_int("max_points", max_points)
+    mc, wc = float(start.mass_flow), float(start.frequency)
+    eq = static_equilibrium(model, mass_flow=mc, state=state).state
+    shooter = _Shooter(model, eq, steps, _options(model, newton_tol, rho_inf))
+    n = model.n_dofs
+    # first orbit: the equilibrium displaced along the real part of the critical mode,
+    # velocity from its imaginary part (x(t) = Re(phi e^{i w t}) at t = 0)
+    phi = np.asarray(start.mode, complex)
+    phi = phi / np.abs(phi).max()
+    z_dir, v_dir = phi.real, -wc * phi.imag
+    scale = amp / max(np.abs(z_dir).max(), 1e-300)
+    T0 = 2 * np.pi / wc
+    y_hopf = np.concatenate([np.zeros(n), np.zeros(n), [T0]])
+    tangent = np.concatenate([scale * z_dir, scale * v_dir, [0.0], [0.0]])
+    norm = np.linalg.norm(tangent)
+    tangent /= norm
+    ds = norm if ds is None else _checks.positive("ds", ds)
+    direction = 1.0 if m_end >= mc else -1.0
+    y_prev, m_prev = y_hopf, mc
+    # phase reference of the first orbit: the linear mode's point and velocity at t = 0
+    xdot_prev = scale * np.concatenate([v_dir, -wc ** 2 * z_dir])
+    flows, periods, amps, stable, mmax, folds = [], [], [], [], [], []
+    h = ds
+    first = True
+    while len(flows) < max_points:
+        y_pred = y_prev + h * tangent[:-1]
+        m_pred = m_prev + h * tangent[-1]
+        try:
+            y, mdot, out, it, res = _solve(shooter, y_pred, m_pred, tol=tol, max_iterations=max_iterations,
+                                           phase=(y_pred, xdot_prev), arclength=(y_prev, m_prev, tangent, h))
+        except (ConvergenceError, np.linalg.LinAlgError):
+            h *= 0.5
+            if h < 1e-6 * ds:
+                break
+            continue
+        orbit = _finish(shooter, y[:n], y[n:2 * n], y[-1], mdot, out, it, res)
+        new_tangent = np.concatenate([y - y_prev, [mdot - m_prev]])
+        new_tangent /= np.linalg.norm(new_tangent)
+        if not first and tangent[-1] != 0.0 and np.sign(new_tangent[-1]) != np.sign(tangent[-1]):
+            folds.append(mdot)
+        first = False
+        tangent = new_tangent
+        y_prev, m_prev = y, mdot
+        xdot_prev = np.concatenate([y[n:2 * n], out["a0"]])
+        flows.append(mdot)
+        periods.append(y[-1])
+        amps.append(orbit.amplitude)
+        stable.append(orbit.stable)
+        others = np.delete(np.abs(orbit.multipliers), orbit.trivial)
+        mmax.append(float(others.max(initial=0.0)))
+        if (mdot - m_end) * direction >= 0.0:
+            break
+        h = min(2.0 * h, 8.0 * ds) if it <= 3 else h
+    if not flows:
+        raise ConvergenceError(f"orbit continuation: no orbit found next to the Hopf point at {mc:.6g} kg/s",
+                               mass_flow=mc)
+    return OrbitBranch(mass_flow=np.array(flows), period=np.array(periods), amplitude=np.array(amps),
+                       stable=np.array(stable), max_multiplier=np.array(mmax), folds=np.array(folds),
+                       hopf=(mc, wc), stats={"flow_maps": shooter.calls, "newton_iterations": shooter.newton_iterations})
