@@ -68,6 +68,18 @@ void bind_elements(py::module_& m) {
         py::arg("v"), py::arg("a"), py::arg("wK"), py::arg("wC"), py::arg("wM"),
         "Element residual r (12) and weighted tangent wK dr/dq + wC dr/dv + wM M (12x12).");
     m.def(
+        "pipe_tangent_ad",
+        [](const PipeElementData& d, const RowMat3& fp, const RowMat3& fq, const LoadState& load,
+           const Vec12& q, const Vec12& v, const Vec12& a, double wK, double wC, double wM) {
+            Vec12 r;
+            Mat12 J;
+            pipe_tangent_ad(d, frames(fp, fq), load, q.data(), v.data(), a.data(), wK, wC, wM, r.data(), J.data());
+            return py::make_tuple(r, J);
+        },
+        py::arg("data"), py::arg("frame_p"), py::arg("frame_q"), py::arg("load"), py::arg("q"),
+        py::arg("v"), py::arg("a"), py::arg("wK"), py::arg("wC"), py::arg("wM"),
+        "pipe_tangent by forward AD of the residual (the tests' reference).");
+    m.def(
         "pipe_mass_matrix",
         [](const PipeElementData& d, const RowMat3& fp, const RowMat3& fq, const Vec12& q) {
             Mat12 M;

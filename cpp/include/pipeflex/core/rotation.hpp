@@ -83,4 +83,28 @@ template <class S> Vec3<S> convective_angular_acceleration(const Vec3<S>& phi, c
     return out;
 }
 
+// T(phi), its partial derivatives dT[k] = dT/dphi_k, the rate Td = sum_k dT[k] phid_k and
+// its partial derivatives dTd[k] = dTd/dphi_k: what the analytic tangents of omega = T phid
+// and of the convective term Td phid need (one evaluation of T on nested Dual numbers).
+inline void rotation_jacobian_derivatives(const Vec3<double>& phi, const Vec3<double>& phid,
+                                          Mat3<double>& T, Mat3<double> dT[3], Mat3<double>& Td,
+                                          Mat3<double> dTd[3]) {
+    using D3 = Dual<double, 3>;
+    using D = Dual<D3, 1>;
+    Vec3<D> p;
+    for (int i = 0; i < 3; ++i) {
+        p[i] = D(D3(phi[i], i));
+        p[i].d[0] = D3(phid[i]);
+    }
+    const Mat3<D> Tn = rotation_jacobian(p);
+    for (int i = 0; i < 9; ++i) {
+        T.c[i] = Tn.c[i].v.v;
+        Td.c[i] = Tn.c[i].d[0].v;
+        for (int k = 0; k < 3; ++k) {
+            dT[k].c[i] = Tn.c[i].v.d[k];
+            dTd[k].c[i] = Tn.c[i].d[0].d[k];
+        }
+    }
+}
+
 }  // namespace pipeflex
