@@ -1,4 +1,4 @@
-"""The hand-derived element tangent against the AD one."""
+"""The hand-derived element tangent against the AD one, and the fluid-forces kernel."""
 import itertools
 
 import numpy as np
@@ -74,3 +74,18 @@ def test_tangent_without_matrix_or_with_mass_only(rng):
     r, J = _core.pipe_tangent(data, fp, fq, ld, q, v, a, 0.0, 0.0, 2.0)
     assert_close(r, r_ad, 1e-13)
     assert np.array_equal(J, 2.0 * _core.pipe_mass_matrix(data, fp, fq, q))
+
+
+@pytest.mark.parametrize("kind,end_terms,frames", itertools.product(["straight", "curved"], [True, False], FRAMES))
+def test_fluid_forces_are_the_flow_part_of_the_residual(kind, end_terms, frames, rng):
+    data, q0 = element(kind, shear=True, rotary=True, fluid_end_terms=end_terms)
+    q, v, a = state(q0, rng, "large", True)
+    fp, fq = FRAMES[frames]
+    with_flow = load(mass_flow=2.5, mass_flow_rate=-0.7, gravity=(0.3, -9.81, 1.0))
+    without = load(gravity=(0.3, -9.81, 1.0))
+    r1, _ = _core.pipe_tangent(data, fp, fq, with_flow, q, v, a, 0.0, 0.0, 0.0)
+    r0, _ = _core.pipe_tangent(data, fp, fq, without, q, v, a, 0.0, 0.0, 0.0)
+    f = _core.pipe_fluid_forces(data, fp, fq, with_flow, q, v)
+    assert np.abs(f).max() > 1.0
+    assert np.abs(f - (r1 - r0)).max() <= 1e-12 * np.abs(r1).max()
+    assert np.array_equal(_core.pipe_fluid_forces(data, fp, fq, without, q, v), np.zeros(12))

@@ -80,6 +80,16 @@ void bind_elements(py::module_& m) {
         py::arg("v"), py::arg("a"), py::arg("wK"), py::arg("wC"), py::arg("wM"),
         "pipe_tangent by forward AD of the residual (the tests' reference).");
     m.def(
+        "pipe_fluid_forces",
+        [](const PipeElementData& d, const RowMat3& fp, const RowMat3& fq, const LoadState& load,
+           const Vec12& q, const Vec12& v) {
+            Vec12 f;
+            pipe_fluid_forces(d, frames(fp, fq), load, q.data(), v.data(), f.data());
+            return f;
+        },
+        py::arg("data"), py::arg("frame_p"), py::arg("frame_q"), py::arg("load"), py::arg("q"),
+        py::arg("v"), "Flow-dependent part of the element residual (12): r(flow) - r(no flow).");
+    m.def(
         "pipe_mass_matrix",
         [](const PipeElementData& d, const RowMat3& fp, const RowMat3& fq, const Vec12& q) {
             Mat12 M;

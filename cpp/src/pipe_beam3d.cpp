@@ -606,6 +606,37 @@ void pipe_tangent(const PipeElementData& e, const NodeFrames& ref, const LoadSta
         }
 }
 
+void pipe_fluid_forces(const PipeElementData& e, const NodeFrames& ref, const LoadState& load,
+                       const double* q, const double* v, double* f) {
+    const double l0 = e.l0;
+    const V3 php = vec(q + 3), phq = vec(q + 9);
+    const V3 exp_ = end_triad(php, ref.p, e.offset_p).col(0);
+    const V3 exq = end_triad(phq, ref.q, e.offset_q).col(0);
+    const M3 Tp = rotation_jacobian(php), Tq = rotation_jacobian(phq);
+    const V3 wp = Tp * vec(v + 3), wq = Tq * vec(v + 9);
+    const V3 a[4] = {vec(q), l0 * exp_, vec(q + 6), l0 * exq};
+    const V3 ad[4] = {vec(v), l0 * cross(wp, exp_), vec(v + 6), l0 * cross(wq, exq)};
+    const double mdot = e.flow_factor * load.mass_flow;
+    const double mdd = e.flow_factor * load.mass_flow_rate;
+    const double P = e.fluid_mass > 0.0 ? e.kv * mdot * mdot / e.fluid_mass : 0.0;
+    V3 F[4];
+    for (int i = 0; i < 4; ++i)
+        for (int j = 0; j < 4; ++j) {
+            F[i] += (2.0 * mdot * hermite::first[i][j]) * ad[j];
+            F[i] += (mdd * hermite::first[i][j]) * a[j];
+            F[i] += (P / l0 * hermite::second[i][j]) * a[j];
+        }
+    if (!e.end_terms_p) F[0] += mdot * vec(v) + P * exp_;
+    if (!e.end_terms_q) F[2] += -(mdot * vec(v + 6) + P * exq);
+    const V3 mp = tmul(Tp, l0 * cross(exp_, F[1])), mq = tmul(Tq, l0 * cross(exq, F[3]));
+    for (int i = 0; i < 3; ++i) {
+        f[i] = F[0][i];
+        f[3 + i] = mp[i];
+        f[6 + i] = F[2][i];
+        f[9 + i] = mq[i];
+    }
+}
+
 void pipe_mass_matrix(const PipeElementData& e, const NodeFrames& ref, const double* q, double* M) {
     const double l0 = e.l0;
     const Mat3<double> Ep = end_triad(vec(q + 3), ref.p, e.offset_p);

@@ -78,6 +78,11 @@ void pipe_tangent_ad(const PipeElementData& e, const NodeFrames& ref, const Load
                      const double* q, const double* v, const double* acc, double wK, double wC,
                      double wM, double* r, double* J);
 
+// Flow-dependent part of the residual (12, coordinates of r): the terms with mdot, its
+// rate and P = kv mdot^2 / fluid mass, end terms included; r(flow) - r(no flow).
+void pipe_fluid_forces(const PipeElementData& e, const NodeFrames& ref, const LoadState& load,
+                       const double* q, const double* v, double* f);
+
 // Mass matrix M(q) (row-major 12x12).
 void pipe_mass_matrix(const PipeElementData& e, const NodeFrames& ref, const double* q,
                       double* M);
