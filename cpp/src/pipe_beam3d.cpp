@@ -397,8 +397,7 @@ void elastic(const PipeElementData& e, const V3& xp, const V3& xq, const M3& Ep,
     const V3 d = xq - xp;
     const double l = std::sqrt(dot(d, d));
     const V3 el = (1.0 / l) * d;
-    M3 P = outer(el, el);
-    P = -1.0 * P;
+    M3 P = -1.0 * outer(el, el);  // I - el el^T
     add_diag(P, 1.0);
     axpy(df[0][0], sb[0] / l, P);
     axpy(df[0][2], -sb[0] / l, P);
@@ -444,6 +443,10 @@ void elastic(const PipeElementData& e, const V3& xp, const V3& xq, const M3& Ep,
 
 }  // namespace
 
+// By hand, 10x faster than AD: the virtual-space forces f depend on phi only through the
+// triads E (a variation E -> exp(skew(dtheta)) E with dtheta = T dphi), w and al; so f is
+// differentiated in 3x3 blocks with respect to x, theta, xdot, w, xddot and al, and chained
+// with T, dw/dphi, dal/dphi and dal/dphid; the rotation rows add d(T^T m)/dphi.
 void pipe_tangent(const PipeElementData& e, const NodeFrames& ref, const LoadState& load,
                   const double* q, const double* v, const double* acc, double wK, double wC,
                   double wM, double* r, double* J) {
@@ -540,7 +543,7 @@ void pipe_tangent(const PipeElementData& e, const NodeFrames& ref, const LoadSta
     if (e.rotary_inertia[0] != 0.0 || e.rotary_inertia[1] != 0.0 || e.rotary_inertia[2] != 0.0) {
         for (int n = 0; n < 2; ++n) {
             const M3& E = nd[n].E;
-            Vec3<double> jw_b, ja_b;
+            V3 jw_b, ja_b;
             const V3 wb = tmul(E, w[n]), ab = tmul(E, al[n]);
             M3 EJ;
             for (int i = 0; i < 3; ++i) {
