@@ -12,18 +12,23 @@ FRAMES = {"identity": (np.eye(3), np.eye(3)),
           "rotated": (_core.rotation_exp([0.4, -1.0, 2.0]), _core.rotation_exp([-2.5, 0.3, 0.1]))}
 
 
-def random_rotation_vector(rng, size):
-    """A rotation vector of random direction and magnitude up to `size` [rad]."""
+# |phi| ranges [rad]: small uses the series branch of T's coefficients (|phi| < 0.1), edge
+# straddles the switch to the trigonometric branch, large goes up to 1.
+PHI_SIZES = {"zero": (0.0, 0.0), "small": (0.01, 0.05), "edge": (0.0995, 0.1005), "large": (0.2, 1.0)}
+
+
+def random_rotation_vector(rng, lo, hi):
+    """A rotation vector of random direction and magnitude in [lo, hi] [rad]."""
     d = rng.standard_normal(3)
-    return d / np.linalg.norm(d) * size * rng.uniform(0.2, 1.0)
+    return d / np.linalg.norm(d) * rng.uniform(lo, hi)
 
 
 def state(q0, rng, phi, moving):
     q = q0 + 0.05 * rng.standard_normal(12) * np.r_[1, 1, 1, 0, 0, 0, 1, 1, 1, 0, 0, 0]
-    size = {"zero": 0.0, "small": 0.05, "large": 1.0}[phi]  # small: the series branch of T
-    if size > 0.0:
-        q[3:6] = random_rotation_vector(rng, size)
-        q[9:12] = random_rotation_vector(rng, size)
+    lo, hi = PHI_SIZES[phi]
+    if hi > 0.0:
+        q[3:6] = random_rotation_vector(rng, lo, hi)
+        q[9:12] = random_rotation_vector(rng, lo, hi)
     v = rng.standard_normal(12) if moving else np.zeros(12)
     a = rng.standard_normal(12)
     return q, v, a
@@ -36,7 +41,7 @@ def assert_close(A, B, rel):
 
 @pytest.mark.parametrize("kind,shear,rotary,phi,moving,frames,end_terms",
                          itertools.product(["straight", "curved"], [False, True], [False, True],
-                                           ["zero", "small", "large"], [False, True], FRAMES, [True, False]))
+                                           PHI_SIZES, [False, True], FRAMES, [True, False]))
 def test_hand_tangent_equals_ad(kind, shear, rotary, phi, moving, frames, end_terms, rng):
     data, q0 = element(kind, shear=shear, rotary=rotary, fluid_end_terms=end_terms)
     q, v, a = state(q0, rng, phi, moving)
