@@ -4,6 +4,7 @@
 #include "pipeflex/elements/ancf_beam2d.hpp"
 #include "pipeflex/elements/pipe_beam3d.hpp"
 
+#include <chrono>
 #include <stdexcept>
 #include <string>
 
@@ -67,6 +68,58 @@ void bind_elements(py::module_& m) {
         py::arg("data"), py::arg("frame_p"), py::arg("frame_q"), py::arg("load"), py::arg("q"),
         py::arg("v"), py::arg("a"), py::arg("wK"), py::arg("wC"), py::arg("wM"),
         "Element residual r (12) and weighted tangent wK dr/dq + wC dr/dv + wM M (12x12).");
+    m.def(
+        "pipe_tangent_ad",
+        [](const PipeElementData& d, const RowMat3& fp, const RowMat3& fq, const LoadState& load,
+           const Vec12& q, const Vec12& v, const Vec12& a, double wK, double wC, double wM) {
+            Vec12 r;
+            Mat12 J;
+            pipe_tangent_ad(d, frames(fp, fq), load, q.data(), v.data(), a.data(), wK, wC, wM, r.data(), J.data());
+            return py::make_tuple(r, J);
+        },
+        py::arg("data"), py::arg("frame_p"), py::arg("frame_q"), py::arg("load"), py::arg("q"),
+        py::arg("v"), py::arg("a"), py::arg("wK"), py::arg("wC"), py::arg("wM"),
+        "pipe_tangent by forward AD of the residual (the tests' reference).");
+    m.def(
+        "pipe_fluid_forces",
+        [](const PipeElementData& d, const RowMat3& fp, const RowMat3& fq, const LoadState& load,
+           const Vec12& q, const Vec12& v) {
+            Vec12 f;
+            pipe_fluid_forces(d, frames(fp, fq), load, q.data(), v.data(), f.data());
+            return f;
+        },
+        py::arg("data"), py::arg("frame_p"), py::arg("frame_q"), py::arg("load"), py::arg("q"),
+        py::arg("v"), "Flow-dependent part of the element residual (12): r(flow) - r(no flow).");
+    m.def(
+        "_bench_pipe_kernels",
+        [](const PipeElementData& d, const RowMat3& fp, const RowMat3& fq, const LoadState& load,
+           const Vec12& q, const Vec12& v, const Vec12& a, int repeats) {
+            // Timed in C++: one Python call costs about as much as the residual itself.
+            const NodeFrames f = frames(fp, fq);
+            double r[12], J[144];
+            double sink = 0.0;
+            auto time = [&](auto&& kernel) {
+                const auto t0 = std::chrono::steady_clock::now();
+                for (int k = 0; k < repeats; ++k) {
+                    kernel();
+                    sink += r[0] + J[13];
+                }
+                const std::chrono::duration<double> dt = std::chrono::steady_clock::now() - t0;
+                return dt.count() / repeats;
+            };
+            py::dict out;
+            out["residual"] = time([&] { pipe_tangent(d, f, load, q.data(), v.data(), a.data(), 0, 0, 0, r, nullptr); });
+            out["tangent"] = time([&] { pipe_tangent(d, f, load, q.data(), v.data(), a.data(), 1, 0.5, 0.25, r, J); });
+            out["tangent_ad"] = time([&] { pipe_tangent_ad(d, f, load, q.data(), v.data(), a.data(), 1, 0.5, 0.25, r, J); });
+            out["mass_matrix"] = time([&] { pipe_mass_matrix(d, f, q.data(), J); });
+            out["fluid_forces"] = time([&] { pipe_fluid_forces(d, f, load, q.data(), v.data(), r); });
+            out["_sink"] = sink;
+            return out;
+        },
+        py::arg("data"), py::arg("frame_p"), py::arg("frame_q"), py::arg("load"), py::arg("q"),
+        py::arg("v"), py::arg("a"), py::arg("repeats"),
+        "Seconds per call of the element kernels (residual, tangent, tangent_ad, mass_matrix, "
+        "fluid_forces), timed over `repeats` calls each in C++ (benchmarks/bench_kernels.py).");
     m.def(
         "pipe_mass_matrix",
         [](const PipeElementData& d, const RowMat3& fp, const RowMat3& fq, const Vec12& q) {

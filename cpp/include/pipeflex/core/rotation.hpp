@@ -83,4 +83,49 @@ template <class S> Vec3<S> convective_angular_acceleration(const Vec3<S>& phi, c
     return out;
 }
 
+// T(phi), its partial derivatives dT[k] = dT/dphi_k, the rate Td = sum_k dT[k] phid_k and
+// its partial derivatives dTd[k] = dTd/dphi_k: what the analytic tangents of omega = T phid
+// and of the convective term Td phid need. With W = skew(phi), T = I + a W + b W^2; the
+// coefficients' first and second derivatives in t^2 = |phi|^2 come from one nested Dual
+// evaluation of rotation_coefficients, the matrices from
+//     skew(x) skew(y) + skew(y) skew(x) = x y^T + y x^T - 2 (x.y) I.
+inline void rotation_jacobian_derivatives(const Vec3<double>& phi, const Vec3<double>& phid,
+                                          Mat3<double>& T, Mat3<double> dT[3], Mat3<double>& Td,
+                                          Mat3<double> dTd[3]) {
+    using D1 = Dual<double, 1>;
+    using D2 = Dual<D1, 1>;
+    D2 t2(D1(dot(phi, phi), 0));
+    t2.d[0] = D1(1.0);
+    D2 s, a, b;
+    rotation_coefficients(t2, s, a, b);
+    const double a0 = a.v.v, a1 = a.v.d[0], a2 = a.d[0].d[0];
+    const double b0 = b.v.v, b1 = b.v.d[0], b2 = b.d[0].d[0];
+    T = rodrigues(phi, a0, b0);
+    auto sym = [](const Vec3<double>& x, const Vec3<double>& y) {
+        Mat3<double> r;
+        for (int i = 0; i < 3; ++i)
+            for (int j = 0; j < 3; ++j) r(i, j) = x[i] * y[j] + y[i] * x[j];
+        const double xy = dot(x, y);
+        for (int i = 0; i < 3; ++i) r(i, i) -= 2.0 * xy;
+        return r;
+    };
+    const Mat3<double> W = skew(phi), V = skew(phid), VW = sym(phi, phid);
+    Mat3<double> W2 = sym(phi, phi);
+    for (int i = 0; i < 9; ++i) W2.c[i] *= 0.5;
+    const double c = dot(phi, phid);
+    for (int i = 0; i < 9; ++i) Td.c[i] = 2.0 * a1 * c * W.c[i] + a0 * V.c[i] + 2.0 * b1 * c * W2.c[i] + b0 * VW.c[i];
+    for (int k = 0; k < 3; ++k) {
+        Vec3<double> ek{};
+        ek[k] = 1.0;
+        const Mat3<double> Ek = skew(ek), EW = sym(ek, phi), EV = sym(ek, phid);
+        const double cW = 4.0 * a2 * phi[k] * c + 2.0 * a1 * phid[k];
+        const double cW2 = 4.0 * b2 * phi[k] * c + 2.0 * b1 * phid[k];
+        for (int i = 0; i < 9; ++i) {
+            dT[k].c[i] = 2.0 * a1 * phi[k] * W.c[i] + a0 * Ek.c[i] + 2.0 * b1 * phi[k] * W2.c[i] + b0 * EW.c[i];
+            dTd[k].c[i] = cW * W.c[i] + 2.0 * a1 * c * Ek.c[i] + 2.0 * a1 * phi[k] * V.c[i] + cW2 * W2.c[i] +
+                          2.0 * b1 * c * EW.c[i] + 2.0 * b1 * phi[k] * VW.c[i] + b0 * EV.c[i];
+        }
+    }
+}
+
 }  // namespace pipeflex

@@ -68,10 +68,20 @@ void pipe_residual(const PipeElementData& e, const NodeFrames& ref, const LoadSt
                    const S* q, const S* v, const double* acc, S* r);
 
 // Residual (r, 12) and the weighted tangent J = wK dr/dq + wC dr/dq_dot + wM M
-// (row-major 12x12). Either output may be null.
+// (row-major 12x12), derived by hand. Either output may be null.
 void pipe_tangent(const PipeElementData& e, const NodeFrames& ref, const LoadState& load,
                   const double* q, const double* v, const double* acc, double wK, double wC,
                   double wM, double* r, double* J);
+
+// The same by forward AD of pipe_residual (12 directions): the reference for tests.
+void pipe_tangent_ad(const PipeElementData& e, const NodeFrames& ref, const LoadState& load,
+                     const double* q, const double* v, const double* acc, double wK, double wC,
+                     double wM, double* r, double* J);
+
+// Flow-dependent part of the residual (12, coordinates of r): the terms with mdot, its
+// rate and P = kv mdot^2 / fluid mass, end terms included; r(flow) - r(no flow).
+void pipe_fluid_forces(const PipeElementData& e, const NodeFrames& ref, const LoadState& load,
+                       const double* q, const double* v, double* f);
 
 // Mass matrix M(q) (row-major 12x12).
 void pipe_mass_matrix(const PipeElementData& e, const NodeFrames& ref, const double* q,
