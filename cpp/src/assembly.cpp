@@ -479,6 +479,17 @@ Eigen::VectorXd reduce(const Model& model, const Eigen::VectorXd& full) {
     return r;
 }
 
+double fluid_power(const Model& model, const State& state, const LoadState& load) {
+    double P = 0.0, qe[12], ve[12], fe[12];
+    for (const auto& el : model.pipes) {
+        gather(state.q, el.p, el.q, qe);
+        gather(state.v, el.p, el.q, ve);
+        pipe_fluid_forces(el.data, frames_of(state, el), load, qe, ve, fe);
+        for (int i = 0; i < 12; ++i) P -= ve[i] * fe[i];
+    }
+    return P;
+}
+
 void energies(const Model& model, const State& state, double* kinetic, double* elastic) {
     double T = 0.0, U = 0.0;
     double qe[12], ve[12];

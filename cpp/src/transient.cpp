@@ -182,15 +182,9 @@ class System {
 
     // Power of the fluid forces and of the external loads on the structure [W].
     void powers(double t, double* fluid, double* loads) const {
-        LoadState with = load_at(t), without = with;
-        without.mass_flow = 0.0;
-        without.mass_flow_rate = 0.0;
-        Eigen::VectorXd r1, r0, rl;
-        assemble(model, state, with, 0.0, 0.0, 0.0, 0.0, &r1, nullptr);
-        assemble(model, state, without, 0.0, 0.0, 0.0, 0.0, &r0, nullptr);
-        const Eigen::VectorXd vz = reduce(model, state.v);
-        *fluid = -vz.dot(r1 - r0);
-        *loads = load_factor(t) * vz.dot(reduce(model, external_forces(model, state)));
+        *fluid = fluid_power(model, state, load_at(t));
+        // state.v is B v_z, so v . f equals v_z . B^T f
+        *loads = load_factor(t) * state.v.dot(external_forces(model, state));
     }
 
     void start_work(double t) {

@@ -127,6 +127,10 @@ Eigen::VectorXd external_forces(const Model& model, const State& state);
 void add_increment(const Model& model, Eigen::Ref<Eigen::VectorXd> full, const Eigen::VectorXd& dz);
 Eigen::VectorXd reduce(const Model& model, const Eigen::VectorXd& full);  // T^T f
 
+// Power of the fluid forces on the structure [W]: -v . f_fluid summed over the pipe
+// elements (the flow-dependent part of their residuals).
+double fluid_power(const Model& model, const State& state, const LoadState& load);
+
 // Energies [J]: kinetic, elastic; potential of gravity is separate.
 void energies(const Model& model, const State& state, double* kinetic, double* elastic);
 
