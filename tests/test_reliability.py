@@ -84,3 +84,75 @@ def test_changed_core_model_must_be_finalized_again():
     st = _core.State(core)
     with pytest.raises(ValueError, match="the model is not finalized"):
         _core.external_forces(core, st)
+
+
+@pytest.fixture(scope="module")
+def ffrf():
+    return scenes.ffrf_cantilever_pipe(n_bodies=2, elements_per_body=4)
+
+
+def test_multibody_core_checks_sizes_and_indices(ffrf):
+    st, core = ffrf.initial_state(), ffrf.core
+    with pytest.raises(ValueError, match="eta, v and a must have"):
+        core.integrate(st.r, st.R, st.eta[:-1], st.v, st.a, st.lam, 0.0, _core.TimeTable(), 0.01, [0, 1], 1e-3,
+                       0.8, 1e-8, 12, 5)
+    with pytest.raises(ValueError, match="out_steps must be increasing step numbers"):
+        core.integrate(st.r, st.R, st.eta, st.v, st.a, st.lam, 0.0, _core.TimeTable(), 0.01, [0, 99], 1e-3,
+                       0.8, 1e-8, 12, 5)
+    nan = st.eta.copy()
+    nan[0] = np.nan
+    with pytest.raises(ValueError, match="state: all its numbers must be finite"):
+        core.integrate(st.r, st.R, nan, st.v, st.a, st.lam, 0.0, _core.TimeTable(), 0.01, [0, 1], 1e-3,
+                       0.8, 1e-8, 12, 5)
+    with pytest.raises(ValueError, match="node must be in"):
+        core.node(st.r, st.R, st.eta, 1, 99)
+
+
+def test_ffrf_body_data_shapes_are_checked(ffrf):
+    d = ffrf.bodies[0].data
+    n = d.n
+    good = dict(M=d.M, K=d.K, eta0=d.eta0, A=[np.zeros((n, 3))] * 3, Bk=[np.zeros((n, n - 6))] * 3,
+                GPhi=[np.zeros((n, n - 6))] * 3, Gx=[np.zeros(n)] * 3, CPhi=np.zeros((n, n - 6)),
+                HPhi=np.zeros((n, n - 6)), Cx=np.zeros(n), Hx=np.zeros(n), Ng=np.zeros((n, 3)))
+    _core.FfrfBodyData(**good)
+    with pytest.raises(ValueError, match=rf"FfrfBodyData: HPhi must be {n} x {n - 6}, got 3 x {n - 6}"):
+        _core.FfrfBodyData(**{**good, "HPhi": np.zeros((3, n - 6))})
+    with pytest.raises(ValueError, match=r"FfrfBodyData: Ng must be"):
+        _core.FfrfBodyData(**{**good, "Ng": np.zeros((n, 2))})
+
+
+def test_multibody_max_steps_is_honoured(ffrf):
+    from pipeflex.multibody import simulate
+
+    with pytest.raises(ValueError, match="gives 100 steps to t_end = 0.1 s; max_steps = 10"):
+        simulate(ffrf, 0.1, step=1e-3, max_steps=10)
+    with pytest.raises(ValueError, match="max_steps must be a positive integer"):
+        simulate(ffrf, 0.1, step=1e-3, max_steps=2.5)
+    with pytest.raises(ValueError, match="max_steps = 10000000"):  # the issue's "1e7 s with 1 us steps"
+        simulate(ffrf, 1e7, step=1e-6)
+
+
+def _interrupt_after(seconds):
+    import os
+    import signal
+    import threading
+
+    timer = threading.Timer(seconds, lambda: os.kill(os.getpid(), signal.SIGINT))
+    timer.start()
+    return timer
+
+
+def test_ctrl_c_stops_a_multibody_run(ffrf):
+    """The multibody integrator polls for Ctrl-C: a run of hours stops within 0.5 s."""
+    import time
+
+    from pipeflex.multibody import simulate
+
+    t0 = time.perf_counter()
+    timer = _interrupt_after(0.3)
+    try:
+        with pytest.raises(KeyboardInterrupt):
+            simulate(ffrf, 1e3, step=1e-4, n_outputs=2)
+    finally:
+        timer.cancel()
+    assert time.perf_counter() - t0 < 0.3 + 0.5

@@ -30,8 +30,9 @@ from .body import node_index
 from .system import MultibodyState, MultibodySystem, TimeFunction
 
 
-#: Most steps :func:`simulate` accepts (about a day of wall time at 1 ms per step).
-MAX_STEPS = 100_000_000
+#: Default of :func:`simulate`'s ``max_steps``: the most steps a run may take (refused
+#: before the first step), the same as :func:`pipeflex.simulate`'s.
+MAX_STEPS = 10_000_000
 
 
 @dataclass(frozen=True)
@@ -284,7 +285,8 @@ class MultibodyResult(Result):
 @renamed(tol="newton_tol", max_iterations="max_newton")
 def simulate(system: MultibodySystem, t_end: float, *, step: float, state: Optional[MultibodyState] = None,
              mass_flow: Optional[TimeFunction] = None, n_outputs: int = 201, rho_inf: float = 0.8,
-             newton_tol: float = 1e-8, max_newton: int = 12, refresh: int = 5) -> MultibodyResult:
+             newton_tol: float = 1e-8, max_newton: int = 12, refresh: int = 5,
+             max_steps: int = MAX_STEPS) -> MultibodyResult:
     """Integrate the constrained equations of motion from ``state`` (default: the
     assembly configuration at rest) to ``t_end`` [s] with the fixed ``step`` h [s].
     Option names as :func:`pipeflex.simulate`'s generalised-alpha (``step``,
@@ -309,6 +311,8 @@ def simulate(system: MultibodySystem, t_end: float, *, step: float, state: Optio
         max_newton: Newton iterations per step (``max_iterations=`` is its deprecated name).
         refresh: re-evaluate the iteration matrix when a step needs more Newton
             iterations than this (modified Newton).
+        max_steps: the most steps the run may take (10^7): a run that needs more is
+            refused before it starts (ValueError). Ctrl-C stops a run (KeyboardInterrupt).
 
     Raises:
         ValueError: bad options.
@@ -323,6 +327,7 @@ def simulate(system: MultibodySystem, t_end: float, *, step: float, state: Optio
     tol = _checks.positive("newton_tol", newton_tol)
     max_iterations = _checks.positive_int("max_newton", max_newton)
     refresh = _checks.positive_int("refresh", refresh)
+    max_steps = _checks.positive_int("max_steps", max_steps)
     if state is not None:
         system.check_state(state)
     st = system.initial_state() if state is None else state.copy()
@@ -330,14 +335,15 @@ def simulate(system: MultibodySystem, t_end: float, *, step: float, state: Optio
     if t_end <= t0:
         raise ValueError(f"t_end = {t_end} must be after the start time {t0}")
     flow = time_function("mass_flow", system.mass_flow if mass_flow is None else mass_flow)
-    n_steps = max(1, int(np.ceil((t_end - t0) / h - 1e-9)))
-    if n_steps > MAX_STEPS:  # the C++ loop cannot be interrupted: refuse a run of days
-        raise ValueError(f"step = {h} s gives {n_steps} steps to t_end = {t_end} s; at most {MAX_STEPS} "
-                         "(raise step or shorten the run)")
+    steps = np.ceil((t_end - t0) / h - 1e-9)  # may be inf
+    if not steps <= max_steps:  # refused before the output steps are laid out (the core checks again)
+        raise ValueError(f"step = {h} s gives {steps:.6g} steps to t_end = {t_end} s; max_steps = {max_steps} "
+                         "(raise step or max_steps, or shorten the run)")
+    n_steps = max(1, int(steps))
     out_steps = [int(k) for k in np.unique(np.round(np.linspace(0, n_steps, n_out)).astype(int))]
     wall = _time.perf_counter()
     t, states, drift, stats = system.core.integrate(st.r, st.R, st.eta, st.v, st.a, st.lam, t0, flow, t_end,
-                                                    out_steps, h, rho, tol, max_iterations, refresh)
+                                                    out_steps, h, rho, tol, max_iterations, refresh, max_steps)
     stats["wall_time"] = _time.perf_counter() - wall
     stats["step"] = (t_end - t0) / n_steps  # the step used: the interval in whole steps
     return MultibodyResult(np.array(t), np.array([x[0] for x in states]), np.array([x[1] for x in states]),
