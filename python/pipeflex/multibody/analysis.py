@@ -24,11 +24,17 @@ import scipy.sparse as sp
 from .. import _checks
 from .._options import renamed
 from ..time_functions import time_function
-from ..errors import ConvergenceError
+from ..errors import ConvergenceError, SingularMatrixError
 from ..results import Result
 from .body import node_index
 from .system import MultibodyState, MultibodySystem, TimeFunction
 
+
+#: :func:`static_equilibrium` refuses a converged state whose residual exceeds this
+#: fraction of the applied force level and the round-off of the stiffest forces
+#: (converged solves reach either; a loaded mechanism's neutral direction, left alone,
+#: keeps a residual of order the load).
+RESIDUAL_TOL = 1e-6
 
 #: Default of :func:`simulate`'s ``max_steps``: the most steps a run may take (refused
 #: before the first step), the same as :func:`pipeflex.simulate`'s.
@@ -120,6 +126,8 @@ def static_equilibrium(system: MultibodySystem, *, state: Optional[MultibodyStat
     Raises:
         ValueError: bad options or a state that does not fit the system.
         ConvergenceError: with the load factor, iteration and residual where it failed.
+        SingularMatrixError: the increments converged but the residual exceeds
+            :data:`RESIDUAL_TOL` of the applied force level: the loads drive a mechanism.
     """
     steps = _checks.positive_int("load_steps", load_steps)
     tol = _checks.positive("tol", tol)
@@ -132,6 +140,10 @@ def static_equilibrium(system: MultibodySystem, *, state: Optional[MultibodyStat
     st.v[:] = 0.0
     st.a[:] = 0.0
     L = system.length_scale
+    # the applied force level (loads, gravity, flow at the start, multipliers 0), to judge
+    # the final residual
+    start = replace(st, lam=np.zeros_like(st.lam))
+    applied = float(np.abs(system.evaluate(start, mass_flow=mdot, tangent=False)[0]).max(initial=0.0))
     elastic = np.zeros(system.n_coordinates, bool)
     for j in range(len(system.bodies)):
         sl = system.body_slice(j)
@@ -169,6 +181,17 @@ def static_equilibrium(system: MultibodySystem, *, state: Optional[MultibodyStat
                                    residual=float(np.abs(F).max()), mass_flow=mdot)
     F, _, _, _ = system.evaluate(st, mass_flow=mdot, tangent=False)
     res = float(np.abs(F).max())
+    # round-off of the stiffest forces: ~eps |S| L (nearly inextensible bodies: EA ~ 1e10 EI)
+    roundoff = 1e3 * np.finfo(float).eps * float(np.abs(S).max()) * L
+    if not res <= max(RESIDUAL_TOL * applied, roundoff):
+        worst = int(np.argmax(np.abs(F)))
+        body = int(np.searchsorted(system.offsets, worst, side="right")) - 1
+        raise SingularMatrixError(
+            f"static solve: the increments converged but the residual {res:.3g} is {res / applied:.3g} of the applied "
+            f"force level {applied:.3g} N (largest at body {body}): the loads drive a mechanism, a rigid motion the "
+            f"joints leave free (e.g. about a spherical joint or a free hinge) without stiffness here; there is no "
+            f"static equilibrium in that direction: support it", load_factor=1.0, iteration=total, residual=res,
+            mass_flow=mdot)
     return MultibodyStatic(st, total, res, mdot)
 
 

@@ -25,6 +25,10 @@ from ..sections import PipeSection, refuse_unsupported
 
 REDUCTIONS = ("craig_bampton", "full")
 
+#: Most elements of one floating-frame body: its reduction works on dense matrices of
+#: 6 (n_elements + 1) rows (1000 elements: 6006, ~0.3 GB each).
+MAX_BODY_ELEMENTS = 1000
+
 
 @dataclass(frozen=True, eq=False)
 class FlexibleBody:
@@ -201,8 +205,11 @@ def flexible_body(*, length: float, n_elements: int, section: PipeSection, inter
         basis: a custom Phi (6 (n_elements + 1) x m) in place of ``reduction``; it must not
             contain rigid-body motion.
     """
-    L = _checks.positive("length", length)
+    L = _checks.magnitude("length", length, "m")
     n_el = _checks.positive_int("n_elements", n_elements)
+    if n_el > MAX_BODY_ELEMENTS:
+        raise ValueError(f"n_elements must be at most {MAX_BODY_ELEMENTS} per floating-frame body (its matrices "
+                         f"are dense, 6 (n_elements + 1) square), got {n_el}")
     if n_el % 2:
         raise ValueError(f"n_elements must be even (the floating frame sits at the centre node), got {n_el}")
     if not isinstance(section, PipeSection):
