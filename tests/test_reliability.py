@@ -289,6 +289,14 @@ def test_output_count_is_bounded():
                                           _core.TransientOptions(), None)
 
 
+def test_output_count_is_checked_before_the_times_are_laid_out():
+    from pipeflex import _checks
+
+    assert _checks.output_count("n_outputs", 201, 5) == 201
+    with pytest.raises(ValueError, match=r"n_outputs = 1000000000000 output times of 5 nodes need 707805 GiB"):
+        _checks.output_count("n_outputs", 10**12, 5)
+
+
 def test_steady_state_far_outside_is_refused_at_once(rotating):
     """gamma = 1e4 with the steady-state linearisation searched for minutes."""
     import time

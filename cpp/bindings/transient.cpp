@@ -133,6 +133,7 @@ void bind_transient(py::module_& m) {
                                             const TransientOptions& o, py::object p) {
         return run(integrate_generalized_alpha, md, s, l, f, lf, t, o, p);
     });
+    m.attr("MAX_OUTPUT_BYTES") = kMaxOutputBytes;  // pipeflex._checks.output_count checks it before allocating
     m.def("gravity_potential", [](const Model& md, const State& s, const LoadState& l) {
         check_state(md, s);
         return gravity_potential(md, s, l);

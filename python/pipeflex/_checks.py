@@ -5,6 +5,8 @@ import math
 
 import numpy as np
 
+from . import _core
+
 
 def finite(name: str, value) -> float:
     if isinstance(value, (str, bytes)):  # float("3") would accept text
@@ -108,3 +110,17 @@ def gravity(name: str, value) -> np.ndarray:
     if np.abs(g).max() > MAX_GRAVITY:
         raise ValueError(f"{name} must have components of at most {MAX_GRAVITY:g} m/s^2 (SI units), got {g}")
     return g
+
+
+def output_count(name: str, value, n_nodes: int) -> int:
+    """A positive number of output times whose result (18 values per node and 5 energies
+    per time, 8 bytes each) fits in the core's ``MAX_OUTPUT_BYTES``; checked before the
+    output times are laid out (the core checks the same bound again)."""
+    from . import _core
+
+    n = positive_int(name, value)
+    size = 8.0 * n * (18.0 * n_nodes + 5.0)
+    if size > _core.MAX_OUTPUT_BYTES:
+        raise ValueError(f"{name} = {n} output times of {n_nodes} nodes need {size / 2**30:.6g} GiB; at most "
+                         f"{_core.MAX_OUTPUT_BYTES / 2**30:g} GiB (fewer outputs, or split the run)")
+    return n
