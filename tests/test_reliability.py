@@ -344,3 +344,37 @@ def test_wrong_argument_types_are_named(m4):
                      lambda m: pf.rotating_frequencies(m, gamma=1.0)):
         with pytest.raises(TypeError, match=r"model must be a pipeflex.Model .*got tuple \(a tuple: pass the state"):
             analysis((m4, m4.initial_state()))
+
+
+# -- 4. Craig-Bampton determinism ------------------------------------------------------------
+
+def test_canonical_modes_depend_on_the_subspace_only():
+    """Any orthogonal mixture of a degenerate group gives the same canonical modes."""
+    from pipeflex.multibody.body import canonical_modes
+
+    rng = np.random.default_rng(1)
+    V = np.linalg.qr(rng.standard_normal((12, 5)))[0]
+    mu = np.array([3.0, 2.0, 2.0 * (1 + 1e-12), 2.0, 1.0])  # a group of three
+    U = np.linalg.qr(rng.standard_normal((3, 3)))[0]
+    mixed = V.copy()
+    mixed[:, 1:4] = V[:, 1:4] @ U
+    mixed[:, 0] *= -1.0
+    a, b = canonical_modes(mu, V, 2), canonical_modes(mu, mixed, 2)  # count 2 cuts the group
+    np.testing.assert_allclose(a, b, atol=1e-13)
+    np.testing.assert_allclose(a.T @ a, np.eye(2), atol=1e-13)
+
+
+def test_craig_bampton_basis_is_the_same_on_1_and_2_threads():
+    """The two bending planes of a round section are a degenerate group whose LAPACK
+    eigenvectors change with the number of BLAS threads (by O(1) before the canonical
+    basis); internal_modes = 5 also cuts one such pair."""
+    from threadpoolctl import threadpool_limits
+
+    from pipeflex.multibody import flexible_body
+
+    sec = pf.PipeSection(EI=10.0, pipe_mass=8.0, fluid_mass=2.0, rotary_inertia=(1e-3, 1e-4, 1e-4))
+    bases = []
+    for threads in (1, 2):
+        with threadpool_limits(limits=threads):
+            bases.append(np.array(flexible_body(length=1.0, n_elements=200, section=sec, internal_modes=5).basis))
+    np.testing.assert_allclose(bases[0], bases[1], atol=1e-8)
