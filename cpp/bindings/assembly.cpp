@@ -9,6 +9,38 @@ using namespace pipeflex::bindings;
 
 namespace {
 
+// Index checks at the boundary: the core trusts its indices. Any change of a finalized
+// model's structure un-finalizes it, so that its states are refused until finalize()
+// numbers the coordinates again.
+int node_index(const Model& md, int i, const char* what) {
+    if (i < 0 || i >= md.n_nodes())
+        throw std::invalid_argument(std::string(what) + " must be a node index in [0, " + std::to_string(md.n_nodes()) +
+                                    "), got " + std::to_string(i));
+    return i;
+}
+
+void changed(Model& md) {
+    md.first_dof.clear();
+    md.n_dofs = 0;
+}
+
+int frame_index(const State& s, int i) {
+    if (i < 0 || i >= static_cast<int>(s.frames.size()))
+        throw std::invalid_argument("node must be in [0, " + std::to_string(s.frames.size()) + "), got " +
+                                    std::to_string(i));
+    return i;
+}
+
+// Setter of q, v or a: a vector of 6 entries per node of the state, else refused.
+void set_coordinates(State& s, Eigen::VectorXd& dst, const Eigen::VectorXd& x, const char* name) {
+    const auto n = static_cast<Eigen::Index>(s.frames.size());
+    if (x.size() != 6 * n)
+        throw std::invalid_argument(std::string("State.") + name + " must have 6 entries per node (" +
+                                    std::to_string(6 * n) + " for " + std::to_string(n) + " nodes), got " +
+                                    std::to_string(x.size()));
+    dst = x;
+}
+
 py::tuple triplets_to_numpy(const Triplets& t) {
     return py::make_tuple(py::array_t<int>(t.rows.size(), t.rows.data()),
                           py::array_t<int>(t.cols.size(), t.cols.data()),
@@ -22,25 +54,30 @@ void bind_assembly(py::module_& m) {
         .def(py::init<>())
         .def("add_node",
              [](Model& md, const Eigen::Vector3d& x) {
+                 changed(md);
                  md.positions.push_back(to_vec3(x));
                  return md.n_nodes() - 1;
              })
         .def("add_pipe",
              [](Model& md, int p, int q, const PipeElementData& d) {
-                 md.pipes.push_back({p, q, d});
+                 changed(md);
+                 md.pipes.push_back({node_index(md, p, "p"), node_index(md, q, "q"), d});
                  return static_cast<int>(md.pipes.size()) - 1;
              })
         .def("add_load",
              [](Model& md, int node, const Eigen::Vector3d& f, const Eigen::Vector3d& mo,
                 const Eigen::Vector3d& ff, const Eigen::Vector3d& fm) {
-                 md.loads.push_back({node, to_vec3(f), to_vec3(mo), to_vec3(ff), to_vec3(fm)});
+                 changed(md);
+                 md.loads.push_back({node_index(md, node, "node"), to_vec3(f), to_vec3(mo), to_vec3(ff), to_vec3(fm)});
              })
         .def("add_mass",
              [](Model& md, int node, double mass, const Eigen::Vector3d& inertia) {
-                 md.masses.push_back({node, mass, to_vec3(inertia)});
+                 changed(md);
+                 md.masses.push_back({node_index(md, node, "node"), mass, to_vec3(inertia)});
              })
         .def("add_ancf_node",
              [](Model& md, const Eigen::Vector3d& x, const Eigen::Vector3d& slope) {
+                 changed(md);
                  md.positions.push_back(to_vec3(x));
                  md.kinds.resize(md.positions.size() - 1, NodeKind::frame);
                  md.kinds.push_back(NodeKind::ancf);
@@ -50,12 +87,15 @@ void bind_assembly(py::module_& m) {
              })
         .def("add_ancf",
              [](Model& md, int p, int q, const AncfElementData& d) {
-                 md.ancf.push_back({p, q, d});
+                 changed(md);
+                 md.ancf.push_back({node_index(md, p, "p"), node_index(md, q, "q"), d});
                  return static_cast<int>(md.ancf.size()) - 1;
              })
         .def("set_hub",
              [](Model& md, const std::vector<int>& nodes, const Eigen::Vector3d& axis, const Eigen::Vector3d& center,
                 double omega, double spin_up_time) {
+                 changed(md);
+                 for (int i : nodes) node_index(md, i, "hub node");
                  md.hub.nodes = nodes;
                  md.hub.axis = to_vec3(axis);
                  md.hub.center = to_vec3(center);
@@ -69,28 +109,43 @@ void bind_assembly(py::module_& m) {
                  md.hub.angle(t, &a, &b, &c);
                  return py::make_tuple(a, b, c);
              })
-        .def("ancf_nodes", [](const Model& md, int i) { return py::make_tuple(md.ancf.at(i).p, md.ancf.at(i).q); })
-        .def("set_bases", [](Model& md, const std::vector<Eigen::MatrixXd>& b) { md.bases = b; })
+        .def("ancf_nodes",
+             [](const Model& md, int i) {
+                 if (i < 0 || i >= static_cast<int>(md.ancf.size()))
+                     throw std::invalid_argument("ANCF element index must be in [0, " + std::to_string(md.ancf.size()) +
+                                                 "), got " + std::to_string(i));
+                 return py::make_tuple(md.ancf[i].p, md.ancf[i].q);
+             })
+        .def("set_bases",
+             [](Model& md, const std::vector<Eigen::MatrixXd>& b) {
+                 changed(md);
+                 md.bases = b;
+             })
         .def("finalize", &Model::finalize)
         .def_property_readonly("n_nodes", &Model::n_nodes)
         .def_readonly("n_dofs", &Model::n_dofs)
         .def_readonly("first_dof", &Model::first_dof)
-        .def("pipe", [](const Model& md, int i) { return md.pipes.at(i).data; });
+        .def("pipe", [](const Model& md, int i) {
+            if (i < 0 || i >= static_cast<int>(md.pipes.size()))
+                throw std::invalid_argument("pipe element index must be in [0, " + std::to_string(md.pipes.size()) +
+                                            "), got " + std::to_string(i));
+            return md.pipes[i].data;
+        });
 
     py::class_<State>(m, "State")
         .def(py::init<const Model&>())
         .def_property(
             "q", [](State& s) -> Eigen::Ref<Eigen::VectorXd> { return s.q; },
-            [](State& s, const Eigen::VectorXd& x) { s.q = x; }, py::return_value_policy::reference_internal)
+            [](State& s, const Eigen::VectorXd& x) { set_coordinates(s, s.q, x, "q"); }, py::return_value_policy::reference_internal)
         .def_property(
             "v", [](State& s) -> Eigen::Ref<Eigen::VectorXd> { return s.v; },
-            [](State& s, const Eigen::VectorXd& x) { s.v = x; }, py::return_value_policy::reference_internal)
+            [](State& s, const Eigen::VectorXd& x) { set_coordinates(s, s.v, x, "v"); }, py::return_value_policy::reference_internal)
         .def_property(
             "a", [](State& s) -> Eigen::Ref<Eigen::VectorXd> { return s.a; },
-            [](State& s, const Eigen::VectorXd& x) { s.a = x; }, py::return_value_policy::reference_internal)
-        .def("frame", [](const State& s, int i) { return from_mat3(s.frames.at(i)); })
-        .def("set_frame", [](State& s, int i, const RowMat3& R) { s.frames.at(i) = to_mat3(R); })
-        .def("rotation", [](const State& s, int i) { return from_mat3(s.rotation(i)); })
+            [](State& s, const Eigen::VectorXd& x) { set_coordinates(s, s.a, x, "a"); }, py::return_value_policy::reference_internal)
+        .def("frame", [](const State& s, int i) { return from_mat3(s.frames[frame_index(s, i)]); })
+        .def("set_frame", [](State& s, int i, const RowMat3& R) { s.frames[frame_index(s, i)] = to_mat3(R); })
+        .def("rotation", [](const State& s, int i) { return from_mat3(s.rotation(frame_index(s, i))); })
         .def("rebase", &State::rebase, py::arg("max_angle"))
         .def("copy", [](const State& s) { return State(s); });
 

@@ -55,6 +55,7 @@ void bind_ffrf(py::module_& m) {
                  d.Cx = std::move(Cx);
                  d.Hx = std::move(Hx);
                  d.Ng = std::move(Ng);
+                 check_ffrf_body(d);
                  return d;
              }),
              py::arg("M"), py::arg("K"), py::arg("eta0"), py::arg("A"), py::arg("Bk"), py::arg("GPhi"),

@@ -3,6 +3,10 @@
 
 #include <pybind11/functional.h>
 
+#include <cmath>
+#include <sstream>
+#include <string>
+
 namespace py = pybind11;
 using namespace pipeflex;
 
@@ -17,9 +21,50 @@ py::array_t<double> as_array(const std::vector<double>& v, std::vector<py::ssize
 using Integrator = TransientOutput (*)(const Model&, State&, const LoadState&, const TimeFunctions&,
                                        const std::vector<double>&, const TransientOptions&, const ProgressFn&);
 
+std::string fmt(double x) {
+    std::ostringstream os;
+    os.precision(6);
+    os << x;
+    return os.str();
+}
+
+// Largest output of one run [bytes]: the arrays of x, R, xd, omega (18 values per node)
+// and five energies per output time, allocated up front by the caller's numpy arrays.
+constexpr double kMaxOutputBytes = 2.0 * (1 << 30);
+
+// Checks before any work: the state fits the model, the output times are increasing and
+// finite, the output fits in memory and, for generalised-alpha (fixed step, so its step
+// count is known in advance), the steps to the last output are at most max_steps.
+void check_run(const Model& model, const State& state, const std::vector<double>& times,
+               const TransientOptions& opt, bool fixed_step) {
+    check_state(model, state);
+    if (times.size() < 2) throw std::invalid_argument("times must hold at least 2 output times");
+    for (std::size_t k = 0; k < times.size(); ++k) {
+        if (!std::isfinite(times[k])) throw std::invalid_argument("times must be finite");
+        if (k > 0 && !(times[k] > times[k - 1])) throw std::invalid_argument("times must be strictly increasing");
+    }
+    const double bytes = 8.0 * static_cast<double>(times.size()) * (18.0 * model.n_nodes() + 5.0);
+    if (bytes > kMaxOutputBytes)
+        throw std::invalid_argument("n_outputs: " + std::to_string(times.size()) + " output times of " +
+                                    std::to_string(model.n_nodes()) + " nodes need " + fmt(bytes / (1 << 30)) +
+                                    " GiB; at most " + fmt(kMaxOutputBytes / (1 << 30)) +
+                                    " GiB (fewer outputs, or split the run)");
+    if (opt.max_steps < 1) throw std::invalid_argument("max_steps must be >= 1");
+    if (!fixed_step) return;
+    if (!(opt.step > 0.0) || !std::isfinite(opt.step)) throw std::invalid_argument("step must be > 0 and finite");
+    // the integrator's equal steps per output interval: ceil(interval / step) each
+    double steps = 0.0;
+    for (std::size_t k = 1; k < times.size(); ++k) steps += std::ceil((times[k] - times[k - 1]) / opt.step - 1e-9);
+    if (steps > static_cast<double>(opt.max_steps))
+        throw std::invalid_argument("step = " + fmt(opt.step) + " s gives " + fmt(steps) + " steps from t = " +
+                                    fmt(times.front()) + " s to " + fmt(times.back()) + " s; max_steps = " +
+                                    std::to_string(opt.max_steps) + " (raise step or max_steps, or shorten the run)");
+}
+
 py::dict run(Integrator f, const Model& model, State& state, const LoadState& load, const TimeTable& flow,
              const TimeTable& loads, const std::vector<double>& times, const TransientOptions& opt,
              py::object progress) {
+    check_run(model, state, times, opt, f == integrate_generalized_alpha);
     ProgressFn cb;
     if (!progress.is_none()) {
         cb = [progress](double t) {
@@ -91,6 +136,7 @@ void bind_transient(py::module_& m) {
     m.def("generalized_alpha_flow_map",
           [](const Model& md, State& s, const LoadState& l, const Eigen::VectorXd& z0, const Eigen::VectorXd& v0,
              double duration, int n_steps, bool sensitivity, const TransientOptions& o) {
+              check_state(md, s);
               FlowMapOutput out;
               {
                   py::gil_scoped_release release;
@@ -107,5 +153,9 @@ void bind_transient(py::module_& m) {
               d["jacobians"] = out.jacobians;
               return d;
           });
-    m.def("gravity_potential", &gravity_potential);
+    m.attr("MAX_OUTPUT_BYTES") = kMaxOutputBytes;  // pipeflex._checks.output_count checks it before allocating
+    m.def("gravity_potential", [](const Model& md, const State& s, const LoadState& l) {
+        check_state(md, s);
+        return gravity_potential(md, s, l);
+    });
 }

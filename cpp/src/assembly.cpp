@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <string>
+#include <utility>
 
 namespace pipeflex {
 namespace {
@@ -131,9 +132,10 @@ void Model::finalize() {
     const int n = n_nodes();
     kinds.resize(n, NodeKind::frame);
     slopes.resize(n, Vec3<double>{{1.0, 0.0, 0.0}});
-    if (static_cast<int>(bases.size()) != n) {
-        bases.assign(n, Eigen::MatrixXd::Identity(6, 6));
-    }
+    if (bases.empty()) bases.assign(n, Eigen::MatrixXd::Identity(6, 6));
+    if (static_cast<int>(bases.size()) != n)
+        throw std::invalid_argument("the model has " + std::to_string(n) + " nodes but " +
+                                    std::to_string(bases.size()) + " bases (set_bases: one 6 x k basis per node)");
     first_dof.assign(n, 0);
     int k = 0;
     for (int i = 0; i < n; ++i) {
@@ -237,6 +239,7 @@ void apply_hub_frame(const Model& model, LoadState& load, double t) {
 
 void apply_hub(const Model& model, State& state, double t) {
     if (model.hub.nodes.empty() || model.hub.co_rotating) return;
+    check_state(model, state);
     double th, thd, thdd;
     model.hub.angle(t, &th, &thd, &thdd);
     const Vec3<double>& ax = model.hub.axis;
@@ -291,6 +294,31 @@ State::State(const Model& m)
     }
 }
 
+void State::check_sizes() const {
+    const auto n = static_cast<Eigen::Index>(frames.size());
+    for (const auto& [name, x] : {std::pair<const char*, const Eigen::VectorXd*>{"q", &q}, {"v", &v}, {"a", &a}})
+        if (x->size() != 6 * n)
+            throw std::invalid_argument("state." + std::string(name) + " must have 6 entries per node (" +
+                                        std::to_string(6 * n) + " for " + std::to_string(n) + " nodes), got " +
+                                        std::to_string(x->size()));
+    if (kinds.size() != frames.size()) throw std::invalid_argument("state: node kinds and frames differ in number");
+}
+
+void check_state(const Model& model, const State& state) {
+    const int n = model.n_nodes();
+    if (static_cast<int>(model.first_dof.size()) != n || static_cast<int>(model.bases.size()) != n)
+        throw std::invalid_argument("the model is not finalized (call finalize() after its last node)");
+    if (static_cast<int>(state.frames.size()) != n)
+        throw std::invalid_argument("the state has " + std::to_string(state.frames.size()) + " nodes, the model " +
+                                    std::to_string(n) + ": a state of another model (use this model's initial_state())");
+    state.check_sizes();
+    for (int i = 0; i < n; ++i)
+        if (state.kinds[i] != model.kinds[i])
+            throw std::invalid_argument("node " + std::to_string(i) + " is an " +
+                                        (model.kinds[i] == NodeKind::ancf ? "ANCF" : "frame") +
+                                        " node of the model but not of the state: a state of another model");
+}
+
 double State::max_rotation() const {
     double big = 0.0;
     for (int i = 0; i < static_cast<int>(frames.size()); ++i)
@@ -313,11 +341,15 @@ Mat3<double> planar_triad(const Vec3<double>& slope) {
 }
 
 Mat3<double> State::rotation(int node) const {
+    if (node < 0 || node >= static_cast<int>(frames.size()))
+        throw std::invalid_argument("node must be in [0, " + std::to_string(frames.size()) + "), got " +
+                                    std::to_string(node));
     if (kinds[node] == NodeKind::ancf) return planar_triad(node_vec(q, node, 3));
     return rotation_exp(node_vec(q, node, 3)) * frames[node];
 }
 
 int State::rebase(double max_angle) {
+    check_sizes();
     int count = 0;
     for (int i = 0; i < static_cast<int>(frames.size()); ++i) {
         const Vec3<double> phi = node_vec(q, i, 3);
@@ -340,6 +372,7 @@ int State::rebase(double max_angle) {
 
 void assemble(const Model& model, const State& state, const LoadState& load, double load_factor,
               double wK, double wC, double wM, Eigen::VectorXd* residual, Triplets* J) {
+    check_state(model, state);
     if (residual != nullptr) residual->setZero(model.n_dofs);
     if (J != nullptr) J->clear();
     double qe[12], ve[12], ae[12], re[12], Je[144];
@@ -456,6 +489,7 @@ void assemble_geometric(const Model& model, const State& state, const Eigen::Vec
 }
 
 Eigen::VectorXd external_forces(const Model& model, const State& state) {
+    check_state(model, state);
     Eigen::VectorXd f = Eigen::VectorXd::Zero(6 * model.n_nodes());
     for (const auto& l : model.loads) {
         double fl[6];
@@ -466,6 +500,12 @@ Eigen::VectorXd external_forces(const Model& model, const State& state) {
 }
 
 void add_increment(const Model& model, Eigen::Ref<Eigen::VectorXd> full, const Eigen::VectorXd& dz) {
+    if (full.size() != 6 * model.n_nodes())
+        throw std::invalid_argument("the coordinates must have 6 entries per node (" +
+                                    std::to_string(6 * model.n_nodes()) + "), got " + std::to_string(full.size()));
+    if (dz.size() != model.n_dofs)
+        throw std::invalid_argument("the increment must have n_dofs = " + std::to_string(model.n_dofs) +
+                                    " entries, got " + std::to_string(dz.size()));
     for (int n = 0; n < model.n_nodes(); ++n) {
         const Eigen::MatrixXd& T = model.bases[n];
         if (T.cols() == 0) continue;
@@ -474,6 +514,9 @@ void add_increment(const Model& model, Eigen::Ref<Eigen::VectorXd> full, const E
 }
 
 Eigen::VectorXd reduce(const Model& model, const Eigen::VectorXd& full) {
+    if (full.size() != 6 * model.n_nodes())
+        throw std::invalid_argument("the vector to reduce must have 6 entries per node (" +
+                                    std::to_string(6 * model.n_nodes()) + "), got " + std::to_string(full.size()));
     Eigen::VectorXd r = Eigen::VectorXd::Zero(model.n_dofs);
     for (int n = 0; n < model.n_nodes(); ++n) scatter_vector(model, n, full.data() + 6 * n, &r);
     return r;
@@ -491,6 +534,7 @@ double fluid_power(const Model& model, const State& state, const LoadState& load
 }
 
 void energies(const Model& model, const State& state, double* kinetic, double* elastic) {
+    check_state(model, state);
     double T = 0.0, U = 0.0;
     double qe[12], ve[12];
     for (const auto& el : model.pipes) {

@@ -93,6 +93,32 @@ void FfrfBodyWork::resize(Eigen::Index n) {
     X.resize(n, n);
 }
 
+void check_ffrf_body(const FfrfBodyData& d) {
+    const Eigen::Index n = d.M.rows(), m = n - 6;
+    if (m < 0 || d.M.cols() != n)
+        throw std::invalid_argument("FfrfBodyData: M must be square with at least 6 rows, got " +
+                                    std::to_string(d.M.rows()) + " x " + std::to_string(d.M.cols()));
+    auto shape = [](const char* name, const MatX& x, Eigen::Index rows, Eigen::Index cols) {
+        if (x.rows() != rows || x.cols() != cols)
+            throw std::invalid_argument(std::string("FfrfBodyData: ") + name + " must be " + std::to_string(rows) +
+                                        " x " + std::to_string(cols) + ", got " + std::to_string(x.rows()) + " x " +
+                                        std::to_string(x.cols()));
+    };
+    shape("K", d.K, m, m);
+    shape("eta0", d.eta0, m, 1);
+    for (int k = 0; k < 3; ++k) {
+        shape("A[k]", d.A[k], n, 3);
+        shape("Bk[k]", d.Bk[k], n, m);
+        shape("GPhi[k]", d.GPhi[k], n, m);
+        shape("Gx[k]", d.Gx[k], n, 1);
+    }
+    shape("CPhi", d.CPhi, n, m);
+    shape("HPhi", d.HPhi, n, m);
+    shape("Cx", d.Cx, n, 1);
+    shape("Hx", d.Hx, n, 1);
+    shape("Ng", d.Ng, n, 3);
+}
+
 void ffrf_body_forces(const FfrfBodyData& d, const FfrfBodyMotion& s, double wK, double wC, double wM,
                       FfrfBodyWork& work, Eigen::Ref<VecX> residual, Eigen::Ref<MatX> tangent, bool with_tangent) {
     const Eigen::Index n = d.M.rows(), m = n - 6;

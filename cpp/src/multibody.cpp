@@ -1,4 +1,5 @@
 #include "pipeflex/multibody/multibody.hpp"
+#include "pipeflex/core/interrupt.hpp"
 #include "pipeflex/solvers/sparse_lu.hpp"
 
 #include <Eigen/LU>
@@ -13,6 +14,13 @@
 namespace pipeflex {
 
 namespace {
+
+std::string fmt(double x) {
+    std::ostringstream os;
+    os.precision(6);
+    os << x;
+    return os.str();
+}
 
 // I + c1 W + c2 W^2 with W = phi~: exp (c1 = sin t / t, c2 = (1 - cos t)/t^2) and the
 // left Jacobian (c1 = (1 - cos t)/t^2, c2 = (t - sin t)/t^3).
@@ -102,8 +110,10 @@ int MbJoint::rows() const {
 }
 
 int MultibodySystemCore::add_body(MbBody body) {
+    check_ffrf_body(body.data);
     const Eigen::Index m = body.data.M.rows() - 6;
-    if (m < 0 || body.basis.cols() != m || body.basis.rows() != 6 * static_cast<Eigen::Index>(body.s.size()))
+    if (body.s.size() < 2) throw std::invalid_argument("add_body: a body needs at least 2 nodes (s)");
+    if (body.basis.cols() != m || body.basis.rows() != 6 * static_cast<Eigen::Index>(body.s.size()))
         throw std::invalid_argument("add_body: basis must be 6 n_nodes x m with m = (size of M) - 6");
     length_scale_ = std::max(length_scale_ * (bodies_.empty() ? 0.0 : 1.0), body.s.back() - body.s.front());
     offsets_.push_back(offsets_.back() + 6 + static_cast<int>(m));
@@ -135,7 +145,25 @@ void MultibodySystemCore::finalize() {
     nc_ = rows_.back();
 }
 
+void MultibodySystemCore::check_state(const MbState& s) const {
+    const int nb = n_bodies();
+    if (static_cast<int>(s.r.size()) != nb || static_cast<int>(s.R.size()) != nb)
+        throw std::invalid_argument("state: r and R must hold one frame per body (" + std::to_string(nb) + "), got " +
+                                    std::to_string(s.r.size()) + " and " + std::to_string(s.R.size()));
+    if (s.eta.size() != n_ || s.v.size() != n_ || s.a.size() != n_ || s.lam.size() != nc_)
+        throw std::invalid_argument("state: eta, v and a must have " + std::to_string(n_) +
+                                    " entries (n_coordinates) and lam " + std::to_string(nc_) + " (n_constraints)");
+    bool finite = std::isfinite(s.t) && s.eta.allFinite() && s.v.allFinite() && s.a.allFinite() && s.lam.allFinite();
+    for (int j = 0; j < nb; ++j) finite = finite && s.r[j].allFinite() && s.R[j].allFinite();
+    if (!finite) throw std::invalid_argument("state: all its numbers must be finite");
+}
+
 void MultibodySystemCore::node(const MbState& s, int body, int nd, Vec3d& p, Mat3d& A, MatX* Jp, MatX* Ja) const {
+    if (body < 0 || body >= n_bodies() || nd < 0 || nd >= n_nodes(body))
+        throw std::invalid_argument("no node " + std::to_string(nd) + " on body " + std::to_string(body));
+    if (s.eta.size() != n_ || static_cast<int>(s.r.size()) != n_bodies() || static_cast<int>(s.R.size()) != n_bodies())
+        throw std::invalid_argument("state: eta must have n_coordinates = " + std::to_string(n_) +
+                                    " entries and r, R one frame per body");
     const MbBody& b = bodies_[body];
     const Eigen::Index m = b.basis.cols();
     const int o = offsets_[body];
@@ -161,6 +189,11 @@ void MultibodySystemCore::node(const MbState& s, int body, int nd, Vec3d& p, Mat
 }
 
 void MultibodySystemCore::increment(MbState& s, const VecX& dq) const {
+    if (dq.size() != n_ || s.eta.size() != n_ || static_cast<int>(s.r.size()) != n_bodies() ||
+        static_cast<int>(s.R.size()) != n_bodies())
+        throw std::invalid_argument("increment: dq and the state's eta must have n_coordinates = " +
+                                    std::to_string(n_) + " entries, got " + std::to_string(dq.size()) + " and " +
+                                    std::to_string(s.eta.size()));
     for (int j = 0; j < n_bodies(); ++j) {
         const int o = offsets_[j], m = offsets_[j + 1] - o - 6;
         s.r[j] += dq.segment<3>(o);
@@ -328,7 +361,7 @@ void MultibodySystemCore::evaluate(const MbState& s, double mdot, double mdot_ra
                                    MbEvaluation& out) const {
     if (s.eta.size() != n_ || s.v.size() != n_ || s.a.size() != n_ || s.lam.size() != nc_ ||
         static_cast<int>(s.r.size()) != n_bodies() || static_cast<int>(s.R.size()) != n_bodies())
-        throw std::invalid_argument("multibody state has the wrong sizes");
+        check_state(s);  // throws, naming the sizes
     out.F.setZero(n_);
     out.c.setZero(nc_);
     out.J.setZero(nc_, n_);
@@ -337,6 +370,7 @@ void MultibodySystemCore::evaluate(const MbState& s, double mdot, double mdot_ra
     out.work.resize(bodies_.size());
     out.motion.resize(bodies_.size());
     for (int j = 0; j < n_bodies(); ++j) {
+        poll_interrupt();
         const MbBody& b = bodies_[j];
         const int o = offsets_[j], n = offsets_[j + 1] - o, m = n - 6;
         FfrfBodyMotion& mo = out.motion[j];
@@ -390,6 +424,23 @@ void MultibodySystemCore::evaluate(const MbState& s, double mdot, double mdot_ra
 
 MbOutput MultibodySystemCore::integrate(MbState& s, const TimeTable& mass_flow, double t_end,
                                         const std::vector<long>& out_steps, const MbOptions& opt) const {
+    check_state(s);
+    if (!std::isfinite(t_end) || !(t_end > s.t))
+        throw std::invalid_argument("t_end = " + fmt(t_end) + " s must be finite and after the state's time " +
+                                    fmt(s.t) + " s");
+    if (!std::isfinite(opt.step) || !(opt.step > 0.0)) throw std::invalid_argument("step must be > 0 and finite");
+    if (!(opt.rho_inf >= 0.0 && opt.rho_inf < 1.0)) throw std::invalid_argument("rho_inf must be in [0, 1)");
+    if (!(opt.tol > 0.0)) throw std::invalid_argument("tol must be > 0");
+    if (opt.max_newton < 1 || opt.refresh < 1) throw std::invalid_argument("max_newton and refresh must be >= 1");
+    const double steps_needed = std::ceil((t_end - s.t) / opt.step - 1e-9);
+    if (steps_needed > static_cast<double>(opt.max_steps))
+        throw std::invalid_argument("step = " + fmt(opt.step) + " s gives " + fmt(steps_needed) + " steps to t_end = " +
+                                    fmt(t_end) + " s; max_steps = " + std::to_string(opt.max_steps) +
+                                    " (raise step or max_steps, or shorten the run)");
+    for (size_t k = 0; k < out_steps.size(); ++k)
+        if (out_steps[k] < 0 || out_steps[k] > static_cast<long>(std::max(1.0, steps_needed)) ||
+            (k > 0 && out_steps[k] <= out_steps[k - 1]))
+            throw std::invalid_argument("out_steps must be increasing step numbers in [0, n_steps]");
     const double rho = opt.rho_inf;
     const double am = (2 * rho - 1) / (rho + 1), af = rho / (rho + 1);
     const double gamma = 0.5 + af - am, beta = 0.25 * (gamma + 0.5) * (gamma + 0.5);
@@ -430,6 +481,7 @@ MbOutput MultibodySystemCore::integrate(MbState& s, const TimeTable& mass_flow, 
     double scale = 1.0;
     VecX rhs(n_ + nc_), x(n_ + nc_), dx(n_);
     for (long n = 1; n <= n_steps; ++n) {
+        poll_interrupt();
         const double t = t0 + static_cast<double>(n) * h;
         const VecX acc_new = (af * s.a - am * acc) / (1 - am);
         const VecX dq = h * s.v + h * h * ((0.5 - beta) * acc + beta * acc_new);
@@ -447,6 +499,7 @@ MbOutput MultibodySystemCore::integrate(MbState& s, const TimeTable& mass_flow, 
             double last = INFINITY;
             done = 0;
             for (int it = 0; it < max_it; ++it) {
+                poll_interrupt();
                 const bool refresh = full || !have_lu || it >= opt.refresh || stale_stall;
                 fresh = fresh || refresh;
                 evaluate(s, mdot, mrate, 1.0, 1.0, 1.0, gp, bp, refresh, ev);

@@ -411,6 +411,11 @@ TransientOutput integrate_ida(const Model& model, State& state, const LoadState&
     while (next < times.size()) {
         double tret = 0.0;
         poll_interrupt();
+        // IDASetMaxNumSteps bounds the steps of one IDASolve call; this loop takes one
+        // step per call, so it counts them itself
+        if (out.steps >= opt.max_steps)
+            throw std::invalid_argument("IDA: max_steps = " + std::to_string(opt.max_steps) + " steps reached at t = " +
+                                        fmt(prev_t) + " s before t_end; raise max_steps or loosen the tolerances");
         const int flag = IDASolve(mem, times.back(), &tret, yy.get(), yp.get(), IDA_ONE_STEP);
         if (flag < 0) {
             double h = 0.0, tc = 0.0;

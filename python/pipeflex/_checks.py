@@ -5,6 +5,8 @@ import math
 
 import numpy as np
 
+from . import _core
+
 
 def finite(name: str, value) -> float:
     if isinstance(value, (str, bytes)):  # float("3") would accept text
@@ -65,3 +67,60 @@ def non_negative_int(name: str, value) -> int:
 
 def positive_int(name: str, value) -> int:
     return _integer(name, value, 1, "positive")
+
+
+#: Bounds of the physical magnitudes a model accepts (section stiffnesses and masses
+#: per length, lengths): beyond them squares and products of the model's numbers
+#: underflow or overflow double precision, and the analyses answer with round-off
+#: (e.g. no instability found for EI = 1e-300 N m^2) or OverflowError.
+MAGNITUDE = {"N m^2": (1e-20, 1e20), "N": (1e-20, 1e30), "kg/m": (1e-20, 1e20), "m": (1e-6, 1e6)}
+
+#: Most elements one model may have (the builder's lists and the dense analyses grow
+#: with it; the largest tested model has 8192 elements, docs/performance.md).
+MAX_ELEMENTS = 100_000
+
+
+def magnitude(name: str, value, unit: str) -> float:
+    """``value`` > 0 within :data:`MAGNITUDE` [unit] (a physical magnitude in SI units)."""
+    x = positive(name, value)
+    low, high = MAGNITUDE[unit]
+    if not low <= x <= high:
+        raise ValueError(f"{name} must be in [{low:g}, {high:g}] {unit} (SI units; beyond, the model's numbers "
+                         f"leave double precision), got {x:g} {unit}")
+    return x
+
+
+def element_count(name: str, value, existing: int = 0) -> int:
+    """A positive number of elements ``value`` that keeps the model (with ``existing``
+    elements) within :data:`MAX_ELEMENTS`."""
+    n = positive_int(name, value)
+    if existing + n > MAX_ELEMENTS:
+        raise ValueError(f"{name} = {n} would give the model {existing + n} elements; at most {MAX_ELEMENTS}")
+    return n
+
+
+#: Largest gravity component [m/s^2] (10^5 g): beyond, the weight overflows the
+#: convergence tests' force level, or g was not given in m/s^2.
+MAX_GRAVITY = 1e6
+
+
+def gravity(name: str, value) -> np.ndarray:
+    """A gravity vector [m/s^2] with components of at most :data:`MAX_GRAVITY`."""
+    g = vector3(name, value)
+    if np.abs(g).max() > MAX_GRAVITY:
+        raise ValueError(f"{name} must have components of at most {MAX_GRAVITY:g} m/s^2 (SI units), got {g}")
+    return g
+
+
+def output_count(name: str, value, n_nodes: int) -> int:
+    """A positive number of output times whose result (18 values per node and 5 energies
+    per time, 8 bytes each) fits in the core's ``MAX_OUTPUT_BYTES``; checked before the
+    output times are laid out (the core checks the same bound again)."""
+    from . import _core
+
+    n = positive_int(name, value)
+    size = 8.0 * n * (18.0 * n_nodes + 5.0)
+    if size > _core.MAX_OUTPUT_BYTES:
+        raise ValueError(f"{name} = {n} output times of {n_nodes} nodes need {size / 2**30:.6g} GiB; at most "
+                         f"{_core.MAX_OUTPUT_BYTES / 2**30:g} GiB (fewer outputs, or split the run)")
+    return n

@@ -16,6 +16,7 @@ from typing import Iterable, List, Optional, Sequence, Tuple
 
 import numpy as np
 import scipy.sparse as sp
+from scipy.sparse.csgraph import connected_components
 
 from . import _checks, _core
 from .sections import PipeSection, refuse_unsupported
@@ -153,7 +154,7 @@ class ModelBuilder:
                                      "GAz": "the ANCF beam is rigid in shear (Euler-Bernoulli)",
                                      "rotary_inertia": "the ANCF beam has no rotary inertia of the cross-section",
                                      "GJ": "the planar ANCF beam has no torsion"}, "add_ancf_beam")
-        n = _checks.positive_int("n_elements", n_elements)
+        n = _checks.element_count("n_elements", n_elements, self._n_elements())
         x1 = _checks.vector3("end", end)
         if isinstance(start, (int, np.integer)) and not isinstance(start, bool):
             first = self._node("start", start)
@@ -230,6 +231,7 @@ class ModelBuilder:
         """
         p = self._node("p", p)
         q = self._node("q", q)
+        _checks.element_count("the element count", 1, self._n_elements())
         if p == q:
             raise ValueError(f"a pipe element needs two different nodes, got p = q = {p}")
         for i in (p, q):
@@ -257,7 +259,7 @@ class ModelBuilder:
         """A straight pipe from node ``start`` to the point ``end`` [m] in ``n_elements``
         equal elements; returns the node indices along it (``start`` first)."""
         start = self._node("start", start)
-        n = _checks.positive_int("n_elements", n_elements)
+        n = _checks.element_count("n_elements", n_elements, self._n_elements())
         x0, x1 = self._positions[start], _checks.vector3("end", end)
         nodes = [start]
         for k in range(1, n + 1):
@@ -269,12 +271,15 @@ class ModelBuilder:
                 n_elements: int, section: PipeSection, **options) -> List[int]:
         """A circular arc of curved elements from node ``start`` about ``center`` [m],
         turning by ``angle`` [rad] about the unit ``normal`` (right-hand rule). The local z
-        axes are set along the normal. Returns the node indices (``start`` first)."""
+        axes are set along the normal; |angle| <= 2 pi (one turn at most). Returns the node
+        indices (``start`` first)."""
         start = self._node("start", start)
-        n = _checks.positive_int("n_elements", n_elements)
+        n = _checks.element_count("n_elements", n_elements, self._n_elements())
         c = _checks.vector3("center", center)
         k = _checks.unit_vector("normal", normal)
         angle = _checks.finite("angle", angle)
+        if not abs(angle) <= 2 * np.pi:  # a planar arc of more than a full turn would overlap itself
+            raise ValueError(f"angle must be in [-2 pi, 2 pi] rad (at most a full circle), got {angle:g} rad")
         r0 = self._positions[start] - c
         if abs(np.dot(r0, k)) > 1e-9 * max(1.0, np.linalg.norm(r0)):
             raise ValueError("the start node must lie in the plane through center normal to `normal`")
@@ -296,15 +301,21 @@ class ModelBuilder:
             self.add_pipe(nodes[-2], nodes[-1], section, up=k, tangent_p=tp, tangent_q=tq, **options)
         return nodes
 
+    def _n_elements(self) -> int:
+        return len(self._elements) + len(self._ancf)
+
     # -- supports -------------------------------------------------------------------
     def _constrain(self, node: int, rows: Iterable[np.ndarray]) -> None:
         self._constraints.setdefault(node, []).extend(np.asarray(r, float) for r in rows)
 
     def fix(self, node: int, components: Iterable[str]) -> None:
         """Fix coordinates of a node by name: any of ``ux uy uz rx ry rz`` (frame node) or
-        ``ux uy uz dx dy dz`` (ANCF node: position and slope components)."""
+        ``ux uy uz dx dy dz`` (ANCF node: position and slope components); one name or a
+        sequence of names."""
         node = self._node("node", node)
         names = ANCF_COMPONENTS if node in self._ancf_nodes else COMPONENTS
+        if isinstance(components, str):  # fix(n, "ux"): one name, not its letters
+            components = (components,)
         comps = list(components)
         for c in comps:
             if c not in names:
@@ -386,7 +397,7 @@ class ModelBuilder:
 
     def set_gravity(self, g: Sequence[float]) -> None:
         """Gravitational acceleration vector g [m/s^2], e.g. ``(0, 0, -9.81)``."""
-        self._gravity = _checks.vector3("gravity", g)
+        self._gravity = _checks.gravity("gravity", g)
 
     # -- build -------------------------------------------------------------------------
     def build(self, *, mass_flow: float = 0.0) -> "Model":
@@ -417,6 +428,7 @@ class ModelBuilder:
         loose = sorted(set(range(len(self._positions))) - used)
         if loose:
             raise ValueError(f"nodes {loose} are not connected to any element")
+        self._check_parts_supported(els)
         for e in self._elements:
             if mdot != 0.0 and e["flow_factor"] != 0.0 and e["section"].fluid_mass <= 0.0:
                 raise ValueError(f"element {e['p']}->{e['q']} carries a mass flow but its fluid_mass is 0")
@@ -431,6 +443,21 @@ class ModelBuilder:
                       hub=self._hub, ancf_nodes=tuple(sorted(self._ancf_nodes)),
                       free=(free_core, free_bases), description=copy.deepcopy(vars(self)))
         return model
+
+    def _check_parts_supported(self, els) -> None:
+        """Every connected part of the structure needs a support, as the whole model does:
+        an unsupported part drifts (a mechanism whose round-off eigenvalues would decide
+        a stability answer)."""
+        n = len(self._positions)
+        graph = sp.coo_matrix((np.ones(len(els)), ([e["p"] for e in els], [e["q"] for e in els])), shape=(n, n))
+        count, part = connected_components(graph, directed=False)
+        supported = {part[i] for i in self._constraints}
+        for k in range(count):
+            if k not in supported:
+                nodes = np.flatnonzero(part == k)
+                raise ValueError(f"nodes {nodes[0]}..{nodes[-1]} ({len(nodes)} nodes) form a part with no supports, "
+                                 f"not connected to a supported node: add clamp/pin/hinge/fix on it so it cannot "
+                                 f"drift")
 
     def _make_core(self, bases, hub):
         core = _core.Model()
@@ -616,7 +643,11 @@ class Model:
         f = max(f, float(np.abs(_core.external_forces(self._core, self.initial_state())).max(initial=0.0)))
         for e in self.elements:
             if e.section.fluid_mass > 0:
-                f = max(f, e.section.kv * (e.flow_factor * mdot) ** 2 / e.section.fluid_mass)
+                flux = e.flow_factor * mdot
+                f = max(f, e.section.kv * (flux * flux) / e.section.fluid_mass)  # inf, not OverflowError
+        if not np.isfinite(f):  # a convergence test against inf would accept any residual
+            raise ValueError(f"the model's force level overflows ({f}): nodal loads [N], gravity [m/s^2] or "
+                             f"mass_flow [kg/s] too large")
         return f
 
     def flow_scale(self) -> float:

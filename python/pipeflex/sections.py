@@ -59,16 +59,17 @@ class PipeSection:
 
     def __post_init__(self):
         ok = _checks
-        object.__setattr__(self, "EI", ok.positive("EI", self.EI))
-        object.__setattr__(self, "EIz", ok.positive("EIz", self.EI if self.EIz is None else self.EIz))
-        object.__setattr__(self, "EA", ok.positive("EA", 1e10 * self.EI if self.EA is None else self.EA))
-        object.__setattr__(self, "GJ", ok.positive("GJ", self.EI / 1.3 if self.GJ is None else self.GJ))
+        object.__setattr__(self, "EI", ok.magnitude("EI", self.EI, "N m^2"))
+        object.__setattr__(self, "EIz", ok.magnitude("EIz", self.EI if self.EIz is None else self.EIz, "N m^2"))
+        object.__setattr__(self, "EA", ok.magnitude("EA", 1e10 * self.EI if self.EA is None else self.EA, "N"))
+        object.__setattr__(self, "GJ", ok.magnitude("GJ", self.EI / 1.3 if self.GJ is None else self.GJ, "N m^2"))
         for name in ("GAy", "GAz"):
             v = getattr(self, name)
             if v is not None:
-                object.__setattr__(self, name, ok.positive(name, v))
-        object.__setattr__(self, "pipe_mass", ok.non_negative("pipe_mass", self.pipe_mass))
-        object.__setattr__(self, "fluid_mass", ok.non_negative("fluid_mass", self.fluid_mass))
+                object.__setattr__(self, name, ok.magnitude(name, v, "N"))
+        for name in ("pipe_mass", "fluid_mass"):
+            v = ok.non_negative(name, getattr(self, name))
+            object.__setattr__(self, name, ok.magnitude(name, v, "kg/m") if v > 0 else v)
         if self.pipe_mass + self.fluid_mass <= 0.0:
             raise ValueError("pipe_mass + fluid_mass must be > 0 (a massless section has no dynamics)")
         object.__setattr__(self, "kv", ok.positive("kv", self.kv))

@@ -86,11 +86,28 @@ def as_core(model, state) -> "_core.State":
     if state is None:
         return model.initial_state()
     if isinstance(state, State):
-        return state.to_core(model)
-    if isinstance(state, _core.State):
+        core = state.to_core(model)
+    elif isinstance(state, _core.State):
         if len(state.q) != 6 * model.n_nodes:
             raise ValueError(f"the state has {len(state.q)} coordinates, the model {6 * model.n_nodes} "
                              f"(6 per node)")
-        return state.copy()
-    raise ValueError(f"state must be a pipeflex.state.State (or a model's initial_state()), "
-                     f"got {type(state).__name__}")
+        core = state.copy()
+    else:
+        raise ValueError(f"state must be a pipeflex.state.State (or a model's initial_state()), "
+                         f"got {type(state).__name__}")
+    check_finite(core)
+    return core
+
+
+def check_finite(state) -> None:
+    """ValueError naming the first non-finite entry of a ``_core.State``'s q, v, a or
+    frames (the solvers' convergence tests cannot hold with NaN or inf)."""
+    for name in ("q", "v", "a"):
+        x = np.asarray(getattr(state, name))
+        bad = np.flatnonzero(~np.isfinite(x))
+        if len(bad):
+            raise ValueError(f"state.{name} must be finite, got {x[bad[0]]} at index {bad[0]} "
+                             f"(node {bad[0] // 6}, coordinate {bad[0] % 6})")
+    for i in range(len(np.asarray(state.q)) // 6):
+        if not np.all(np.isfinite(state.frame(i))):
+            raise ValueError(f"state.frames[{i}] must be finite")

@@ -23,7 +23,7 @@ above the SCAN_MODES lowest of each block would be missed.
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Optional
 
 import numpy as np
@@ -36,8 +36,9 @@ from .. import _checks
 from ..results import Result
 from .._options import renamed
 from ..errors import ConvergenceError
-from .eigen import (SPARSE_MIN_DOFS, eigen_from_blocks, sparse_block_eigenvalues, sparse_eigen_from_blocks,
-                    split_blocks, stability)
+from .eigen import (SPARSE_MIN_DOFS, classify, eigen_from_blocks, free_coordinates, sparse_block_eigenvalues,
+                    sparse_eigen_from_blocks, split_blocks, stiffness_conditioning)
+from ._assembly import require_model
 from .linearize import linearize
 from .static import static_equilibrium
 
@@ -76,8 +77,10 @@ class _Evaluator:
     def __init__(self, model, state):
         from ..multibody import MultibodySystem
 
+        if not isinstance(model, MultibodySystem):
+            require_model(model)
         self.model = model
-        self.state = state
+        self.state = model.initial_state() if state is None else state
         self.flow = None  # mdot of self.state once it is an equilibrium
         self.count = 0
         self.sparse = model.n_dofs >= SPARSE_MIN_DOFS
@@ -140,21 +143,22 @@ def critical_mass_flow(model, *, tol: float = 1e-10, mass_flow_max: Optional[flo
             not be located (``mass_flow``: the lowest unstable flow found).
     """
     rtol = _checks.positive("tol", tol)
+    ev = _Evaluator(model, state)  # checks the model first
     unit = model.flow_scale()
     mmax = 20 * unit if mass_flow_max is None else _checks.positive("mass_flow_max", mass_flow_max)
     steps = _checks.positive_int("steps_per_unit", steps_per_unit)
-    ev = _Evaluator(model, model.initial_state() if state is None else state)
 
     eig, st0 = ev(0.0)
     ev.accept(0.0, st0)
     # before the sign test: a neutral direction's sign is round-off. A beam's stiffness
     # conditioning falls like N^-3 (1.6e-10 at 128 elements), so the sparse path (large
     # models) only rejects what is singular to round-off (64 eps).
-    if _stiffness_conditioning(eig) < (64 * np.finfo(float).eps if ev.sparse else 1e-10):
-        raise ValueError("the model is a mechanism (its stiffness is singular without flow, e.g. a free hinge): "
-                         "there is no static equilibrium to lose stability; support the free motion")
-    if stability(eig) != "stable":
-        raise ValueError(f"the model is already unstable ({stability(eig)}) without flow")
+    if stiffness_conditioning(eig) < (64 * np.finfo(float).eps if ev.sparse else 1e-10):
+        named = free_coordinates(replace(eig, dof_labels=getattr(model, "dof_labels", None)))
+        raise ValueError(f"the model is a mechanism (its stiffness is singular without flow, e.g. a free hinge; "
+                         f"{named}): there is no static equilibrium to lose stability; support the free motion")
+    if classify(eig) != "stable":
+        raise ValueError(f"the model is already unstable ({classify(eig)}) without flow")
     k0, eig_lo = abs(_kmin(eig, ev.sparse)), eig
     h = unit / steps
     lo, hi = 0.0, None
@@ -169,7 +173,7 @@ def critical_mass_flow(model, *, tol: float = 1e-10, mass_flow_max: Optional[flo
             if isinstance(fold, CriticalFlow):
                 return fold
             lo, m, eig = fold  # an instability before the path ends: bracket [lo, m]
-        if stability(eig) != "stable":
+        if classify(eig) != "stable":
             hi = m
         else:
             lo, eig_lo = m, eig
@@ -179,7 +183,7 @@ def critical_mass_flow(model, *, tol: float = 1e-10, mass_flow_max: Optional[flo
                                        "kg/s (raise mass_flow_max)", mass_flow=mmax)
     eig_hi = eig
     xtol = 0.25 * rtol * hi
-    if stability(eig_hi) == "flutter":
+    if classify(eig_hi) == "flutter":
         # Track the crossing eigenvalue over the scan bracket; bisect only if that fails.
         try:
             mc = _track_root(ev, lo, hi, eig_hi, xtol)
@@ -190,12 +194,12 @@ def critical_mass_flow(model, *, tol: float = 1e-10, mass_flow_max: Optional[flo
     while hi - lo > 1e-3 * hi:
         mid = 0.5 * (lo + hi)
         eig, st = ev(mid)
-        if stability(eig) != "stable":
+        if classify(eig) != "stable":
             hi, eig_hi = mid, eig
         else:
             lo = mid
             ev.accept(mid, st)
-    kind = stability(eig_hi)
+    kind = classify(eig_hi)
 
     if kind == "flutter":
         try:
@@ -272,7 +276,7 @@ def _path_end(ev, lo, eig_lo, err, k0, rtol):
         start = ev.flow, ev.state
         ev.accept(m_r, st_r)
         eig_last, _ = ev(m_r)
-        if stability(eig_last) != "stable":
+        if classify(eig_last) != "stable":
             ev.accept(*start)
             return lo, m_r, eig_last
         pts.append((m_r, abs(_kmin(eig_last, ev.sparse))))
@@ -303,7 +307,7 @@ def _path_end(ev, lo, eig_lo, err, k0, rtol):
             if k_t <= 0.0:  # the other branch of the fold (or beyond it): not ours
                 trial = m2 + 0.5 * (trial - m2)
                 continue
-            if stability(eig_t) != "stable":
+            if classify(eig_t) != "stable":
                 return ev.flow, trial, eig_t
             ev.accept(trial, st_t)
             pts.append((trial, k_t))
@@ -332,29 +336,6 @@ def _stiffness_eigenvalues_near_zero(K, k=3):
         except RuntimeError:  # exactly singular
             return np.zeros(1)
     return vals
-
-
-def _stiffness_conditioning(eig) -> float:
-    """Smallest ratio of least to largest singular value of the blocks' stiffness
-    (sparse blocks: its bound n / (|K|_1 |K^-1|_1), |K^-1|_1 estimated)."""
-    worst = 1.0
-    for b in eig.blocks:
-        if sp.issparse(b.K):
-            n = b.K.shape[0]
-            if n == 0:
-                continue
-            K = sp.csc_matrix(b.K)
-            try:
-                lu = spla.splu(K)
-            except RuntimeError:
-                return 0.0
-            inv = spla.LinearOperator(K.shape, matvec=lu.solve, rmatvec=lambda v: lu.solve(v, trans="T"),
-                                      dtype=float)
-            worst = min(worst, n / (spla.norm(K, 1) * spla.onenormest(inv)))
-        elif b.K.size:
-            sv = np.linalg.svd(b.K, compute_uv=False)
-            worst = min(worst, sv[-1] / sv[0] if sv[0] > 0 else 0.0)
-    return worst
 
 
 def _check_not_at_zero(mc, unit, hi, eig_hi):

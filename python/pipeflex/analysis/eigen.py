@@ -18,7 +18,7 @@ Arnoldi never returns, and needs neither condensation nor QZ.
 """
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import List, Optional
 
 import numpy as np
@@ -27,6 +27,7 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 from scipy.sparse.csgraph import breadth_first_order, connected_components
 
+from .. import _checks
 from ..results import Result
 
 #: An eigenvalue counts as growing when Re(lambda) exceeds GROWTH_TOL * |lambda| and
@@ -62,6 +63,9 @@ class EigenResult(Result):
         static_negative: number of negative stiffness eigenvalues in massless blocks.
         noise: round-off bound on each eigenvalue [1/s].
         blocks: the decoupled blocks (:class:`Block`) the eigenvalues were found in.
+        dof_labels: (node, component) of each reduced coordinate (the model's, from the
+            :class:`~pipeflex.analysis.Linearization`; None if it has none), to name
+            the free coordinates of a mechanism.
     """
 
     values: np.ndarray
@@ -70,6 +74,7 @@ class EigenResult(Result):
     block_of: np.ndarray = None
     static_negative: int = 0
     blocks: List[Block] = field(default_factory=list, repr=False)
+    dof_labels: Optional[tuple] = field(default=None, repr=False)
 
     @property
     def frequencies(self) -> np.ndarray:
@@ -333,23 +338,25 @@ def eigenvalues(lin, *, vectors: bool = False, n_modes: Optional[int] = None,
     of the round-off bound of each eigenvalue (:func:`eigen_noise`, ~N^4 eps for a beam
     of N elements) and its first-order error estimate from the residual.
     """
+    if not all(hasattr(lin, name) for name in ("K", "C", "M")):
+        raise TypeError(f"lin must be a Linearization (pipeflex.linearize(model, state)), got {type(lin).__name__}")
     if method not in ("auto", "dense", "sparse"):
         raise ValueError(f"method must be 'auto', 'dense' or 'sparse', not {method!r}")
     if n_modes is not None:
-        n_modes = int(n_modes)
-        if n_modes < 1:
-            raise ValueError(f"n_modes must be a positive integer, not {n_modes}")
+        n_modes = _checks.positive_int("n_modes", n_modes)
     elif sigma is not None or method == "sparse":
         raise ValueError("sigma and method='sparse' need n_modes (the number of eigenvalues near sigma)")
     n = lin.K.shape[0]
+    labels = getattr(lin, "dof_labels", None)
     if method == "sparse" or (method == "auto" and n_modes is not None and n >= SPARSE_MIN_DOFS):
         blocks = split_blocks(lin.K, lin.C, lin.M, sparse=True)
-        return sparse_eigen_from_blocks(blocks, n, n_modes, sigma=sigma, vectors=vectors)
-    blocks = split_blocks(lin.K, lin.C, lin.M)
-    eig = eigen_from_blocks(blocks, n, vectors=vectors)
-    if n_modes is None:
-        return eig
-    return _select(eig, n_modes, 0.0 if sigma is None else complex(sigma))
+        eig = sparse_eigen_from_blocks(blocks, n, n_modes, sigma=sigma, vectors=vectors)
+    else:
+        blocks = split_blocks(lin.K, lin.C, lin.M)
+        eig = eigen_from_blocks(blocks, n, vectors=vectors)
+        if n_modes is not None:
+            eig = _select(eig, n_modes, 0.0 if sigma is None else complex(sigma))
+    return replace(eig, dof_labels=labels)
 
 
 def _select(eig: EigenResult, k: int, sigma: complex) -> EigenResult:
@@ -547,11 +554,110 @@ def eigen_from_blocks(blocks, n, *, vectors=False) -> EigenResult:
     return EigenResult(values[order], noise[order], V, block_of[order], static_negative, blocks)
 
 
+#: :func:`stability` refuses a stiffness whose least to largest singular value ratio
+#: (per block) is below this: singular to round-off, a mechanism (a beam's conditioning
+#: falls like N^-3, ~1e-14 only at ~10^4 elements).
+MECHANISM_CONDITIONING = 64 * np.finfo(float).eps
+
+
 def stability(eig: EigenResult) -> str:
-    """'stable', 'divergence' (a real eigenvalue > 0) or 'flutter' (a growing oscillation)."""
+    """'stable', 'divergence' (a real eigenvalue > 0) or 'flutter' (a growing oscillation).
+
+    Raises:
+        TypeError: ``eig`` is not an :class:`EigenResult`.
+        ValueError: the stiffness is singular (a mechanism: missing supports, a free
+            joint, an unsupported part); the message names the free coordinates. Its
+            round-off eigenvalues near 0 would otherwise decide the answer.
+    """
+    if not isinstance(eig, EigenResult):
+        raise TypeError(f"eig must be an EigenResult (pipeflex.eigenvalues(pipeflex.linearize(model))), got "
+                        f"{type(eig).__name__}")
+    if stiffness_conditioning(eig) < MECHANISM_CONDITIONING:
+        raise ValueError(f"stability: the stiffness is singular, a mechanism ({free_coordinates(eig)}); its "
+                         f"eigenvalues near 0 are round-off, so stability is undefined: support the free motion")
+    return classify(eig)
+
+
+def classify(eig: EigenResult) -> str:
+    """:func:`stability` without its checks (for analyses that pass a stiffness that is
+    singular at a stability boundary, such as the critical-flow search)."""
     lam = eig.values
     growing = lam[lam.real > np.maximum(GROWTH_TOL * np.abs(lam), eig.noise)]
     if len(growing) == 0:
         return "divergence" if eig.static_negative else "stable"
     worst = growing[np.argmax(growing.real)]
     return "divergence" if abs(worst.imag) <= 1e-6 * abs(worst) else "flutter"
+
+
+def stiffness_conditioning(eig) -> float:
+    """Smallest ratio of least to largest singular value of the blocks' stiffness
+    (sparse blocks: its bound n / (|K|_1 |K^-1|_1), |K^-1|_1 estimated)."""
+    worst = 1.0
+    for b in eig.blocks:
+        if sp.issparse(b.K):
+            n = b.K.shape[0]
+            if n == 0:
+                continue
+            K = sp.csc_matrix(b.K)
+            try:
+                lu = spla.splu(K)
+            except RuntimeError:
+                return 0.0
+            inv = spla.LinearOperator(K.shape, matvec=lu.solve, rmatvec=lambda v: lu.solve(v, trans="T"),
+                                      dtype=float)
+            worst = min(worst, n / (spla.norm(K, 1) * spla.onenormest(inv)))
+        elif b.K.size:
+            sv = np.linalg.svd(b.K, compute_uv=False)
+            worst = min(worst, sv[-1] / sv[0] if sv[0] > 0 else 0.0)
+    return worst
+
+
+#: Largest matrix whose null space :func:`null_coordinates` computes (a dense SVD).
+MAX_NAMED_DOFS = 3000
+
+
+def null_coordinates(K, *, rtol: float = 1e3 * np.finfo(float).eps) -> np.ndarray:
+    """Indices of the coordinates that move in the null space of the (square) K: the
+    singular vectors with singular values below rtol times the largest. Empty if K is
+    regular or larger than MAX_NAMED_DOFS."""
+    K = K.toarray() if sp.issparse(K) else np.asarray(K)
+    if K.size == 0 or K.shape[0] > MAX_NAMED_DOFS:
+        return np.zeros(0, int)
+    _, sv, vt = np.linalg.svd(K)
+    null = vt[sv <= rtol * max(sv[0], np.finfo(float).tiny)]
+    if not len(null):
+        return np.zeros(0, int)
+    weight = np.linalg.norm(null, axis=0)
+    return np.flatnonzero(weight > 1e-6 * weight.max())
+
+
+def describe_coordinates(dofs, labels) -> str:
+    """'nodes 0..4: uy rz; node 5: uy' for reduced coordinates ``dofs`` with ``labels``
+    (node, component) (or 'coordinates 3, 4' without labels); at most 8 groups listed."""
+    dofs = sorted(int(i) for i in dofs)
+    if labels is None:
+        return "coordinates " + ", ".join(map(str, dofs[:24])) + (" ..." if len(dofs) > 24 else "")
+    by_node = {}
+    for i in dofs:
+        node, comp = labels[i]
+        by_node.setdefault(node, []).append(comp)
+    runs = []  # [first node, last node, components]: consecutive nodes with the same components
+    for node, comps in sorted(by_node.items()):
+        if runs and runs[-1][1] == node - 1 and runs[-1][2] == comps:
+            runs[-1][1] = node
+        else:
+            runs.append([node, node, comps])
+    items = [(f"node {a}" if a == b else f"nodes {a}..{b}") + f": {' '.join(c)}" for a, b, c in runs]
+    more = f"; ... ({len(items) - 8} more)" if len(items) > 8 else ""
+    return "; ".join(items[:8]) + more
+
+
+def free_coordinates(eig: EigenResult) -> str:
+    """The free coordinates of a singular stiffness, named (see
+    :func:`describe_coordinates`), over all blocks of ``eig``."""
+    dofs = []
+    for b in eig.blocks:
+        dofs.extend(np.asarray(b.dofs)[null_coordinates(b.K)])
+    if not dofs:
+        return "free coordinates not determined"
+    return "free: " + describe_coordinates(dofs, eig.dof_labels)

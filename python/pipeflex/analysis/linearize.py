@@ -9,7 +9,7 @@ import scipy.sparse as sp
 from .. import _checks
 from ..results import Result
 from ..state import State, as_core
-from ._assembly import residual_and_tangent
+from ._assembly import require_model, residual_and_tangent
 
 
 @dataclass(frozen=True)
@@ -20,7 +20,8 @@ class Linearization(Result):
     included), ``K`` stiffness (elastic, geometric, follower and fluid centripetal terms).
     The rotation coordinates are spatial rotation increments [rad] about the state.
     ``mass_flow`` mdot [kg/s]; ``state`` the :class:`~pipeflex.state.State` linearised
-    about (re-based: phi = 0).
+    about (re-based: phi = 0); ``dof_labels`` the model's (node, component) of each
+    coordinate (None if not known), which name the free coordinates of a mechanism.
     """
 
     M: sp.csc_matrix
@@ -28,6 +29,7 @@ class Linearization(Result):
     K: sp.csc_matrix
     mass_flow: float
     state: Optional[State]
+    dof_labels: Optional[tuple] = None
 
 
 def linearize(model, state=None, *, mass_flow: Optional[float] = None) -> Linearization:
@@ -49,6 +51,7 @@ def linearize(model, state=None, *, mass_flow: Optional[float] = None) -> Linear
 
     if isinstance(model, MultibodySystem):
         return multibody_linearize(model, state, mass_flow=mass_flow)
+    require_model(model)
     s = as_core(model, state)
     s.rebase(0.0)
     mdot = model.mass_flow if mass_flow is None else _checks.finite("mass_flow", mass_flow)
@@ -56,4 +59,4 @@ def linearize(model, state=None, *, mass_flow: Optional[float] = None) -> Linear
     _, K = residual_and_tangent(model, s, load, wK=1.0, wC=0.0, wM=0.0)
     _, C = residual_and_tangent(model, s, load, load_factor=0.0, wK=0.0, wC=1.0, wM=0.0)
     _, M = residual_and_tangent(model, s, load, load_factor=0.0, wK=0.0, wC=0.0, wM=1.0)
-    return Linearization(M, C, K, mdot, State.from_core(s, model))
+    return Linearization(M, C, K, mdot, State.from_core(s, model), model.dof_labels)

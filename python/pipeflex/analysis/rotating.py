@@ -33,12 +33,19 @@ from .._options import renamed
 from ..errors import ConvergenceError
 from ..results import Result
 from ..state import State, as_core
-from ._assembly import residual_and_tangent
+from ._assembly import require_model, residual_and_tangent
 from .eigen import GROWTH_TOL, eigenvalues
 from .linearize import Linearization
 from ..rotation import skew
 
 LINEARIZATIONS = ("small_deformation", "steady_state")
+
+#: Largest axial strain [-] :func:`rotating_frequencies` answers for (a first-order
+#: strain of 1e11 at gamma = 1e8 is no answer). Berzeri & Shabana's Tables 3-5 reach a
+#: first-order strain of ~1 at gamma = 50 (hub radius R = L); the bound leaves them a
+#: decade. Checked on the first-order estimate before any solve (so a steady state far
+#: outside is refused at once, not searched for minutes) and on the state linearised about.
+MAX_STRAIN = 10.0
 
 
 @dataclass(frozen=True)
@@ -78,6 +85,7 @@ class _Frame:
     matrices are T^T (K + Omega C A + Omega^2 M B) T with the full M, C, K."""
 
     def __init__(self, model):
+        require_model(model)
         if model.hub is None:
             raise ValueError("the model has no rotating hub: add one with ModelBuilder.rotating_hub")
         self.model = model
@@ -294,7 +302,12 @@ def rotating_frequencies(model, *, gamma, linearization: str = "small_deformatio
         :class:`RotatingFrequencies`; ``transverse[i, j]`` is omega_j / omega0 of the
         (j+1)-th in-plane bending mode at ``gamma[i]``. Mode families are told apart by
         the direction of their nodal displacements (radial: longitudinal; tangential:
-        transverse; along the axis: out-of-plane).
+        transverse; along the axis: out-of-plane). A family with fewer than ``n_modes``
+        modes in the model is padded with NaN.
+
+    Raises:
+        ValueError: bad options; or a gamma whose axial strain (first-order estimate,
+            before any solve, and the steady state's) exceeds :data:`MAX_STRAIN`.
     """
     if linearization not in LINEARIZATIONS:
         raise ValueError(f"linearization must be one of {LINEARIZATIONS}, got {linearization!r}")
@@ -307,17 +320,19 @@ def rotating_frequencies(model, *, gamma, linearization: str = "small_deformatio
     if g.ndim != 1 or not np.all(np.isfinite(g)) or np.any(g < 0):
         raise ValueError("gamma must be a finite non-negative number or 1-D sequence")
     w0 = float(model.info["omega0"])
+    s0 = model.initial_state()
+    K0f, C0f, Mf = _matrices(fr.free, s0)
+    Tr = fr.T_rel
+    K0, M = Tr.T @ K0f @ Tr, Tr.T @ Mf @ Tr
+    u1, e1 = _unit_strain(model, fr, s0, K0)
+    _check_strain(g.max(), (g.max() * w0) ** 2 * e1, "first-order ")
     order = np.argsort(g)
     res = np.full((len(g), 3, n_modes), np.nan)
     shapes = np.full((len(g), n_modes, model.n_nodes, 2), np.nan)
     growth = np.zeros(len(g))
     strain = np.zeros(len(g))
     if linearization == "small_deformation":
-        s0 = model.initial_state()
-        K0f, C0f, Mf = _matrices(fr.free, s0)
-        Tr = fr.T_rel
-        K0, M = Tr.T @ K0f @ Tr, Tr.T @ Mf @ Tr
-        G, e1 = _unit_prestress(model, fr, s0, K0)
+        G = _unit_prestress(model, fr, s0, u1)
         MA, MB, CA = Tr.T @ Mf @ fr.A @ Tr, Tr.T @ Mf @ fr.B @ Tr, Tr.T @ C0f @ fr.A @ Tr
         C0 = Tr.T @ C0f @ Tr
         for i in order:
@@ -334,6 +349,7 @@ def rotating_frequencies(model, *, gamma, linearization: str = "small_deformatio
             fam, growth[i], shapes[i] = _modes(fr, *fr.matrices(st, w), st, n_modes)
             res[i] = fam
             strain[i] = _axial_strains(model, st)
+            _check_strain(g[i], strain[i], "")
     return RotatingFrequencies(g, w0, res[:, 0] / w0, res[:, 1] / w0, res[:, 2] / w0, growth / w0, strain,
                                linearization, shapes)
 
@@ -346,35 +362,59 @@ def _continue(model, state, state_omega, omega):
         return rotating_state(model, omega, continuation_steps=8)
 
 
-def _unit_prestress(model, fr, s0, K0):
-    """Prestress stiffness per unit Omega^2 and the largest first-order strain per unit
-    Omega^2: the static displacement under the centrifugal load of the undeformed state,
-    K0 u = f_c, f_c = -M_full B (q - c) (from the residual of the rigid rotation at rate 1)."""
+def _unit_strain(model, fr, s0, K0):
+    """The static displacement u per unit Omega^2 under the centrifugal load of the
+    undeformed state, K0 u = f_c, f_c = -M_full B (q - c) (from the residual of the rigid
+    rotation at rate 1), and the largest first-order strain per unit Omega^2 [s^2]."""
     s = s0.copy()
     fr.rigid_rotation(s, 1.0)
     s.v = np.zeros_like(np.asarray(s.v))  # only the centripetal acceleration loads
     f, _ = residual_and_tangent(model, s, model.load_state(), load_factor=0.0, matrix=False)
     u = np.linalg.solve(K0, -f)
-    du = fr.T @ u
-    rows, cols, vals = _core.assemble_geometric(model.core, s0, du)
-    G = sp.csc_matrix((vals, (rows, cols)), shape=K0.shape).toarray()
     probe = s0.copy()
     _core.add_increment(model.core, probe, u * 1e-6, "q")
-    return G, _axial_strains(model, probe) * 1e6
+    return u, _axial_strains(model, probe) * 1e6
+
+
+def _unit_prestress(model, fr, s0, u):
+    """Prestress stiffness per unit Omega^2 of the first-order displacement u
+    (:func:`_unit_strain`)."""
+    rows, cols, vals = _core.assemble_geometric(model.core, s0, fr.T @ u)
+    return sp.csc_matrix((vals, (rows, cols)), shape=(len(u), len(u))).toarray()
+
+
+def _check_strain(gamma, strain, kind):
+    if not strain <= MAX_STRAIN:
+        raise ValueError(f"gamma = {gamma:g} gives a {kind}axial strain of {strain:.3g}, above MAX_STRAIN = "
+                         f"{MAX_STRAIN:g}: outside the elements' validity; lower gamma")
 
 
 def resonance_speed(model, *, mode: int = 1, gamma_range: Sequence[float] = (0.5, 20.0),
                     linearization: str = "small_deformation") -> float:
     """gamma at which the ``mode``-th transverse frequency equals the rotation rate
-    (omega_mode = Omega, Berzeri & Shabana, Section 7: 3.88 for mode 1, N = 0, R = 0)."""
+    (omega_mode = Omega, Berzeri & Shabana, Section 7: 3.88 for mode 1, N = 0, R = 0).
+
+    Raises:
+        ValueError: ``mode`` beyond the model's transverse modes, a bad ``gamma_range``
+            (low < high, both >= 0), or no resonance of the mode within it.
+    """
     from scipy.optimize import brentq
 
     j = _checks.positive_int("mode", mode) - 1
+    try:
+        lo, hi = (_checks.non_negative(f"gamma_range[{k}]", x) for k, x in enumerate(gamma_range))
+    except TypeError:
+        raise TypeError(f"gamma_range must be a pair (low, high) of gamma values, got {gamma_range!r}") from None
+    if not lo < hi:
+        raise ValueError(f"gamma_range must be (low, high) with low < high, got {tuple(gamma_range)}")
+    available = np.count_nonzero(np.isfinite(
+        rotating_frequencies(model, gamma=lo, linearization=linearization, n_modes=j + 1).transverse[0]))
+    if j >= available:
+        raise ValueError(f"mode = {mode}: the model has {available} transverse modes (refine it for more)")
 
     def f(g):
         return rotating_frequencies(model, gamma=g, linearization=linearization, n_modes=j + 1).transverse[0, j] - g
 
-    lo, hi = gamma_range
     if f(lo) * f(hi) > 0:
         raise ValueError(f"no resonance of mode {mode} for gamma in {tuple(gamma_range)}")
     return float(brentq(f, lo, hi, xtol=1e-10))

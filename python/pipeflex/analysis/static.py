@@ -11,7 +11,8 @@ from .. import _checks, _core
 from ..errors import ConvergenceError, SingularMatrixError
 from ..results import Result
 from ..state import State, as_core
-from ._assembly import residual_and_tangent
+from ._assembly import require_model, residual_and_tangent
+from .eigen import describe_coordinates, null_coordinates
 
 
 @dataclass(frozen=True)
@@ -78,9 +79,12 @@ def static_equilibrium(model, *, state=None, mass_flow: Optional[float] = None, 
         if from_mass_flow is not None:
             raise NotImplementedError("from_mass_flow (flow continuation) for a MultibodySystem")
         return multibody_static(model, state=state, mass_flow=mass_flow, load_steps=load_steps, tol=tol,
-                                max_iterations=max(max_iterations, 30))
+                                max_iterations=max(_checks.positive_int("max_iterations", max_iterations), 30))
+    require_model(model)
     load_steps = _checks.positive_int("load_steps", load_steps)
     tol = _checks.positive("tol", tol)
+    max_iterations = _checks.positive_int("max_iterations", max_iterations)
+    max_bisections = _checks.non_negative_int("max_bisections", max_bisections)
     cold = state is None
     state = as_core(model, state)
     mdot = model.mass_flow if mass_flow is None else _checks.finite("mass_flow", mass_flow)
@@ -125,6 +129,8 @@ def _newton(model, state, mdot, load_factor, tol, size, max_iterations):
     r, _ = residual_and_tangent(model, state, load, load_factor=load_factor, matrix=False)
     rnorm = float(np.linalg.norm(r))
     fscale = model.force_scale(mass_flow=mdot)
+    if not np.isfinite(rnorm):  # inf <= tol * inf must not pass for convergence
+        return False, 0, rnorm, "the residual is not finite", False
     if rnorm <= tol * fscale or model.n_dofs == 0:
         return True, 0, rnorm, "", False
     for it in range(1, max_iterations + 1):
@@ -137,8 +143,10 @@ def _newton(model, state, mdot, load_factor, tol, size, max_iterations):
             lu = spla.splu(J)
             dz = lu.solve(-r)
         except RuntimeError:
-            return False, it, rnorm, ("the tangent is singular (a mechanism: missing supports, or a "
-                                      "bifurcation point)"), True
+            free = null_coordinates(J)
+            named = f"; {describe_coordinates(free, model.dof_labels)}" if len(free) else ""
+            return False, it, rnorm, (f"the tangent is singular (a mechanism: missing supports, or a "
+                                      f"bifurcation point{named})"), True
         if not np.all(np.isfinite(dz)):
             return False, it, rnorm, "the tangent is singular or ill-conditioned", True
         _core.add_increment(model.core, state, dz, "q")

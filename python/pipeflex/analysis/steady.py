@@ -20,7 +20,7 @@ from .. import _checks, _core
 from ..errors import ConvergenceError, SingularMatrixError
 from ..results import Result
 from ..state import State, as_core
-from ._assembly import residual_and_tangent
+from ._assembly import require_model, residual_and_tangent
 from ..rotation import skew
 
 
@@ -116,6 +116,7 @@ def steady_rotation(model, *, omega_guess: Optional[float] = None, mass_flow: Op
         ConvergenceError: Newton failed (the message gives the step and the residual;
             attributes ``mass_flow`` of the continuation step, ``iteration``, ``residual``).
     """
+    require_model(model)
     node, axis, hinge_dof = _hinge(model)
     steps = _checks.positive_int("continuation_steps", continuation_steps)
     tol = _checks.positive("tol", tol)

@@ -18,6 +18,7 @@ from .. import _checks, _core
 from ..results import Result
 from ..state import State, as_core
 from ..time_functions import Sine, time_function
+from ._assembly import require_model
 
 INTEGRATORS = ("auto", "ida", "generalized_alpha")
 _OPTIONS = {
@@ -216,6 +217,7 @@ def simulate(model, t_end: float, *, integrator: str = "auto", state=None, t_sta
 
     if isinstance(model, MultibodySystem):
         raise ValueError("a MultibodySystem (floating-frame bodies) is integrated by pipeflex.multibody.simulate")
+    require_model(model)
     hub = getattr(model, "hub", None)
     if hub is not None and hub.nodes and hub.nodes[0] in model.ancf_nodes and np.any(model.gravity[:2] != 0):
         raise ValueError("gravity in the x-y plane: an ANCF model on a hub is integrated in the co-rotating frame, "
@@ -231,7 +233,7 @@ def simulate(model, t_end: float, *, integrator: str = "auto", state=None, t_sta
     if t1 <= t0:
         raise ValueError(f"t_end must be > t_start, got t_end = {t1}, t_start = {t0}")
     if times is None:
-        times = np.linspace(t0, t1, _checks.positive_int("n_outputs", n_outputs) + (n_outputs == 1))
+        times = np.linspace(t0, t1, _checks.output_count("n_outputs", n_outputs, model.n_nodes) + (n_outputs == 1))
     else:
         times = np.asarray(times, float)
         if times.ndim != 1 or len(times) < 2 or not np.all(np.isfinite(times)) or np.any(np.diff(times) <= 0):

@@ -24,14 +24,21 @@ import scipy.sparse as sp
 from .. import _checks
 from .._options import renamed
 from ..time_functions import time_function
-from ..errors import ConvergenceError
+from ..errors import ConvergenceError, SingularMatrixError
 from ..results import Result
 from .body import node_index
 from .system import MultibodyState, MultibodySystem, TimeFunction
 
 
-#: Most steps :func:`simulate` accepts (about a day of wall time at 1 ms per step).
-MAX_STEPS = 100_000_000
+#: :func:`static_equilibrium` refuses a converged state whose residual exceeds this
+#: fraction of the applied force level and the round-off of the stiffest forces
+#: (converged solves reach either; a loaded mechanism's neutral direction, left alone,
+#: keeps a residual of order the load).
+RESIDUAL_TOL = 1e-6
+
+#: Default of :func:`simulate`'s ``max_steps``: the most steps a run may take (refused
+#: before the first step), the same as :func:`pipeflex.simulate`'s.
+MAX_STEPS = 10_000_000
 
 
 @dataclass(frozen=True)
@@ -119,6 +126,8 @@ def static_equilibrium(system: MultibodySystem, *, state: Optional[MultibodyStat
     Raises:
         ValueError: bad options or a state that does not fit the system.
         ConvergenceError: with the load factor, iteration and residual where it failed.
+        SingularMatrixError: the increments converged but the residual exceeds
+            :data:`RESIDUAL_TOL` of the applied force level: the loads drive a mechanism.
     """
     steps = _checks.positive_int("load_steps", load_steps)
     tol = _checks.positive("tol", tol)
@@ -131,6 +140,10 @@ def static_equilibrium(system: MultibodySystem, *, state: Optional[MultibodyStat
     st.v[:] = 0.0
     st.a[:] = 0.0
     L = system.length_scale
+    # the applied force level (loads, gravity, flow at the start, multipliers 0), to judge
+    # the final residual
+    start = replace(st, lam=np.zeros_like(st.lam))
+    applied = float(np.abs(system.evaluate(start, mass_flow=mdot, tangent=False)[0]).max(initial=0.0))
     elastic = np.zeros(system.n_coordinates, bool)
     for j in range(len(system.bodies)):
         sl = system.body_slice(j)
@@ -168,6 +181,17 @@ def static_equilibrium(system: MultibodySystem, *, state: Optional[MultibodyStat
                                    residual=float(np.abs(F).max()), mass_flow=mdot)
     F, _, _, _ = system.evaluate(st, mass_flow=mdot, tangent=False)
     res = float(np.abs(F).max())
+    # round-off of the stiffest forces: ~eps |S| L (nearly inextensible bodies: EA ~ 1e10 EI)
+    roundoff = 1e3 * np.finfo(float).eps * float(np.abs(S).max()) * L
+    if not res <= max(RESIDUAL_TOL * applied, roundoff):
+        worst = int(np.argmax(np.abs(F)))
+        body = int(np.searchsorted(system.offsets, worst, side="right")) - 1
+        raise SingularMatrixError(
+            f"static solve: the increments converged but the residual {res:.3g} is {res / applied:.3g} of the applied "
+            f"force level {applied:.3g} N (largest at body {body}): the loads drive a mechanism, a rigid motion the "
+            f"joints leave free (e.g. about a spherical joint or a free hinge) without stiffness here; there is no "
+            f"static equilibrium in that direction: support it", load_factor=1.0, iteration=total, residual=res,
+            mass_flow=mdot)
     return MultibodyStatic(st, total, res, mdot)
 
 
@@ -284,7 +308,8 @@ class MultibodyResult(Result):
 @renamed(tol="newton_tol", max_iterations="max_newton")
 def simulate(system: MultibodySystem, t_end: float, *, step: float, state: Optional[MultibodyState] = None,
              mass_flow: Optional[TimeFunction] = None, n_outputs: int = 201, rho_inf: float = 0.8,
-             newton_tol: float = 1e-8, max_newton: int = 12, refresh: int = 5) -> MultibodyResult:
+             newton_tol: float = 1e-8, max_newton: int = 12, refresh: int = 5,
+             max_steps: int = MAX_STEPS) -> MultibodyResult:
     """Integrate the constrained equations of motion from ``state`` (default: the
     assembly configuration at rest) to ``t_end`` [s] with the fixed ``step`` h [s].
     Option names as :func:`pipeflex.simulate`'s generalised-alpha (``step``,
@@ -309,6 +334,8 @@ def simulate(system: MultibodySystem, t_end: float, *, step: float, state: Optio
         max_newton: Newton iterations per step (``max_iterations=`` is its deprecated name).
         refresh: re-evaluate the iteration matrix when a step needs more Newton
             iterations than this (modified Newton).
+        max_steps: the most steps the run may take (10^7): a run that needs more is
+            refused before it starts (ValueError). Ctrl-C stops a run (KeyboardInterrupt).
 
     Raises:
         ValueError: bad options.
@@ -323,6 +350,7 @@ def simulate(system: MultibodySystem, t_end: float, *, step: float, state: Optio
     tol = _checks.positive("newton_tol", newton_tol)
     max_iterations = _checks.positive_int("max_newton", max_newton)
     refresh = _checks.positive_int("refresh", refresh)
+    max_steps = _checks.positive_int("max_steps", max_steps)
     if state is not None:
         system.check_state(state)
     st = system.initial_state() if state is None else state.copy()
@@ -330,14 +358,15 @@ def simulate(system: MultibodySystem, t_end: float, *, step: float, state: Optio
     if t_end <= t0:
         raise ValueError(f"t_end = {t_end} must be after the start time {t0}")
     flow = time_function("mass_flow", system.mass_flow if mass_flow is None else mass_flow)
-    n_steps = max(1, int(np.ceil((t_end - t0) / h - 1e-9)))
-    if n_steps > MAX_STEPS:  # the C++ loop cannot be interrupted: refuse a run of days
-        raise ValueError(f"step = {h} s gives {n_steps} steps to t_end = {t_end} s; at most {MAX_STEPS} "
-                         "(raise step or shorten the run)")
+    steps = np.ceil((t_end - t0) / h - 1e-9)  # may be inf
+    if not steps <= max_steps:  # refused before the output steps are laid out (the core checks again)
+        raise ValueError(f"step = {h} s gives {steps:.6g} steps to t_end = {t_end} s; max_steps = {max_steps} "
+                         "(raise step or max_steps, or shorten the run)")
+    n_steps = max(1, int(steps))
     out_steps = [int(k) for k in np.unique(np.round(np.linspace(0, n_steps, n_out)).astype(int))]
     wall = _time.perf_counter()
     t, states, drift, stats = system.core.integrate(st.r, st.R, st.eta, st.v, st.a, st.lam, t0, flow, t_end,
-                                                    out_steps, h, rho, tol, max_iterations, refresh)
+                                                    out_steps, h, rho, tol, max_iterations, refresh, max_steps)
     stats["wall_time"] = _time.perf_counter() - wall
     stats["step"] = (t_end - t0) / n_steps  # the step used: the interval in whole steps
     return MultibodyResult(np.array(t), np.array([x[0] for x in states]), np.array([x[1] for x in states]),

@@ -25,6 +25,10 @@ from ..sections import PipeSection, refuse_unsupported
 
 REDUCTIONS = ("craig_bampton", "full")
 
+#: Most elements of one floating-frame body: its reduction works on dense matrices of
+#: 6 (n_elements + 1) rows (1000 elements: 6006, ~0.3 GB each).
+MAX_BODY_ELEMENTS = 1000
+
 
 @dataclass(frozen=True, eq=False)
 class FlexibleBody:
@@ -154,12 +158,53 @@ def _craig_bampton(K, M, n_el, internal_modes):
                 raise ValueError(f"internal_modes must be <= {len(idofs)} (interior coordinates), got {internal_modes}")
             # eig(M, K): the largest 1/omega^2 first; works with massless (torsion) coordinates
             mu, V = sla.eigh(M[np.ix_(idofs, idofs)], Kii)
-            order = np.argsort(mu)[::-1][:internal_modes]
-            V = V[:, order]
+            order = np.argsort(mu)[::-1]
+            V = canonical_modes(mu[order], V[:, order], internal_modes)
             Phi[np.ix_(idofs, 12 + np.arange(internal_modes))] = V / np.abs(V).max(axis=0)
     elif internal_modes:
         raise ValueError("internal_modes must be 0: the body has no interior nodes")
     return Phi
+
+
+#: Eigenvalues mu_a, mu_b of the fixed-interface problem belong to one degenerate group
+#: when |mu_a - mu_b| <= DEGENERATE_RTOL max(|mu_a|, |mu_b|) (+ 1e-12 max |mu|): equal
+#: up to round-off, as the two bending planes of a section with EI = EIz.
+DEGENERATE_RTOL = 1e-8
+
+
+def canonical_modes(mu: np.ndarray, V: np.ndarray, count: int) -> np.ndarray:
+    """The first ``count`` modes of V (columns, eigenvalues ``mu`` sorted), every group
+    of equal eigenvalues among them (a group cut by ``count`` in full) replaced by a
+    basis that depends on the group's subspace only.
+
+    Within a degenerate group any orthogonal combination of the vectors is an
+    eigenbasis, and which one LAPACK returns depends on round-off (e.g. the number of
+    BLAS threads): a Craig-Bampton basis cut inside such a group, and the signs and
+    mixtures of all of them, would change from run to run. The canonical basis is built
+    greedily: the coordinate with the largest share in what is left of the group (ties
+    within 1e-8 to the lowest index) gets the combination that maximises it, with a
+    positive sign; that direction is removed and the next one chosen. Combinations of
+    the (B-orthonormal) vectors stay B-orthonormal. A single mode gets a positive
+    largest coordinate."""
+    V = np.array(V, dtype=float, copy=True)
+    scale = float(np.abs(mu).max(initial=0.0))
+    start = 0
+    while start < count:
+        stop = start + 1
+        while stop < len(mu) and abs(mu[stop] - mu[start]) <= (
+                DEGENERATE_RTOL * max(abs(mu[stop]), abs(mu[start])) + 1e-12 * scale):
+            stop += 1
+        W = V[:, start:stop].copy()  # V is overwritten column by column below
+        Q = np.eye(stop - start)  # projector onto the group's remaining coefficients
+        for j in range(stop - start):
+            R = W @ Q
+            norms = np.linalg.norm(R, axis=1)
+            i = int(np.flatnonzero(norms >= (1.0 - 1e-8) * norms.max())[0])
+            c = R[i] / norms[i]
+            V[:, start + j] = W @ c
+            Q -= np.outer(c, c)
+        start = stop
+    return V[:, :count]
 
 
 def check_no_rigid_motion(Psi0: np.ndarray, Phi: np.ndarray, K: np.ndarray) -> None:
@@ -192,7 +237,11 @@ def flexible_body(*, length: float, n_elements: int, section: PipeSection, inter
         n_elements: number of elements, even (the frame sits at the centre node).
         section: :class:`~pipeflex.PipeSection`; ``fluid_mass`` > 0 for a pipe that carries flow.
             Not supported yet (refused by name): ``kv`` != 1, shear flexibility ``GAy``, ``GAz``.
-        internal_modes: fixed-interface modes added to the 12 boundary modes (Craig-Bampton).
+        internal_modes: fixed-interface modes added to the 12 boundary modes (Craig-Bampton),
+            lowest frequencies first; modes of equal frequency (the two bending planes
+            of a round section) get a canonical basis (:func:`canonical_modes`), so the
+            body is the same whatever the round-off of the eigensolver, e.g. its number of
+            BLAS threads, also when the count cuts such a group.
         reduction: ``"craig_bampton"`` (default) or ``"full"`` (all nodal coordinates but the
             centre node's: the unreduced body, as a check).
         curvature: kappa [1/m] of a preimposed circular arc in the body's x-y plane (turning
@@ -201,8 +250,11 @@ def flexible_body(*, length: float, n_elements: int, section: PipeSection, inter
         basis: a custom Phi (6 (n_elements + 1) x m) in place of ``reduction``; it must not
             contain rigid-body motion.
     """
-    L = _checks.positive("length", length)
+    L = _checks.magnitude("length", length, "m")
     n_el = _checks.positive_int("n_elements", n_elements)
+    if n_el > MAX_BODY_ELEMENTS:
+        raise ValueError(f"n_elements must be at most {MAX_BODY_ELEMENTS} per floating-frame body (its matrices "
+                         f"are dense, 6 (n_elements + 1) square), got {n_el}")
     if n_el % 2:
         raise ValueError(f"n_elements must be even (the floating frame sits at the centre node), got {n_el}")
     if not isinstance(section, PipeSection):

@@ -195,7 +195,7 @@ class MultibodyBuilder:
 
     def set_gravity(self, g: Sequence[float]) -> None:
         """Gravitational acceleration g [m/s^2], e.g. ``(0, 0, -9.81)``."""
-        self._gravity = _checks.vector3("gravity", g)
+        self._gravity = _checks.gravity("gravity", g)
 
     def _junction(self, a, b) -> float:
         """+1 if the flow passes from a's outlet into b's inlet, -1 the other way, else 0."""

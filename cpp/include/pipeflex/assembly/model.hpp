@@ -98,8 +98,16 @@ struct State {
     Mat3<double> rotation(int node) const;
     // Largest |phi| over the frame nodes [rad].
     double max_rotation() const;
+    // Throws std::invalid_argument unless q, v, a have 6 entries per frame (what the
+    // setters of the bindings guarantee; checked again at every entry point).
+    void check_sizes() const;
     std::vector<NodeKind> kinds;
 };
+
+// Throws std::invalid_argument unless the state fits the model: as many nodes, the
+// same node kinds (a state of another model is refused before any buffer is read).
+// Every entry point that takes a Model and a State calls it.
+void check_state(const Model& model, const State& state);
 
 struct Triplets {
     std::vector<int> rows, cols;
@@ -123,9 +131,10 @@ void apply_hub_frame(const Model& model, LoadState& load, double t);
 // Full (6 per node) generalised force of the external nodal loads at load factor 1.
 Eigen::VectorXd external_forces(const Model& model, const State& state);
 
-// Add the reduced increment dz to the coordinates (q <- q + T dz).
+// Add the reduced increment dz to the coordinates (q <- q + T dz); dz has n_dofs
+// entries, full 6 per node (both checked).
 void add_increment(const Model& model, Eigen::Ref<Eigen::VectorXd> full, const Eigen::VectorXd& dz);
-Eigen::VectorXd reduce(const Model& model, const Eigen::VectorXd& full);  // T^T f
+Eigen::VectorXd reduce(const Model& model, const Eigen::VectorXd& full);  // T^T f (full: 6 per node, checked)
 
 // Power of the fluid forces on the structure [W]: -v . f_fluid summed over the pipe
 // elements (the flow-dependent part of their residuals).

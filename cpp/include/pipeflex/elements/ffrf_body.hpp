@@ -69,6 +69,10 @@ struct FfrfBodyData {
     MatX Ng;                       // n x 3  B^T int N^T (mu_p + mu_f) ds
 };
 
+// Throws std::invalid_argument naming the first member whose size does not fit
+// n = M.rows() (>= 6) and m = n - 6 (the kernels index all of them without checks).
+void check_ffrf_body(const FfrfBodyData& d);
+
 // Motion of one body at an instant (global components).
 struct FfrfBodyMotion {
     Mat3d R = Mat3d::Identity();   // frame rotation, body -> global

@@ -85,6 +85,7 @@ struct MbEvaluation {
 struct MbOptions {
     double step = 1e-3, rho_inf = 0.9, tol = 1e-8;
     int max_newton = 12, refresh = 5;
+    long max_steps = 10000000;  // refused before the first step if the run needs more
 };
 
 struct MbOutput {
@@ -109,13 +110,18 @@ class MultibodySystemCore {
     int n_nodes(int body) const { return static_cast<int>(bodies_.at(body).s.size()); }
     double length_scale() const { return length_scale_; }
 
-    // Node position, orientation and 3 x n_j variation maps.
+    // Throws std::invalid_argument unless the state's sizes fit the system (n_bodies
+    // frames, n_coordinates eta, v, a, n_constraints lam) and its numbers are finite.
+    void check_state(const MbState& s) const;
+    // Node position, orientation and 3 x n_j variation maps (indices checked).
     void node(const MbState& s, int body, int node, Vec3d& p, Mat3d& A, MatX* Jp, MatX* Ja) const;
-    void increment(MbState& s, const VecX& dq) const;
+    void increment(MbState& s, const VecX& dq) const;  // dq: n_coordinates entries (checked)
     // Full evaluation; the tangent only if with_tangent (wK also adds the joint
     // reactions' geometric stiffness at the state's multipliers).
     void evaluate(const MbState& s, double mdot, double mdot_rate, double load_factor, double gravity_factor,
                   double wK, double wC, double wM, bool with_tangent, MbEvaluation& out) const;
+    // Checks the state, the options and out_steps (increasing, within the run's steps)
+    // before the first step; polls for an interrupt (Ctrl-C) in its loops.
     MbOutput integrate(MbState& s, const TimeTable& mass_flow, double t_end, const std::vector<long>& out_steps,
                        const MbOptions& opt) const;
 

@@ -23,7 +23,8 @@ def simply_supported_pipe(*, n_elements: int, length: float = 1.0, EI: float = 1
         length: L [m]. EI: bending stiffness [N m^2]. pipe_mass: rho_p A_p [kg/m].
         fluid_mass: rho_f A_f [kg/m]. kv: momentum-flux factor [-]. mass_flow: mdot [kg/s].
     """
-    L = _checks.positive("length", length)
+    L = _checks.magnitude("length", length, "m")
+    EI = _checks.magnitude("EI", EI, "N m^2")  # before EA is derived from it
     sec = PipeSection(EI=EI, pipe_mass=pipe_mass, fluid_mass=fluid_mass, kv=kv, EA=1e10 * EI / L**2)
     b = ModelBuilder()
     n0 = b.add_node((0.0, 0.0, 0.0))
@@ -47,7 +48,8 @@ def cantilever_pipe(*, n_elements: int, length: float = 1.0, EI: float = 10.0, p
             in the seed's tables). Time integration needs it > 0 (a regular mass matrix);
             it does not enter the bending motion.
     """
-    L = _checks.positive("length", length)
+    L = _checks.magnitude("length", length, "m")
+    EI = _checks.magnitude("EI", EI, "N m^2")  # before EA is derived from it
     sec = PipeSection(EI=EI, pipe_mass=pipe_mass, fluid_mass=fluid_mass, kv=kv, EA=1e10 * EI / L**2,
                       rotary_inertia=(_checks.non_negative("polar_inertia", polar_inertia), 0.0, 0.0))
     b = ModelBuilder()
@@ -86,8 +88,8 @@ def sprinkler(*, EI: float, n_elements: int = 8, mass_flow: float = 10.0, radius
         polar_inertia: rho I_p [kg m] rotary inertia per length about the pipe axis; it
             makes the mass matrix regular and does not enter the planar motion.
     """
-    R = _checks.positive("radius", radius)
-    EI = RIGID_EI if rigid else _checks.positive("EI", EI)
+    R = _checks.magnitude("radius", radius, "m")
+    EI = RIGID_EI if rigid else _checks.magnitude("EI", EI, "N m^2")
     sec = PipeSection(EI=EI, EA=SPRINKLER_EA, GJ=EI / 1.3, pipe_mass=pipe_mass, fluid_mass=fluid_mass, kv=kv,
                       rotary_inertia=(_checks.non_negative("polar_inertia", polar_inertia), 0.0, 0.0))
     b = ModelBuilder()
@@ -134,8 +136,8 @@ def coriolis_meter(*, leg_length: float, fluid_density: float = 1000.0, mass_flo
             ``elements_per_leg + arc_elements // 2``: the meter's driver (scale it in time
             with ``simulate(..., load_factor=pf.Sine(...))``).
     """
-    b_len = _checks.positive("leg_length", leg_length)
-    a = _checks.positive("radius", radius)
+    b_len = _checks.magnitude("leg_length", leg_length, "m")
+    a = _checks.magnitude("radius", radius, "m")
     rho_f = _checks.non_negative("fluid_density", fluid_density)
     n_leg = _checks.positive_int("elements_per_leg", elements_per_leg)
     n_arc = _checks.positive_int("arc_elements", arc_elements)

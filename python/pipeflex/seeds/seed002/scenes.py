@@ -46,8 +46,8 @@ def rotating_cantilever(*, n_elements: int = 10, formulation: str = "ancf", elas
     """
     if formulation not in ("ancf", "pipe"):
         raise ValueError(f"formulation must be 'ancf' or 'pipe', got {formulation!r}")
-    L = _checks.positive("length", length)
-    EI = _checks.positive("EI", EI)
+    L = _checks.magnitude("length", length, "m")
+    EI = _checks.magnitude("EI", EI, "N m^2")
     rho_a = _checks.positive("mass_per_length", mass_per_length)
     s = _checks.positive("slenderness", slenderness)
     R = _checks.non_negative("hub_radius_ratio", hub_radius_ratio) * L

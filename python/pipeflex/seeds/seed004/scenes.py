@@ -65,7 +65,7 @@ def ffrf_cantilever_pipe(*, n_bodies: int, elements_per_body: int = 20, internal
     """
 
     nb = _checks.positive_int("n_bodies", n_bodies)
-    L = _checks.positive("length", length)
+    L = _checks.magnitude("length", length, "m")
     if section is None:
         tube = _tube(outer_diameter=0.06197, inner_diameter=0.05046, E=24.64e6, G=9.48e6, density=7870.0,
                      fluid_density=1000.0)
@@ -106,7 +106,7 @@ def ffrf_curved_pipe(*, E: float, n_bodies: int = 8, elements_per_body: int = 20
     """
 
     E = _checks.positive("E", E)
-    R = _checks.positive("radius", radius)
+    R = _checks.magnitude("radius", radius, "m")
     nb = _checks.positive_int("n_bodies", n_bodies)
     if nb < 2:
         raise ValueError(f"n_bodies must be >= 2 (a body spans less than 180 degrees of the semicircle), got {nb}")
