@@ -47,6 +47,19 @@ def within(expression, low, high, source):
 # seed 000's Table 2 (6 decimals; ours up to 1.0e-6 off, e.g. 25.0089106 for 25.008910).
 TABLE2_TOL = val000.TOL_TABLE2          # relative, 2e-7: about 5 units of the last digit
 CHECKS = {
+    "campbell.ipynb": [
+        near("campbell_resonance", 3.88, 5e-3,
+             "seed 002, section 7: resonance omega_1 = Omega at gamma = 3.88, 2 decimals (here the crossing of "
+             "the Campbell branch with the line omega = Omega)"),
+        within("veering_min_mac", 0.9, 1.0, "pipeflex.campbell's contract (docs/plotting.md): branches followed "
+               "through the veering with MAC > 0.9 between neighbouring speeds"),
+    ],
+    "seed000_bifurcation.ipynb": [
+        near("amplitude_30 / transient_30", 1.0, 1e-3,
+             "seed 000, Fig. 3 (30 kg/s, 4 elements, EA = 1e5 N): the orbit continued from the Hopf point and the "
+             "long transient of the same model, relative"),
+        near("exponent", 0.5, 0.05, "a supercritical Hopf bifurcation: amplitude ~ (mdot - mdot_c)^(1/2)"),
+    ],
     "seed000_coriolis_meter.ipynb": [
         # The seed prints no numbers for Figs. 7-8; its plotted range and statements are the checks.
         within("fig7.omega_scaled[0]", 0.06, 0.18,

@@ -129,3 +129,18 @@ def test_bad_input(planar4):
         periodic_orbit(m, period=0.4, steps=0)
     with pytest.raises(ValueError, match="flutter"):
         continue_orbits(m, start=None, mass_flow_end=30.0)
+
+
+def test_continued_orbit_at_30_equals_the_fig3_transient():
+    """Seed 000, Fig. 3 (mdot = 30 kg/s, tip force 1.5 N), 4 elements, EA = 1e5 N: the orbit
+    continued from the Hopf point and solved at exactly 30 kg/s has the amplitude and
+    period of the long transient (the project's own values for the same model) to 1e-3;
+    and with the continuation's planar stability, every orbit is stable in the plane."""
+    from pipeflex.seeds.seed000.bifurcation import EA, bifurcation_diagram
+    from pipeflex.seeds.seed000.limit_cycle import simulate_limit_cycle
+
+    d = bifurcation_diagram(4, mass_flow_end=30.2, check_3d=False)
+    lc = simulate_limit_cycle(4, EA=EA, progress=False)
+    assert d.at_30.amplitude[d.tip, 1] == pytest.approx(lc.amplitude, rel=1e-3)
+    assert d.at_30.period == pytest.approx(lc.period, rel=1e-3)
+    assert d.branch.stable.all()

@@ -65,6 +65,17 @@ void scatter_block(const Model& m, int na, int nb, const double* blk, int ld, Tr
     const Eigen::MatrixXd& Ta = m.bases[na];
     const Eigen::MatrixXd& Tb = m.bases[nb];
     if (Ta.cols() == 0 || Tb.cols() == 0) return;
+    if (m.is_selection[na] && m.is_selection[nb]) {
+        const auto& sa = m.selected[na];
+        const auto& sb = m.selected[nb];
+        for (std::size_t i = 0; i < sa.size(); ++i)
+            for (std::size_t j = 0; j < sb.size(); ++j) {
+                J->rows.push_back(m.first_dof[na] + static_cast<int>(i));
+                J->cols.push_back(m.first_dof[nb] + static_cast<int>(j));
+                J->values.push_back(blk[ld * sa[i] + sb[j]]);
+            }
+        return;
+    }
     Eigen::Matrix<double, 6, 6> B;
     for (int i = 0; i < 6; ++i)
         for (int j = 0; j < 6; ++j) B(i, j) = blk[ld * i + j];
@@ -103,6 +114,11 @@ void widen_ancf(const double* r8, const double* J8, double* r12, double* J12) {
 }
 
 void scatter_vector(const Model& m, int n, const double* f, Eigen::VectorXd* r) {
+    if (m.is_selection[n]) {
+        const auto& s = m.selected[n];
+        for (std::size_t j = 0; j < s.size(); ++j) (*r)[m.first_dof[n] + static_cast<int>(j)] += f[s[j]];
+        return;
+    }
     const Eigen::MatrixXd& T = m.bases[n];
     for (int j = 0; j < T.cols(); ++j) {
         double s = 0.0;
@@ -144,6 +160,28 @@ void Model::finalize() {
         k += static_cast<int>(bases[i].cols());
     }
     n_dofs = k;
+    // Bases that only select slots (each column a unit vector): the scatter then copies
+    // entries instead of multiplying T_a^T B T_b.
+    selected.assign(n, {});
+    is_selection.assign(n, false);
+    for (int i = 0; i < n; ++i) {
+        std::vector<int> slots;
+        for (int j = 0; j < bases[i].cols(); ++j) {
+            int slot = -1, nonzero = 0;
+            for (int r = 0; r < 6; ++r)
+                if (bases[i](r, j) != 0.0) {
+                    ++nonzero;
+                    slot = bases[i](r, j) == 1.0 ? r : -1;
+                }
+            if (nonzero != 1 || slot < 0) {
+                slots.clear();
+                break;
+            }
+            slots.push_back(slot);
+        }
+        if (static_cast<int>(slots.size()) == bases[i].cols()) selected[i] = std::move(slots);
+        is_selection[i] = static_cast<int>(selected[i].size()) == bases[i].cols();
+    }
     auto check_node = [n](int i, const char* what) {
         if (i < 0 || i >= n)
             throw std::invalid_argument(std::string(what) + " refers to node " + std::to_string(i) +

@@ -717,33 +717,56 @@ FlowMapOutput generalized_alpha_flow_map(const Model& model, State& state, const
     out.z.insert(out.z.end(), z.data(), z.data() + n);
 
     // Sensitivities of (z, v, a, pa) to (z0, v0): n x 2n each.
-    Eigen::MatrixXd Sz, Sv, Sa, Spa;
+    Eigen::MatrixXd Sz, Sv, Sa, Spa, Pz, Pv, rhs, San;
     Triplets tK, tC, tS;
     FixedPatternLU exact_lu(kDenseBelow);
-    // K dz + C dv + M da = 0 at the state just set; returns -(K X + C Y) for the tangents
-    auto tangents = [&](double t, double wK, double wC, Eigen::SparseMatrix<double>& K, Eigen::SparseMatrix<double>& C) {
+    // K and C at the state just set, dense below kDenseBelow unknowns (where the products
+    // with the n x 2n sensitivities are dense anyway), and the exact iteration matrix
+    // M + wC C + wK K factorised.
+    const bool dense = n < kDenseBelow;
+    Eigen::MatrixXd Kd, Cd;
+    Eigen::SparseMatrix<double> Ks, Cs;
+    auto tangents = [&](double t, double wK, double wC) {
         const LoadState l = sys.load_at(t);
         assemble(model, state, l, 1.0, 1.0, 0.0, 0.0, nullptr, &tK);
         assemble(model, state, l, 1.0, 0.0, 1.0, 0.0, nullptr, &tC);
         assemble(model, state, l, 1.0, wK, wC, 1.0, nullptr, &tS);
-        K = sparse(n, tK);
-        C = sparse(n, tC);
+        if (dense) {
+            Kd.setZero(n, n);
+            Cd.setZero(n, n);
+            for (std::size_t k = 0; k < tK.values.size(); ++k) Kd(tK.rows[k], tK.cols[k]) += tK.values[k];
+            for (std::size_t k = 0; k < tC.values.size(); ++k) Cd(tC.rows[k], tC.cols[k]) += tC.values[k];
+        } else {
+            Ks = sparse(n, tK);
+            Cs = sparse(n, tC);
+        }
         ++out.jacobians;
         if (!exact_lu.factorize(n, tS.rows, tS.cols, tS.values))
             throw SingularMatrixError("flow map: singular tangent at t = " + fmt(t) + " s", ConvergenceError::Where{});
     };
-    Eigen::SparseMatrix<double> K, C;
+    // rhs = -(K X + C Y)
+    auto load_rhs = [&](const Eigen::MatrixXd& X, const Eigen::MatrixXd& Y) {
+        if (dense) {
+            rhs.noalias() = -Kd * X;
+            rhs.noalias() -= Cd * Y;
+        } else {
+            rhs = -(Ks * X + Cs * Y);
+        }
+    };
     if (sensitivity) {
         sys.set(z, v, a, 0.0);
-        tangents(0.0, 0.0, 0.0, K, C);  // M da0 = -(K dz0 + C dv0)
+        tangents(0.0, 0.0, 0.0);  // M da0 = -(K dz0 + C dv0)
         Sz = Eigen::MatrixXd::Zero(n, 2 * n);
         Sv = Eigen::MatrixXd::Zero(n, 2 * n);
         Sz.leftCols(n).setIdentity();
         Sv.rightCols(n).setIdentity();
-        Eigen::MatrixXd rhs = -(K * Sz + C * Sv);
+        load_rhs(Sz, Sv);
         Sa.resize(n, 2 * n);
         exact_lu.solve(rhs, Sa);
         Spa = Sa;
+        Pz.resize(n, 2 * n);
+        Pv.resize(n, 2 * n);
+        San.resize(n, 2 * n);
     }
 
     AlphaNewton newton(sys, m, n);
@@ -751,23 +774,30 @@ FlowMapOutput generalized_alpha_flow_map(const Model& model, State& state, const
     double t = 0.0;
     for (int k = 0; k < n_steps; ++k) {
         poll_interrupt();
+        // the extrapolated predictor, or the constant one if Newton fails from it (stiff
+        // modes make the acceleration history rough); the converged step is the same
         an = k > 0 ? Eigen::VectorXd(2.0 * a - a_prev) : a;
         AlphaNewton::Failure failure;
-        if (!newton.solve(t, h, z, v, a, pa, an, pan, zn, vn, stats, failure)) throw_newton_failure(sys, t, h, failure);
+        bool ok = newton.solve(t, h, z, v, a, pa, an, pan, zn, vn, stats, failure);
+        if (!ok && k > 0) {
+            an = a;
+            ok = newton.solve(t, h, z, v, a, pa, an, pan, zn, vn, stats, failure);
+        }
+        if (!ok) throw_newton_failure(sys, t, h, failure);
         const double tn = t + h;
         if (sensitivity) {
             // tangent-linear step: the exact iteration matrix at the converged state
             sys.set(zn, vn, an, tn);
-            tangents(tn, m.bp(h), m.gp(h), K, C);
-            const Eigen::MatrixXd Pz = Sz + h * Sv + (h * h * (0.5 - m.beta)) * Spa +
-                                       (h * h * m.beta) * (m.c2 * Sa + m.c3 * Spa);
-            const Eigen::MatrixXd Pv = Sv + (h * (1.0 - m.gamma)) * Spa + (h * m.gamma) * (m.c2 * Sa + m.c3 * Spa);
-            Eigen::MatrixXd rhs = -(K * Pz + C * Pv), San(n, 2 * n);
+            tangents(tn, m.bp(h), m.gp(h));
+            const double hh = h * h;
+            Pz = Sz + h * Sv + (hh * (0.5 - m.beta) + hh * m.beta * m.c3) * Spa + (hh * m.beta * m.c2) * Sa;
+            Pv = Sv + (h * (1.0 - m.gamma) + h * m.gamma * m.c3) * Spa + (h * m.gamma * m.c2) * Sa;
+            load_rhs(Pz, Pv);
             exact_lu.solve(rhs, San);
             Spa = m.c1 * San + m.c2 * Sa + m.c3 * Spa;
             Sz = Pz + m.bp(h) * San;
             Sv = Pv + m.gp(h) * San;
-            Sa = San;
+            Sa.swap(San);
         }
         a_prev = a;
         z = zn;

@@ -11,7 +11,7 @@ from .analysis import (CriticalFlow, EigenResult, Linearization, StaticResult, c
                        eigenvalues, linearize, simulate, stability, static_equilibrium,
                        TransientResult, SteadyRotation, steady_rotation,
                        RotatingFrequencies, resonance_speed, rotating_frequencies, rotating_state,
-                       OrbitBranch, PeriodicOrbit, continue_orbits, periodic_orbit)
+                       OrbitBranch, PeriodicOrbit, continue_orbits, periodic_orbit, Campbell, campbell)
 from .errors import ConvergenceError, SingularMatrixError
 from .model import Model, ModelBuilder
 from .results import Result
@@ -24,7 +24,7 @@ __version__ = "0.1.0"
 # Attributes that load a module on first access (PEP 562), so that `import pipeflex`
 # does not import the seed studies.
 _LAZY = {"scenes": "pipeflex.scenes", "seeds": "pipeflex.seeds", "work_precision": "pipeflex.work_precision",
-         "plotting": "pipeflex.plotting", "multibody": "pipeflex.multibody",
+         "plotting": "pipeflex.plotting", "plot": "pipeflex.plot", "multibody": "pipeflex.multibody",
          "coriolis": "pipeflex.seeds.seed000.coriolis", "limit_cycle": "pipeflex.seeds.seed000.limit_cycle",
          "sweep": "pipeflex.sweeps:sweep"}  # "module:attribute" for a module's attribute
 
@@ -46,4 +46,5 @@ __all__ = ["CriticalFlow", "EigenResult", "Linearization", "StaticResult",
            "Sine", "TransientResult", "SteadyRotation", "steady_rotation",
            "RotatingFrequencies", "resonance_speed", "rotating_frequencies", "rotating_state",
            "OrbitBranch", "PeriodicOrbit", "continue_orbits", "periodic_orbit",
+           "Campbell", "campbell",
            "ConvergenceError", "SingularMatrixError", "Model", "ModelBuilder", "PipeSection", "Result", "State", "__version__"]

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import time
 from dataclasses import dataclass, field
-from typing import Callable, Dict, List, Sequence
+from typing import Callable, Dict, List, Optional, Sequence
 
 import numpy as np
 
@@ -54,27 +54,15 @@ def reference_by_extrapolation(model, t_end: float, qoi: Callable, *, step: floa
     return {"reference": ref, "fine": v[1], "coarse": v[0], "error_estimate": abs(v[1] - v[0]) / 3.0}
 
 
-def work_precision_figure(runs: List[Run], *, title: str, quantity: str):
-    """Log-log chart: error of the quantity of interest versus wall time."""
-    import matplotlib.pyplot as plt
+def work_precision_figure(runs: List[Run], *, title: str, quantity: str, reference_name: Optional[str] = None,
+                          target: Optional[float] = None):
+    """Log-log chart: error of the quantity of interest versus wall time (a figure; drawn
+    by :func:`pipeflex.plot.work_precision`)."""
+    from .plot.charts import work_precision as draw
 
-    fig, ax = plt.subplots(figsize=(6, 4.2))
-    for integ, marker in (("generalized_alpha", "o-"), ("ida", "s-")):
-        rs = [r for r in runs if r.integrator == integ]
-        if not rs:
-            continue
-        ax.loglog([r.wall_time for r in rs], [max(r.error, 1e-16) for r in rs], marker,
-                  label="generalised-alpha (step)" if integ != "ida" else "IDA (rtol)")
-        for r in rs:
-            ax.annotate(f"{r.setting:.0e}", (r.wall_time, max(r.error, 1e-16)), fontsize=7,
-                        textcoords="offset points", xytext=(4, 2))
-    ax.set_xlabel("wall time [s]")
-    ax.set_ylabel(f"error of {quantity}")
-    ax.set_title(title)
-    ax.grid(True, which="both", lw=0.3)
-    ax.legend()
-    fig.tight_layout()
-    return fig
+    ax = draw(runs, reference_name=reference_name, target=target, quantity=quantity, title=title)
+    ax.figure.tight_layout()
+    return ax.figure
 
 
 def mean_hinge_speed(result, *, start: float, node: int = 0) -> float:

@@ -1,4 +1,5 @@
 """Analyses as free functions of a model and a state."""
+from .campbell import Campbell, campbell
 from .critical import CriticalFlow, critical_mass_flow
 from .eigen import EigenResult, eigenvalues, stability
 from .linearize import Linearization, linearize
@@ -12,4 +13,4 @@ __all__ = ["CriticalFlow", "critical_mass_flow", "EigenResult", "eigenvalues", "
            "Linearization", "linearize", "OrbitBranch", "PeriodicOrbit", "continue_orbits", "periodic_orbit",
            "StaticResult", "static_equilibrium",
            "Sine", "TransientResult", "simulate", "SteadyRotation", "steady_rotation",
-           "RotatingFrequencies", "resonance_speed", "rotating_frequencies", "rotating_state"]
+           "RotatingFrequencies", "resonance_speed", "rotating_frequencies", "rotating_state", "Campbell", "campbell"]

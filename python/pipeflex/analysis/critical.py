@@ -41,6 +41,7 @@ from .eigen import (SPARSE_MIN_DOFS, classify, eigen_from_blocks, free_coordinat
 from ._assembly import require_model
 from .linearize import linearize
 from .static import static_equilibrium
+from .._blas import small_problems_single_threaded
 
 #: Eigenvalues per block (nearest 0) in the scan of a large model (sparse path).
 SCAN_MODES = 16
@@ -114,6 +115,7 @@ class _Evaluator:
         return eigen_from_blocks(blocks, self.model.n_dofs, vectors=vectors), st
 
 
+@small_problems_single_threaded
 @renamed(rtol="tol")
 def critical_mass_flow(model, *, tol: float = 1e-10, mass_flow_max: Optional[float] = None,
                        steps_per_unit: int = 4, state=None) -> CriticalFlow:

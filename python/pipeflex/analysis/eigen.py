@@ -29,6 +29,7 @@ from scipy.sparse.csgraph import breadth_first_order, connected_components
 
 from .. import _checks
 from ..results import Result
+from .._blas import small_problems_single_threaded
 
 #: An eigenvalue counts as growing when Re(lambda) exceeds GROWTH_TOL * |lambda| and
 #: its round-off bound (see :func:`block_eigenvalues`).
@@ -314,6 +315,7 @@ def _generalized(K, C, M, vectors):
     return lam, noise, (V[:n, finite] if vectors else None)
 
 
+@small_problems_single_threaded
 def eigenvalues(lin, *, vectors: bool = False, n_modes: Optional[int] = None,
                 sigma: Optional[complex] = None, method: str = "auto") -> EigenResult:
     """Finite eigenvalues lambda [1/s] of a :class:`~pipeflex.analysis.Linearization`.
@@ -589,16 +591,28 @@ def classify(eig: EigenResult) -> str:
     return "divergence" if abs(worst.imag) <= 1e-6 * abs(worst) else "flutter"
 
 
+def _jacobi_scaled(K):
+    """D^-1/2 K D^-1/2 with D = |diag K| (1 where the diagonal vanishes): stiffnesses of
+    different units and sizes (EA / l against EI / l^3) do not read as ill-conditioning."""
+    d = np.abs(K.diagonal())
+    d = 1.0 / np.sqrt(np.where(d > 0.0, d, 1.0))
+    if sp.issparse(K):
+        D = sp.diags(d)
+        return D @ K @ D
+    return K * d[:, None] * d[None, :]
+
+
 def stiffness_conditioning(eig) -> float:
-    """Smallest ratio of least to largest singular value of the blocks' stiffness
-    (sparse blocks: its bound n / (|K|_1 |K^-1|_1), |K^-1|_1 estimated)."""
+    """Smallest ratio of least to largest singular value of the blocks' stiffness after
+    a symmetric diagonal (Jacobi) scaling (sparse blocks: its bound
+    n / (|K|_1 |K^-1|_1), |K^-1|_1 estimated)."""
     worst = 1.0
     for b in eig.blocks:
         if sp.issparse(b.K):
             n = b.K.shape[0]
             if n == 0:
                 continue
-            K = sp.csc_matrix(b.K)
+            K = sp.csc_matrix(_jacobi_scaled(b.K))
             try:
                 lu = spla.splu(K)
             except RuntimeError:
@@ -607,7 +621,7 @@ def stiffness_conditioning(eig) -> float:
                                       dtype=float)
             worst = min(worst, n / (spla.norm(K, 1) * spla.onenormest(inv)))
         elif b.K.size:
-            sv = np.linalg.svd(b.K, compute_uv=False)
+            sv = np.linalg.svd(_jacobi_scaled(b.K), compute_uv=False)
             worst = min(worst, sv[-1] / sv[0] if sv[0] > 0 else 0.0)
     return worst
 

@@ -10,6 +10,7 @@ from .. import _checks
 from ..results import Result
 from ..state import State, as_core
 from ._assembly import require_model, residual_and_tangent
+from .._blas import small_problems_single_threaded
 
 
 @dataclass(frozen=True)
@@ -32,6 +33,7 @@ class Linearization(Result):
     dof_labels: Optional[tuple] = None
 
 
+@small_problems_single_threaded
 def linearize(model, state=None, *, mass_flow: Optional[float] = None) -> Linearization:
     """Linearise the equations of motion about ``state`` (default: reference configuration).
 

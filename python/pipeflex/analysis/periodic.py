@@ -11,7 +11,9 @@ solves the 2 n + 1 equations
 for (x0, T) by Newton. The Jacobian's block d phi_T / d x0 (the monodromy matrix) comes
 from the integrator's tangent-linear step (the exact iteration matrix of every step), not
 from finite differences; d phi_T / dT is approximated by the vector field at the end,
-which only slows Newton where it is inexact, never the answer. The eigenvalues of the
+which only slows Newton where it is inexact, never the answer. The monodromy is kept
+across iterations while the defect falls fast (a chord method: the tangent-linear map
+costs several plain ones) and computed again at the solution for the multipliers. The eigenvalues of the
 monodromy matrix are the Floquet multipliers: one is 1 (the shift along the orbit), the
 orbit is stable when all others lie inside the unit circle.
 
@@ -32,9 +34,15 @@ from .. import _checks, _core
 from ..errors import ConvergenceError
 from ..results import Result
 from ..state import State, as_core
+from .._blas import small_problems_single_threaded
 
 #: steps of the integrator per period unless given
 STEPS_PER_PERIOD = 512
+#: multipliers within this distance of the unit circle count as neutral, not unstable:
+#: besides the shift along the orbit, a symmetry gives another multiplier 1 (e.g. the
+#: turn of a planar orbit of an axisymmetric pipe about its axis), which round-off puts
+#: on either side
+NEUTRAL = 1e-6
 
 
 @dataclass(frozen=True)
@@ -53,7 +61,7 @@ class PeriodicOrbit(Result):
         amplitude: (n_nodes, 3) half the peak-to-peak excursion of each node coordinate [m].
         multipliers: (2 n_dofs,) Floquet multipliers by decreasing modulus [-].
         trivial: index in ``multipliers`` of the one closest to 1 (the shift along the orbit).
-        stable: all other multipliers inside the unit circle.
+        stable: all other multipliers inside the unit circle (or on it, to NEUTRAL).
         residual: max |phi_T(x0) - x0| at the solution [m, m/s].
         iterations: Newton iterations of the shooting.
         steps: N, integrator steps per period.
@@ -93,6 +101,8 @@ class OrbitBranch(Result):
         max_multiplier: (k,) largest modulus of the non-trivial multipliers [-].
         folds: mass flows [kg/s] where the branch turns back (d mdot / ds changes sign).
         hopf: (mdot_c [kg/s], omega_c [rad/s]) of the Hopf point the branch starts at.
+        starts: the state at t = 0 of each orbit (to solve an orbit again, e.g. at a
+            nearby flow with :func:`periodic_orbit`).
     """
 
     mass_flow: np.ndarray
@@ -102,6 +112,7 @@ class OrbitBranch(Result):
     max_multiplier: np.ndarray
     folds: np.ndarray
     hopf: tuple
+    starts: tuple = ()
     stats: dict = field(default_factory=dict)
 
 
@@ -161,7 +172,7 @@ def _finish(shooter, z0, v0, period, mass_flow, out, iterations, residual) -> Pe
     amplitude = 0.5 * (x.max(axis=0) - x.min(axis=0))
     orbit = PeriodicOrbit(mass_flow=float(mass_flow), period=float(period), base=shooter.base, z0=np.array(z0),
                           v0=np.array(v0), start=_state_at(shooter.base, basis, z0, v0), t=np.linspace(0.0, period, len(z)), x=x, amplitude=amplitude,
-                          multipliers=mu, trivial=trivial, stable=bool(others.max(initial=0.0) < 1.0),
+                          multipliers=mu, trivial=trivial, stable=bool(others.max(initial=0.0) <= 1.0 + NEUTRAL),
                           residual=float(residual), iterations=int(iterations), steps=shooter.steps,
                           stats={"flow_maps": shooter.calls, "newton_iterations": shooter.newton_iterations})
     return orbit
@@ -183,39 +194,62 @@ def _solve(shooter, y, mass_flow, *, tol, max_iterations, phase=None, arclength=
         phase = (y.copy(), np.concatenate([y[n:2 * n], out0["a0"]]))
     y_ref, xdot_ref = phase
     dF_dm = None
-    residual = np.inf
+    residual = previous = np.inf
+    # Chord Newton: the monodromy (the expensive tangent-linear map) is refreshed only
+    # when the defect stops falling fast; the cheap flow maps in between give the defect.
+    out = shooter(y[:n], y[n:2 * n], y[-1], mdot, True)
+    Phi, fresh = out["monodromy"], True
     for it in range(1, max_iterations + 1):
         z0, v0, T = y[:n], y[n:2 * n], y[-1]
-        out = shooter(z0, v0, T, mdot, True)
         F = shooter.defect(out, z0, v0)
         residual = float(np.abs(F).max())
         if not np.isfinite(residual):
             raise ConvergenceError(f"periodic orbit: the shooting residual is not finite at mdot = {mdot:.6g} kg/s "
                                    f"(iteration {it})", iteration=it, mass_flow=mdot)
         g = float(xdot_ref @ (y[:2 * n] - y_ref[:2 * n]))
-        rows = [F, [g]]
-        J = np.zeros((2 * n + 1, 2 * n + 1))
-        J[:2 * n, :2 * n] = out["monodromy"] - np.eye(2 * n)
-        J[:2 * n, -1] = np.concatenate([out["v"], out["a"]])
-        J[-1, :2 * n] = xdot_ref
         done = residual <= tol and abs(g) <= tol * max(1.0, np.abs(xdot_ref).max())
         if arclength is not None:
             y_prev, m_prev, tangent, ds = arclength
+            s = float(tangent @ np.concatenate([y - y_prev, [mdot - m_prev]])) - ds
+            done = done and abs(s) <= tol * max(1.0, abs(ds))
+        if done:
+            if not fresh:  # the multipliers need the monodromy at the solution
+                out = shooter(z0, v0, T, mdot, True)
+            return y, mdot, out, it, residual
+        if not fresh and residual > 0.25 * previous:
+            out = shooter(z0, v0, T, mdot, True)
+            Phi, fresh = out["monodromy"], True
+        previous = residual
+        J = np.zeros((2 * n + 1, 2 * n + 1))
+        J[:2 * n, :2 * n] = Phi - np.eye(2 * n)
+        J[:2 * n, -1] = np.concatenate([out["v"], out["a"]])
+        J[-1, :2 * n] = xdot_ref
+        rows = [F, [g]]
+        if arclength is not None:
             if dF_dm is None:
                 dF_dm = _flow_derivative(shooter, z0, v0, T, mdot)
             J = np.block([[J, np.concatenate([dF_dm, [0.0]])[:, None]], [tangent[None, :]]])
-            s = float(tangent @ np.concatenate([y - y_prev, [mdot - m_prev]])) - ds
             rows.append([s])
-            done = done and abs(s) <= tol * max(1.0, abs(ds))
-        if done:
-            return y, mdot, out, it, residual
         step = np.linalg.solve(J, -np.concatenate(rows))
-        y = y + step[:2 * n + 1]
-        if arclength is not None:
-            mdot += step[-1]
-        if y[-1] <= 0.0:
-            raise ConvergenceError(f"periodic orbit: the period became non-positive at mdot = {mdot:.6g} kg/s "
-                                   f"(iteration {it}); start closer to the orbit", iteration=it, mass_flow=mdot)
+        # Backtracking: lightly damped modes put multipliers next to 1, so a rough start
+        # can ask for large corrections along them; halve the step while the flow map
+        # fails or the defect grows more than tenfold.
+        for _ in range(8):
+            y_try = y + step[:2 * n + 1]
+            m_try = mdot + step[-1] if arclength is not None else mdot
+            if y_try[-1] > 0.0:
+                try:
+                    out_try = shooter(y_try[:n], y_try[n:2 * n], y_try[-1], m_try, False)
+                    if np.abs(shooter.defect(out_try, y_try[:n], y_try[n:2 * n])).max() <= 10.0 * residual:
+                        break
+                except ConvergenceError:
+                    pass
+            step = 0.5 * step
+        else:
+            raise ConvergenceError(f"periodic orbit: no Newton step of the shooting reduces the periodicity defect "
+                                   f"{residual:.3g} at mdot = {mdot:.6g} kg/s (iteration {it}); start closer to "
+                                   f"the orbit", iteration=it, residual=residual, mass_flow=mdot)
+        y, mdot, out, fresh = y_try, m_try, out_try, False
     raise ConvergenceError(f"periodic orbit: shooting did not converge in {max_iterations} iterations at "
                            f"mdot = {mdot:.6g} kg/s (periodicity defect {residual:.3g})",
                            iteration=max_iterations, residual=residual, mass_flow=mdot)
@@ -230,6 +264,7 @@ def _flow_derivative(shooter, z0, v0, T, mdot, rel=1e-6):
     return (shooter.defect(hi, z0, v0) - shooter.defect(lo, z0, v0)) / (2 * d)
 
 
+@small_problems_single_threaded
 def periodic_orbit(model, *, period: float, state=None, base=None, mass_flow: Optional[float] = None,
                    steps: int = STEPS_PER_PERIOD, tol: float = 1e-8, max_iterations: int = 20,
                    newton_tol: float = 1e-12, rho_inf: float = 0.9) -> PeriodicOrbit:
@@ -282,8 +317,9 @@ def _reduced(basis, full, chart, start):
     return z
 
 
+@small_problems_single_threaded
 def continue_orbits(model, *, start, mass_flow_end: float, amplitude: float = 1e-3, ds: Optional[float] = None,
-                    max_points: int = 40, steps: int = STEPS_PER_PERIOD, tol: float = 1e-8,
+                    max_step: Optional[float] = None, max_points: int = 40, steps: int = STEPS_PER_PERIOD, tol: float = 1e-8,
                     max_iterations: int = 12, newton_tol: float = 1e-12, rho_inf: float = 0.9,
                     state=None) -> OrbitBranch:
     """Continue the periodic orbits born at a Hopf point in the mass flow.
@@ -295,8 +331,10 @@ def continue_orbits(model, *, start, mass_flow_end: float, amplitude: float = 1e
         mass_flow_end: mdot [kg/s] at which to stop (either side of the Hopf point: a
             subcritical branch first turns back).
         amplitude: size of the first orbit's excursion along the critical mode [m].
-        ds: pseudo-arclength step (default from ``amplitude``); halved on failure,
-            grown after easy steps.
+        ds: first pseudo-arclength step (default from ``amplitude``); halved on a
+            failure or a hard step, doubled after easy ones (Newton in <= 6 iterations)
+            up to ``max_step`` (default 64 ds). The arclength is the Euclidean norm in
+            (z0 [m, rad], v0 [m/s, rad/s], T [s], mdot [kg/s]).
         max_points: orbits on the branch at most.
         steps, tol, max_iterations, newton_tol, rho_inf: as :func:`periodic_orbit`.
         state: starting guess for the static solve at the Hopf point.
@@ -328,11 +366,12 @@ def continue_orbits(model, *, start, mass_flow_end: float, amplitude: float = 1e
     norm = np.linalg.norm(tangent)
     tangent /= norm
     ds = norm if ds is None else _checks.positive("ds", ds)
+    max_step = 64.0 * ds if max_step is None else _checks.positive("max_step", max_step)
     direction = 1.0 if m_end >= mc else -1.0
     y_prev, m_prev = y_hopf, mc
     # phase reference of the first orbit: the linear mode's point and velocity at t = 0
     xdot_prev = scale * np.concatenate([v_dir, -wc ** 2 * z_dir])
-    flows, periods, amps, stable, mmax, folds = [], [], [], [], [], []
+    flows, periods, amps, stable, mmax, folds, starts = [], [], [], [], [], [], []
     h = ds
     first = True
     while len(flows) < max_points:
@@ -358,15 +397,19 @@ def continue_orbits(model, *, start, mass_flow_end: float, amplitude: float = 1e
         flows.append(mdot)
         periods.append(y[-1])
         amps.append(orbit.amplitude)
+        starts.append(orbit.start)
         stable.append(orbit.stable)
         others = np.delete(np.abs(orbit.multipliers), orbit.trivial)
         mmax.append(float(others.max(initial=0.0)))
         if (mdot - m_end) * direction >= 0.0:
             break
-        h = min(2.0 * h, 8.0 * ds) if it <= 3 else h
+        if it <= 6:  # chord iterations are cheap: a few are an easy step
+            h = min(2.0 * h, max_step)
+        elif it >= 10:
+            h *= 0.5
     if not flows:
         raise ConvergenceError(f"orbit continuation: no orbit found next to the Hopf point at {mc:.6g} kg/s",
                                mass_flow=mc)
     return OrbitBranch(mass_flow=np.array(flows), period=np.array(periods), amplitude=np.array(amps),
                        stable=np.array(stable), max_multiplier=np.array(mmax), folds=np.array(folds),
-                       hopf=(mc, wc), stats={"flow_maps": shooter.calls, "newton_iterations": shooter.newton_iterations})
+                       hopf=(mc, wc), starts=tuple(starts), stats={"flow_maps": shooter.calls, "newton_iterations": shooter.newton_iterations})

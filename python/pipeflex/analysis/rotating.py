@@ -37,6 +37,7 @@ from ._assembly import require_model, residual_and_tangent
 from .eigen import GROWTH_TOL, eigenvalues
 from .linearize import Linearization
 from ..rotation import skew
+from .._blas import small_problems_single_threaded
 
 LINEARIZATIONS = ("small_deformation", "steady_state")
 
@@ -187,6 +188,7 @@ def _axial_strains(model, state) -> float:
     return worst
 
 
+@small_problems_single_threaded
 @renamed(steps="continuation_steps")
 def rotating_state(model, omega: float, *, state=None, state_omega: float = 0.0, continuation_steps: int = 1,
                    tol: float = 1e-10, max_iterations: int = 30):
@@ -285,6 +287,7 @@ def _modes(fr, M, C, K, state, n_modes):
     return out, growth, shapes
 
 
+@small_problems_single_threaded
 def rotating_frequencies(model, *, gamma, linearization: str = "small_deformation",
                          n_modes: int = 3) -> RotatingFrequencies:
     """Natural frequencies of a rotating model, dimensionless as in Berzeri & Shabana (Tables 3-5).
@@ -389,6 +392,7 @@ def _check_strain(gamma, strain, kind):
                          f"{MAX_STRAIN:g}: outside the elements' validity; lower gamma")
 
 
+@small_problems_single_threaded
 def resonance_speed(model, *, mode: int = 1, gamma_range: Sequence[float] = (0.5, 20.0),
                     linearization: str = "small_deformation") -> float:
     """gamma at which the ``mode``-th transverse frequency equals the rotation rate

@@ -13,6 +13,7 @@ from ..results import Result
 from ..state import State, as_core
 from ._assembly import require_model, residual_and_tangent
 from .eigen import describe_coordinates, null_coordinates
+from .._blas import small_problems_single_threaded
 
 
 @dataclass(frozen=True)
@@ -33,6 +34,7 @@ class StaticResult(Result):
     mass_flow: float
 
 
+@small_problems_single_threaded
 def static_equilibrium(model, *, state=None, mass_flow: Optional[float] = None, load_steps: int = 1,
                        tol: float = 1e-10, max_iterations: int = 25, max_bisections: int = 8,
                        from_mass_flow: Optional[float] = None) -> StaticResult:

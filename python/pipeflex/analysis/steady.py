@@ -22,6 +22,7 @@ from ..results import Result
 from ..state import State, as_core
 from ._assembly import require_model, residual_and_tangent
 from ..rotation import skew
+from .._blas import small_problems_single_threaded
 
 
 @dataclass(frozen=True)
@@ -96,6 +97,7 @@ def _jacobian_blocks(model, state, axis, xh, omega):
     return Dv, Da, dv, da
 
 
+@small_problems_single_threaded
 def steady_rotation(model, *, omega_guess: Optional[float] = None, mass_flow: Optional[float] = None,
                     state=None, continuation_steps: int = 4, tol: float = 1e-12,
                     max_iterations: int = 30) -> SteadyRotation:

@@ -78,6 +78,9 @@ struct Model {
     std::vector<NodalMass> masses;
     std::vector<Eigen::MatrixXd> bases;  // T_n (6 x k_n) per node
     std::vector<int> first_dof;          // first reduced coordinate of each node
+    // per node: whether T_n only selects slots, and the slot of each reduced coordinate
+    std::vector<bool> is_selection;
+    std::vector<std::vector<int>> selected;
     int n_dofs = 0;
 
     int n_nodes() const { return static_cast<int>(positions.size()); }

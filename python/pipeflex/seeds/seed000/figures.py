@@ -1,5 +1,5 @@
 """Seed 000's figures: convergence of the critical flows (Tables 1, 2), the sprinkler's
-spin-up (Fig. 5)."""
+spin-up (Fig. 5), drawn with :mod:`pipeflex.plot` where it has a helper."""
 from __future__ import annotations
 
 import numpy as np
@@ -33,10 +33,15 @@ def convergence_figure():
 
 def sprinkler_figure(*, step: float = 1e-3, t_end: float = 1.0):
     """Fig. 5: the angular velocity [rad/s] of the semicircular rotating pipe as the flow
-    spins it up, for EI = 10, 100, 1000 N m^2 and the rigid pipe (generalised-alpha, ``step`` [s])."""
+    spins it up, for EI = 10, 100, 1000 N m^2 and the rigid pipe (generalised-alpha, ``step``
+    [s]); left, the pipe drawn by :func:`pipeflex.plot.model` (hinge, flow direction)."""
     import matplotlib.pyplot as plt
 
-    fig, ax = plt.subplots(figsize=(7, 4))
+    from ...plot import model as draw_model
+
+    fig, (ax0, ax) = plt.subplots(1, 2, figsize=(10, 4), gridspec_kw={"width_ratios": [1, 1.6]})
+    draw_model(scenes.sprinkler(EI=10.0), ax=ax0, plane="xy")
+    ax0.set_title("the pipe: hinge about $z$ at the inlet", fontsize=10)
     for label, model in (("EI = 10", scenes.sprinkler(EI=10.0)), ("EI = 100", scenes.sprinkler(EI=100.0)),
                          ("EI = 1000", scenes.sprinkler(EI=1000.0)), ("rigid", scenes.sprinkler(EI=1.0, rigid=True))):
         r = simulate(model, t_end, integrator="generalized_alpha", step=step, n_outputs=201, progress=False)
@@ -46,4 +51,5 @@ def sprinkler_figure(*, step: float = 1e-3, t_end: float = 1.0):
     ax.set_title("seed 000, Fig. 5: semicircular rotating pipe")
     ax.legend()
     ax.grid(lw=0.3)
+    fig.tight_layout()
     return fig

@@ -46,23 +46,30 @@ class LimitCycle:
 
 
 def limit_cycle_model(*, n_elements: int, tip_force: float = 1.5, mass_flow: float = 30.0,
-                      polar_inertia: float = 1e-3) -> Tuple[Model, int]:
+                      polar_inertia: float = 1e-3, planar: bool = False, EA: float = 1e11) -> Tuple[Model, int]:
     """The cantilever of Table 2 (L = 1 m, EI = 10 N m^2, 8 and 2 kg/m) with a lateral tip
     force ``tip_force`` [N] along y and mdot = ``mass_flow`` [kg/s]. ``polar_inertia``
     [kg m] about the pipe axis makes the mass matrix regular (no effect on bending).
-    Returns the model and its tip node."""
-    sec = PipeSection(EI=10.0, pipe_mass=8.0, fluid_mass=2.0, EA=1e11,
+    ``planar`` fixes the out-of-plane coordinates (uz, rx, ry) of every node: the motion
+    in the x-y plane only. ``EA`` [N]: the axial stiffness (1e11: practically
+    inextensible; 1e5, as the peer comparison, keeps the axial modes slow enough for the
+    periodic-orbit solver's tolerances). Returns the model and its tip node."""
+    sec = PipeSection(EI=10.0, pipe_mass=8.0, fluid_mass=2.0, EA=_checks.positive("EA", EA),
                       rotary_inertia=(_checks.non_negative("polar_inertia", polar_inertia), 0.0, 0.0))
     b = ModelBuilder()
     n0 = b.add_node((0.0, 0.0, 0.0))
     nodes = b.add_line(n0, (1.0, 0.0, 0.0), n_elements, sec)
     b.clamp(n0)
+    if planar:
+        for k in nodes[1:]:
+            b.fix(k, ("uz", "rx", "ry"))
     b.add_load(nodes[-1], force=(0.0, _checks.finite("tip_force", tip_force), 0.0))
     return b.build(mass_flow=_checks.finite("mass_flow", mass_flow)), nodes[-1]
 
 
 def simulate_limit_cycle(n_elements: int, *, t_end: float = 6.0, settle: float = 3.0,
-                         integrator: str = "generalized_alpha", n_outputs: int = 2401, **options) -> LimitCycle:
+                         integrator: str = "generalized_alpha", n_outputs: int = 2401, EA: float = 1e11,
+                         **options) -> LimitCycle:
     """Static deflection by the tip force without flow, then the transient with flow.
 
     Args:
@@ -70,8 +77,9 @@ def simulate_limit_cycle(n_elements: int, *, t_end: float = 6.0, settle: float =
         t_end: simulated time [s]; settle: start of the cycle measurement [s].
         integrator, n_outputs, options: as :func:`pipeflex.simulate` (default
             generalised-alpha with step 5e-4 s).
+        EA: axial stiffness [N] (:func:`limit_cycle_model`).
     """
-    model, tip = limit_cycle_model(n_elements=n_elements)
+    model, tip = limit_cycle_model(n_elements=n_elements, EA=EA)
     start = static_equilibrium(model, mass_flow=0.0).state
     if integrator == "generalized_alpha":
         options.setdefault("step", 5e-4)

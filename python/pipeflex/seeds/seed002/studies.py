@@ -13,7 +13,7 @@ from ...analysis.rotating import rotating_frequencies
 from ...analysis.transient import simulate
 from ...errors import ConvergenceError
 from . import scenes
-from .references import SCHILHANSL
+from .references import SCHILHANSL, SLENDERNESS
 
 
 
@@ -107,3 +107,40 @@ def critical_rate(*, n_elements: int, elastic: str = "0", reference: str = "ref2
         else:
             low = mid
     return 0.5 * (low + high)
+
+
+def mode_shape_figure(*, gammas: Sequence[float] = (0.0, 50.0), n_modes: int = 3):
+    """Figs. 11-12: the first ``n_modes`` transverse mode shapes at ``gammas`` (solid,
+    dashed, ...), for R = 0, N = 0 (Fig. 11) and R = 2L, N = 3 (Fig. 12): the tangential
+    displacement in the rotating frame against x / L (the dynamic part q_delta of eq. 45),
+    largest value 1, tip positive; drawn between the nodes with the element shape functions
+    (:func:`pipeflex.plot.mode_shape`), the nodal values being ``transverse_shapes``."""
+    import matplotlib.pyplot as plt
+
+    from ...analysis.campbell import rotating_modes
+    from ...plot import mode_shape
+    from ...plot.centreline import mode_displacement
+
+    styles = ("-", "--", ":", "-.")
+    fig, axes = plt.subplots(1, 2, figsize=(11, 4), sharey=True)
+    for ax, (R, N, title) in zip(axes, ((0.0, 0.0, "Fig. 11: R = 0, N = 0"), (2.0, 3.0, "Fig. 12: R = 2L, N = 3"))):
+        beam = scenes.rotating_cantilever(hub_radius_ratio=R, tip_mass_ratio=N, slenderness=SLENDERNESS)
+        tangential = np.cross(beam.hub.axis, [1.0, 0.0, 0.0])
+        for k, g in enumerate(gammas):
+            modes = rotating_modes(beam, omega=g * beam.info["omega0"])
+            inplane = np.flatnonzero(np.argmax(modes["share"], axis=1) == 1)[:n_modes]
+            for j, col in enumerate(inplane):
+                v = modes["shapes"][:, col]
+                tip = mode_displacement(beam, v).reshape(-1, 6)[beam.info["tip_node"], :3] @ tangential
+                mode_shape(beam, v, component=tangential, flip=bool(tip < 0), ax=ax, color=f"C{j}",
+                           linestyle=styles[k % len(styles)], label=f"mode {j + 1}" if k == 0 else None)
+        ax.set_title(title)
+        ax.set_xlabel("$x/L$ [-]")
+        ax.grid(lw=0.3)
+    axes[0].set_ylabel("transverse displacement [-] (largest 1)")
+    axes[1].set_ylabel("")
+    names = ("solid", "dashed", "dotted", "dash-dot")
+    axes[0].legend(title=", ".join(f"{n}: $\\gamma$ = {g:g}" for n, g in zip(names, gammas)), fontsize=8,
+                   title_fontsize=8)
+    fig.tight_layout()
+    return fig

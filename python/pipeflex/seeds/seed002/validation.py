@@ -86,7 +86,8 @@ def spin_up_figure():
 GROUPS = (
     Group("seed002_table2", "seed 002, Table 2: frequencies of the non-rotating beam", table2),
     Group("seed002_tables3to5", "seed 002, Tables 3-5: frequencies of the rotating beam", tables_3_to_5,
-          lambda: [("seed002_table3.png", table3_figure())]),
+          lambda: [("seed002_table3.png", table3_figure()),
+                   ("seed002_figs11_12.png", studies.mode_shape_figure())]),
     Group("seed002_spin_up", "seed 002, Fig. 6: spin-up (figure only)", lambda: [],
           lambda: [("seed002_fig6.png", spin_up_figure())]),
 )

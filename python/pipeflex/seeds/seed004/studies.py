@@ -138,21 +138,13 @@ def eigenvalue_curves(flow_speeds: Sequence[float], *, n_bodies: int = 8, n_mode
 
 
 def eigenvalue_figure(flow_speeds, curves, critical_speed: Optional[float] = None):
-    """Fig. 6: Im and Re of the lowest eigenvalues against the flow speed."""
-    import matplotlib.pyplot as plt
+    """Fig. 6: Im and Re of the lowest eigenvalues against the flow speed (drawn by
+    :func:`pipeflex.plot.root_locus`)."""
+    from ...plot import root_locus
 
-    fig, ax = plt.subplots(1, 2, figsize=(10, 3.8))
-    for k in range(curves.shape[1]):
-        ax[0].plot(flow_speeds, curves[:, k].imag, label=f"mode {k + 1}")
-        ax[1].plot(flow_speeds, curves[:, k].real, label=f"mode {k + 1}")
-    for a, lab in zip(ax, ("Im lambda [rad/s]", "Re lambda [1/s]")):
-        a.set_xlabel("flow speed [m/s]")
-        a.set_ylabel(lab)
-        a.grid(lw=0.3)
-        if critical_speed is not None:
-            a.axvline(critical_speed, color="0.5", ls=":", lw=1)
-    ax[1].axhline(0.0, color="k", lw=0.5)
-    ax[0].legend(fontsize=8)
+    axes = root_locus(curves, flow_speeds, panels=("frequency", "growth"), parameter_label="flow speed [m/s]",
+                      critical=critical_speed)
+    fig = axes[0].figure
     fig.suptitle("seed 004, Fig. 6: eigenvalues of the cantilever against the flow speed", fontsize=10)
     fig.tight_layout()
     return fig
