@@ -1,0 +1,80 @@
+"""Benchmark: every analysis against the model size (issue "One engine": log-log slope
+<= 1.1 from 8 to 8192 elements).
+
+The cantilever pipe of Meijaard & Hakvoort's Table 2 (pf.scenes.cantilever_pipe, polar inertia 1e-4 kg m) with N
+elements: build; static equilibrium at 10 kg/s; linearisation; 6 eigenvalues nearest 0
+(sparse shift-invert from 400 coordinates on); the critical mass flow (up to
+--max-critical elements); 5 generalised-alpha steps of 1 ms from a swinging state (per
+step); the start of an IDA run (consistent initial values, one short output interval).
+Wall times are the best of --repeat runs; slopes between successive sizes.
+Run: .venv/bin/python benchmarks/bench_analyses_scaling.py [--sizes 8 32 128 512 2048 8192]
+"""
+import argparse
+import math
+import os
+import time
+
+import numpy as np
+
+import pipeflex as pf
+
+
+def best(f, repeat):
+    t = np.inf
+    out = None
+    for _ in range(repeat):
+        t0 = time.perf_counter()
+        out = f()
+        t = min(t, time.perf_counter() - t0)
+    return t, out
+
+
+def swinging(model, speed=0.2):
+    s = pf.State.from_core(model.initial_state(), model)
+    x = np.asarray(model.positions)[:, 0]
+    v = s.v.copy()
+    v[1::6] = speed * x / x.max()
+    v[5::6] = speed / x.max()
+    return pf.State(s.q, v, s.a, s.frames, s.ancf)
+
+
+def main():
+    ap = argparse.ArgumentParser()
+    ap.add_argument("--sizes", type=int, nargs="+", default=[8, 32, 128, 512, 2048, 8192])
+    ap.add_argument("--max-critical", type=int, default=2048)
+    ap.add_argument("--repeat", type=int, default=2)
+    args = ap.parse_args()
+    print(f"load average {os.getloadavg()[0]:.2f}; OPENBLAS_NUM_THREADS={os.environ.get('OPENBLAS_NUM_THREADS', 'unset')}")
+    names = ("build", "static", "linearize", "6 eigenvalues", "critical flow", "gen-alpha step", "IDA start")
+    rows = {}
+    for n in args.sizes:
+        r = {}
+        r["build"], m = best(lambda: pf.scenes.cantilever_pipe(n_elements=n, polar_inertia=1e-4), args.repeat)
+        r["static"], st = best(lambda: pf.static_equilibrium(m, mass_flow=10.0), args.repeat)
+        r["linearize"], lin = best(lambda: pf.linearize(m, st.state, mass_flow=10.0), args.repeat)
+        r["6 eigenvalues"], _ = best(lambda: pf.eigenvalues(lin, n_modes=6, sigma=0.0), args.repeat)
+        if n <= args.max_critical:
+            r["critical flow"], _ = best(lambda: pf.critical_mass_flow(m), 1)
+        sw = swinging(m)
+
+        def steps(k):
+            return pf.simulate(m, k * 1e-3, state=sw, step=1e-3, n_outputs=2, progress=False,
+                               integrator="generalized_alpha", work=False)
+        t5, _ = best(lambda: steps(5), args.repeat)
+        t10, _ = best(lambda: steps(10), args.repeat)
+        r["gen-alpha step"] = max(t10 - t5, 1e-9) / 5
+        r["IDA start"], _ = best(lambda: pf.simulate(m, 1e-6, state=sw, integrator="ida", n_outputs=2,
+                                                       progress=False, rtol=1e-3, atol=1e-6), 1)
+        rows[n] = r
+        print(f"{n:6d} elements: " + ", ".join(f"{k} {v:.3g} s" for k, v in r.items()), flush=True)
+    sizes = list(rows)
+    print(f"\n{'analysis':16s} " + " ".join(f"{n:>9d}" for n in sizes) + "   slopes")
+    for name in names:
+        vals = [rows[n].get(name) for n in sizes]
+        slopes = [f"{math.log(b / a) / math.log(n1 / n0):.2f}" for (n0, a), (n1, b) in
+                  zip(zip(sizes, vals), zip(sizes[1:], vals[1:])) if a and b]
+        print(f"{name:16s} " + " ".join(f"{v:9.2e}" if v else f"{'-':>9s}" for v in vals) + "   " + " ".join(slopes))
+
+
+if __name__ == "__main__":
+    main()
