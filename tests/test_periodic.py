@@ -6,23 +6,14 @@ import pytest
 import pipeflex as pf
 from pipeflex import _core
 from pipeflex.analysis.periodic import continue_orbits, periodic_orbit
+from pipeflex.seeds.seed000.limit_cycle import limit_cycle_model
 from pipeflex.signals import cycle_metrics
 
 
 def cantilever(n_elements, *, planar, tip_force=1.5, EA=1e5):
     """Fig. 3's cantilever (L = 1 m, EI = 10 N m^2, 8 + 2 kg/m, 30 kg/s, tip force along y);
     ``planar`` fixes the out-of-plane coordinates (uz, rx, ry) of every node."""
-    sec = pf.PipeSection(EI=10.0, pipe_mass=8.0, fluid_mass=2.0, EA=EA, rotary_inertia=(1e-3, 0.0, 0.0))
-    b = pf.ModelBuilder()
-    n0 = b.add_node((0.0, 0.0, 0.0))
-    nodes = b.add_line(n0, (1.0, 0.0, 0.0), n_elements, sec)
-    b.clamp(n0)
-    if planar:
-        for k in nodes[1:]:
-            b.fix(k, ("uz", "rx", "ry"))
-    if tip_force:
-        b.add_load(nodes[-1], force=(0.0, tip_force, 0.0))
-    return b.build(mass_flow=30.0), nodes[-1]
+    return limit_cycle_model(n_elements=n_elements, tip_force=tip_force, planar=planar, EA=EA)
 
 
 @pytest.fixture(scope="module")

@@ -225,16 +225,27 @@ void pipe_residual(const PipeElementData& e, const NodeFrames& ref, const LoadSt
 template void pipe_residual<double>(const PipeElementData&, const NodeFrames&, const LoadState&,
                                     const double*, const double*, const double*, double*);
 
+namespace {
+
+// Without a matrix, or with only the mass weight: the residual and wM M, no derivatives.
+// True if that was all that was asked.
+bool residual_or_mass_only(const PipeElementData& e, const NodeFrames& ref, const LoadState& load,
+                           const double* q, const double* v, const double* acc, double wK, double wC,
+                           double wM, double* r, double* J) {
+    if (J != nullptr && (wK != 0.0 || wC != 0.0)) return false;
+    if (r != nullptr) pipe_residual<double>(e, ref, load, q, v, acc, r);
+    if (J == nullptr) return true;
+    pipe_mass_matrix(e, ref, q, J);
+    for (int k = 0; k < 144; ++k) J[k] *= wM;
+    return true;
+}
+
+}  // namespace
+
 void pipe_tangent_ad(const PipeElementData& e, const NodeFrames& ref, const LoadState& load,
                      const double* q, const double* v, const double* acc, double wK, double wC,
                      double wM, double* r, double* J) {
-    if (J == nullptr || (wK == 0.0 && wC == 0.0)) {
-        if (r != nullptr) pipe_residual<double>(e, ref, load, q, v, acc, r);
-        if (J == nullptr) return;
-        pipe_mass_matrix(e, ref, q, J);
-        for (int k = 0; k < 144; ++k) J[k] *= wM;
-        return;
-    }
+    if (residual_or_mass_only(e, ref, load, q, v, acc, wK, wC, wM, r, J)) return;
     using D = Dual<double, 12>;
     D qd[12], vd[12], rd[12];
     for (int i = 0; i < 12; ++i) {
@@ -450,13 +461,7 @@ void elastic(const PipeElementData& e, const V3& xp, const V3& xq, const M3& Ep,
 void pipe_tangent(const PipeElementData& e, const NodeFrames& ref, const LoadState& load,
                   const double* q, const double* v, const double* acc, double wK, double wC,
                   double wM, double* r, double* J) {
-    if (J == nullptr || (wK == 0.0 && wC == 0.0)) {
-        if (r != nullptr) pipe_residual<double>(e, ref, load, q, v, acc, r);
-        if (J == nullptr) return;
-        pipe_mass_matrix(e, ref, q, J);
-        for (int k = 0; k < 144; ++k) J[k] *= wM;
-        return;
-    }
+    if (residual_or_mass_only(e, ref, load, q, v, acc, wK, wC, wM, r, J)) return;
     const double l0 = e.l0;
     const V3 xp = vec(q), xq = vec(q + 6), vxp = vec(v), vxq = vec(v + 6);
     const NodeRotation nd[2] = {node_rotation(vec(q + 3), vec(v + 3), vec(acc + 3), ref.p, e.offset_p),
