@@ -133,6 +133,15 @@ CHECKS = {
         near("shift[6.0] * 1e3", 8.8, 0.05,
              "ours, not the seed's: docs/validation.md (seed 004, section 8.3), nozzle shift at 6 m/s [mm]"),
     ],
+    "stability_map.ipynb": [
+        # fast mode: 16 elements, beta in steps of 0.02 (full: 32 elements, steps of 0.0025)
+        near("u_cr_02", 5.6, 0.06, "Gregory & Paidoussis (1966): u_cr = 5.6 at beta = 0.2 without gravity "
+             "(read from their figure, ~1 %)"),
+        near("u_cr_05", 9.32242, 1e-3, "ours, not a paper's: the continuous beam's characteristic determinant, "
+             "beta = 0.5 (tests/continuous_pipe.py: u_cr = 9.3224184; 16 elements are 7e-5 relative above)"),
+        within("first_jump", 0.28, 0.31, "Gregory & Paidoussis (1966): the first S-shaped jump of the critical "
+               "flow speed near beta = 0.3 (0.29-0.30 at 16 elements, 0.2925 at 32)"),
+    ],
 }
 
 

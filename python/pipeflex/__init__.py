@@ -26,7 +26,8 @@ __version__ = "0.1.0"
 _LAZY = {"scenes": "pipeflex.scenes", "seeds": "pipeflex.seeds", "work_precision": "pipeflex.work_precision",
          "plotting": "pipeflex.plotting", "plot": "pipeflex.plot", "multibody": "pipeflex.multibody",
          "coriolis": "pipeflex.seeds.seed000.coriolis", "limit_cycle": "pipeflex.seeds.seed000.limit_cycle",
-         "sweep": "pipeflex.sweeps:sweep"}  # "module:attribute" for a module's attribute
+         "sweep": "pipeflex.sweeps:sweep",
+         "stability_map": "pipeflex.analysis.stability_map:stability_map"}  # "module:attribute" for a module's attribute
 
 
 def __getattr__(name):
