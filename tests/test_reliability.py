@@ -234,6 +234,15 @@ def test_nan_state_is_refused(m4):
             analysis()
 
 
+def test_nan_frame_is_refused(m4):
+    st = pf.State.from_core(m4.initial_state(), m4)
+    frames = st.frames.copy()
+    frames[2, 0, 1] = np.inf
+    bad = pf.State(st.q, st.v, st.a, frames, st.ancf)
+    with pytest.raises(ValueError, match=r"state.frames\[2\] must be finite"):
+        pf.static_equilibrium(m4, state=bad)
+
+
 @pytest.fixture(scope="module")
 def rotating():
     return scenes.rotating_cantilever(n_elements=4)

@@ -59,6 +59,9 @@ class State(Result):
                                  f"got {np.shape(getattr(self, name))}")
         if sorted(np.flatnonzero(self.ancf)) != sorted(model.ancf_nodes):
             raise ValueError("the state's ANCF nodes differ from the model's")
+        bad = np.flatnonzero(~np.isfinite(np.asarray(self.frames, float).reshape(n, 9)).all(axis=1))
+        if len(bad):
+            raise ValueError(f"state.frames[{bad[0]}] must be finite")
         s = _core.State(model.core)
         s.q, s.v, s.a = self.q, self.v, self.a
         for i in range(n):
@@ -100,14 +103,14 @@ def as_core(model, state) -> "_core.State":
 
 
 def check_finite(state) -> None:
-    """ValueError naming the first non-finite entry of a ``_core.State``'s q, v, a or
-    frames (the solvers' convergence tests cannot hold with NaN or inf)."""
+    """ValueError naming the first non-finite entry of a ``_core.State``'s q, v or a (the
+    solvers' convergence tests cannot hold with NaN or inf). The frames are checked where
+    they enter from numpy (:meth:`State.to_core`); the core only writes finite ones from
+    finite coordinates, and reading them node by node would make every analysis call
+    cost O(nodes) Python calls."""
     for name in ("q", "v", "a"):
         x = np.asarray(getattr(state, name))
         bad = np.flatnonzero(~np.isfinite(x))
         if len(bad):
             raise ValueError(f"state.{name} must be finite, got {x[bad[0]]} at index {bad[0]} "
                              f"(node {bad[0] // 6}, coordinate {bad[0] % 6})")
-    for i in range(len(np.asarray(state.q)) // 6):
-        if not np.all(np.isfinite(state.frame(i))):
-            raise ValueError(f"state.frames[{i}] must be finite")
