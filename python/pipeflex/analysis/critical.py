@@ -449,7 +449,8 @@ def _track_root(ev, lo, hi, eig_hi, xtol):
             # The shift is kept 5 % of |lambda| off the prediction: at a shift within the
             # round-off of an eigenvalue (~1e-4 |lambda| at 2048 elements) T(sigma) is
             # singular to working precision and Arnoldi returns spurious values.
-            near, _, X, _ = sparse_block_eigenvalues(block, 3, lam0 - 0.05 * abs(lam0), vectors=True)
+            near, _, X, _ = sparse_block_eigenvalues(block, 3, lam0 - 0.05 * abs(lam0), vectors=True,
+                                                     guess=None if x0 is None else (lam0, x0))
             j = int(np.argmin(np.abs(near - lam0)))
             lam0, x0 = near[j], X[:, j]
         near, x = refine_eigenpair(block, lam0, x0)

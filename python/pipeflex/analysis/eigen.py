@@ -419,11 +419,13 @@ def _sparse_negative(K) -> int:
     return _negative(K.toarray())
 
 
-def sparse_block_eigenvalues(b: Block, k: int, sigma: complex, *, vectors: bool = False):
+def sparse_block_eigenvalues(b: Block, k: int, sigma: complex, *, vectors: bool = False, guess=None):
     """The (about) k eigenvalues nearest sigma of one sparse block, by shift-invert Arnoldi.
 
     Returns ``(lam, noise, V, negative)`` as :func:`block_eigenvalues`. Small blocks are
-    solved densely.
+    solved densely. ``guess`` = (lambda, x): an eigenpair near the one sought (e.g. at a
+    neighbouring flow) starts the Krylov space at its state vector [x, lambda x], which
+    cuts the Arnoldi iterations when following an eigenvalue.
     """
     n = len(b.dofs)
     K, C, M = (sp.csc_matrix(X) for X in (b.K, b.C, b.M))
@@ -453,6 +455,11 @@ def sparse_block_eigenvalues(b: Block, k: int, sigma: complex, *, vectors: bool 
     v0 = rng.standard_normal(2 * n)
     if not real:
         v0 = v0 + 1j * rng.standard_normal(2 * n)
+    if guess is not None:
+        lam_g, x_g = guess
+        z = np.concatenate([x_g, lam_g * x_g])
+        # a little of the random start keeps the other wanted eigenvectors reachable
+        v0 = (z if not real else z.real) / np.linalg.norm(z) + 1e-3 * v0 / np.linalg.norm(v0)
     kk = min(k + 2, 2 * n - 2)
     ncv = max(2 * kk + 1, 40)
     while True:  # a too small Krylov space can stall on undamped (+-i omega) spectra
