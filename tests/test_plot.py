@@ -265,3 +265,119 @@ def test_seed002_mode_shape_figure_has_the_transverse_shapes_at_the_nodes():
                 nodal = np.array([curve[0].get_ydata()[0]] + [c.get_ydata()[-1] for c in curve])
                 s = ref[k, j] / np.abs(ref[k, j]).max() * np.sign(ref[k, j, -1])
                 np.testing.assert_allclose(nodal, s, atol=1e-9)
+
+
+# -- line charts: time histories, parameter curves, comparisons, error-cost, paths, bifurcation
+
+def _xy(line):
+    return np.asarray(line.get_xdata(), float), np.asarray(line.get_ydata(), float)
+
+
+def test_time_history_draws_each_series_scaled_with_units():
+    t = np.linspace(0.0, 1.0, 11)
+    ax = plot.time_history([t, t[:5]], [np.sin(t), np.cos(t[:5])], quantity="tip deflection $w$", unit="mm",
+                           scale=1e3, labels=["a", "b"], styles=["--", dict(color="k")])
+    assert ax.get_xlabel() == "time $t$ [s]" and ax.get_ylabel() == "tip deflection $w$ [mm]"
+    (x0, y0), (x1, y1) = (_xy(line) for line in ax.lines)
+    np.testing.assert_allclose(y0, 1e3 * np.sin(t))
+    np.testing.assert_allclose(x1, t[:5])
+    np.testing.assert_allclose(y1, 1e3 * np.cos(t[:5]))
+    assert ax.lines[0].get_linestyle() == "--" and ax.lines[1].get_color() == "k"
+    assert [x.get_text() for x in ax.get_legend().get_texts()] == ["a", "b"]
+    with pytest.raises(ValueError, match="curve 0"):
+        plot.time_history(t, t[:3], quantity="q", unit="m")
+
+
+def test_parameter_curves_shared_abscissa_log_axes():
+    n = np.array([1.0, 2.0, 4.0, 8.0])
+    ax = plot.parameter_curves(n, [n**-2, n**-4], xlabel="elements $n$ [-]", ylabel="error [kg/s]",
+                               xscale="log", yscale="log", labels=["order 2", None])
+    assert ax.get_xscale() == "log" and ax.get_yscale() == "log"
+    np.testing.assert_allclose(_xy(ax.lines[1])[1], n**-4)
+    assert [x.get_text() for x in ax.get_legend().get_texts()] == ["order 2"]
+    assert ax.get_ylabel() == "error [kg/s]"
+
+
+def test_comparison_lines_ours_circles_published_same_colour():
+    g = np.linspace(0.0, 10.0, 21)
+    gp = np.array([0.0, 5.0, 10.0])
+    ax = plot.comparison(g, [g + 1.0, 2 * g], [[1.0, 6.1, 11.0], [0.0, 9.9, 20.0]], x_published=gp,
+                         labels=["$R/L$ = 0", "$R/L$ = 1"], xlabel=r"$\gamma$ [-]", ylabel=r"$\omega/\omega_0$ [-]")
+    line0, pub0, line1, pub1 = ax.lines
+    np.testing.assert_allclose(_xy(line0)[1], g + 1.0)
+    np.testing.assert_allclose(_xy(pub1)[0], gp)
+    np.testing.assert_allclose(_xy(pub1)[1], [0.0, 9.9, 20.0])
+    assert pub0.get_color() == line0.get_color() and pub0.get_marker() == "o" and pub0.get_linestyle() == "None"
+    texts = [x.get_text() for x in ax.get_legend().get_texts()]
+    assert texts == ["$R/L$ = 0", "$R/L$ = 1", "lines: ours", "circles: published"]
+    with pytest.raises(ValueError, match="published"):
+        plot.comparison(g, [g, g], [[1.0, 2.0, 3.0]], x_published=gp, xlabel="x", ylabel="y")
+
+
+def test_error_cost_groups_floor_and_tolerance():
+    ax = plot.error_cost([0.1, 0.2, 0.05], [1e-2, 0.0, 1e-4], groups=["A", "A", "B"], labels=["a1", "a2", "b1"],
+                         tolerance=1e-3, floor=1e-9, xlabel="wall time [s]")
+    a, b, tol = ax.lines
+    np.testing.assert_allclose(_xy(a)[1], [1e-2, 1e-9])        # 0 drawn at the floor
+    np.testing.assert_allclose(_xy(b)[0], [0.05])
+    assert a.get_marker() != b.get_marker()
+    np.testing.assert_allclose(_xy(tol)[1], [1e-3, 1e-3])
+    assert [x.get_text() for x in ax.texts] == ["a1", "a2", "b1"]
+    assert [x.get_text() for x in ax.get_legend().get_texts()] == ["A", "B", "tolerance 0.001"]
+    assert ax.get_xscale() == ax.get_yscale() == "log" and ax.get_ylabel() == "relative error [-]"
+
+
+def test_paths_projects_on_the_plane():
+    p = np.array([[0.0, 1.0, 2.0], [3.0, 4.0, 5.0]])
+    ax = plot.paths([p], plane="xz", labels=["shape"])
+    np.testing.assert_allclose(np.column_stack(_xy(ax.lines[0])), p[:, [0, 2]])
+    assert (ax.get_xlabel(), ax.get_ylabel()) == ("$x$ [m]", "$z$ [m]")
+    with pytest.raises(ValueError, match=r"\(n, 3\)"):
+        plot.paths([p[:, :2]])
+
+
+def test_deviation_map_log_values_and_flags():
+    d = np.array([[1e-5, -2e-3], [0.0, 1e-2]])
+    ax = plot.deviation_map(d, row_labels=["a", "b"], column_labels=["1", "2"], flag=1e-3,
+                            flag_mask=[[True, True], [True, False]], colorbar=False)
+    np.testing.assert_allclose(ax.deviation_image.get_array(), np.log10([[1e-5, 2e-3], [1e-8, 1e-2]]))
+    assert len(ax.patches) == 1 and ax.patches[0].get_xy() == (0.5, -0.5)   # (row 0, column 1) only
+
+
+def _branch(stable):
+    k = len(stable)
+    amp = np.zeros((k, 3, 3))
+    amp[:, 2, 1] = 0.1 * np.sqrt(np.arange(1, k + 1))
+    return pf.OrbitBranch(mass_flow=25.0 + np.arange(1, k + 1), period=0.4 + 0.01 * np.arange(1, k + 1),
+                          amplitude=amp, stable=np.asarray(stable), max_multiplier=np.ones(k), folds=np.zeros(0),
+                          hopf=(25.0, 2 * np.pi / 0.4))
+
+
+def test_bifurcation_amplitude_from_the_hopf_point_solid_stable_dashed_unstable():
+    b = _branch([True, True, False, False])
+    ax = plot.bifurcation(b, node=2, labels=["4 elements"])
+    lines = [ln for ln in ax.lines if ln.get_marker() != "o"]
+    # one line per segment: Hopf point (25, 0), then orbits 1, 2 stable: solid to 27 kg/s; dashed from 27 on
+    assert [ln.get_linestyle() for ln in lines] == ["-", "-", "--", "--"]
+    np.testing.assert_allclose(np.concatenate([_xy(ln)[0][:1] for ln in lines] + [_xy(lines[-1])[0][1:]]),
+                               [25.0, 26.0, 27.0, 28.0, 29.0])
+    np.testing.assert_allclose(np.concatenate([_xy(ln)[1][:1] for ln in lines] + [_xy(lines[-1])[1][1:]]),
+                               [0.0, 0.1, 0.1 * np.sqrt(2), 0.1 * np.sqrt(3), 0.2])
+    hopf = [ln for ln in ax.lines if ln.get_marker() == "o"]
+    np.testing.assert_allclose(np.ravel(_xy(hopf[0])), [25.0, 0.0])
+    assert ax.get_xlabel() == r"mass flow $\dot m$ [kg/s]" and ax.get_ylabel() == "amplitude $A_y$ [m]"
+    assert [x.get_text() for x in ax.get_legend().get_texts()] == ["4 elements", "stable", "unstable", "Hopf point"]
+
+
+def test_bifurcation_period_explicit_stability_and_several_branches():
+    b1, b2 = _branch([True, True, True]), _branch([True, True])
+    ax = plot.bifurcation([b1, b2], node=[2, 1], quantity="period", stable=[[True, False, False], []],
+                          legend=False)
+    lines = [ln for ln in ax.lines if ln.get_marker() != "o"]
+    assert [ln.get_linestyle() for ln in lines] == ["-", "--", "--", "-", "-"]   # b2: its own (all stable)
+    np.testing.assert_allclose(_xy(lines[0])[1], [0.4, 0.41])            # 2 pi / omega_c at the Hopf point
+    assert lines[3].get_color() != lines[0].get_color() and ax.get_ylabel() == "period $T$ [s]"
+    with pytest.raises(ValueError, match="stabilities"):
+        plot.bifurcation(b1, node=2, stable=[True])
+    with pytest.raises(ValueError, match="quantity"):
+        plot.bifurcation(b1, node=2, quantity="energy")

@@ -11,16 +11,27 @@ returns the axes (:func:`animate`: the animation). Units are in the axis labels.
 * :func:`work_precision` - error against wall time of several methods.
 * :func:`root_locus`, :func:`eigenvalue_paths`, :func:`root_locus_figure` - eigenvalues
   as the mass flow varies.
+* :func:`bifurcation` - amplitude or period of branches of periodic orbits against the
+  mass flow (solid stable, dashed unstable, Hopf points).
+* :func:`time_history` - quantities against time.
+* :func:`parameter_curves` - quantities against a parameter (sweeps, refinements).
+* :func:`comparison` - computed curves against published values.
+* :func:`error_cost` - error against cost of several models, grouped.
+* :func:`paths` - centre lines or trajectories drawn in a plane.
+* :func:`deviation_map` - a table of relative deviations as a colour map.
 
 :mod:`pipeflex.plot.centreline` computes the centre lines without drawing.
 """
 from .animation import animate, save
+from .bifurcation import bifurcation
 from .centreline import centre_line, centre_line_from_frames, mode_displacement
-from .charts import campbell, stability_map, work_precision
+from .charts import campbell, deviation_map, stability_map, work_precision
+from .curves import comparison, error_cost, parameter_curves, paths, time_history
 from .modes import mode_shape
 from .roots import eigenvalue_paths, root_locus, root_locus_figure
 from .structure import model, supports
 
 __all__ = ["model", "supports", "mode_shape", "animate", "save", "campbell", "stability_map", "work_precision",
            "root_locus", "eigenvalue_paths", "root_locus_figure", "centre_line", "centre_line_from_frames",
-           "mode_displacement"]
+           "mode_displacement", "bifurcation", "time_history", "parameter_curves", "comparison", "error_cost",
+           "paths", "deviation_map"]

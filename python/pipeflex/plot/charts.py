@@ -155,3 +155,53 @@ def work_precision(runs, *, reference_name: Optional[str] = None, target: Option
     ax.grid(True, which="both", lw=0.3)
     ax.legend(fontsize=8)
     return ax
+
+
+def deviation_map(deviations, *, row_labels: Optional[Sequence[str]] = None,
+                  column_labels: Optional[Sequence[str]] = None, xlabel: str = "", ylabel: str = "",
+                  vmin: float = -7.0, vmax: float = -1.0, floor: float = 1e-8, flag: Optional[float] = None,
+                  flag_mask=None, divider: Optional[float] = None, ax=None, title: Optional[str] = None,
+                  colorbar: bool = True, colorbar_label: str = r"$\log_{10}|\delta|$ [-]"):
+    """A table of relative deviations as a colour map of log10 |deviation| (e.g. computed
+    against published values, one row per configuration, one column per parameter value).
+
+    Args:
+        deviations: (rows, columns) relative deviations [-]; |values| below ``floor`` are drawn at it.
+        row_labels, column_labels: tick labels. xlabel, ylabel: axis labels.
+        vmin, vmax: colour range in log10 [-].
+        flag: cells with |deviation| above it are outlined in red (within ``flag_mask``,
+            a boolean (rows, columns) array, if given).
+        divider: a column position (e.g. 5.5) to draw a white vertical line at.
+        ax: axes to draw on; default new ones. title: of the axes.
+        colorbar: add a colour bar (on the axes' figure, labelled ``colorbar_label``).
+
+    Returns:
+        The axes (the image as ``ax.deviation_image``).
+    """
+    import matplotlib.patches as patches
+
+    ax = _axes(ax)
+    d = np.abs(np.asarray(deviations, dtype=float))
+    if d.ndim != 2:
+        raise ValueError(f"deviations must be 2-D, got shape {d.shape}")
+    im = ax.imshow(np.log10(np.maximum(d, floor)), vmin=vmin, vmax=vmax, cmap="viridis", aspect="auto")
+    if divider is not None:
+        ax.axvline(float(divider), color="w", lw=1.5)
+    if column_labels is not None:
+        ax.set_xticks(range(d.shape[1]), list(column_labels))
+    if row_labels is not None:
+        ax.set_yticks(range(d.shape[0]), list(row_labels), fontsize=7)
+    if flag is not None:
+        sel = d > float(flag)
+        if flag_mask is not None:
+            sel &= np.asarray(flag_mask, dtype=bool)
+        for i, j in zip(*np.nonzero(sel)):
+            ax.add_patch(patches.Rectangle((j - 0.5, i - 0.5), 1, 1, fill=False, ec="r", lw=2))
+    ax.set_xlabel(xlabel)
+    ax.set_ylabel(ylabel)
+    if title:
+        ax.set_title(title, fontsize=10)
+    if colorbar:
+        ax.figure.colorbar(im, ax=ax, shrink=0.7, label=colorbar_label)
+    ax.deviation_image = im
+    return ax

@@ -77,34 +77,30 @@ def continue_orbits_orbit(model, branch: OrbitBranch, index: int, steps: int) ->
 
 
 def figure(diagrams, *, transients=()):
-    """Amplitude and period of the tip's lateral motion against the mass flow: one colour
-    per diagram, solid between orbits stable in 3D, dashed where unstable (out of plane);
-    the Hopf points as dots; ``transients``: (label, mdot [kg/s], amplitude [m], period [s])
-    marked. Returns the figure."""
+    """Amplitude and period of the tip's lateral motion against the mass flow, drawn by
+    :func:`pipeflex.plot.bifurcation`: one colour per diagram, solid between orbits stable
+    in 3D, dashed where unstable (out of plane); the Hopf points as dots; ``transients``:
+    (label, mdot [kg/s], amplitude [m], period [s]) marked. Returns the figure."""
     import matplotlib.pyplot as plt
     from matplotlib.lines import Line2D
 
+    from ...plot import bifurcation
+
     fig, (ax_a, ax_t) = plt.subplots(1, 2, figsize=(10, 4), constrained_layout=True)
-    handles = []
-    for d, color in zip(diagrams, plt.rcParams["axes.prop_cycle"].by_key()["color"]):
-        b = d.branch
-        stable = d.stable_3d if len(d.stable_3d) else b.stable
-        for ax, y, y0 in ((ax_a, b.amplitude[:, d.tip, 1], 0.0), (ax_t, b.period, 2 * np.pi / b.hopf[1])):
-            x = np.concatenate([[b.hopf[0]], b.mass_flow])
-            y = np.concatenate([[y0], y])
-            ok = np.concatenate([[stable[0]], stable])
-            for i in range(len(x) - 1):
-                ax.plot(x[i:i + 2], y[i:i + 2], "-" if ok[i] and ok[i + 1] else "--", color=color, lw=1.4)
-            ax.plot(b.hopf[0], y0, "o", color=color, ms=4)
-        handles.append(Line2D([], [], color=color, label=f"{d.n_elements} elements, tip force {d.tip_force:g} N"))
+    branches = [d.branch for d in diagrams]
+    options = dict(node=[d.tip for d in diagrams], component=1, stable=[d.stable_3d for d in diagrams],
+                   legend=False)
+    bifurcation(branches, quantity="amplitude", ax=ax_a, ylabel=r"tip amplitude $A_y$ [m]", **options)
+    bifurcation(branches, quantity="period", ax=ax_t, **options)
+    handles = [Line2D([], [], color=f"C{i}", label=f"{d.n_elements} elements, tip force {d.tip_force:g} N")
+               for i, d in enumerate(diagrams)]
     for label, mdot, amp, period in transients:
         ax_a.plot(mdot, amp, "k*", ms=9)
         ax_t.plot(mdot, period, "k*", ms=9)
     if transients:
         handles.append(Line2D([], [], color="k", marker="*", ls="none", ms=9, label="long transient (Fig. 3)"))
     handles += [Line2D([], [], color="grey", ls="-", label="stable in 3D"),
-                Line2D([], [], color="grey", ls="--", label="unstable out of plane")]
-    ax_a.set(xlabel=r"mass flow $\dot m$ [kg/s]", ylabel=r"tip amplitude $A_y$ [m]")
-    ax_t.set(xlabel=r"mass flow $\dot m$ [kg/s]", ylabel=r"period $T$ [s]")
+                Line2D([], [], color="grey", ls="--", label="unstable out of plane"),
+                Line2D([], [], color="grey", ls="none", marker="o", ms=4, label="Hopf point")]
     ax_a.legend(handles=handles, fontsize=8)
     return fig

@@ -358,101 +358,100 @@ def _section(model: Model) -> PipeSection:
 
 
 def geometry_figure(model: Model):
-    """Plan view of the meter (Fig. 6 of seed 000): nodes, flow direction, sensors."""
+    """Plan view of the meter (Fig. 6 of seed 000) by :func:`pipeflex.plot.model`: centre
+    line, nodes, clamped ends, flow direction; the sensors and the inlet and outlet marked."""
     import matplotlib.pyplot as plt
 
+    from ...plot import model as draw_model
+
     fig, ax = plt.subplots(figsize=(6, 3))
+    draw_model(model, ax=ax, plane="xy", show_flow=False, legend=False)
     x = model.positions
-    for e in model.elements:
-        p, q = e.nodes
-        ax.plot(x[[p, q], 0], x[[p, q], 1], "k-", lw=2)
-    ax.plot(x[:, 0], x[:, 1], "k.", ms=5)
     s1, s2 = sensors(model)
     for n, name in ((s1, "S1 (inlet side)"), (s2, "S2 (outlet side)")):
         ax.plot(*x[n, :2], "o", ms=9, mfc="none", mec="C3")
         ax.annotate(name, x[n, :2], textcoords="offset points", xytext=(-10, -16 if x[n, 1] < 0 else 8),
                     ha="right", color="C3")
     ends = (model.elements[0].nodes[0], model.elements[-1].nodes[1])
-    ax.plot(x[list(ends), 0], x[list(ends), 1], "ks", ms=8, label="clamped")
-    for e, sign in ((model.elements[0], 1), (model.elements[-1], -1)):
+    for e in (model.elements[0], model.elements[-1]):
         p, q = e.nodes
         mid = 0.5 * (x[p] + x[q])
         ax.annotate("", mid[:2] + 0.06 * (x[q, :2] - x[p, :2]) / np.linalg.norm(x[q] - x[p]), mid[:2],
                     arrowprops=dict(arrowstyle="->", color="C0", lw=1.5))
     ax.text(x[ends[0], 0], x[ends[0], 1] - 0.05, "inlet", color="C0")
     ax.text(x[ends[1], 0], x[ends[1], 1] + 0.03, "outlet", color="C0")
-    ax.set_aspect("equal")
-    ax.set_xlabel("x [m]")
-    ax.set_ylabel("y [m]")
-    ax.set_title("U-tube in the xy plane; vibration along z")
-    ax.legend(loc="center left")
+    ax.set_title("U-tube in the $xy$ plane; vibration along $z$", fontsize=10)
     ax.margins(0.15)
     fig.tight_layout()
     return fig
 
 
 def frequency_figure(*curves: FrequencyCurve, labels: Sequence[str] = ()):
-    """omega/omega0 versus mdot/mdot0 (Fig. 7 of seed 000) for one or more curves."""
+    """omega/omega0 versus mdot/mdot0 (Fig. 7 of seed 000) for one or more curves
+    (:func:`pipeflex.plot.parameter_curves`; dashed: about the undeformed shape)."""
     import matplotlib.pyplot as plt
 
+    from ...plot import parameter_curves
+
     fig, ax = plt.subplots(figsize=(6, 4))
-    for i, c in enumerate(curves):
-        label = labels[i] if i < len(labels) else None
-        ax.plot(c.flows_scaled, c.omega_scaled, "-" if c.about_equilibrium else "--", label=label)
-    ax.set_xlabel(r"$\dot m/\dot m_0$")
-    ax.set_ylabel(r"$\omega/\omega_0$")
-    ax.grid(True, lw=0.3)
-    if labels:
-        ax.legend()
+    parameter_curves([c.flows_scaled for c in curves], [c.omega_scaled for c in curves],
+                     xlabel=r"mass flow $\dot m/\dot m_0$ [-]", ylabel=r"first frequency $\omega/\omega_0$ [-]",
+                     labels=list(labels) or None, styles=["-" if c.about_equilibrium else "--" for c in curves],
+                     ax=ax)
     fig.tight_layout()
     return fig
 
 
 def time_lag_figure(*curves: TimeLagCurve, labels: Sequence[str] = ()):
-    """Time lag [us] versus mdot/mdot0 (Fig. 8 of seed 000), points and fitted lines."""
+    """Time lag [us] versus mdot/mdot0 (Fig. 8 of seed 000), points and fitted lines
+    (:func:`pipeflex.plot.parameter_curves`)."""
     import matplotlib.pyplot as plt
 
+    from ...plot import parameter_curves
+
     fig, ax = plt.subplots(figsize=(6, 4))
-    for i, c in enumerate(curves):
-        label = labels[i] if i < len(labels) else f"rho_f = {c.fluid_density:g} kg/m^3"
-        line = ax.plot(c.flows_scaled, 1e6 * c.time_lag, "o", ms=4, mfc="none",
-                       label=f"{label}: {1e6 * c.sensitivity:.5f} us/(kg/s)")[0]
-        ax.plot(c.flows_scaled, 1e6 * (c.sensitivity * c.mass_flow + c.intercept), "-", lw=0.8,
-                color=line.get_color())
-    ax.set_xlabel(r"$\dot m/\dot m_0$")
-    ax.set_ylabel(r"time lag $\Delta t = t_{S1} - t_{S2}$ [$\mu$s]")
+    names = [labels[i] if i < len(labels) else f"$\\rho_f$ = {c.fluid_density:g} kg/m$^3$"
+             for i, c in enumerate(curves)]
+    x = [c.flows_scaled for c in curves]
+    ylabel = r"time lag $\Delta t = t_{S1} - t_{S2}$ [$\mu$s]"
+    xlabel = r"mass flow $\dot m/\dot m_0$ [-]"
+    parameter_curves(x, [c.time_lag for c in curves], scale=1e6, xlabel=xlabel, ylabel=ylabel,
+                     labels=[f"{n}: {1e6 * c.sensitivity:.5f} $\\mu$s/(kg/s)" for n, c in zip(names, curves)],
+                     styles=[dict(ls="none", marker="o", ms=4, mfc="none", color=f"C{i}") for i in range(len(curves))],
+                     ax=ax, legend=False)
+    parameter_curves(x, [c.sensitivity * c.mass_flow + c.intercept for c in curves], scale=1e6, xlabel=xlabel,
+                     ylabel=ylabel, styles=[dict(lw=0.8, color=f"C{i}") for i in range(len(curves))], ax=ax)
     c = curves[0]
     nz = np.nonzero(c.flows_scaled)[0]
     if len(nz) and all(np.allclose(d.mass_flow[d.flows_scaled != 0] / d.flows_scaled[d.flows_scaled != 0],
                                    c.mass_flow[nz[0]] / c.flows_scaled[nz[0]]) for d in curves):
         md0 = c.mass_flow[nz[0]] / c.flows_scaled[nz[0]]  # common mdot0: show mdot [kg/s] on top
         top = ax.secondary_xaxis("top", functions=(lambda f: f * md0, lambda m: m / md0))
-        top.set_xlabel(r"$\dot m$ [kg/s]")
-    ax.grid(True, lw=0.3)
-    ax.legend()
+        top.set_xlabel(r"mass flow $\dot m$ [kg/s]")
     fig.tight_layout()
     return fig
 
 
 def mode_figure(model: Model, mode: MeterMode):
-    """Out-of-plane amplitude abs(w) and phase arg(w) [mrad] of a complex mode along the pipe."""
+    """Out-of-plane amplitude abs(w) and phase arg(w) [mrad] of a complex mode along the pipe
+    (:func:`pipeflex.plot.parameter_curves`)."""
     import matplotlib.pyplot as plt
+
+    from ...plot import parameter_curves
 
     s = arc_length(model)
     w = mode.out_of_plane
     fig, (ax1, ax2) = plt.subplots(2, 1, figsize=(6, 5), sharex=True)
-    ax1.plot(s, np.abs(w), "o-", ms=3)
-    ax1.set_ylabel("|w| [-]")
+    parameter_curves(s, np.abs(w), xlabel="", ylabel=r"amplitude $|w|$ [-]", styles=[dict(marker="o", ms=3)],
+                     ax=ax1, title=f"first mode at $\\dot m$ = {mode.mass_flow:.3g} kg/s, "
+                                   f"$\\omega$ = {mode.omega:.5g} rad/s")
     moving = np.abs(w) > 1e-12
-    ax2.plot(s[moving], 1e3 * np.angle(w[moving]), "o-", ms=3)
-    ax2.set_ylabel("arg w [mrad]")
-    ax2.set_xlabel("distance along the pipe from the inlet s [m]")
+    parameter_curves(s[moving], np.angle(w[moving]), scale=1e3, xlabel="arc length from the inlet $s$ [m]",
+                     ylabel=r"phase $\arg w$ [mrad]", styles=[dict(marker="o", ms=3)], ax=ax2)
     for ax in (ax1, ax2):
         for n in mode.sensors:
             ax.axvline(s[n], color="C3", lw=0.8, ls=":")
-        ax.grid(True, lw=0.3)
     for n, name in zip(mode.sensors, ("S1", "S2")):
         ax1.text(s[n], 0.05, " " + name, color="C3")
-    ax1.set_title(f"first mode at mdot = {mode.mass_flow:.3g} kg/s, omega = {mode.omega:.5g} rad/s")
     fig.tight_layout()
     return fig

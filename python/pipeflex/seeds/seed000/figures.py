@@ -10,23 +10,25 @@ from . import scenes
 
 
 def convergence_figure():
-    """Log-log error of the critical mass flow versus number of elements (Tables 1, 2)."""
+    """Log-log error of the critical mass flow versus number of elements (Tables 1, 2),
+    drawn by :func:`pipeflex.plot.parameter_curves`."""
     import matplotlib.pyplot as plt
+
+    from ...plot import parameter_curves
 
     fig, ax = plt.subplots(figsize=(6, 4))
     n1 = np.array([1, 2, 4, 8, 16])
     exact = np.pi * np.sqrt(0.25 * 1.0 / 1.0)
     _, e1 = critical_flow_convergence(scenes.simply_supported_pipe, n1, exact)
-    ax.loglog(n1, e1, "o-", label="simply supported (Table 1), vs exact")
     n2 = np.array([2, 4, 8, 16, 32])
     f2, _ = critical_flow_convergence(scenes.cantilever_pipe, n2, 0.0)
     ref = richardson(f2[-2], f2[-1])
-    ax.loglog(n2[:-1], np.abs(f2[:-1] - ref), "s-", label="cantilever (Table 2), vs extrapolated")
-    ax.loglog(n1, e1[0] * (n1 / n1[0]) ** -4.0, "k--", lw=0.8, label="order 4")
-    ax.set_xlabel("number of elements")
-    ax.set_ylabel("error of critical mass flow [kg/s]")
-    ax.legend()
-    ax.grid(True, which="both", lw=0.3)
+    parameter_curves([n1, n2[:-1], n1], [e1, np.abs(f2[:-1] - ref), e1[0] * (n1 / n1[0]) ** -4.0],
+                     xlabel="number of elements $n$ [-]",
+                     ylabel=r"error of the critical mass flow $\dot m_{cr}$ [kg/s]",
+                     labels=["simply supported (Table 1), vs exact", "cantilever (Table 2), vs extrapolated",
+                             "order 4"], styles=["o-", "s-", dict(color="k", ls="--", lw=0.8)],
+                     xscale="log", yscale="log", ax=ax)
     fig.tight_layout()
     return fig
 
@@ -34,22 +36,25 @@ def convergence_figure():
 def sprinkler_figure(*, step: float = 1e-3, t_end: float = 1.0):
     """Fig. 5: the angular velocity [rad/s] of the semicircular rotating pipe as the flow
     spins it up, for EI = 10, 100, 1000 N m^2 and the rigid pipe (generalised-alpha, ``step``
-    [s]); left, the pipe drawn by :func:`pipeflex.plot.model` (hinge, flow direction)."""
+    [s]); left, the pipe drawn by :func:`pipeflex.plot.model` (hinge, flow direction); right,
+    :func:`pipeflex.plot.time_history`."""
     import matplotlib.pyplot as plt
 
-    from ...plot import model as draw_model
+    from ...plot import model as draw_model, time_history
 
     fig, (ax0, ax) = plt.subplots(1, 2, figsize=(10, 4), gridspec_kw={"width_ratios": [1, 1.6]})
     draw_model(scenes.sprinkler(EI=10.0), ax=ax0, plane="xy")
     ax0.set_title("the pipe: hinge about $z$ at the inlet", fontsize=10)
-    for label, model in (("EI = 10", scenes.sprinkler(EI=10.0)), ("EI = 100", scenes.sprinkler(EI=100.0)),
-                         ("EI = 1000", scenes.sprinkler(EI=1000.0)), ("rigid", scenes.sprinkler(EI=1.0, rigid=True))):
+    t, omega, labels = [], [], []
+    for label, model in (("$EI$ = 10 N m$^2$", scenes.sprinkler(EI=10.0)),
+                         ("$EI$ = 100 N m$^2$", scenes.sprinkler(EI=100.0)),
+                         ("$EI$ = 1000 N m$^2$", scenes.sprinkler(EI=1000.0)),
+                         ("rigid", scenes.sprinkler(EI=1.0, rigid=True))):
         r = simulate(model, t_end, integrator="generalized_alpha", step=step, n_outputs=201, progress=False)
-        ax.plot(r.t, r.omega[:, 0, 2], label=label)
-    ax.set_xlabel("time [s]")
-    ax.set_ylabel("angular velocity [rad/s]")
-    ax.set_title("seed 000, Fig. 5: semicircular rotating pipe")
-    ax.legend()
-    ax.grid(lw=0.3)
+        t.append(r.t)
+        omega.append(r.omega[:, 0, 2])
+        labels.append(label)
+    time_history(t, omega, quantity=r"angular velocity $\omega_z$", unit="rad/s", labels=labels, ax=ax,
+                 title="seed 000, Fig. 5: semicircular rotating pipe")
     fig.tight_layout()
     return fig

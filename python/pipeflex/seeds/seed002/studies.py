@@ -144,3 +144,31 @@ def mode_shape_figure(*, gammas: Sequence[float] = (0.0, 50.0), n_modes: int = 3
                    title_fontsize=8)
     fig.tight_layout()
     return fig
+
+
+def spin_up_figure(*, omega: float = 10.0, t_end: float = 20.0,
+                   cases=((2, "A"), (1, "0"), (2, "0"), (10, "0"))):
+    """Fig. 6: spin-up to ``omega`` [rad/s] of the ref. 21 beam, Models A and 0 (``cases``:
+    (elements, elastic model)); a diverging run is listed in the legend. Drawn by
+    :func:`pipeflex.plot.time_history`. Returns the figure."""
+    import matplotlib.pyplot as plt
+
+    from ...plot import time_history
+
+    fig, ax = plt.subplots(figsize=(7, 4))
+    ts, ys, labels = [], [], []
+    for n, model in cases:
+        label = f"Model {model}, {n} element{'s' * (n > 1)}"
+        try:
+            t, y = spin_up(n_elements=n, elastic=model, omega=omega, t_end=t_end)
+        except ConvergenceError as e:
+            t, y = np.zeros(0), np.zeros(0)
+            label += ": diverged" + (f" at $t$ = {e.time:.2f} s" if e.time is not None else "")
+        ts.append(t)
+        ys.append(y)
+        labels.append(label)
+    time_history(ts, ys, quantity="tip deflection", unit="m", labels=labels, ax=ax,
+                 title=f"seed 002, Fig. 6: spin-up to {omega:g} rad/s (ref. 21 beam)")
+    ax.set_ylim(-1.5, 1.5)
+    fig.tight_layout()
+    return fig

@@ -55,3 +55,23 @@ def deviations(result: TableResult) -> Dict[int, Dict[Tuple[int, int], np.ndarra
     """Relative deviation (ours - published) / published of every entry."""
     return {mode: {k: (result.values[mode][k] - np.array(ref)) / np.array(ref) for k, ref in TABLES[mode].items()}
             for mode in (1, 2, 3)}
+
+
+def table3_figure(*, hub_radius_ratios=(0, 1, 3, 5), gammas=None):
+    """Table 3 (N = 0): our first frequency against gamma (lines) and the printed values
+    (circles), drawn by :func:`pipeflex.plot.comparison`. Returns the figure."""
+    import matplotlib.pyplot as plt
+
+    from ...plot import comparison
+    from .references import TABLE3
+
+    fig, ax = plt.subplots(figsize=(7, 4.5))
+    g = np.linspace(0.0, 50.0, 101) if gammas is None else np.asarray(gammas, dtype=float)
+    ours = [rotating_frequencies(scenes.rotating_cantilever(hub_radius_ratio=R, slenderness=SLENDERNESS), gamma=g,
+                                 n_modes=1).transverse[:, 0] for R in hub_radius_ratios]
+    comparison(g, ours, [TABLE3[(0, R)] for R in hub_radius_ratios], x_published=np.asarray(GAMMAS, dtype=float),
+               labels=[f"$R/L$ = {R}" for R in hub_radius_ratios], xlabel=r"$\gamma = \Omega/\omega_0$ [-]",
+               ylabel=r"first frequency $\omega_1/\omega_0$ [-]", published_label="circles: published",
+               title="seed 002, Table 3 ($N$ = 0): lines ours, circles published", ax=ax)
+    fig.tight_layout()
+    return fig

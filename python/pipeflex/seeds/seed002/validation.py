@@ -4,13 +4,9 @@ from __future__ import annotations
 
 from typing import List
 
-import numpy as np
-
-from ...analysis.rotating import rotating_frequencies
-from ...errors import ConvergenceError
 from ..checks import Group, Row
-from . import scenes, studies, tables
-from .references import GAMMAS, MISPRINTS, SLENDERNESS, TABLE2_EXACT, TABLE2_SIMULATION, TABLE3, TABLES
+from . import studies, tables
+from .references import GAMMAS, MISPRINTS, TABLE2_EXACT, TABLE2_SIMULATION, TABLES
 
 
 def table2() -> List[Row]:
@@ -44,50 +40,11 @@ def tables_3_to_5() -> List[Row]:
     return rows
 
 
-def table3_figure():
-    """Table 3 (N = 0): our first frequency against gamma, the printed values as circles."""
-    import matplotlib.pyplot as plt
-
-    fig, ax = plt.subplots(figsize=(7, 4.5))
-    g = np.linspace(0.0, 50.0, 101)
-    for R in (0, 1, 3, 5):
-        m = scenes.rotating_cantilever(hub_radius_ratio=R, slenderness=SLENDERNESS)
-        line, = ax.plot(g, rotating_frequencies(m, gamma=g, n_modes=1).transverse[:, 0], label=f"R/L = {R}")
-        ax.plot(GAMMAS, TABLE3[(0, R)], "o", color=line.get_color(), mfc="none")
-    ax.set_xlabel("gamma = Omega / omega0")
-    ax.set_ylabel("omega1 / omega0")
-    ax.set_title("seed 002, Table 3 (N = 0): lines ours, circles published")
-    ax.legend()
-    ax.grid(lw=0.3)
-    return fig
-
-
-def spin_up_figure():
-    """Fig. 6: spin-up to 10 rad/s of the ref. 21 beam, Models A and 0."""
-    import matplotlib.pyplot as plt
-
-    fig, ax = plt.subplots(figsize=(7, 4))
-    for n, model in ((2, "A"), (1, "0"), (2, "0"), (10, "0")):
-        label = f"Model {model}, {n} element{'s' * (n > 1)}"
-        try:
-            t, y = studies.spin_up(n_elements=n, elastic=model, omega=10.0, t_end=20.0)
-            ax.plot(t, y, label=label)
-        except ConvergenceError as e:
-            ax.plot([], [], label=f"{label}: diverged" + (f" at t = {e.time:.2f} s" if e.time is not None else ""))
-    ax.set_ylim(-1.5, 1.5)
-    ax.set_xlabel("time [s]")
-    ax.set_ylabel("tip deflection [m]")
-    ax.set_title("seed 002, Fig. 6: spin-up to 10 rad/s (ref. 21 beam)")
-    ax.legend(fontsize=8)
-    ax.grid(lw=0.3)
-    return fig
-
-
 GROUPS = (
     Group("seed002_table2", "seed 002, Table 2: frequencies of the non-rotating beam", table2),
     Group("seed002_tables3to5", "seed 002, Tables 3-5: frequencies of the rotating beam", tables_3_to_5,
-          lambda: [("seed002_table3.png", table3_figure()),
+          lambda: [("seed002_table3.png", tables.table3_figure()),
                    ("seed002_figs11_12.png", studies.mode_shape_figure())]),
     Group("seed002_spin_up", "seed 002, Fig. 6: spin-up (figure only)", lambda: [],
-          lambda: [("seed002_fig6.png", spin_up_figure())]),
+          lambda: [("seed002_fig6.png", studies.spin_up_figure())]),
 )

@@ -179,36 +179,24 @@ def format_candidates(candidates: Sequence[Candidate], *, unit: str) -> str:
     return "\n".join(lines)
 
 
-_MARKERS = ("o", "s", "^", "D", "v")
-
-
 def error_cost_figure(candidates: Sequence[Candidate], *, title: str, tolerance: Optional[float] = None,
                       cost: str = "wall_time", annotate: bool = True):
     """Relative error against cost (``"wall_time"`` [s] or ``"size"``) on log axes, one
-    marker per family; the horizontal line is ``tolerance``. Errors below
-    :data:`ERROR_FLOOR` are drawn at it."""
+    marker per family (:func:`pipeflex.plot.error_cost`); the horizontal line is
+    ``tolerance``. Errors below :data:`ERROR_FLOOR` are drawn at it."""
     import matplotlib.pyplot as plt
+
+    from ...plot import error_cost
 
     if cost not in ("wall_time", "size"):
         raise ValueError(f"cost must be 'wall_time' or 'size', got {cost!r}")
-    fig, ax = plt.subplots(figsize=(7.5, 4.8))
-    families = list(dict.fromkeys(c.family for c in candidates))
-    for k, fam in enumerate(families):
-        sel = [c for c in candidates if c.family == fam]
-        x = [getattr(c, cost) for c in sel]
-        y = [max(c.error, ERROR_FLOOR) for c in sel]
-        ax.loglog(x, y, _MARKERS[k % len(_MARKERS)], color=f"C{k}", mfc="none", ms=7, label=fam)
-        if annotate:
-            for c, xi, yi in zip(sel, x, y):
-                ax.annotate(c.label.replace("element ", "").replace("FFRF ", "").replace(", transient", ""),
-                            (xi, yi), textcoords="offset points", xytext=(4, 3), fontsize=6.5, color=f"C{k}")
     if tolerance is not None:
-        ax.axhline(_checks.positive("tolerance", tolerance), color="0.4", ls="--", lw=0.8,
-                   label=f"tolerance {tolerance:g}")
-    ax.set_xlabel("wall time [s]" if cost == "wall_time" else "size of the state vector")
-    ax.set_ylabel("relative error")
-    ax.set_title(title, fontsize=10)
-    ax.grid(lw=0.3, which="both")
-    ax.legend(fontsize=8)
+        _checks.positive("tolerance", tolerance)
+    fig, ax = plt.subplots(figsize=(7.5, 4.8))
+    labels = [c.label.replace("element ", "").replace("FFRF ", "").replace(", transient", "") for c in candidates]
+    error_cost([getattr(c, cost) for c in candidates], [c.error for c in candidates],
+               groups=[c.family for c in candidates], labels=labels if annotate else None, tolerance=tolerance,
+               floor=ERROR_FLOOR, xlabel="wall time [s]" if cost == "wall_time" else "size of the state vector [-]",
+               ylabel="relative error [-]", ax=ax, title=title)
     fig.tight_layout()
     return fig

@@ -259,77 +259,85 @@ def nozzle_shift(paths: Dict[float, np.ndarray]) -> Dict[float, float]:
 
 # -- figures ---------------------------------------------------------------------------
 
-def _axes(title, xlabel, ylabel, figsize=(7, 4)):
+def _figure(figsize=(7, 4)):
     import matplotlib.pyplot as plt
 
-    fig, ax = plt.subplots(figsize=figsize)
-    ax.set_title(title, fontsize=10)
-    ax.set_xlabel(xlabel)
-    ax.set_ylabel(ylabel)
-    ax.grid(lw=0.3)
-    return fig, ax
+    return plt.subplots(figsize=figsize)
 
 
 def tip_figure(traces: Sequence[Trace], reference: Optional[Trace], title: str):
-    """Figs. 4, 5: tip deflection against time; the seed-000 reference in grey."""
-    fig, ax = _axes(title, "time [s]", "tip deflection [m]")
-    if reference is not None:
-        ax.plot(reference.t, reference.y, color="0.6", lw=2.5, label=reference.label)
-    for tr in traces:
-        ax.plot(tr.t, tr.y, lw=1, label=tr.label)
-    ax.legend(fontsize=8)
+    """Figs. 4, 5: tip deflection against time (:func:`pipeflex.plot.time_history`); the
+    seed-000 reference in grey."""
+    from ...plot import time_history
+
+    fig, ax = _figure()
+    runs = ([reference] if reference is not None else []) + list(traces)
+    styles = ([dict(color="0.6", lw=2.5)] if reference is not None else []) + [dict(lw=1)] * len(traces)
+    time_history([r.t for r in runs], [r.y for r in runs], quantity="tip deflection", unit="m",
+                 labels=[r.label for r in runs], styles=styles, ax=ax, title=title)
     return fig
 
 
 def fig7_figure(data: Dict[str, np.ndarray], table2: Dict[int, float]):
-    """Fig. 7: critical mass flow against the state size; filled: bodies, open: modes."""
-    fig, ax = _axes("seed 004, Fig. 7: critical flow vs state size", "size of the state vector",
-                    "critical mass flow [kg/s]")
-    ax.semilogx(data["bodies_size"], data["bodies_flow"], "ko-", label="n bodies, boundary modes")
-    ax.semilogx(data["modes_size"], data["modes_flow"], "ko--", mfc="none", label="1 body, internal modes")
+    """Fig. 7: critical mass flow against the state size (:func:`pipeflex.plot.parameter_curves`);
+    filled: bodies, open: modes; crosses: seed 000's Table 2."""
+    from ...plot import parameter_curves
+
+    fig, ax = _figure()
     n = np.array(sorted(table2))
-    ax.semilogx(2 * 6 * n, [table2[k] for k in n], "x", color="tab:red", label="seed 000 Table 2 (n elements)")
-    ax.legend(fontsize=8)
+    parameter_curves([data["bodies_size"], data["modes_size"], 2 * 6 * n],
+                     [data["bodies_flow"], data["modes_flow"], [table2[k] for k in n]],
+                     xlabel="size of the state vector [-]", ylabel=r"critical mass flow $\dot m_{cr}$ [kg/s]",
+                     labels=["n bodies, boundary modes", "1 body, internal modes", "seed 000 Table 2 (n elements)"],
+                     styles=["ko-", dict(color="k", marker="o", ls="--", mfc="none"), dict(ls="none", marker="x",
+                                                                                         color="tab:red")],
+                     xscale="log", ax=ax, title="seed 004, Fig. 7: critical flow vs state size")
     return fig
 
 
 def curved_figures(runs: Dict[float, tuple], element_runs: Optional[Dict[float, tuple]] = None):
-    """Figs. 9 (base angular velocity) and 10 (final shapes) from :func:`curved_pipe_run`;
-    ``element_runs`` (per E, the (t, omega) of :func:`element_curved_run`) adds seed 000's
-    transient in grey, as the seed draws Spacar's."""
+    """Figs. 9 (base angular velocity, :func:`pipeflex.plot.time_history`) and 10 (final
+    shapes, :func:`pipeflex.plot.paths`) from :func:`curved_pipe_run`; ``element_runs`` (per
+    E, the (t, omega) of :func:`element_curved_run`) adds seed 000's transient in grey, as
+    the seed draws Spacar's."""
     import matplotlib.pyplot as plt
 
+    from ...plot import paths, time_history
+
     fig9, axes = plt.subplots(1, len(runs), figsize=(11, 3.5), sharey=True)
-    fig10, ax10 = _axes("seed 004, Fig. 10: deformed shapes at the last step", "x [m]", "z [m]", (6, 4.5))
-    for ax, (E, (s, res, w)) in zip(np.atleast_1d(axes), runs.items()):
+    fig10, ax10 = _figure((6, 4.5))
+    shapes, labels = [], []
+    for k, (ax, (E, (s, res, w))) in enumerate(zip(np.atleast_1d(axes), runs.items())):
+        ts, ys, names, styles = [], [], [], []
         if element_runs and E in element_runs:
             te, we = element_runs[E]
-            ax.plot(te, np.abs(we), color="0.6", lw=2.5, label="seed-000 element, 8 el.")
-        ax.plot(res.t, np.abs(w), "k", lw=1, label="FFRF")
+            ts.append(te), ys.append(np.abs(we)), names.append("seed-000 element, 8 el.")
+            styles.append(dict(color="0.6", lw=2.5))
+        ts.append(res.t), ys.append(np.abs(w)), names.append("FFRF"), styles.append(dict(color="k", lw=1))
         ax.axhline(TABLE1_SPACAR[E], color="0.6", lw=0.8, ls=":", label="Spacar (Table 1)")
-        ax.set_title(f"E = {E / 1e9:g} GPa", fontsize=10)
-        ax.set_xlabel("time [s]")
-        ax.grid(lw=0.3)
-        pts = np.vstack(s.centre_line(res.state(len(res.t) - 1)))
-        ax10.plot(pts[:, 0], pts[:, 2], ".-", ms=2, label=f"E = {E / 1e9:g} GPa")
-    np.atleast_1d(axes)[0].set_ylabel("|angular velocity| at the base [rad/s]")
-    np.atleast_1d(axes)[0].legend(fontsize=8)
+        time_history(ts, ys, quantity=r"$|\omega_y|$ at the base", unit="rad/s", labels=names, styles=styles,
+                     ax=ax, title=f"$E$ = {E / 1e9:g} GPa", legend=k == 0)
+        if k:
+            ax.set_ylabel("")
+        shapes.append(np.vstack(s.centre_line(res.state(len(res.t) - 1))))
+        labels.append(f"$E$ = {E / 1e9:g} GPa")
     fig9.suptitle("seed 004, Fig. 9: angular velocity about y at the base", fontsize=10)
     fig9.tight_layout()
     s0 = next(iter(runs.values()))[0]
-    pts0 = np.vstack(s0.centre_line(s0.initial_state()))
-    ax10.plot(pts0[:, 0], pts0[:, 2], ":", color="0.5", label="initial")
-    ax10.set_aspect("equal")
-    ax10.legend(fontsize=8)
+    shapes.append(np.vstack(s0.centre_line(s0.initial_state())))
+    labels.append("initial")
+    paths(shapes, plane="xz", labels=labels, styles=[dict(marker=".", ms=2)] * (len(shapes) - 1)
+          + [dict(ls=":", color="0.5")], ax=ax10, title="seed 004, Fig. 10: deformed shapes at the last step")
     return fig9, fig10
 
 
 def printer_figure(paths: Dict[float, np.ndarray]):
-    """Fig. 12: nozzle trajectories in the x-y plane for the flow speeds."""
-    fig, ax = _axes("seed 004, Fig. 12: nozzle D in the x-y plane, 0-0.34 s", "x [m]", "y [m]", (6, 4.5))
-    for v, p in paths.items():
-        ax.plot(p[:, 0], p[:, 1], label=f"{v:g} m/s")
-    ax.legend(title="concrete flow", fontsize=8)
+    """Fig. 12: nozzle trajectories in the x-y plane for the flow speeds (:func:`pipeflex.plot.paths`)."""
+    from ...plot import paths as draw_paths
+
+    fig, ax = _figure((6, 4.5))
+    draw_paths(list(paths.values()), plane="xy", labels=[f"{v:g} m/s" for v in paths], equal=False, ax=ax,
+               legend_title="concrete flow", title="seed 004, Fig. 12: nozzle D in the x-y plane, 0-0.34 s")
     return fig
 
 
