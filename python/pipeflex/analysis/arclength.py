@@ -171,7 +171,7 @@ def follow(model, state, t0, *, at, newton, size, tol, max_iterations, max_steps
     psi2 = psi2 if np.isfinite(psi2) and psi2 > 0 else 1.0
     start = Point(state, t0, tangent(model, state, at, t0, w2, psi2, None))
     ds0 = dt0 * np.sqrt(2 * psi2)  # the first step moves t by about dt0
-    ds, ds_min, ds_max = ds0, ds0 * 2.0**-12, max(8 * ds0, 0.25 * np.sqrt(2 * psi2))
+    ds, ds_min, ds_max = ds0, ds0 * 2.0**-12, max(8 * ds0, 0.25 * np.sqrt(2 * psi2), 0.25)
     here, its, last_it = start, 0, 0
     out.last = start
 
@@ -246,7 +246,7 @@ def follow(model, state, t0, *, at, newton, size, tol, max_iterations, max_steps
             out.iterations = its
             return out
         here, out.last = nxt, nxt
-        ds = min(ds_max, max(ds_min, ds * min(2.0, max(0.5, np.sqrt(5.0 / max(1, it_step))))))
+        ds = min(ds_max, max(ds_min, ds * min(2.0, max(0.5, np.sqrt(8.0 / max(1, it_step))))))
     out.iterations = its
     out.why = f"the path did not reach t = 1 in {max_steps} arc-length steps (at t = {here.t:.6g})"
     return out

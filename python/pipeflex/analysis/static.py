@@ -66,7 +66,8 @@ def static_equilibrium(model, *, state=None, mass_flow: Optional[float] = None, 
     returned with the limit points passed in ``limit_points``; if it turns back and does
     not reach t = 1 within ``arc_steps`` steps, :class:`~pipeflex.LimitPointError` says
     at which load factor. ``path="load"``: load stepping only (the error as it failed);
-    ``path="arclength"``: continuation from the start. A flow ramp (``from_mass_flow``)
+    ``path="arclength"``: continuation from the start (from rest with the flow ramped
+    with the loads if the flow's forces alone have no equilibrium near rest). A flow ramp (``from_mass_flow``)
     is continued by arc length only with ``path="arclength"`` (with "auto" its failure is
     reported as it is: :func:`~pipeflex.critical_mass_flow` reads it as divergence).
 
@@ -138,6 +139,8 @@ def static_equilibrium(model, *, state=None, mass_flow: Optional[float] = None, 
     rnorm = 0.0
     if path == "arclength" and model.n_dofs:
         ok, it, rnorm, why, singular = _newton(model, state, *at(0.0), tol, size, max_iterations)
+        if not ok and cold and mdot != 0.0 and from_mass_flow is None:  # ramp the flow with the loads
+            ok, state, along = True, as_core(model, None), (lambda t: (t * mdot, t))
         if not ok:
             raise (SingularMatrixError if singular else ConvergenceError)(
                 f"static equilibrium failed at the start of the continuation (t = 0) after {it} iterations: {why}",
@@ -165,6 +168,11 @@ def static_equilibrium(model, *, state=None, mass_flow: Optional[float] = None, 
             if path == "load" or (path == "auto" and ramp):
                 raise failure
             secant = _core.reduce(model.core, np.asarray(state.q) - np.asarray(start.q)) / lf if lf > 0 else None
+            if lf == 0.0:  # is the start an equilibrium (under the flow's forces alone)?
+                ok, it, _, _, _ = _newton(model, state, *at(0.0), tol, size, max_iterations)
+                total_iter += it
+                if not ok:  # no: not a load path's failure (path="arclength" ramps the flow too)
+                    raise failure
             return _continue(model, state, lf, along, solve, arc_steps, max(dlf, 1.0 / (64 * load_steps)),
                              total_iter, mdot, failure, secant)
         dlf /= 2
@@ -193,7 +201,7 @@ def _continue(model, state, t0, along, solve, arc_steps, dt0, total_iter, mdot, 
         top = max(way.limits, key=lambda p: p.t)  # the largest load on the path
         m_top, lf_top = along(top.t)
         ramp = along(2.0)[0] != along(1.0)[0]
-        at_ = f"path parameter t = {top.t:.6g} (mdot = {m_top:.6g} kg/s)" if ramp else f"load factor {top.t:.6g}"
+        at_ = f"path parameter t = {top.t:.6g} (mdot = {m_top:.6g} kg/s)" if ramp else f"load factor λ = {top.t:.6g}"
         raise LimitPointError(
             f"limit point at {at_}: the equilibrium path turns back there and did not return to "
             f"{'t' if ramp else 'the load factor'} 1 in {way.steps} arc-length steps ({way.why})",
