@@ -12,7 +12,7 @@ from .analysis import (CriticalFlow, EigenResult, Linearization, StaticResult, c
                        TransientResult, SteadyRotation, steady_rotation,
                        RotatingFrequencies, resonance_speed, rotating_frequencies, rotating_state,
                        OrbitBranch, PeriodicOrbit, continue_orbits, periodic_orbit, Campbell, campbell)
-from .errors import ConvergenceError, SingularMatrixError
+from .errors import ConvergenceError, LimitPointError, SingularMatrixError
 from .model import Model, ModelBuilder
 from .results import Result
 from .sections import PipeSection
@@ -48,4 +48,4 @@ __all__ = ["CriticalFlow", "EigenResult", "Linearization", "StaticResult",
            "RotatingFrequencies", "resonance_speed", "rotating_frequencies", "rotating_state",
            "OrbitBranch", "PeriodicOrbit", "continue_orbits", "periodic_orbit",
            "Campbell", "campbell",
-           "ConvergenceError", "SingularMatrixError", "Model", "ModelBuilder", "PipeSection", "Result", "State", "__version__"]
+           "ConvergenceError", "LimitPointError", "SingularMatrixError", "Model", "ModelBuilder", "PipeSection", "Result", "State", "__version__"]

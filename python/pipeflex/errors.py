@@ -52,3 +52,20 @@ class SingularMatrixError(ConvergenceError):
     ``numpy.linalg.LinAlgError``: analyses catch that around their own linear solves
     to fall back to another method, which must not swallow a failed solve.
     """
+
+
+class LimitPointError(ConvergenceError):
+    """The equilibrium path has a limit point below the requested load: followed by
+    arc-length continuation, the load factor turns back at ``load_factor`` and the path
+    does not come back to the full load (1) within the continuation's budget.
+
+    A :class:`ConvergenceError` (same attributes): ``load_factor`` [-] is the load
+    factor of the limit point (the largest load the structure carries on this path),
+    ``reached_state`` the equilibrium (:class:`~pipeflex.State`) there, ``mass_flow``
+    its mdot [kg/s] (with a flow ramp ``reached_mass_flow`` too). ``limit_points``: the
+    load factors of all limit points passed, in order.
+    """
+
+    def __init__(self, message: str, *, limit_points=(), **kwargs):
+        super().__init__(message, **kwargs)
+        self.limit_points = tuple(limit_points)

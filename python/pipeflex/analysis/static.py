@@ -8,10 +8,11 @@ import numpy as np
 import scipy.sparse.linalg as spla
 
 from .. import _checks, _core
-from ..errors import ConvergenceError, SingularMatrixError
+from ..errors import ConvergenceError, LimitPointError, SingularMatrixError
 from ..results import Result
 from ..state import State, as_core
 from ._assembly import require_model, residual_and_tangent
+from . import arclength
 from .eigen import describe_coordinates, null_coordinates
 from .._blas import small_problems_single_threaded
 
@@ -26,18 +27,23 @@ class StaticResult(Result):
         iterations: total Newton iterations.
         residual: final residual norm [N].
         mass_flow: mdot [kg/s] of the equilibrium.
+        limit_points: load factors [-] (path parameters t with a flow ramp) of the limit
+            points that arc-length continuation passed on the way (snap-through); empty
+            when the load stepping converged.
     """
 
     state: State
     iterations: int
     residual: float
     mass_flow: float
+    limit_points: tuple = ()
 
 
 @small_problems_single_threaded
 def static_equilibrium(model, *, state=None, mass_flow: Optional[float] = None, load_steps: int = 1,
                        tol: float = 1e-10, max_iterations: int = 25, max_bisections: int = 8,
-                       from_mass_flow: Optional[float] = None) -> StaticResult:
+                       from_mass_flow: Optional[float] = None, path: str = "auto",
+                       arc_steps: int = 200) -> StaticResult:
     """Solve R(q) = 0 for the static equilibrium under loads, gravity and mass flow.
 
     The loads and gravity are applied in ``load_steps`` equal increments (halved
@@ -52,6 +58,19 @@ def static_equilibrium(model, *, state=None, mass_flow: Optional[float] = None, 
     result's ``state``). Without ``from_mass_flow`` the flow is ``mass_flow`` throughout
     and only the loads are stepped.
 
+    Limit points: with ``path="auto"`` (default), when the load stepping fails (Newton
+    does not converge after the bisections, or the tangent is singular), the path is
+    followed from the last converged step by arc-length (Riks/Crisfield) continuation in
+    (q, t) with a spherical constraint (:mod:`pipeflex.analysis.arclength`), through
+    limit points: if it comes back to t = 1 (snap-through), the equilibrium there is
+    returned with the limit points passed in ``limit_points``; if it turns back and does
+    not reach t = 1 within ``arc_steps`` steps, :class:`~pipeflex.LimitPointError` says
+    at which load factor. ``path="load"``: load stepping only (the error as it failed);
+    ``path="arclength"``: continuation from the start (from rest with the flow ramped
+    with the loads if the flow's forces alone have no equilibrium near rest). A flow ramp (``from_mass_flow``)
+    is continued by arc length only with ``path="arclength"`` (with "auto" its failure is
+    reported as it is: :func:`~pipeflex.critical_mass_flow` reads it as divergence).
+
     Args:
         model: the :class:`~pipeflex.Model`.
         state: starting state (a :class:`~pipeflex.state.State` or ``_core.State``;
@@ -63,6 +82,8 @@ def static_equilibrium(model, *, state=None, mass_flow: Optional[float] = None, 
         max_iterations: Newton iterations per load step.
         max_bisections: halvings of the increment allowed in all.
         from_mass_flow: mdot [kg/s] at which the flow ramp starts (see above).
+        path: ``"auto"``, ``"load"`` or ``"arclength"`` (see above).
+        arc_steps: most arc-length steps of a continuation.
 
     Raises:
         ConvergenceError: with the load factor, iteration and residual where it failed
@@ -71,13 +92,20 @@ def static_equilibrium(model, *, state=None, mass_flow: Optional[float] = None, 
             the tangent was singular. With ``from_mass_flow``, its further attributes
             ``reached_mass_flow`` and ``reached_state`` are the flow and the state of
             the last converged step (the start if none converged; else None).
+        LimitPointError: (a ConvergenceError) the continuation turned back at a limit
+            point below t = 1: ``load_factor`` [-] of the limit point, ``reached_state``
+            there, ``mass_flow`` its mdot [kg/s].
 
     A :class:`~pipeflex.multibody.MultibodySystem` is solved by
     :func:`pipeflex.multibody.static_equilibrium` (same options).
     """
     from ..multibody import MultibodySystem, static_equilibrium as multibody_static
 
+    if path not in ("auto", "load", "arclength"):
+        raise ValueError(f"path must be 'auto', 'load' or 'arclength', got {path!r}")
     if isinstance(model, MultibodySystem):
+        if path == "arclength":
+            raise NotImplementedError("path='arclength' for a MultibodySystem")
         if from_mass_flow is not None:
             raise NotImplementedError("from_mass_flow (flow continuation) for a MultibodySystem")
         return multibody_static(model, state=state, mass_flow=mass_flow, load_steps=load_steps, tol=tol,
@@ -87,24 +115,40 @@ def static_equilibrium(model, *, state=None, mass_flow: Optional[float] = None, 
     tol = _checks.positive("tol", tol)
     max_iterations = _checks.positive_int("max_iterations", max_iterations)
     max_bisections = _checks.non_negative_int("max_bisections", max_bisections)
+    arc_steps = _checks.positive_int("arc_steps", arc_steps)
     cold = state is None
     state = as_core(model, state)
+    start = state.copy()
     mdot = model.mass_flow if mass_flow is None else _checks.finite("mass_flow", mass_flow)
     if from_mass_flow is None:
-        def path(t):  # load stepping at the full flow
+        def at(t):  # load stepping at the full flow
             return mdot, t
+        along = at
     else:
         mdot0 = _checks.finite("from_mass_flow", from_mass_flow)
 
-        def path(t):  # flow continuation (the loads ramped with it only from the reference configuration)
+        def at(t):  # flow continuation (the loads ramped with it only from the reference configuration)
             return (mdot if t >= 1.0 else mdot0 + t * (mdot - mdot0)), (t if cold else 1.0)
+
+        def along(t):  # the same, extended past t = 1 (for the continuation)
+            return mdot0 + t * (mdot - mdot0), (t if cold else 1.0)
     size = max(float(np.ptp(model.positions, axis=0).max()), model.total_length / max(1, len(model.elements)))
+    solve = dict(tol=tol, size=size, max_iterations=max_iterations)
     total_iter = 0
     lf, dlf, bis = 0.0, 1.0 / load_steps, 0
     rnorm = 0.0
+    if path == "arclength" and model.n_dofs:
+        ok, it, rnorm, why, singular = _newton(model, state, *at(0.0), tol, size, max_iterations)
+        if not ok and cold and mdot != 0.0 and from_mass_flow is None:  # ramp the flow with the loads
+            ok, state, along = True, as_core(model, None), (lambda t: (t * mdot, t))
+        if not ok:
+            raise (SingularMatrixError if singular else ConvergenceError)(
+                f"static equilibrium failed at the start of the continuation (t = 0) after {it} iterations: {why}",
+                load_factor=at(0.0)[1], iteration=it, residual=rnorm, mass_flow=at(0.0)[0])
+        return _continue(model, state, 0.0, along, solve, arc_steps, 1.0 / load_steps, it, mdot, None)
     while lf < 1.0 - 1e-14:
         target = min(1.0, lf + dlf)
-        m_t, lf_t = path(target)
+        m_t, lf_t = at(target)
         trial = state.copy()
         ok, it, rnorm, why, singular = _newton(model, trial, m_t, lf_t, tol, size, max_iterations)
         total_iter += it
@@ -114,18 +158,72 @@ def static_equilibrium(model, *, state=None, mass_flow: Optional[float] = None, 
         bis += 1
         if bis > max_bisections:
             error = SingularMatrixError if singular else ConvergenceError
-            where = (f"load factor {lf_t:.6g} (from {path(lf)[1]:.6g})" if from_mass_flow is None else
-                     f"mdot = {m_t:.6g} kg/s, load factor {lf_t:.6g} (from {path(lf)[0]:.6g} kg/s)")
+            where = (f"load factor {lf_t:.6g} (from {at(lf)[1]:.6g})" if from_mass_flow is None else
+                     f"mdot = {m_t:.6g} kg/s, load factor {lf_t:.6g} (from {at(lf)[0]:.6g} kg/s)")
             ramp = from_mass_flow is not None
-            raise error(f"static equilibrium failed at {where} after {it} iterations: {why}",
-                        load_factor=lf_t, iteration=it, residual=rnorm, mass_flow=m_t,
-                        reached_mass_flow=path(lf)[0] if ramp else None,
-                        reached_state=State.from_core(state, model) if ramp else None)
+            failure = error(f"static equilibrium failed at {where} after {it} iterations: {why}",
+                            load_factor=lf_t, iteration=it, residual=rnorm, mass_flow=m_t,
+                            reached_mass_flow=at(lf)[0] if ramp else None,
+                            reached_state=State.from_core(state, model) if ramp else None)
+            if path == "load" or (path == "auto" and ramp):
+                raise failure
+            secant = _core.reduce(model.core, np.asarray(state.q) - np.asarray(start.q)) / lf if lf > 0 else None
+            if lf == 0.0:  # is the start an equilibrium (under the flow's forces alone)?
+                ok, it, _, _, _ = _newton(model, state, *at(0.0), tol, size, max_iterations)
+                total_iter += it
+                if not ok:  # no: not a load path's failure (path="arclength" ramps the flow too)
+                    raise failure
+            return _continue(model, state, lf, along, solve, arc_steps, max(dlf, 1.0 / (64 * load_steps)),
+                             total_iter, mdot, failure, secant)
         dlf /= 2
     return StaticResult(State.from_core(state, model), total_iter, rnorm, mdot)
 
 
-def _newton(model, state, mdot, load_factor, tol, size, max_iterations):
+def _continue(model, state, t0, along, solve, arc_steps, dt0, total_iter, mdot, failure, secant=None):
+    """Arc-length continuation from the converged ``state`` at t0 to t = 1; ``failure``
+    the load stepping's error (re-raised, with the continuation's reason, if the
+    continuation fails too) or None."""
+    def newton(trial, arc):
+        return _newton(model, trial, 0.0, 0.0, solve["tol"], solve["size"], solve["max_iterations"], arc=arc)
+
+    way = arclength.follow(model, state, t0, at=along, newton=newton, size=solve["size"], tol=solve["tol"],
+                           max_iterations=solve["max_iterations"], max_steps=arc_steps, dt0=dt0,
+                           secant=secant)
+    total_iter += way.iterations
+    limits = tuple(float(p.t) for p in way.limits)
+    if way.end is not None:
+        end = way.end.state.copy()
+        ok, it, rnorm, why, _ = _newton(model, end, *along(1.0), **solve)  # onto t = 1 exactly
+        if ok:
+            return StaticResult(State.from_core(end, model), total_iter + it, rnorm, mdot, limits)
+        way.why = f"the point at t = 1 did not converge: {why}"
+    if way.limits:
+        top = max(way.limits, key=lambda p: p.t)  # the largest load on the path
+        m_top, lf_top = along(top.t)
+        ramp = along(2.0)[0] != along(1.0)[0]
+        at_ = f"path parameter t = {top.t:.6g} (mdot = {m_top:.6g} kg/s)" if ramp else f"load factor λ = {top.t:.6g}"
+        raise LimitPointError(
+            f"limit point at {at_}: the equilibrium path turns back there and did not return to "
+            f"{'t' if ramp else 'the load factor'} 1 in {way.steps} arc-length steps ({way.why})",
+            load_factor=lf_top if not ramp else top.t, iteration=total_iter, residual=way.residual,
+            mass_flow=m_top, reached_mass_flow=m_top if ramp else None,
+            reached_state=State.from_core(top.state, model), limit_points=limits)
+    if failure is None:
+        raise ConvergenceError(f"arc-length continuation failed: {way.why}", load_factor=along(way.last.t)[1]
+                               if way.last else None, iteration=total_iter, residual=way.residual)
+    failure.args = (f"{failure.args[0]}; arc-length continuation from load factor {along(t0)[1]:.6g} "
+                    f"failed too: {way.why}",)
+    raise failure
+
+
+def _newton(model, state, mdot, load_factor, tol, size, max_iterations, arc=None):
+    """Newton's method on R(q) = 0 at (mdot, load_factor); with ``arc`` (an
+    :class:`~pipeflex.analysis.arclength.Arc`) on the bordered system of R = 0 and the
+    arc-length constraint, the path parameter ``arc.t`` (which sets mdot and the load
+    factor) being an unknown too. Returns (converged, iterations, residual norm [N],
+    reason, singular)."""
+    if arc is not None:
+        mdot, load_factor = arc.at(arc.t)
     load = model.load_state(mass_flow=mdot, gravity_factor=load_factor)
     # Converged already (a warm start)? Compare with the model's own force level.
     r, _ = residual_and_tangent(model, state, load, load_factor=load_factor, matrix=False)
@@ -133,26 +231,46 @@ def _newton(model, state, mdot, load_factor, tol, size, max_iterations):
     fscale = model.force_scale(mass_flow=mdot)
     if not np.isfinite(rnorm):  # inf <= tol * inf must not pass for convergence
         return False, 0, rnorm, "the residual is not finite", False
-    if rnorm <= tol * fscale or model.n_dofs == 0:
+    if (rnorm <= tol * fscale or model.n_dofs == 0) and (arc is None or abs(arc.g()) <= tol):
         return True, 0, rnorm, "", False
     for it in range(1, max_iterations + 1):
+        if arc is not None:
+            mdot, load_factor = arc.at(arc.t)
+            load = model.load_state(mass_flow=mdot, gravity_factor=load_factor)
         r, J = residual_and_tangent(model, state, load, load_factor=load_factor)
         rnorm = float(np.linalg.norm(r))
         if not np.isfinite(rnorm):
             return False, it, rnorm, "the residual is not finite", False
         fscale = max(fscale, rnorm)
+        dt = 0.0
         try:
             lu = spla.splu(J)
             dz = lu.solve(-r)
+            if arc is not None:
+                dz, dt = arc.solve(model, state, J, lu, r)
         except RuntimeError:
-            free = null_coordinates(J)
-            named = f"; {describe_coordinates(free, model.dof_labels)}" if len(free) else ""
-            return False, it, rnorm, (f"the tangent is singular (a mechanism: missing supports, or a "
-                                      f"bifurcation point{named})"), True
-        if not np.all(np.isfinite(dz)):
+            try:
+                if arc is None:
+                    raise
+                dz, dt = arc.solve(model, state, J, None, r)  # the bordered matrix is regular at a limit point
+            except RuntimeError:
+                free = null_coordinates(J)
+                named = f"; {describe_coordinates(free, model.dof_labels)}" if len(free) else ""
+                return False, it, rnorm, (f"the tangent is singular (a mechanism: missing supports, or a "
+                                          f"bifurcation point{named})"), True
+        if not np.all(np.isfinite(dz)) or not np.isfinite(dt):
             return False, it, rnorm, "the tangent is singular or ill-conditioned", True
         _core.add_increment(model.core, state, dz, "q")
         state.rebase(np.pi)
+        if arc is not None:
+            arc.apply(dz, dt)
+            mdot, load_factor = arc.at(arc.t)
+            load = model.load_state(mass_flow=mdot, gravity_factor=load_factor)
+            small = np.linalg.norm(dz, np.inf) <= tol * size and abs(dt) <= tol * max(1.0, abs(arc.t))
+            if not (small or (rnorm <= 1e-3 * tol * max(fscale, 1e-300) and abs(arc.g()) <= tol)):
+                continue
+            r2, _ = residual_and_tangent(model, state, load, load_factor=load_factor, matrix=False)
+            return True, it, float(np.linalg.norm(r2)), "", False
         if np.linalg.norm(dz, np.inf) <= tol * size or rnorm <= 1e-3 * tol * max(fscale, 1e-300) or rnorm == 0.0:
             r2, _ = residual_and_tangent(model, state, load, load_factor=load_factor, matrix=False)
             return True, it, float(np.linalg.norm(r2)), "", False
