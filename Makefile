@@ -3,7 +3,7 @@ VENV := .venv
 PY := $(VENV)/bin/python
 SOURCES := $(shell find cpp -type f) CMakeLists.txt setup.py pyproject.toml
 
-.PHONY: all setup notebooks demo test validate-all docs bench clean
+.PHONY: all setup notebooks demo test sanitize fuzz validate-all docs bench clean
 
 all: test
 
@@ -43,6 +43,20 @@ demo: notebooks
 
 test: setup
 	MPLBACKEND=Agg PIPEFLEX_FAST=1 $(PY) -m pytest -q
+
+# The C++ core built with AddressSanitizer + UndefinedBehaviorSanitizer in build/asan-<tag>
+# (the normal build and python/pipeflex/_core*.so are not touched), then the tests that
+# reach every C++ entry point and a short fuzz run under it; any report fails the job.
+sanitize: setup
+	bash tools/sanitize.sh
+
+# Hypothesis-generated models through every analysis (tests/fuzz/run_fuzz.py): each
+# family in a worker process with a watchdog (a crash or hang is caught and its case
+# kept); summary in build/fuzz/summary.json. FUZZ_EXAMPLES=... FUZZ_JOBS=... to change.
+FUZZ_EXAMPLES ?= 10000
+FUZZ_JOBS ?= 2
+fuzz: setup
+	$(PY) tests/fuzz/run_fuzz.py --examples $(FUZZ_EXAMPLES) --jobs $(FUZZ_JOBS) --out build/fuzz
 
 validate-all: setup
 	MPLBACKEND=Agg $(PY) -m pytest -q -m "slow or not slow"

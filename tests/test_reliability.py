@@ -387,3 +387,27 @@ def test_craig_bampton_basis_is_the_same_on_1_and_2_threads():
         with threadpool_limits(limits=threads):
             bases.append(np.array(flexible_body(length=1.0, n_elements=200, section=sec, internal_modes=5).basis))
     np.testing.assert_allclose(bases[0], bases[1], atol=1e-8)
+
+
+def test_a_model_without_free_coordinates_is_not_integrated():
+    """Was a segfault in IDA (a band matrix of size 0) and a false "singular mass matrix"
+    in generalised-alpha (found by make fuzz)."""
+    b = pf.ModelBuilder()
+    n0 = b.add_node((0, 0, 0))
+    a = b.add_line(n0, (1, 0, 0), 1, pf.PipeSection(EI=1.0, pipe_mass=1.0, rotary_inertia=(1e-3, 1e-3, 1e-3)))
+    b.clamp(n0)
+    b.clamp(a[-1])
+    m = b.build()
+    for integrator in ("ida", "generalized_alpha"):
+        with pytest.raises(ValueError, match="no free coordinates"):
+            pf.simulate(m, 0.01, integrator=integrator, progress=False)
+
+
+def test_generalized_alpha_counts_failed_steps_against_max_steps():
+    """Halved steps count: a run that keeps failing stops at max_steps, not after hours."""
+    from helpers import fluttering_cantilever
+
+    m, st = fluttering_cantilever()
+    with pytest.raises(ValueError, match="max_steps = 30 steps"):
+        pf.simulate(m, 0.25, state=st, integrator="generalized_alpha", step=0.01, max_newton=1,
+                    newton_tol=1e-300, max_steps=30, n_outputs=2, progress=False)  # 25 planned; all fail

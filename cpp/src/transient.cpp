@@ -98,7 +98,11 @@ class System {
    public:
     System(const Model& m, State& s, const LoadState& load, const TimeFunctions& f, const TransientOptions& o)
         : model(m), state(s), base_load(load), flow(f.mass_flow), loads(f.load_factor), opt(o), n(m.n_dofs),
-          base_q(s.q) {}
+          base_q(s.q) {
+        if (n == 0)
+            throw std::invalid_argument("the model has no free coordinates (every node is fixed): there is no "
+                                        "motion to integrate");
+    }
 
     const Model& model;
     State& state;
@@ -654,6 +658,12 @@ TransientOutput integrate_generalized_alpha(const Model& model, State& state, co
             else
                 an = a;
             AlphaNewton::Failure failure;
+            // halved steps count too: max_steps bounds the work, not only the progress
+            if (out.steps + out.convergence_failures >= opt.max_steps)
+                throw std::invalid_argument("generalised-alpha: max_steps = " + std::to_string(opt.max_steps) +
+                                            " steps (failed ones included) reached at t = " + fmt(t) +
+                                            " s (step " + fmt(hs) + " s) before t_end; raise max_steps, or the "
+                                            "motion may be diverging");
             if (!newton.solve(t, hs, zero, v, a, pa, an, pan, zn, vn, out, failure)) {
                 ++out.convergence_failures;
                 h_prev = 0.0;  // retry from the constant predictor: extrapolation may have misled

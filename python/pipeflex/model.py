@@ -315,6 +315,10 @@ class ModelBuilder:
         if R <= 0 or angle == 0:
             raise ValueError("arc radius and angle must be non-zero")
         dth = angle / n
+        if abs(dth) > np.pi * (1 + 1e-12):  # found by the fuzz run: a 2 pi element has a chord of 1e-16 m
+            raise ValueError(f"angle / n_elements must be at most pi rad (half a circle per curved element; beyond, "
+                             f"its ends close up), got angle = {angle:g} rad in n_elements = {n}: use at least "
+                             f"{int(np.ceil(abs(angle) / np.pi - 1e-12))} elements")
 
         def rot(th):
             K = np.array([[0, -k[2], k[1]], [k[2], 0, -k[0]], [-k[1], k[0], 0]])

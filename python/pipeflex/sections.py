@@ -13,6 +13,10 @@ from typing import Dict, Optional, Tuple
 from . import _checks
 
 
+#: Largest momentum-flux factor k_v accepted [-] (physical profiles give 1 to 2).
+KV_MAX = 10.0
+
+
 @dataclass(frozen=True)
 class PipeSection:
     """Properties of a pipe (or beam, with ``fluid_mass = 0``) cross-section.
@@ -72,7 +76,11 @@ class PipeSection:
             object.__setattr__(self, name, ok.magnitude(name, v, "kg/m") if v > 0 else v)
         if self.pipe_mass + self.fluid_mass <= 0.0:
             raise ValueError("pipe_mass + fluid_mass must be > 0 (a massless section has no dynamics)")
-        object.__setattr__(self, "kv", ok.positive("kv", self.kv))
+        kv = ok.positive("kv", self.kv)
+        if kv > KV_MAX:  # E[u^2]/E[u]^2 of a velocity profile: 1 (plug) to 2 (Poiseuille, by area)
+            raise ValueError(f"kv must be in (0, {KV_MAX:g}] (momentum-flux factor: 1 plug flow, 4/3 laminar), "
+                             f"got {kv:g}")
+        object.__setattr__(self, "kv", kv)
         ri = tuple(ok.non_negative(f"rotary_inertia[{i}]", x) for i, x in enumerate(self.rotary_inertia))
         if len(ri) != 3:
             raise ValueError("rotary_inertia must have 3 entries (about local x, y, z) [kg m]")

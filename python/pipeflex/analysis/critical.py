@@ -37,7 +37,7 @@ from ..results import Result
 from .._options import renamed
 from ..errors import ConvergenceError
 from .eigen import (SPARSE_MIN_DOFS, classify, eigen_from_blocks, free_coordinates, sparse_block_eigenvalues,
-                    sparse_eigen_from_blocks, split_blocks, stiffness_conditioning)
+                    MECHANISM_CONDITIONING, sparse_eigen_from_blocks, split_blocks, stiffness_conditioning)
 from ._assembly import require_model
 from .linearize import linearize
 from .static import static_equilibrium
@@ -146,16 +146,18 @@ def critical_mass_flow(model, *, tol: float = 1e-10, mass_flow_max: Optional[flo
     """
     rtol = _checks.positive("tol", tol)
     ev = _Evaluator(model, state)  # checks the model first
+    if model.n_dofs == 0:
+        raise ValueError("the model has no free coordinates (every node is fixed): nothing can lose stability")
     unit = model.flow_scale()
     mmax = 20 * unit if mass_flow_max is None else _checks.positive("mass_flow_max", mass_flow_max)
     steps = _checks.positive_int("steps_per_unit", steps_per_unit)
 
     eig, st0 = ev(0.0)
     ev.accept(0.0, st0)
-    # before the sign test: a neutral direction's sign is round-off. A beam's stiffness
-    # conditioning falls like N^-3 (1.6e-10 at 128 elements), so the sparse path (large
-    # models) only rejects what is singular to round-off (64 eps).
-    if stiffness_conditioning(eig) < (64 * np.finfo(float).eps if ev.sparse else 1e-10):
+    # before the sign test: a neutral direction's sign is round-off. The rule of
+    # stability(): only a stiffness singular to round-off is a mechanism (a beam's
+    # conditioning falls like N^-3, so a stricter bound would refuse fine meshes).
+    if stiffness_conditioning(eig) < MECHANISM_CONDITIONING:
         named = free_coordinates(replace(eig, dof_labels=getattr(model, "dof_labels", None)))
         raise ValueError(f"the model is a mechanism (its stiffness is singular without flow, e.g. a free hinge; "
                          f"{named}): there is no static equilibrium to lose stability; support the free motion")

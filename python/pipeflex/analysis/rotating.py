@@ -188,6 +188,10 @@ def _axial_strains(model, state) -> float:
     return worst
 
 
+#: Failed Newton steps a continuation of :func:`rotating_state` may halve before it gives up.
+MAX_CONTINUATION_FAILURES = 60
+
+
 @small_problems_single_threaded
 @renamed(steps="continuation_steps")
 def rotating_state(model, omega: float, *, state=None, state_omega: float = 0.0, continuation_steps: int = 1,
@@ -205,7 +209,8 @@ def rotating_state(model, omega: float, *, state=None, state_omega: float = 0.0,
 
     Raises:
         ConvergenceError: Newton failed (the message gives Omega; attributes
-            ``iteration``, ``residual``).
+            ``iteration``, ``residual``), or more than ``MAX_CONTINUATION_FAILURES``
+            steps failed (a fold: the continuation would creep towards it).
     """
     fr = _Frame(model)
     omega = _checks.finite("omega", omega)
@@ -220,6 +225,7 @@ def rotating_state(model, omega: float, *, state=None, state_omega: float = 0.0,
     load = model.load_state()
     scale = model.force_scale()
     last_good = st
+    failures = 0
     while targets:
         w2 = targets[0]
         w = np.sign(omega) * np.sqrt(w2)
@@ -247,6 +253,14 @@ def rotating_state(model, omega: float, *, state=None, state_omega: float = 0.0,
             w2_good = w2
             targets.pop(0)
             continue
+        failures += 1
+        if failures > MAX_CONTINUATION_FAILURES:
+            # near a fold Newton stalls on every step: the halving would creep towards it
+            # over thousands of solves (30 s for one element; found by the fuzz run)
+            raise ConvergenceError(f"rotating_state: Newton failed at Omega = {w:.6g} rad/s ({failures - 1} failed "
+                                   f"steps; the last steady state at Omega = {np.sqrt(w2_good):.6g} rad/s): a fold "
+                                   f"or loss of the steady state near there (residual {rnorm:.3e} N, force scale "
+                                   f"{scale:.3e} N)", iteration=it, residual=rnorm)
         if w2 - w2_good < 1e-8 * max(omega**2, 1e-30):
             raise ConvergenceError(f"rotating_state: Newton failed at Omega = {w:.6g} rad/s after {it} iterations "
                                    f"(residual {rnorm:.3e} N, force scale {scale:.3e} N)", iteration=it,
