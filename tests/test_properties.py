@@ -42,7 +42,6 @@ INPUTS = settings(FAST, max_examples=60)
 # that a new kind of failure still fails. Remove an entry when its fix lands.
 KNOWN_OPEN = [
     r"stability: 'flutter' of a conservative model",
-    r"undocumented LinAlgError: .*\(from analysis/(eigen|critical)\.py",
 ]
 
 
@@ -352,3 +351,22 @@ def test_multibody_energy_is_conserved_without_flow(n_bodies, modes, force, join
     E = np.array([free.energy(res.state(k)) for k in range(len(res.t))])
     assert np.all(np.isfinite(E)) and E[0] > 0
     assert np.abs(E - E[0]).max() <= 1e-4 * E[0]
+
+
+# -- 4. fixed bugs stay fixed: their reproducers from the fuzz -------------------------
+
+def _reproducers(kind):
+    import json
+    from pathlib import Path
+
+    bugs = json.loads((Path(__file__).parent / "fuzz" / "open_bugs.json").read_text())
+    return [b["case"] for b in bugs if kind in b["kind"]]
+
+
+@pytest.mark.parametrize("kind", ["LinAlgError", "need at least one array", "crash",
+                                  "calls the model a mechanism"])
+def test_fuzz_reproducers_of_fixed_bugs(kind):
+    cases = _reproducers(kind)
+    assert cases, f"no reproducer of {kind!r} in tests/fuzz/open_bugs.json"
+    for case in cases:
+        models.run_case(case)  # raises models.Bug if the bug is back

@@ -407,7 +407,10 @@ def refine_eigenpair(block, lam, x=None, *, tol=1e-10, max_iterations=20):
         else:  # the arithmetic of the original dense iteration (small models: same numbers)
             T = lam * lam * M + lam * C + K
             dTx = (2 * lam * M + C) @ x
-            u = np.linalg.solve(T, dTx)
+            try:
+                u = np.linalg.solve(T, dTx)
+            except np.linalg.LinAlgError:  # T(lam) singular: lam is an eigenvalue to working precision
+                return lam, x / np.linalg.norm(x)
         cu = np.vdot(c, u)
         step = np.vdot(c, x) / cu
         # round-off level of lam (eigen_noise), from the current pair

@@ -246,7 +246,12 @@ def block_eigenvalues(b: Block, *, vectors: bool = False):
         lam, noise, V = _generalized(K, C, M, vectors)
         return lam, noise, V, 0
     K00 = Q0.T @ K @ Q0
-    S = np.linalg.solve(K00, Q0.T @ K @ Qm)
+    try:
+        S = np.linalg.solve(K00, Q0.T @ K @ Qm)
+    except np.linalg.LinAlgError:
+        raise ValueError("the coordinates without inertia (a singular mass matrix) have a singular stiffness "
+                         "too: they form a mechanism of their own; give them inertia (e.g. rotary_inertia) or "
+                         "support them") from None
     Kc = Qm.T @ K @ Qm - (Qm.T @ K @ Q0) @ S
     lam, noise, Y = _companion(Kc, Qm.T @ C @ Qm, np.diag(w[~zero]), vectors)
     V = (Qm - Q0 @ S) @ Y if vectors else None
