@@ -29,6 +29,8 @@ from dataclasses import dataclass, field
 from typing import Optional
 
 import numpy as np
+import scipy.sparse as sp
+import scipy.sparse.linalg as spla
 
 from .. import _checks, _core
 from ..errors import ConvergenceError
@@ -313,8 +315,10 @@ def _reduced(basis, full, chart, start):
     if not np.allclose(chart.frames, start.frames, atol=1e-12):
         raise ValueError("state and base have different node frames: pass states in the same chart "
                          "(e.g. base=None)")
-    z, *_ = np.linalg.lstsq(basis.toarray(), full, rcond=None)
-    return z
+    # least squares through the sparse basis (its columns have full rank): the normal
+    # equations stay sparse, where a dense basis would be (6 n_nodes x n_dofs)
+    B = sp.csc_matrix(basis)
+    return np.atleast_1d(spla.spsolve((B.T @ B).tocsc(), B.T @ full))
 
 
 @small_problems_single_threaded
