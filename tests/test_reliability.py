@@ -96,15 +96,15 @@ def test_multibody_core_checks_sizes_and_indices(ffrf):
     st, core = ffrf.initial_state(), ffrf.core
     with pytest.raises(ValueError, match="eta, v and a must have"):
         core.integrate(st.r, st.R, st.eta[:-1], st.v, st.a, st.lam, 0.0, _core.TimeTable(), 0.01, [0, 1], 1e-3,
-                       0.8, 1e-8, 12, 5)
+                       0.8, 1e-8, 12)
     with pytest.raises(ValueError, match="out_steps must be increasing step numbers"):
         core.integrate(st.r, st.R, st.eta, st.v, st.a, st.lam, 0.0, _core.TimeTable(), 0.01, [0, 99], 1e-3,
-                       0.8, 1e-8, 12, 5)
+                       0.8, 1e-8, 12)
     nan = st.eta.copy()
     nan[0] = np.nan
     with pytest.raises(ValueError, match="state: all its numbers must be finite"):
         core.integrate(st.r, st.R, nan, st.v, st.a, st.lam, 0.0, _core.TimeTable(), 0.01, [0, 1], 1e-3,
-                       0.8, 1e-8, 12, 5)
+                       0.8, 1e-8, 12)
     with pytest.raises(ValueError, match="node must be in"):
         core.node(st.r, st.R, st.eta, 1, 99)
 

@@ -166,14 +166,13 @@ void bind_multibody(py::module_& m) {
             [](const MultibodySystemCore& sys, const Arr& r, const Arr& R, const VecX& eta, const VecX& v,
                const VecX& a, const VecX& lam, double t, const TimeTable& flow, double t_end,
                const std::vector<long>& out_steps, double step, double rho_inf, double tol, int max_newton,
-               int refresh, long max_steps) {
+               long max_steps) {
                 MbState s = to_state(sys, r, R, eta, v, a, lam, t);
                 MbOptions opt;
                 opt.step = step;
                 opt.rho_inf = rho_inf;
                 opt.tol = tol;
                 opt.max_newton = max_newton;
-                opt.refresh = refresh;
                 opt.max_steps = max_steps;
                 MbOutput out;
                 {
@@ -191,5 +190,5 @@ void bind_multibody(py::module_& m) {
             },
             py::arg("r"), py::arg("R"), py::arg("eta"), py::arg("v"), py::arg("a"), py::arg("lam"), py::arg("t"),
             py::arg("mass_flow"), py::arg("t_end"), py::arg("out_steps"), py::arg("step"), py::arg("rho_inf"),
-            py::arg("tol"), py::arg("max_newton"), py::arg("refresh"), py::arg("max_steps") = MbOptions().max_steps);
+            py::arg("tol"), py::arg("max_newton"), py::arg("max_steps") = MbOptions().max_steps);
 }

@@ -1,6 +1,6 @@
 #include "pipeflex/multibody/multibody.hpp"
 #include "pipeflex/core/interrupt.hpp"
-#include "pipeflex/solvers/sparse_lu.hpp"
+#include "pipeflex/solvers/equations.hpp"
 
 #include <Eigen/LU>
 #include <Eigen/QR>
@@ -43,58 +43,110 @@ Vec3d vee_skew(const Mat3d& D) {
     return 0.5 * Vec3d(D(2, 1) - D(1, 2), D(0, 2) - D(2, 0), D(1, 0) - D(0, 1));
 }
 
-// Sparse LU of the iteration matrix [S, s C_q^T; s C_q, 0] on a fixed block pattern:
-// S couples only bodies that share a joint, and a joint's rows touch only its bodies.
-// For a chain of bodies this is far cheaper than a dense LU (ordering computed once).
-class IterationMatrixLU {
+// A system of bodies as equations for the solvers: z moves the base state's frames
+// (r = r0 + z_r, R = exp(z_pi~) R0) and modal coordinates; v and a are the state's
+// (spatial angular velocities of the frames). The tangent is left-trivialised at the
+// state (exact at z = 0, where every step of the integrator starts).
+class MultibodyEquations final : public Equations {
    public:
-    IterationMatrixLU(const std::vector<int>& offsets, const std::vector<int>& rows,
-                      const std::vector<MbJoint>& joints) {
-        const int nb = static_cast<int>(offsets.size()) - 1, n = offsets.back(), nc = rows.back();
-        n_ = n;
+    MultibodyEquations(const MultibodySystemCore& sys, const MbState& s, const TimeTable& flow,
+                       const std::vector<int>& offsets, const std::vector<int>& rows, const std::vector<MbJoint>& joints)
+        : sys_(sys), base_(s), cur_(s), flow_(flow), n_(sys.n_coordinates()), nc_(sys.n_constraints()) {
+        // S couples only bodies that share a joint, and a joint's rows touch only its
+        // bodies: the triplets cover these blocks (a fixed pattern, zeros included).
+        const int nb = static_cast<int>(offsets.size()) - 1;
         std::vector<char> coupled(static_cast<size_t>(nb) * nb, 0);
         for (int b = 0; b < nb; ++b) coupled[b * nb + b] = 1;
         for (const MbJoint& j : joints)
             if (j.body_b >= 0) coupled[j.body_a * nb + j.body_b] = coupled[j.body_b * nb + j.body_a] = 1;
-        std::vector<int> pr, pc;
-        auto block = [&](int r0, int nr, int c0, int ncol) {
-            for (int c = c0; c < c0 + ncol; ++c)
-                for (int r = r0; r < r0 + nr; ++r) {
-                    pr.push_back(r);
-                    pc.push_back(c);
-                }
-        };
         for (int a = 0; a < nb; ++a)
             for (int b = 0; b < nb; ++b)
                 if (coupled[a * nb + b])
-                    block(offsets[a], offsets[a + 1] - offsets[a], offsets[b], offsets[b + 1] - offsets[b]);
-        for (size_t k = 0; k < joints.size(); ++k) {
-            for (int body : {joints[k].body_a, joints[k].body_b}) {
-                if (body < 0) continue;
-                const int o = offsets[body], nbody = offsets[body + 1] - o, r0 = n + rows[k], nr = rows[k + 1] - rows[k];
-                block(r0, nr, o, nbody);
-                block(o, nbody, r0, nr);
-            }
+                    blocks_.push_back({offsets[a], offsets[a + 1] - offsets[a], offsets[b], offsets[b + 1] - offsets[b]});
+        for (size_t k = 0; k < joints.size(); ++k)
+            for (int body : {joints[k].body_a, joints[k].body_b})
+                if (body >= 0)
+                    joint_blocks_.push_back({rows[k], rows[k + 1] - rows[k], offsets[body], offsets[body + 1] - offsets[body]});
+    }
+
+    const MbState& state() const { return cur_; }
+    MbEvaluation& evaluation() { return ev_; }
+
+    int n_coordinates() const override { return n_; }
+    int n_constraints() const override { return nc_; }
+    double length_scale() const override { return sys_.length_scale(); }
+
+    void set(const Eigen::VectorXd& z, const Eigen::VectorXd& v, const Eigen::VectorXd& a, const Eigen::VectorXd& lam,
+             double t) override {
+        for (int j = 0; j < sys_.n_bodies(); ++j) {
+            const int o = sys_.offset(j), m = sys_.offset(j + 1) - o - 6;
+            cur_.r[j] = base_.r[j] + z.segment<3>(o);
+            cur_.R[j] = rodrigues(z.segment<3>(o + 3), false) * base_.R[j];
+            cur_.eta.segment(o + 6, m) = base_.eta.segment(o + 6, m) + z.segment(o + 6, m);
         }
-        lu_.analyze(n + nc, pr, pc);
+        cur_.v = v;
+        cur_.a = a;
+        cur_.lam = lam;
+        cur_.t = t;
     }
 
-    // False if the matrix is singular.
-    bool factorize(const MatX& S, const MatX& J, double scale) {
-        FixedPatternLU::Matrix& A = lu_.matrix();
-        for (Eigen::Index c = 0; c < A.outerSize(); ++c)
-            for (FixedPatternLU::Matrix::InnerIterator it(A, c); it; ++it) {
-                const Eigen::Index r = it.row();
-                it.valueRef() = r < n_ ? (c < n_ ? S(r, c) : scale * J(c - n_, r)) : (c < n_ ? scale * J(r - n_, c) : 0.0);
-            }
-        return lu_.factorize();
+    void evaluate(double wK, double wC, double wM, Eigen::VectorXd& r, Triplets* J) override {
+        sys_.evaluate(cur_, flow_.at(cur_.t), flow_.rate(cur_.t), 1.0, 1.0, wK, wC, wM, J != nullptr, ev_);
+        r.resize(n_ + nc_);
+        r.head(n_) = ev_.F;
+        r.tail(nc_) = ev_.c;
+        if (!J) return;
+        J->clear();
+        for (const Block& b : blocks_)
+            for (int c = b.c0; c < b.c0 + b.nc; ++c)
+                for (int i = b.r0; i < b.r0 + b.nr; ++i) push(*J, i, c, ev_.S(i, c));
+        for (const Block& b : joint_blocks_)
+            for (int c = b.c0; c < b.c0 + b.nc; ++c)
+                for (int i = b.r0; i < b.r0 + b.nr; ++i) {
+                    push(*J, n_ + i, c, ev_.J(i, c));
+                    push(*J, c, n_ + i, ev_.J(i, c));
+                }
     }
 
-    void solve(const VecX& rhs, VecX& x) { lu_.solve(rhs, x); }
+    int rebase(Eigen::VectorXd&, Eigen::VectorXd&) override {
+        base_ = cur_;
+        return 0;
+    }
+
+    void accept(double t, double) override {
+        bool finite = cur_.eta.allFinite() && cur_.v.allFinite() && cur_.lam.allFinite();
+        for (int j = 0; j < sys_.n_bodies(); ++j) finite = finite && cur_.r[j].allFinite() && cur_.R[j].allFinite();
+        if (finite) return;
+        ConvergenceError::Where where;
+        where.time = t;
+        where.mass_flow = mass_flow(t);
+        throw ConvergenceError("the motion diverged at t = " + fmt(t) + " s: the state is not finite", where);
+    }
+
+    double mass_flow(double t) const override { return flow_.at(t); }
+    RefreshPolicy refresh_policy() const override { return {kSlowRate, kLongStep}; }
+    std::string singular_mass_hint() const override {
+        return "the joints lock a motion twice or leave a body's mass matrix singular";
+    }
 
    private:
-    Eigen::Index n_ = 0;
-    FixedPatternLU lu_;
+    static constexpr double kSlowRate = 1.5;
+    static constexpr int kLongStep = 5;
+    struct Block {
+        int r0, nr, c0, nc;
+    };
+    static void push(Triplets& J, int r, int c, double v) {
+        J.rows.push_back(r);
+        J.cols.push_back(c);
+        J.values.push_back(v);
+    }
+
+    const MultibodySystemCore& sys_;
+    MbState base_, cur_;
+    const TimeTable& flow_;
+    int n_, nc_;
+    MbEvaluation ev_;
+    std::vector<Block> blocks_, joint_blocks_;
 };
 
 }  // namespace
@@ -431,7 +483,7 @@ MbOutput MultibodySystemCore::integrate(MbState& s, const TimeTable& mass_flow, 
     if (!std::isfinite(opt.step) || !(opt.step > 0.0)) throw std::invalid_argument("step must be > 0 and finite");
     if (!(opt.rho_inf >= 0.0 && opt.rho_inf < 1.0)) throw std::invalid_argument("rho_inf must be in [0, 1)");
     if (!(opt.tol > 0.0)) throw std::invalid_argument("tol must be > 0");
-    if (opt.max_newton < 1 || opt.refresh < 1) throw std::invalid_argument("max_newton and refresh must be >= 1");
+    if (opt.max_newton < 1) throw std::invalid_argument("max_newton must be >= 1");
     const double steps_needed = std::ceil((t_end - s.t) / opt.step - 1e-9);
     if (steps_needed > static_cast<double>(opt.max_steps))
         throw std::invalid_argument("step = " + fmt(opt.step) + " s gives " + fmt(steps_needed) + " steps to t_end = " +
@@ -441,128 +493,37 @@ MbOutput MultibodySystemCore::integrate(MbState& s, const TimeTable& mass_flow, 
         if (out_steps[k] < 0 || out_steps[k] > static_cast<long>(std::max(1.0, steps_needed)) ||
             (k > 0 && out_steps[k] <= out_steps[k - 1]))
             throw std::invalid_argument("out_steps must be increasing step numbers in [0, n_steps]");
-    const double rho = opt.rho_inf;
-    const double am = (2 * rho - 1) / (rho + 1), af = rho / (rho + 1);
-    const double gamma = 0.5 + af - am, beta = 0.25 * (gamma + 0.5) * (gamma + 0.5);
     const double t0 = s.t;
     const long n_steps = std::max(1L, static_cast<long>(std::ceil((t_end - t0) / opt.step - 1e-9)));
     const double h = (t_end - t0) / static_cast<double>(n_steps);
-    const double bp = (1 - am) / ((1 - af) * beta * h * h), gp = gamma / (beta * h);
-    const double L = length_scale_;
+    MultibodyEquations eq(*this, s, mass_flow, offsets_, rows_, joints_);
+    AlphaOptions ao;
+    ao.step = h;
+    ao.rho_inf = opt.rho_inf;
+    ao.newton_tol = opt.tol;
+    ao.max_newton = opt.max_newton;
+    ao.max_steps = opt.max_steps;
+    GeneralizedAlpha alpha(eq, ao, t0, s.v);
     MbOutput out;
-    MbEvaluation ev;
-    auto save = [&](const MbState& st) {
+    auto save = [&]() {
+        const MbState& st = eq.state();
+        MbEvaluation& ev = eq.evaluation();
+        evaluate(st, mass_flow.at(st.t), mass_flow.rate(st.t), 1.0, 1.0, 0.0, 0.0, 0.0, false, ev);
         out.t.push_back(st.t);
         out.states.push_back(st);
-        out.drift.push_back((ev.J * st.v).cwiseAbs().maxCoeff());
+        out.drift.push_back(nc_ > 0 ? (ev.J * st.v).cwiseAbs().maxCoeff() : 0.0);
     };
-
-    // consistent initial acceleration and multipliers (minimum-norm least squares)
-    evaluate(s, mass_flow.at(t0), mass_flow.rate(t0), 1.0, 1.0, 0.0, 0.0, 1.0, true, ev);
-    {
-        MatX A = MatX::Zero(n_ + nc_, n_ + nc_);
-        A.topLeftCorner(n_, n_) = ev.S;
-        A.topRightCorner(n_, nc_) = ev.J.transpose();
-        A.bottomLeftCorner(nc_, n_) = ev.J;
-        VecX rhs = VecX::Zero(n_ + nc_);
-        rhs.head(n_) = -(ev.F - ev.J.transpose() * s.lam - ev.S * s.a);
-        const VecX x = A.completeOrthogonalDecomposition().solve(rhs);
-        s.a = x.head(n_);
-        s.lam = x.tail(nc_);
+    for (long k : out_steps) {
+        if (k > 0) alpha.advance_to(k == n_steps ? t_end : t0 + static_cast<double>(k) * h);
+        save();
     }
-    VecX acc = s.a;
-    size_t next_out = 0;
-    if (next_out < out_steps.size() && out_steps[next_out] == 0) {
-        save(s);
-        ++next_out;
-    }
-    IterationMatrixLU lu(offsets_, rows_, joints_);
-    bool have_lu = false;
-    double scale = 1.0;
-    VecX rhs(n_ + nc_), x(n_ + nc_), dx(n_);
-    for (long n = 1; n <= n_steps; ++n) {
-        poll_interrupt();
-        const double t = t0 + static_cast<double>(n) * h;
-        const VecX acc_new = (af * s.a - am * acc) / (1 - am);
-        const VecX dq = h * s.v + h * h * ((0.5 - beta) * acc + beta * acc_new);
-        s.v += h * ((1 - gamma) * acc + gamma * acc_new);
-        s.a.setZero();
-        s.t = t;
-        increment(s, dq);
-        const double mdot = mass_flow.at(t), mrate = mass_flow.rate(t);
-        double size = 0.0;
-        bool singular = false;
-        int done = 0;  // iterations of the last Newton attempt
-        // Newton on the corrections; full = re-evaluate the iteration matrix every iteration.
-        auto newton = [&](bool full, int max_it) {
-            bool fresh = false, stale_stall = false;
-            double last = INFINITY;
-            done = 0;
-            for (int it = 0; it < max_it; ++it) {
-                poll_interrupt();
-                const bool refresh = full || !have_lu || it >= opt.refresh || stale_stall;
-                fresh = fresh || refresh;
-                evaluate(s, mdot, mrate, 1.0, 1.0, 1.0, gp, bp, refresh, ev);
-                if (refresh) {
-                    scale = ev.S.cwiseAbs().maxCoeff();
-                    have_lu = lu.factorize(ev.S, ev.J, scale);
-                    ++out.factorizations;
-                    singular = !have_lu;
-                    if (singular) return false;
-                }
-                rhs.head(n_) = -ev.F;
-                rhs.tail(nc_) = -scale * ev.c;
-                lu.solve(rhs, x);
-                if (!x.allFinite()) return false;
-                dx = x.head(n_);
-                increment(s, dx);
-                s.v += gp * dx;
-                s.a += bp * dx;
-                s.lam += scale * x.tail(nc_);
-                ++out.iterations;
-                ++done;
-                size = dx.cwiseAbs().maxCoeff();
-                // Converged; or stalled at round-off near the tolerance with a matrix
-                // evaluated in this step (a stall with an older matrix is slow
-                // modified-Newton convergence: re-evaluate the matrix instead).
-                const bool stalled = size >= 0.5 * last && size <= 10 * opt.tol * L;
-                if (size <= opt.tol * L || (stalled && fresh)) return true;
-                if (size > L) return false;  // diverging
-                stale_stall = size >= 0.5 * last;
-                last = size;
-            }
-            return false;
-        };
-        const MbState predicted = s;
-        if (!newton(false, opt.max_newton)) {
-            // the kept matrix may be too far off: retry the step with full Newton
-            s = predicted;
-            ++out.retries;
-            if (!newton(true, 2 * opt.max_newton)) {
-                std::ostringstream msg;
-                if (singular)
-                    msg << "singular iteration matrix at t = " << t << " s (h = " << h
-                        << " s): the joints lock a motion twice or leave a body's mass matrix singular; ";
-                msg << "Newton did not converge at t = " << t << " s (h = " << h << " s) after " << done
-                    << " full Newton iterations (last increment " << size << ", residual "
-                    << ev.F.cwiseAbs().maxCoeff() << " N, constraint violation " << ev.c.cwiseAbs().maxCoeff()
-                    << " m): reduce the step";
-                ConvergenceError::Where where;
-                where.time = t;
-                where.iteration = done;
-                where.residual = ev.F.cwiseAbs().maxCoeff();
-                where.mass_flow = mdot;
-                if (singular) throw SingularMatrixError(msg.str(), where);
-                throw ConvergenceError(msg.str(), where);
-            }
-        }
-        acc = acc_new + (1 - af) / (1 - am) * s.a;
-        ++out.steps;
-        if (next_out < out_steps.size() && out_steps[next_out] == n) {
-            save(s);
-            ++next_out;
-        }
-    }
+    if (out_steps.empty() || out_steps.back() < n_steps) alpha.advance_to(t_end);
+    s = eq.state();
+    const AlphaStats& st = alpha.stats();
+    out.steps = st.steps;
+    out.iterations = st.newton_iterations;
+    out.factorizations = st.jacobians;
+    out.retries = st.failed_steps;
     return out;
 }
 

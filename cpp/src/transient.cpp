@@ -2,10 +2,10 @@
 
 #include "pipeflex/core/interrupt.hpp"
 #include "pipeflex/elements/hermite.hpp"
+#include "pipeflex/solvers/equations.hpp"
 #include "pipeflex/solvers/sparse_lu.hpp"
 
 #include <Eigen/Dense>
-#include <Eigen/SparseCholesky>
 #include <ida/ida.h>
 #include <nvector/nvector_serial.h>
 #include <sunlinsol/sunlinsol_band.h>
@@ -92,9 +92,9 @@ std::string fmt(double x) {
     return os.str();
 }
 
-// Shared machinery: reduced <-> full coordinates around a base state, residuals,
-// tangents, outputs and energy bookkeeping.
-class System {
+// The element model as a system of equations for the solvers (reduced coordinates z
+// around a base state, chart rates), and the integrators' outputs and energy bookkeeping.
+class System final : public Equations {
    public:
     System(const Model& m, State& s, const LoadState& load, const TimeFunctions& f, const TransientOptions& o)
         : model(m), state(s), base_load(load), flow(f.mass_flow), loads(f.load_factor), opt(o), n(m.n_dofs),
@@ -112,6 +112,7 @@ class System {
     const TransientOptions& opt;
     int n;
     Eigen::VectorXd base_q;
+    double t_set = 0.0;
     double fluid_work = 0.0, load_work = 0.0, last_power_t = 0.0, last_fluid_power = 0.0,
            last_load_power = 0.0;
 
@@ -138,6 +139,7 @@ class System {
         state.a.setZero();
         add_increment(model, state.a, a);
         apply_hub(model, state, t);
+        t_set = t;
     }
 
     double load_factor(double t) const { return loads.at(t); }
@@ -156,6 +158,27 @@ class System {
         v = reduce(model, state.v);
         a = reduce(model, state.a);
         return k;
+    }
+
+    // Equations
+    int n_coordinates() const override { return n; }
+    double length_scale() const override { return opt.length_scale; }
+    void set(const Eigen::VectorXd& z, const Eigen::VectorXd& v, const Eigen::VectorXd& a, const Eigen::VectorXd&,
+             double t) override {
+        set(z, v, a, t);
+    }
+    void evaluate(double wK, double wC, double wM, Eigen::VectorXd& r, Triplets* J) override {
+        assemble(model, state, load_at(t_set), load_factor(t_set), wK, wC, wM, &r, J);
+    }
+    int rebase(Eigen::VectorXd& v, Eigen::VectorXd& a) override { return rebase(0.0, v, a); }
+    void accept(double t, double h) override {
+        check_divergence(t, h);
+        accumulate_work(t);
+    }
+    double mass_flow(double t) const override { return load_at(t).mass_flow; }
+    std::string singular_mass_hint() const override {
+        return "some coordinates have no inertia (e.g. torsion or rotation about the pipe axis without rotary "
+               "inertia). Give the sections rotary_inertia, or constrain those coordinates.";
     }
 
     // Throws when a node has moved farther than divergence_limit length scales from its
@@ -233,33 +256,6 @@ class System {
         out.gravity_potential.push_back(gravity_potential(model, state, load_at(t)));
         out.fluid_work.push_back(fw);
         out.load_work.push_back(lw);
-    }
-
-    // Initial acceleration from M a = -R(q, v, 0); M must be regular.
-    Eigen::VectorXd initial_acceleration(double t) {
-        state.a.setZero();
-        const Eigen::VectorXd r = residual(t);
-        Triplets trip;
-        assemble(model, state, load_at(t), load_factor(t), 0.0, 0.0, 1.0, nullptr, &trip);
-        // sparse (banded) mass matrix, symmetrised: 0.5 (M + M^T)
-        std::vector<Eigen::Triplet<double>> sym;
-        sym.reserve(2 * trip.values.size());
-        for (std::size_t k = 0; k < trip.values.size(); ++k) {
-            sym.emplace_back(trip.rows[k], trip.cols[k], 0.5 * trip.values[k]);
-            sym.emplace_back(trip.cols[k], trip.rows[k], 0.5 * trip.values[k]);
-        }
-        Eigen::SparseMatrix<double> M(n, n);
-        M.setFromTriplets(sym.begin(), sym.end());
-        Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>> ldlt(M);
-        const bool factored = ldlt.info() == Eigen::Success;
-        const Eigen::VectorXd d = factored ? Eigen::VectorXd(ldlt.vectorD()) : Eigen::VectorXd::Zero(n);
-        if (!factored || n == 0 || d.minCoeff() <= 1e-12 * d.cwiseAbs().maxCoeff()) {
-            throw std::invalid_argument(
-                "the mass matrix is singular: some coordinates have no inertia (e.g. torsion or "
-                "rotation about the pipe axis without rotary inertia). Give the sections "
-                "rotary_inertia, or constrain those coordinates.");
-        }
-        return ldlt.solve(-r);
     }
 };
 
@@ -379,8 +375,10 @@ TransientOutput integrate_ida(const Model& model, State& state, const LoadState&
     // Consistent initial values: z = 0 at the base, v from the state, v_dot from M a = -R.
     Eigen::VectorXd v = reduce(model, state.v), a;
     sys.rebase(0.0, v, a);
-    sys.set(Eigen::VectorXd::Zero(n), v, Eigen::VectorXd::Zero(n), t);
-    a = sys.initial_acceleration(t);
+    {
+        Eigen::VectorXd lam;
+        initial_acceleration(sys, Eigen::VectorXd::Zero(n), v, t, a, lam);
+    }
     auto load_y = [&](const Eigen::VectorXd& vv, const Eigen::VectorXd& aa) {
         double* y = NV_DATA_S(yy.get());
         double* p = NV_DATA_S(yp.get());
@@ -483,127 +481,15 @@ TransientOutput integrate_ida(const Model& model, State& state, const LoadState&
 
 namespace {
 
-// Chung-Hulbert parameters from rho_inf and the update formulas of one step
-//   pa' = c1 a' + c2 a + c3 pa,  z' = z + h v + h^2 ((1/2 - beta) pa + beta pa'),
-//   v' = v + h ((1 - gamma) pa + gamma pa').
-struct AlphaMethod {
-    double am, af, gamma, beta, c1, c2, c3;
-    explicit AlphaMethod(double rho)
-        : am((2.0 * rho - 1.0) / (rho + 1.0)), af(rho / (rho + 1.0)), gamma(0.5 + af - am),
-          beta(0.25 * (gamma + 0.5) * (gamma + 0.5)), c1((1.0 - af) / (1.0 - am)), c2(af / (1.0 - am)),
-          c3(-am / (1.0 - am)) {}
-    double bp(double h) const { return h * h * beta * c1; }  // d z' / d a'
-    double gp(double h) const { return h * gamma * c1; }     // d v' / d a'
-};
-
-// Newton on the acceleration of one step, with the iteration matrix M + gp C + bp K
-// factorised sparsely and kept (modified Newton) across iterations and steps while the
-// corrections contract fast. Shared by the integrator and the flow map.
-class AlphaNewton {
-   public:
-    AlphaNewton(System& sys, const AlphaMethod& m, int n)
-        : sys_(sys), m_(m), lu_(kDenseBelow), r_(n), da_(n) {}
-
-    struct Failure {
-        bool singular = false;
-        int iterations = 0;
-        double residual = 0.0;
-    };
-
-    // Solves for an (initial guess on entry) and fills pan, zn, vn; z is the displacement
-    // at t in the current chart. False if Newton did not converge (why in failure).
-    bool solve(double t, double h, const Eigen::VectorXd& z, const Eigen::VectorXd& v, const Eigen::VectorXd& a,
-               const Eigen::VectorXd& pa, Eigen::VectorXd& an, Eigen::VectorXd& pan, Eigen::VectorXd& zn,
-               Eigen::VectorXd& vn, TransientOutput& stats, Failure& failure) {
-        const TransientOptions& opt = sys_.opt;
-        const double tn = t + h, bp = m_.bp(h), gp = m_.gp(h);
-        auto update = [&]() {
-            pan = m_.c1 * an + m_.c2 * a + m_.c3 * pa;
-            zn = z + h * v + h * h * ((0.5 - m_.beta) * pa + m_.beta * pan);
-            vn = v + h * ((1.0 - m_.gamma) * pa + m_.gamma * pan);
-        };
-        update();
-        double prev = 0.0;
-        if (std::abs(lu_step_ - h) > 1e-10 * h) fresh_ = false;  // same step up to round-off
-        int it = 0;
-        for (it = 1; it <= opt.max_newton; ++it) {
-            sys_.set(zn, vn, an, tn);
-            const LoadState load = sys_.load_at(tn);
-            if (!fresh_) {
-                assemble(sys_.model, sys_.state, load, sys_.load_factor(tn), bp, gp, 1.0, &r_, &J_);
-                ++stats.jacobians;
-                if (!lu_.factorize(sys_.n, J_.rows, J_.cols, J_.values)) {
-                    failure = {true, it - 1, r_.norm()};
-                    return false;
-                }
-                fresh_ = true;
-                lu_step_ = h;
-                contraction_ = kUnknownContraction;
-            } else {
-                assemble(sys_.model, sys_.state, load, sys_.load_factor(tn), 0.0, 0.0, 0.0, &r_, nullptr);
-            }
-            const double rnorm = r_.norm();
-            failure = {false, it - 1, rnorm};
-            if (!std::isfinite(rnorm)) break;
-            r_ = -r_;
-            lu_.solve(r_, da_);
-            an += da_;
-            update();
-            ++stats.newton_iterations;
-            // Converged when the position error left after this correction, estimated
-            // from the contraction rate as rate / (1 - rate) |correction| (the test of
-            // SUNDIALS' IDA), is below newton_tol model sizes. The rate is measured
-            // within the step, else carried over from earlier steps with this matrix.
-            const double corr = bp * da_.lpNorm<Eigen::Infinity>();
-            if (it > 1) {
-                const double rate = prev > 0.0 ? corr / prev : 0.0;
-                if (rate > 0.25) fresh_ = false;  // slow contraction: refresh
-                // floored: one fast contraction must not license large corrections later
-                contraction_ = rate < 0.9 ? std::max(rate / (1.0 - rate), kMinContraction) : 1e3;
-            }
-            if (contraction_ * corr <= opt.newton_tol * opt.length_scale) {
-                if (it > 3) fresh_ = false;
-                return true;
-            }
-            prev = corr;
-        }
-        failure.iterations = it - 1;  // corrections done
-        fresh_ = false;
-        return false;
-    }
-
-    void invalidate() { fresh_ = false; }
-
-   private:
-    // rate / (1 - rate) of the modified Newton iteration; pessimistic until measured
-    static constexpr double kUnknownContraction = 20.0, kMinContraction = 0.1;
-    System& sys_;
-    const AlphaMethod& m_;
-    FixedPatternLU lu_;
-    bool fresh_ = false;  // is lu_ the iteration matrix for the current step size?
-    double lu_step_ = -1.0, contraction_ = kUnknownContraction;
-    Triplets J_;
-    Eigen::VectorXd r_, da_;
-};
-
-std::string newton_failure_message(double t, double h, const AlphaNewton::Failure& f) {
-    if (f.singular)
-        return "generalised-alpha failed at t = " + fmt(t) + " s: singular iteration matrix with step " + fmt(h) +
-               " s (residual " + fmt(f.residual) + " after " + std::to_string(f.iterations) +
-               " iterations): a mechanism, or coordinates without inertia";
-    return "generalised-alpha failed at t = " + fmt(t) + " s: Newton did not converge with step " + fmt(h) +
-           " s (residual " + fmt(f.residual) + " after " + std::to_string(f.iterations) +
-           " iterations); the motion may diverge";
-}
-
-[[noreturn]] void throw_newton_failure(const System& sys, double t, double h, const AlphaNewton::Failure& f) {
-    ConvergenceError::Where where;
-    where.time = t;
-    where.mass_flow = sys.load_at(t).mass_flow;
-    where.iteration = f.iterations;
-    where.residual = f.residual;
-    if (f.singular) throw SingularMatrixError(newton_failure_message(t, h, f), where);
-    throw ConvergenceError(newton_failure_message(t, h, f), where);
+AlphaOptions alpha_options(const TransientOptions& opt) {
+    AlphaOptions a;
+    a.step = opt.step;
+    a.min_step = opt.min_step;
+    a.rho_inf = opt.rho_inf;
+    a.newton_tol = opt.newton_tol;
+    a.max_newton = opt.max_newton;
+    a.max_steps = opt.max_steps;
+    return a;
 }
 
 // Sparse matrix of triplets (repeats summed).
@@ -624,73 +510,23 @@ TransientOutput integrate_generalized_alpha(const Model& model, State& state, co
     TransientOutput out;
     if (times.empty()) return out;
     System sys(model, state, load, functions, opt);
-    const int n = sys.n;
-    const AlphaMethod method(opt.rho_inf);
-
     double t = times.front();
     Eigen::VectorXd v = reduce(model, state.v), a;
     sys.rebase(0.0, v, a);
-    sys.set(Eigen::VectorXd::Zero(n), v, Eigen::VectorXd::Zero(n), t);
-    a = sys.initial_acceleration(t);
-    Eigen::VectorXd pa = a;  // pseudo-acceleration
-    sys.set(Eigen::VectorXd::Zero(n), v, a, t);
+    GeneralizedAlpha alpha(sys, alpha_options(opt), t, v);
     sys.start_work(t);
     sys.record(t, out, 0.0, 0.0);
-
-    double h = opt.step;
-    AlphaNewton newton(sys, method, n);
-    // Buffers reused by every step: the loop allocates nothing.
-    const Eigen::VectorXd zero = Eigen::VectorXd::Zero(n);
-    Eigen::VectorXd an(n), pan(n), zn(n), vn(n), a_prev = a, offset(n);
-    double h_prev = 0.0;  // last accepted step (0: none yet)
     for (std::size_t next = 1; next < times.size(); ++next) {
-        // Equal steps within each output interval (a short last step would disturb the
-        // method's history); halved after a failed Newton iteration, restored after.
-        while (t < times[next] - 1e-14 * std::max(1.0, std::abs(t))) {
-            poll_interrupt();
-            const double left = times[next] - t;
-            const double hs = left / std::ceil(left / h - 1e-9);
-            const double tn = t + hs;
-            // Predictor: the acceleration extrapolated linearly from the last two steps. Its
-            // error is O(h^2) instead of O(h), so one correction usually converges.
-            if (h_prev > 0.0)
-                an = a + (hs / h_prev) * (a - a_prev);
-            else
-                an = a;
-            AlphaNewton::Failure failure;
-            // halved steps count too: max_steps bounds the work, not only the progress
-            if (out.steps + out.convergence_failures >= opt.max_steps)
-                throw std::invalid_argument("generalised-alpha: max_steps = " + std::to_string(opt.max_steps) +
-                                            " steps (failed ones included) reached at t = " + fmt(t) +
-                                            " s (step " + fmt(hs) + " s) before t_end; raise max_steps, or the "
-                                            "motion may be diverging");
-            if (!newton.solve(t, hs, zero, v, a, pa, an, pan, zn, vn, out, failure)) {
-                ++out.convergence_failures;
-                h_prev = 0.0;  // retry from the constant predictor: extrapolation may have misled
-                h = 0.5 * hs;
-                if (h < opt.min_step) throw_newton_failure(sys, t, hs, failure);
-                continue;
-            }
-            sys.set(zn, vn, an, tn);
-            sys.check_divergence(tn, hs);
-            sys.accumulate_work(tn);
-            // accept: re-base every node to phi = 0, carrying the pseudo-acceleration's
-            // offset from the true acceleration over
-            offset = pan - an;
-            a_prev = a;
-            out.rebases += sys.rebase(0.0, v, a);
-            pa = a + offset;
-            // the predictor extrapolates the re-based coordinates: at phi = 0 those of
-            // consecutive steps are all spatial angular accelerations, so comparable
-            h_prev = hs;
-            t = tn;
-            ++out.steps;
-            if (h < opt.step) h = std::min(opt.step, 2.0 * h);
-        }
-        sys.set(Eigen::VectorXd::Zero(n), v, a, t);
-        sys.record(t, out, sys.fluid_work, sys.load_work);
-        if (progress) progress(t);
+        alpha.advance_to(times[next]);
+        sys.record(alpha.time(), out, sys.fluid_work, sys.load_work);
+        if (progress) progress(alpha.time());
     }
+    const AlphaStats& st = alpha.stats();
+    out.steps = st.steps;
+    out.newton_iterations = st.newton_iterations;
+    out.jacobians = st.jacobians;
+    out.rebases = st.rebases;
+    out.convergence_failures = st.failed_steps;
     return out;
 }
 
@@ -714,13 +550,15 @@ FlowMapOutput generalized_alpha_flow_map(const Model& model, State& state, const
     loads.value = {1.0};
     TimeFunctions functions{flow, loads};
     System sys(model, state, load, functions, opt);
-    const AlphaMethod m(opt.rho_inf);
+    const AlphaOptions aopt = alpha_options(opt);
+    const AlphaMethod m(aopt.rho_inf);
     const double h = duration / n_steps;
 
     FlowMapOutput out;
     Eigen::VectorXd z = z0, v = v0;
-    sys.set(z, v, Eigen::VectorXd::Zero(n), 0.0);
-    Eigen::VectorXd a = sys.initial_acceleration(0.0), pa = a;
+    Eigen::VectorXd a, lam;
+    initial_acceleration(sys, z, v, 0.0, a, lam);
+    Eigen::VectorXd pa = a;
     out.a0 = a;
     Eigen::VectorXd an(n), pan(n), zn(n), vn(n), a_prev = a;
     out.z.reserve(static_cast<std::size_t>(n) * (n_steps + 1));
@@ -779,8 +617,8 @@ FlowMapOutput generalized_alpha_flow_map(const Model& model, State& state, const
         San.resize(n, 2 * n);
     }
 
-    AlphaNewton newton(sys, m, n);
-    TransientOutput stats;
+    AlphaNewton newton(sys, m, aopt);
+    AlphaStats stats;
     double t = 0.0;
     for (int k = 0; k < n_steps; ++k) {
         poll_interrupt();
@@ -788,10 +626,10 @@ FlowMapOutput generalized_alpha_flow_map(const Model& model, State& state, const
         // modes make the acceleration history rough); the converged step is the same
         an = k > 0 ? Eigen::VectorXd(2.0 * a - a_prev) : a;
         AlphaNewton::Failure failure;
-        bool ok = newton.solve(t, h, z, v, a, pa, an, pan, zn, vn, stats, failure);
+        bool ok = newton.solve(t, h, z, v, a, pa, an, pan, zn, vn, lam, stats, failure);
         if (!ok && k > 0) {
             an = a;
-            ok = newton.solve(t, h, z, v, a, pa, an, pan, zn, vn, stats, failure);
+            ok = newton.solve(t, h, z, v, a, pa, an, pan, zn, vn, lam, stats, failure);
         }
         if (!ok) throw_newton_failure(sys, t, h, failure);
         const double tn = t + h;

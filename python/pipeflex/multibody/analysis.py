@@ -1,19 +1,22 @@
 """Static, linearised and transient analyses of a :class:`MultibodySystem`.
 
-Time integration (C++, ``MultibodySystemCore::integrate``): the index-3 equations
-(positions constrained exactly) with the Lie group generalised-alpha method of Arnold &
-Bruls (2007) / Bruls, Cardona & Arnold (2012): rotations are updated as
-R <- exp(h Dq~) R, so there is no rotation singularity and no normalisation constraint.
+Time integration (C++): the index-3 equations (positions constrained exactly) with the
+project's one Lie group generalised-alpha integrator (``GeneralizedAlpha`` in
+``cpp/src/generalized_alpha.cpp``, Arnold & Bruls 2007 / Bruls, Cardona & Arnold 2012),
+the same that integrates element models: rotations are updated as R <- exp(Dq~) R with
+the step's increment Dq, so there is no rotation singularity and no normalisation
+constraint.
 Index 3 rather than van Voorthuizen et al.'s index-1 form (eq. 70, accelerations of the constraints)
 because the position constraints then hold to the Newton tolerance at every step with
 no drift stabilisation; the velocity-level drift ``max abs(C_q v)`` (not enforced) is
 reported. Constraint rows are scaled by the iteration matrix's size. Newton is
-modified: the iteration matrix is kept over steps and re-evaluated when a step needs
-more than ``refresh`` iterations.
+modified: the sparse iteration matrix is kept over steps while the corrections contract
+fast, and re-evaluated when they contract slowly.
 """
 from __future__ import annotations
 
 import time as _time
+import warnings
 from dataclasses import dataclass, field, replace
 from typing import Optional, Tuple
 
@@ -308,7 +311,7 @@ class MultibodyResult(Result):
 @renamed(tol="newton_tol", max_iterations="max_newton")
 def simulate(system: MultibodySystem, t_end: float, *, step: float, state: Optional[MultibodyState] = None,
              mass_flow: Optional[TimeFunction] = None, n_outputs: int = 201, rho_inf: float = 0.8,
-             newton_tol: float = 1e-8, max_newton: int = 12, refresh: int = 5,
+             newton_tol: float = 1e-9, max_newton: int = 12, refresh: Optional[int] = None,
              max_steps: int = MAX_STEPS) -> MultibodyResult:
     """Integrate the constrained equations of motion from ``state`` (default: the
     assembly configuration at rest) to ``t_end`` [s] with the fixed ``step`` h [s].
@@ -327,13 +330,16 @@ def simulate(system: MultibodySystem, t_end: float, *, step: float, state: Optio
             spinning semicircular pipe diverges at 0.9 with h = 1 ms, 0.95 at any step).
             (:func:`pipeflex.simulate`'s generalised-alpha defaults to 0.9 and allows 1:
             its supports are eliminated, there are no multipliers to damp.)
-        newton_tol: Newton tolerance on the increment, relative to the largest body length
-            (an iteration that stalls within 10 newton_tol with an iteration matrix
-            evaluated in the step is accepted: round-off; a stall with an older matrix
-            re-evaluates it). ``tol=`` is its deprecated name.
-        max_newton: Newton iterations per step (``max_iterations=`` is its deprecated name).
-        refresh: re-evaluate the iteration matrix when a step needs more Newton
-            iterations than this (modified Newton).
+        newton_tol: Newton tolerance on the position error left after a step's iterations
+            (estimated from the corrections' contraction, as in :func:`pipeflex.simulate`),
+            relative to the largest body length (an iteration that stalls within
+            10 newton_tol with an iteration matrix evaluated in the step is accepted:
+            round-off). ``tol=`` is its deprecated name.
+        max_newton: Newton iterations per step (``max_iterations=`` is its deprecated name);
+            a step whose Newton fails is halved (down to 1e-12 s) and the step restored
+            after.
+        refresh: deprecated, without effect: the iteration matrix is re-evaluated when
+            Newton contracts slowly, as in :func:`pipeflex.simulate`.
         max_steps: the most steps the run may take (10^7): a run that needs more is
             refused before it starts (ValueError). Ctrl-C stops a run (KeyboardInterrupt).
 
@@ -349,7 +355,9 @@ def simulate(system: MultibodySystem, t_end: float, *, step: float, state: Optio
         raise ValueError(f"rho_inf must be in [0, 1) (index-3 constraints need numerical damping), got {rho}")
     tol = _checks.positive("newton_tol", newton_tol)
     max_iterations = _checks.positive_int("max_newton", max_newton)
-    refresh = _checks.positive_int("refresh", refresh)
+    if refresh is not None:
+        warnings.warn("simulate(): 'refresh' is deprecated and has no effect (the iteration matrix is re-evaluated "
+                      "when Newton contracts slowly)", DeprecationWarning, stacklevel=2)
     max_steps = _checks.positive_int("max_steps", max_steps)
     if state is not None:
         system.check_state(state)
@@ -366,7 +374,7 @@ def simulate(system: MultibodySystem, t_end: float, *, step: float, state: Optio
     out_steps = [int(k) for k in np.unique(np.round(np.linspace(0, n_steps, n_out)).astype(int))]
     wall = _time.perf_counter()
     t, states, drift, stats = system.core.integrate(st.r, st.R, st.eta, st.v, st.a, st.lam, t0, flow, t_end,
-                                                    out_steps, h, rho, tol, max_iterations, refresh, max_steps)
+                                                    out_steps, h, rho, tol, max_iterations, max_steps)
     stats["wall_time"] = _time.perf_counter() - wall
     stats["step"] = (t_end - t0) / n_steps  # the step used: the interval in whole steps
     return MultibodyResult(np.array(t), np.array([x[0] for x in states]), np.array([x[1] for x in states]),

@@ -83,8 +83,8 @@ struct MbEvaluation {
 };
 
 struct MbOptions {
-    double step = 1e-3, rho_inf = 0.9, tol = 1e-8;
-    int max_newton = 12, refresh = 5;
+    double step = 1e-3, rho_inf = 0.9, tol = 1e-9;
+    int max_newton = 12;
     long max_steps = 10000000;  // refused before the first step if the run needs more
 };
 

@@ -1,0 +1,161 @@
+// The equations interface every formulation gives the solvers, and the one
+// generalised-alpha integrator built on it.
+//
+// A system (element model, floating-frame bodies with joints) is
+//     R(q, v, a, t) + C_q(q)^T lambda = 0,    c(q, t) = 0,
+// with q on a configuration manifold (node frames, body frames). The solvers see q only
+// through a chart around a base configuration q0: q = q0 (+) z, z in R^n; the system
+// says what (+) is (a sum for positions and modal amplitudes, exp(z~) R0 for frames) and
+// what v and a mean (chart rates for element nodes, spatial angular velocities for
+// bodies). Re-basing (q0 <- q, z <- 0) keeps z small; the system maps v and a into the
+// new chart.
+//
+// The tangent is one routine with weights chosen by the analysis (static: wK = 1;
+// generalised-alpha: wK = 1, wC = dv/dz, wM = da/dz; linearisation: one weight at a
+// time): the triplets of
+//     [ wK dR/dz + wC dR/dv + wM dR/da + wK d(C_q^T lambda)/dz    s C_q^T ]
+//     [ s C_q                                                      0      ]
+// ((n + nc) x (n + nc)), the constraint rows and columns scaled by s (chosen by the
+// solver: the size of the top-left block, so that pivoting sees comparable entries).
+#pragma once
+
+#include "pipeflex/assembly/model.hpp"
+
+#include <Eigen/Core>
+#include <string>
+
+namespace pipeflex {
+
+class Equations {
+   public:
+    virtual ~Equations() = default;
+    virtual int n_coordinates() const = 0;            // n
+    virtual int n_constraints() const { return 0; }   // nc
+    virtual double length_scale() const = 0;          // [m] model size, for tolerances
+    // The state q0 (+) z, v, a (n each), multipliers lambda (nc) at time t [s].
+    virtual void set(const Eigen::VectorXd& z, const Eigen::VectorXd& v, const Eigen::VectorXd& a,
+                     const Eigen::VectorXd& lambda, double t) = 0;
+    // At the state set: the residual [R + C_q^T lambda; c] (n + nc) and, if tangent is not
+    // null, the weighted tangent above with s = 1 (the solvers scale). The pattern of the
+    // triplets must not depend on the state (a fixed-pattern LU is kept across calls).
+    virtual void evaluate(double wK, double wC, double wM, Eigen::VectorXd& residual, Triplets* tangent) = 0;
+    // The state set becomes the base (z = 0); v and a are mapped into the new chart.
+    // Returns the number of frames re-based.
+    virtual int rebase(Eigen::VectorXd& v, Eigen::VectorXd& a) = 0;
+    // Called with the state set to an accepted step's end: throws ConvergenceError if the
+    // motion left the model's domain (diverged, not finite); bookkeeping (work).
+    virtual void accept(double t, double h) { (void)t; (void)h; }
+    // When modified Newton re-evaluates its iteration matrix: after a correction that
+    // shrank by less than slow_rate (that of the one before), within a step after
+    // long_step + 1 iterations with an older matrix, and at the next step after a step
+    // that needed more than long_step iterations. A tangent that costs many residuals
+    // (the floating-frame bodies' joint reactions, differenced) is kept longer.
+    struct RefreshPolicy {
+        double slow_rate = 0.25;
+        int long_step = 3;
+    };
+    virtual RefreshPolicy refresh_policy() const { return {}; }
+    // Mass flow at t [kg/s], for error reports.
+    virtual double mass_flow(double t) const { (void)t; return 0.0; }
+    // Why a singular mass matrix or iteration matrix is singular, in the system's terms.
+    virtual std::string singular_mass_hint() const { return "coordinates without inertia"; }
+};
+
+struct AlphaOptions {
+    double step = 1e-3;         // h [s], the largest step
+    double min_step = 1e-12;    // smallest step before giving up [s]
+    double rho_inf = 0.9;       // spectral radius at infinite frequency, in [0, 1]
+    double newton_tol = 1e-10;  // position error left by Newton / length_scale
+    int max_newton = 12;
+    long max_steps = 10000000;  // steps, failed (halved) ones included
+};
+
+// Chung-Hulbert parameters from rho_inf and the update formulas of one step
+//   pa' = c1 a' + c2 a + c3 pa,  z' = z + h v + h^2 ((1/2 - beta) pa + beta pa'),
+//   v' = v + h ((1 - gamma) pa + gamma pa').
+struct AlphaMethod {
+    double am, af, gamma, beta, c1, c2, c3;
+    explicit AlphaMethod(double rho)
+        : am((2.0 * rho - 1.0) / (rho + 1.0)), af(rho / (rho + 1.0)), gamma(0.5 + af - am),
+          beta(0.25 * (gamma + 0.5) * (gamma + 0.5)), c1((1.0 - af) / (1.0 - am)), c2(af / (1.0 - am)),
+          c3(-am / (1.0 - am)) {}
+    double bp(double h) const { return h * h * beta * c1; }  // d z' / d a'
+    double gp(double h) const { return h * gamma * c1; }     // d v' / d a'
+};
+
+struct AlphaStats {
+    long steps = 0, newton_iterations = 0, jacobians = 0, rebases = 0, failed_steps = 0;
+};
+
+// Newton on one step's end state: the position corrections dz from
+//     [S, s C_q^T; s C_q, 0] [dz; dlambda / s] = -[R + C_q^T lambda; s c],
+//     S = K + (gp/bp) C + (1/bp) M,
+// factorised sparsely on a fixed pattern and kept (modified Newton) across iterations
+// and steps while the corrections contract fast. Shared by the integrator and the flow
+// map of periodic orbits.
+class AlphaNewton {
+   public:
+    AlphaNewton(Equations& eq, const AlphaMethod& m, const AlphaOptions& opt);
+    ~AlphaNewton();
+    AlphaNewton(const AlphaNewton&) = delete;
+    AlphaNewton& operator=(const AlphaNewton&) = delete;
+
+    struct Failure {
+        bool singular = false;
+        int iterations = 0;
+        double residual = 0.0;
+    };
+
+    // From the step's start (z, v, a, pa at t; z in the current chart) and a predicted
+    // an (lam: the multipliers' guess), solves for the end state an, pan, zn, vn, lam at
+    // t + h. False if Newton did not converge (why in failure).
+    bool solve(double t, double h, const Eigen::VectorXd& z, const Eigen::VectorXd& v, const Eigen::VectorXd& a,
+               const Eigen::VectorXd& pa, Eigen::VectorXd& an, Eigen::VectorXd& pan, Eigen::VectorXd& zn,
+               Eigen::VectorXd& vn, Eigen::VectorXd& lam, AlphaStats& stats, Failure& failure);
+    void invalidate();
+
+   private:
+    struct Impl;
+    Impl* impl_;
+};
+
+// Throws the ConvergenceError (SingularMatrixError if singular) of a failed Newton
+// solve at time t [s] with step h [s], naming both.
+[[noreturn]] void throw_newton_failure(const Equations& eq, double t, double h, const AlphaNewton::Failure& f);
+
+// Consistent acceleration and multipliers at the state set (z, v, a = 0, lambda = 0):
+// [M, C_q^T; C_q, 0] [a; lambda] = [-R(q, v, 0); 0]. Throws std::invalid_argument
+// (singular mass) if the system's mass matrix is singular on the constraints' null space.
+void initial_acceleration(Equations& eq, const Eigen::VectorXd& z, const Eigen::VectorXd& v, double t,
+                          Eigen::VectorXd& a, Eigen::VectorXd& lam);
+
+// The Lie-group generalised-alpha integrator (Arnold & Bruls 2007) of any system: equal
+// steps within each interval between output times, halved after a failed Newton
+// iteration and doubled back after; the frames re-based after every step.
+class GeneralizedAlpha {
+   public:
+    // Starts at time t0 from the state's rates v (n) with consistent a and lambda.
+    GeneralizedAlpha(Equations& eq, const AlphaOptions& opt, double t0, const Eigen::VectorXd& v0);
+    ~GeneralizedAlpha();
+    GeneralizedAlpha(const GeneralizedAlpha&) = delete;
+    GeneralizedAlpha& operator=(const GeneralizedAlpha&) = delete;
+
+    // Steps to time t_out (> time()); afterwards the system is set to the state there.
+    void advance_to(double t_out);
+    double time() const { return t_; }
+    const Eigen::VectorXd& velocity() const { return v_; }
+    const Eigen::VectorXd& acceleration() const { return a_; }
+    const Eigen::VectorXd& multipliers() const { return lam_; }
+    const AlphaStats& stats() const { return stats_; }
+
+   private:
+    Equations& eq_;
+    AlphaOptions opt_;
+    AlphaMethod method_;
+    AlphaNewton newton_;
+    AlphaStats stats_;
+    double t_ = 0.0, h_ = 0.0, h_prev_ = 0.0;
+    Eigen::VectorXd v_, a_, pa_, lam_, an_, pan_, zn_, vn_, a_prev_, zero_, offset_, lam_start_;
+};
+
+}  // namespace pipeflex

@@ -1,0 +1,305 @@
+#include "pipeflex/solvers/equations.hpp"
+
+#include "pipeflex/core/interrupt.hpp"
+#include "pipeflex/errors.hpp"
+#include "pipeflex/solvers/sparse_lu.hpp"
+
+#include <Eigen/QR>
+#include <Eigen/SparseCholesky>
+
+#include <algorithm>
+#include <cmath>
+#include <sstream>
+#include <stdexcept>
+
+namespace pipeflex {
+
+namespace {
+
+// Below this many unknowns the iteration matrix is factorised densely (measured crossover).
+constexpr int kDenseBelow = 100;
+// Largest constrained system whose singular start is solved densely (minimum norm).
+constexpr int kDenseMinimumNormLimit = 4000;
+
+std::string fmt(double x) {
+    std::ostringstream os;
+    os.precision(6);
+    os << x;
+    return os.str();
+}
+
+// Scales the constraint rows and columns of the (n + nc) tangent by s; returns the largest
+// magnitude of its top-left block (the scale the next call should use).
+double scale_constraints(Triplets& J, int n, double s) {
+    double size = 0.0;
+    for (std::size_t k = 0; k < J.values.size(); ++k) {
+        const bool cr = J.rows[k] >= n, cc = J.cols[k] >= n;
+        if (cr != cc)
+            J.values[k] *= s;
+        else if (!cr)
+            size = std::max(size, std::abs(J.values[k]));
+    }
+    return size;
+}
+
+}  // namespace
+
+// ----------------------------------------------------------------- Newton -------------
+
+struct AlphaNewton::Impl {
+    Impl(Equations& e, const AlphaMethod& m, const AlphaOptions& o)
+        : eq(e), method(m), opt(o), n(e.n_coordinates()), nc(e.n_constraints()), lu(kDenseBelow), r(n + nc),
+          x(n + nc), dz(n), policy(e.refresh_policy()) {}
+
+    // rate / (1 - rate) of the modified Newton iteration; pessimistic until measured
+    static constexpr double kUnknownContraction = 20.0, kMinContraction = 0.1;
+    Equations& eq;
+    const AlphaMethod& method;
+    const AlphaOptions& opt;
+    int n, nc;
+    FixedPatternLU lu;
+    bool fresh = false;  // is lu the iteration matrix for the current step size?
+    double lu_step = -1.0, contraction = kUnknownContraction, scale = 1.0;
+    Triplets J;
+    Eigen::VectorXd r, x, dz;
+    Equations::RefreshPolicy policy;
+};
+
+AlphaNewton::AlphaNewton(Equations& eq, const AlphaMethod& m, const AlphaOptions& opt)
+    : impl_(new Impl(eq, m, opt)) {}
+AlphaNewton::~AlphaNewton() { delete impl_; }
+void AlphaNewton::invalidate() { impl_->fresh = false; }
+
+bool AlphaNewton::solve(double t, double h, const Eigen::VectorXd& z, const Eigen::VectorXd& v,
+                        const Eigen::VectorXd& a, const Eigen::VectorXd& pa, Eigen::VectorXd& an,
+                        Eigen::VectorXd& pan, Eigen::VectorXd& zn, Eigen::VectorXd& vn, Eigen::VectorXd& lam,
+                        AlphaStats& stats, Failure& failure) {
+    Impl& s = *impl_;
+    const AlphaMethod& m = s.method;
+    const int n = s.n, nc = s.nc;
+    const double tn = t + h, bp = m.bp(h), gp = m.gp(h), L = s.eq.length_scale();
+    pan = m.c1 * an + m.c2 * a + m.c3 * pa;
+    zn = z + h * v + h * h * ((0.5 - m.beta) * pa + m.beta * pan);
+    vn = v + h * ((1.0 - m.gamma) * pa + m.gamma * pan);
+    double prev = 0.0;
+    if (std::abs(s.lu_step - h) > 1e-10 * h) s.fresh = false;  // same step up to round-off
+    bool refreshed = false;  // a matrix evaluated in this step
+    int it = 0;
+    for (it = 1; it <= s.opt.max_newton; ++it) {
+        s.eq.set(zn, vn, an, lam, tn);
+        if (it > s.policy.long_step + 1 && !refreshed) s.fresh = false;  // a long step with an old matrix
+        if (!s.fresh) {
+            s.eq.evaluate(1.0, gp / bp, 1.0 / bp, s.r, &s.J);
+            if (nc > 0) {
+                const double size = scale_constraints(s.J, n, s.scale);
+                // the scale is the block's size, fixed while the factors are kept
+                if (size > 0.0 && std::abs(size - s.scale) > 0.5 * s.scale) {
+                    scale_constraints(s.J, n, size / s.scale);
+                    s.scale = size;
+                }
+            }
+            ++stats.jacobians;
+            if (!s.lu.factorize(n + nc, s.J.rows, s.J.cols, s.J.values)) {
+                failure = {true, it - 1, s.r.norm()};
+                return false;
+            }
+            s.fresh = refreshed = true;
+            s.lu_step = h;
+            s.contraction = Impl::kUnknownContraction;
+        } else {
+            s.eq.evaluate(0.0, 0.0, 0.0, s.r, nullptr);
+        }
+        const double rnorm = s.r.norm();
+        failure = {false, it - 1, rnorm};
+        if (!std::isfinite(rnorm)) break;
+        s.r = -s.r;
+        if (nc > 0) s.r.tail(nc) *= s.scale;
+        s.lu.solve(s.r, s.x);
+        s.dz = s.x.head(n);
+        if (!s.dz.allFinite()) break;
+        zn += s.dz;
+        vn += (gp / bp) * s.dz;
+        an += (1.0 / bp) * s.dz;
+        pan += (m.c1 / bp) * s.dz;
+        if (nc > 0) lam += s.scale * s.x.tail(nc);
+        ++stats.newton_iterations;
+        // Converged when the position error left after this correction, estimated from
+        // the contraction rate as rate / (1 - rate) |correction| (the test of SUNDIALS'
+        // IDA), is below newton_tol model sizes. The rate is measured within the step,
+        // else carried over from earlier steps with this matrix.
+        const double corr = s.dz.lpNorm<Eigen::Infinity>();
+        if (it > 1) {
+            const double rate = prev > 0.0 ? corr / prev : 0.0;
+            if (rate > s.policy.slow_rate) s.fresh = false;  // slow contraction: refresh
+            // floored: one fast contraction must not license large corrections later
+            s.contraction = rate < 0.9 ? std::max(rate / (1.0 - rate), Impl::kMinContraction) : 1e3;
+            // stalled at round-off near the tolerance with a matrix of this step: accept
+            if (rate >= 0.5 && refreshed && corr <= 10.0 * s.opt.newton_tol * L) return true;
+        }
+        if (s.contraction * corr <= s.opt.newton_tol * L) {
+            if (it > s.policy.long_step) s.fresh = false;
+            return true;
+        }
+        if (corr > L) break;  // diverging
+        prev = corr;
+    }
+    failure.iterations = std::min(it, s.opt.max_newton);
+    s.fresh = false;
+    return false;
+}
+
+// ------------------------------------------------------- initial acceleration ----------
+
+void initial_acceleration(Equations& eq, const Eigen::VectorXd& z, const Eigen::VectorXd& v, double t,
+                          Eigen::VectorXd& a, Eigen::VectorXd& lam) {
+    const int n = eq.n_coordinates(), nc = eq.n_constraints();
+    a = Eigen::VectorXd::Zero(n);
+    lam = Eigen::VectorXd::Zero(nc);
+    eq.set(z, v, a, lam, t);
+    Eigen::VectorXd r;
+    Triplets trip;
+    eq.evaluate(0.0, 0.0, 1.0, r, &trip);
+    const std::string singular = "the mass matrix is singular: " + eq.singular_mass_hint();
+    if (nc == 0) {
+        // symmetric positive definite: LDLT of 0.5 (M + M^T), whose pivots show a singular M
+        std::vector<Eigen::Triplet<double>> sym;
+        sym.reserve(2 * trip.values.size());
+        for (std::size_t k = 0; k < trip.values.size(); ++k) {
+            sym.emplace_back(trip.rows[k], trip.cols[k], 0.5 * trip.values[k]);
+            sym.emplace_back(trip.cols[k], trip.rows[k], 0.5 * trip.values[k]);
+        }
+        Eigen::SparseMatrix<double> M(n, n);
+        M.setFromTriplets(sym.begin(), sym.end());
+        Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>> ldlt(M);
+        const bool factored = ldlt.info() == Eigen::Success;
+        const Eigen::VectorXd d = factored ? Eigen::VectorXd(ldlt.vectorD()) : Eigen::VectorXd::Zero(n);
+        if (!factored || n == 0 || d.minCoeff() <= 1e-12 * d.cwiseAbs().maxCoeff())
+            throw std::invalid_argument(singular);
+        a = ldlt.solve(-r);
+        return;
+    }
+    const double size = scale_constraints(trip, n, 1.0), s = size > 0.0 ? size : 1.0;
+    scale_constraints(trip, n, s);
+    FixedPatternLU lu(kDenseBelow);
+    Eigen::VectorXd rhs = Eigen::VectorXd::Zero(n + nc), x;
+    rhs.head(n) = -r.head(n);
+    if (lu.factorize(n + nc, trip.rows, trip.cols, trip.values)) lu.solve(rhs, x);
+    if (x.size() != n + nc || !x.allFinite()) {
+        // Coordinates that are massless but stiff (torsion of a body without rotary
+        // inertia) leave the matrix singular; the index-3 iteration matrix is regular
+        // there (stiffness), so start from the minimum-norm acceleration.
+        if (n + nc > kDenseMinimumNormLimit)
+            throw std::invalid_argument(singular + ", or the constraints are redundant (a motion locked twice)");
+        Eigen::MatrixXd A = Eigen::MatrixXd::Zero(n + nc, n + nc);
+        for (std::size_t k = 0; k < trip.values.size(); ++k) A(trip.rows[k], trip.cols[k]) += trip.values[k];
+        x = A.completeOrthogonalDecomposition().solve(rhs);
+    }
+    a = x.head(n);
+    lam = s * x.tail(nc);
+}
+
+// ------------------------------------------------------- the integrator ----------------
+
+namespace {
+
+AlphaOptions checked(const AlphaOptions& o) {
+    if (!std::isfinite(o.step) || !(o.step > 0.0)) throw std::invalid_argument("step must be > 0 and finite");
+    if (!(o.rho_inf >= 0.0 && o.rho_inf <= 1.0)) throw std::invalid_argument("rho_inf must be in [0, 1]");
+    if (!(o.newton_tol > 0.0)) throw std::invalid_argument("newton_tol must be > 0");
+    if (o.max_newton < 1) throw std::invalid_argument("max_newton must be >= 1");
+    return o;
+}
+
+std::string failure_message(double t, double h, const AlphaNewton::Failure& f, const Equations& eq) {
+    if (f.singular)
+        return "generalised-alpha failed at t = " + fmt(t) + " s: singular iteration matrix with step " + fmt(h) +
+               " s (residual " + fmt(f.residual) + " after " + std::to_string(f.iterations) +
+               " iterations): a mechanism, " + eq.singular_mass_hint();
+    return "generalised-alpha failed at t = " + fmt(t) + " s: Newton did not converge with step " + fmt(h) +
+           " s (residual " + fmt(f.residual) + " after " + std::to_string(f.iterations) +
+           " iterations); the motion may diverge";
+}
+
+}  // namespace
+
+[[noreturn]] void throw_newton_failure(const Equations& eq, double t, double h, const AlphaNewton::Failure& f) {
+    ConvergenceError::Where where;
+    where.time = t;
+    where.mass_flow = eq.mass_flow(t);
+    where.iteration = f.iterations;
+    where.residual = f.residual;
+    if (f.singular) throw SingularMatrixError(failure_message(t, h, f, eq), where);
+    throw ConvergenceError(failure_message(t, h, f, eq), where);
+}
+
+GeneralizedAlpha::GeneralizedAlpha(Equations& eq, const AlphaOptions& opt, double t0, const Eigen::VectorXd& v0)
+    : eq_(eq), opt_(checked(opt)), method_(opt_.rho_inf), newton_(eq, method_, opt_), t_(t0), h_(opt_.step) {
+    const int n = eq.n_coordinates();
+    if (n == 0)
+        throw std::invalid_argument("the model has no free coordinates (every node is fixed): there is no "
+                                    "motion to integrate");
+    if (v0.size() != n) throw std::invalid_argument("generalised-alpha: v0 must have n_coordinates entries");
+    zero_ = Eigen::VectorXd::Zero(n);
+    v_ = v0;
+    initial_acceleration(eq, zero_, v_, t0, a_, lam_);
+    pa_ = a_;
+    a_prev_ = a_;
+    an_.resize(n);
+    pan_.resize(n);
+    zn_.resize(n);
+    vn_.resize(n);
+    eq.set(zero_, v_, a_, lam_, t0);
+}
+
+GeneralizedAlpha::~GeneralizedAlpha() = default;
+
+void GeneralizedAlpha::advance_to(double t_out) {
+    // Equal steps within each output interval (a short last step would disturb the
+    // method's history); halved after a failed Newton iteration, restored after.
+    while (t_ < t_out - 1e-14 * std::max(1.0, std::abs(t_))) {
+        poll_interrupt();
+        const double left = t_out - t_;
+        const double hs = left / std::ceil(left / h_ - 1e-9);
+        const double tn = t_ + hs;
+        // Predictor: the acceleration extrapolated linearly from the last two steps. Its
+        // error is O(h^2) instead of O(h), so one correction usually converges.
+        if (h_prev_ > 0.0)
+            an_ = a_ + (hs / h_prev_) * (a_ - a_prev_);
+        else
+            an_ = a_;
+        // halved steps count too: max_steps bounds the work, not only the progress
+        if (stats_.steps + stats_.failed_steps >= opt_.max_steps)
+            throw std::invalid_argument("generalised-alpha: max_steps = " + std::to_string(opt_.max_steps) +
+                                        " steps (failed ones included) reached at t = " + fmt(t_) + " s (step " +
+                                        fmt(hs) + " s) before t_end; raise max_steps, or the motion may be diverging");
+        lam_start_ = lam_;
+        AlphaNewton::Failure failure;
+        if (!newton_.solve(t_, hs, zero_, v_, a_, pa_, an_, pan_, zn_, vn_, lam_, stats_, failure)) {
+            ++stats_.failed_steps;
+            lam_ = lam_start_;
+            h_prev_ = 0.0;  // retry from the constant predictor: extrapolation may have misled
+            h_ = 0.5 * hs;
+            if (h_ < opt_.min_step) throw_newton_failure(eq_, t_, hs, failure);
+            continue;
+        }
+        eq_.set(zn_, vn_, an_, lam_, tn);
+        eq_.accept(tn, hs);
+        // accept: re-base the frames to the step's end, carrying the pseudo-acceleration's
+        // offset from the true acceleration over
+        offset_ = pan_ - an_;
+        a_prev_ = a_;
+        v_ = vn_;
+        a_ = an_;
+        stats_.rebases += eq_.rebase(v_, a_);
+        pa_ = a_ + offset_;
+        // the predictor extrapolates the re-based coordinates: at z = 0 those of
+        // consecutive steps are all spatial angular accelerations, so comparable
+        h_prev_ = hs;
+        t_ = tn;
+        ++stats_.steps;
+        if (h_ < opt_.step) h_ = std::min(opt_.step, 2.0 * h_);
+    }
+    eq_.set(zero_, v_, a_, lam_, t_);
+}
+
+}  // namespace pipeflex
