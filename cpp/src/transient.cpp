@@ -1,5 +1,6 @@
 #include "pipeflex/solvers/transient.hpp"
 
+#include "pipeflex/core/format.hpp"
 #include "pipeflex/core/interrupt.hpp"
 #include "pipeflex/elements/hermite.hpp"
 #include "pipeflex/solvers/sparse_lu.hpp"
@@ -84,13 +85,6 @@ double gravity_potential(const Model& model, const State& s, const LoadState& lo
 }
 
 namespace {
-
-std::string fmt(double x) {
-    std::ostringstream os;
-    os.precision(6);
-    os << x;
-    return os.str();
-}
 
 // Shared machinery: reduced <-> full coordinates around a base state, residuals,
 // tangents, outputs and energy bookkeeping.
