@@ -1,12 +1,12 @@
 """Classify static failures of random models: limit points or solver weaknesses?
 
 Random pipe models (lines and arcs of 1-2 sections, five kinds of supports, dead and
-follower loads, gravity, a point mass, a mass flow) and planar ANCF beams are generated
-by a seeded numpy generator over the public builder, with parameters within and slightly
-outside physical ranges (as the "Reliability" issue's fuzzing: EI 1e-2 ... 1e4 N m^2,
-EA/EI 10 ... 1e7 1/m^2, loads up to 10 x the stiffness level EI [N], gravity up to
-20 m/s^2 a component, flows up to 3 flow units). Each model is solved by
-``pf.static_equilibrium``:
+follower loads, gravity, a point mass, a mass flow) and planar ANCF beams are described
+by a seeded numpy generator, with parameters within and slightly outside physical ranges
+(as the "Reliability" issue's fuzzing: EI 1e-2 ... 1e4 N m^2, EA/EI 10 ... 1e7 1/m^2,
+loads up to 10 x the stiffness level EI [N], gravity up to 20 m/s^2 a component, flows
+up to 3 flow units), and built by the fuzz tests' builders (tests/fuzz/models.py). Each
+model is solved by ``pf.static_equilibrium``:
 
 1. ``path="load"`` (load stepping with bisection, the solver before arc length); if it
    converges: **load stepping**;
@@ -36,10 +36,12 @@ import sys
 import time
 import traceback
 from collections import Counter
+from pathlib import Path
 
 import numpy as np
 
 COMPONENTS = ("ux", "uy", "uz", "rx", "ry", "rz")
+FUZZ = str(Path(__file__).resolve().parents[1] / "tests" / "fuzz")  # the builders' module, models.py
 
 
 def _unit(rng):
@@ -57,7 +59,7 @@ def describe(rng):
     """A plain-dict model description (JSON: the printout reproduces it)."""
     if rng.random() < 0.15:  # a planar ANCF cantilever
         EI = _logu(rng, 1e-2, 1e4)
-        return dict(kind="ancf", n=int(rng.integers(1, 5)), elastic=str(rng.choice(["A", "0"])), EI=EI,
+        return dict(kind="ancf", hub=False, n=int(rng.integers(1, 5)), elastic=str(rng.choice(["A", "0"])), EI=EI,
                     EA=EI * _logu(rng, 1e2, 1e6), mass=_logu(rng, 0.05, 50.0), length=_logu(rng, 0.1, 3.0),
                     angle=float(rng.uniform(-np.pi, np.pi)), load=list(rng.uniform(-1, 1, 2)),
                     level=EI * _logu(rng, 1e-3, 10.0),
@@ -96,71 +98,24 @@ def describe(rng):
                        moment=list(rng.uniform(-1, 1, 3)), follower=bool(rng.random() < 0.5),
                        level=scale * _logu(rng, 1e-4, 10.0)) for _ in range(int(rng.integers(0, 3)))]
     m["gravity"] = None if rng.random() < 0.3 else list(rng.uniform(-20, 20, 3))
-    m["point_mass"] = None if rng.random() < 0.5 else dict(node=int(rng.integers(0, 21)), mass=_logu(rng, 1e-3, 10.0))
+    m["point_masses"] = [] if rng.random() < 0.5 else [
+        dict(node=int(rng.integers(0, 21)), mass=_logu(rng, 1e-3, 10.0), inertia=(0.0, 0.0, 0.0))]
     m["flow"] = float(rng.uniform(0, 3)) if fluid and rng.random() < 0.6 else 0.0
     m["load_steps"] = int(rng.integers(1, 5))
     return m
 
 
 def build(m):
-    import pipeflex as pf
+    """(model, mass flow [kg/s], load steps) of a description, by the fuzz tests' builders
+    (the descriptions here are in their format; only the distributions differ)."""
+    if FUZZ not in sys.path:
+        sys.path.insert(0, FUZZ)
+    from models import build_ancf, build_pipe
 
-    b = pf.ModelBuilder()
     if m["kind"] == "ancf":
-        sec = pf.PipeSection(EI=m["EI"], EA=m["EA"], pipe_mass=m["mass"])
-        d = np.array([np.cos(m["angle"]), np.sin(m["angle"]), 0.0])
-        nodes = b.add_ancf_beam((0.0, 0.0, 0.0), m["length"] * d, m["n"], sec, elastic=m["elastic"])
-        b.clamp(nodes[0])
-        b.add_load(nodes[-1], force=(m["level"] * m["load"][0], m["level"] * m["load"][1], 0.0))
-        if m["gravity"] is not None:
-            b.set_gravity(m["gravity"])
-        return b.build(), 0.0, 1
-    secs = [pf.PipeSection(**s) for s in m["sections"]]
-    nodes = [b.add_node((0.0, 0.0, 0.0))]
-    pos = np.zeros(3)
-    for k, g in enumerate(m["segments"]):
-        sec = secs[k % len(secs)]
-        if g["kind"] == "line":
-            end = pos + g["length"] * np.asarray(g["direction"])
-            nodes += b.add_line(nodes[-1], end, g["n"], sec)[1:]
-            pos = end
-        else:
-            k_ = np.asarray(g["normal"])
-            w = np.asarray(g["radial"]) - np.dot(g["radial"], k_) * k_
-            if np.linalg.norm(w) < 1e-3:
-                w = np.linalg.svd(k_.reshape(1, 3))[2][1]
-            center = pos + g["radius"] * w / np.linalg.norm(w)
-            nodes += b.add_arc(nodes[-1], center=center, angle=g["angle"], normal=k_, n_elements=g["n"],
-                               section=sec)[1:]
-            r0 = pos - center  # rotate about the normal by the angle (Rodrigues)
-            c, s = np.cos(g["angle"]), np.sin(g["angle"])
-            pos = center + r0 * c + np.cross(k_, r0) * s + k_ * np.dot(k_, r0) * (1 - c)
-    first, last = nodes[0], nodes[-1]
-    sup = m["support"]
-    if sup == "clamp":
-        b.clamp(first)
-    elif sup == "clamp_both":
-        b.clamp(first)
-        b.clamp(last)
-    elif sup == "pin_pin":
-        b.pin(first)
-        b.pin(last)
-        b.fix_rotation(first, (1.0, 0.0, 0.0))
-    elif sup == "hinge_roller":
-        b.hinge(first, m["axis"])
-        b.axial_support(last, m["axis"])
-    else:
-        b.fix(first, m["fixed"][0])
-        b.fix(last, m["fixed"][1])
-    for ld in m["loads"]:
-        b.add_load(nodes[ld["node"] % len(nodes)], force=ld["level"] * np.asarray(ld["force"]),
-                   moment=ld["level"] * np.asarray(ld["moment"]), follower=ld["follower"])
-    if m["gravity"] is not None:
-        b.set_gravity(m["gravity"])
-    if m["point_mass"]:
-        b.add_point_mass(nodes[m["point_mass"]["node"] % len(nodes)], m["point_mass"]["mass"])
-    model = b.build()
-    return model, (m["flow"] * model.flow_scale() if m["flow"] else 0.0), m["load_steps"]
+        return build_ancf(m), 0.0, 1
+    model, mdot = build_pipe(m)
+    return model, mdot, m["load_steps"]
 
 
 def classify(m, arc_steps=200):

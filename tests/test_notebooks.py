@@ -46,6 +46,15 @@ def within(expression, low, high, source):
 # except where ours differ by about one unit and the validation's tolerance is used:
 # seed 000's Table 2 (6 decimals; ours up to 1.0e-6 off, e.g. 25.0089106 for 25.008910).
 TABLE2_TOL = val000.TOL_TABLE2          # relative, 2e-7: about 5 units of the last digit
+
+
+def table2(expression, n_elements, note=""):
+    """The critical mass flow [kg/s] of seed 000's Table 2 at ``n_elements`` elements (the
+    reference most notebooks reproduce), to TABLE2_TOL; ``note`` qualifies the count."""
+    reference = ref000.TABLE2[n_elements]
+    return near(expression, reference, TABLE2_TOL * reference,
+                f"seed 000, Table 2, {n_elements} elements{note}: critical mass flow [kg/s]")
+
 CHECKS = {
     "campbell.ipynb": [
         near("campbell_resonance", 3.88, 5e-3,
@@ -82,8 +91,7 @@ CHECKS = {
                "1 % of the blowing pipe's)"),
     ],
     "seed000_tables_1_2.ipynb": [
-        near("crit.mass_flow", ref000.TABLE2[8], TABLE2_TOL * ref000.TABLE2[8],
-             "seed 000, Table 2, 8 elements: critical mass flow [kg/s]"),
+        table2("crit.mass_flow", 8),
         near("crit_ss.mass_flow", ref000.TABLE1[8], 5e-10,
              "seed 000, Table 1, 8 elements: critical mass flow [kg/s], 9 decimals"),
     ],
@@ -108,10 +116,8 @@ CHECKS = {
     ],
     "seed004_cantilever.ipynb": [
         # n FFRF bodies with boundary modes = 2n seed-000 elements
-        near("dict(zip(fig7['bodies'], fig7['bodies_flow']))[4]", ref000.TABLE2[8], TABLE2_TOL * ref000.TABLE2[8],
-             "seed 000, Table 2, 8 elements (= 4 bodies): critical mass flow [kg/s]"),
-        near("dict(zip(fig7['bodies'], fig7['bodies_flow']))[1]", ref000.TABLE2[2], TABLE2_TOL * ref000.TABLE2[2],
-             "seed 000, Table 2, 2 elements (= 1 body): critical mass flow [kg/s]"),
+        table2("dict(zip(fig7['bodies'], fig7['bodies_flow']))[4]", 8, " (= 4 bodies)"),
+        table2("dict(zip(fig7['bodies'], fig7['bodies_flow']))[1]", 2, " (= 1 body)"),
     ],
     "seed004_curved_pipe.ipynb": [
         # fast mode: 1.5 s instead of 4 s
@@ -119,10 +125,8 @@ CHECKS = {
              "seed 004, Table 1, FFRF column, E = 95.85 GPa: final angular velocity [rad/s], 3 decimals"),
     ],
     "seed004_model_choice.ipynb": [
-        near("lookup['FFRF 4 b.'].value", ref000.TABLE2[8], TABLE2_TOL * ref000.TABLE2[8],
-             "seed 000, Table 2, 8 elements (= 4 FFRF bodies): critical mass flow [kg/s]"),
-        near("lookup['element 8 el.'].value", ref000.TABLE2[8], TABLE2_TOL * ref000.TABLE2[8],
-             "seed 000, Table 2, 8 elements: critical mass flow [kg/s]"),
+        table2("lookup['FFRF 4 b.'].value", 8, " (= 4 FFRF bodies)"),
+        table2("lookup['element 8 el.'].value", 8),
     ],
     "seed004_printer.ipynb": [
         # Not a validation: the seed's Fig. 12 compares with nothing; its specification does.

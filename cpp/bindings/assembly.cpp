@@ -143,9 +143,9 @@ void bind_assembly(py::module_& m) {
         .def_property(
             "a", [](State& s) -> Eigen::Ref<Eigen::VectorXd> { return s.a; },
             [](State& s, const Eigen::VectorXd& x) { set_coordinates(s, s.a, x, "a"); }, py::return_value_policy::reference_internal)
-        .def("frame", [](const State& s, int i) { return from_mat3(s.frames[frame_index(s, i)]); })
+        .def("frame", [](const State& s, int i) { return from_mat3<RowMat3>(s.frames[frame_index(s, i)]); })
         .def("set_frame", [](State& s, int i, const RowMat3& R) { s.frames[frame_index(s, i)] = to_mat3(R); })
-        .def("rotation", [](const State& s, int i) { return from_mat3(s.rotation(frame_index(s, i))); })
+        .def("rotation", [](const State& s, int i) { return from_mat3<RowMat3>(s.rotation(frame_index(s, i))); })
         .def("rebase", &State::rebase, py::arg("max_angle"))
         .def("copy", [](const State& s) { return State(s); });
 

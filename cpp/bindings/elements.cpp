@@ -33,10 +33,10 @@ void bind_elements(py::module_& m) {
         .def_readwrite("Phi_z", &PipeElementData::Phi_z)
         .def_readwrite("strain0", &PipeElementData::strain0)
         .def_property(
-            "offset_p", [](const PipeElementData& d) { return from_mat3(d.offset_p); },
+            "offset_p", [](const PipeElementData& d) { return from_mat3<RowMat3>(d.offset_p); },
             [](PipeElementData& d, const RowMat3& a) { d.offset_p = to_mat3(a); })
         .def_property(
-            "offset_q", [](const PipeElementData& d) { return from_mat3(d.offset_q); },
+            "offset_q", [](const PipeElementData& d) { return from_mat3<RowMat3>(d.offset_q); },
             [](PipeElementData& d, const RowMat3& a) { d.offset_q = to_mat3(a); })
         .def_readwrite("pipe_mass", &PipeElementData::pipe_mass)
         .def_readwrite("fluid_mass", &PipeElementData::fluid_mass)
@@ -195,14 +195,14 @@ void bind_elements(py::module_& m) {
         },
         py::arg("data"), py::arg("which"), "K_A, K_M, K_B, K_t or M (which = 0..4) of seed 002's appendix.");
     m.def(
-        "planar_triad", [](const Eigen::Vector3d& slope) { return from_mat3(planar_triad(to_vec3(slope))); },
+        "planar_triad", [](const Eigen::Vector3d& slope) { return from_mat3<RowMat3>(planar_triad(to_vec3(slope))); },
         py::arg("slope"), "Triad (columns e1, e2, e3) of a planar ANCF node: e1 along the slope, e3 = z.");
     m.def(
         "rotation_exp",
-        [](const Eigen::Vector3d& phi) { return from_mat3(rotation_exp(to_vec3(phi))); },
+        [](const Eigen::Vector3d& phi) { return from_mat3<RowMat3>(rotation_exp(to_vec3(phi))); },
         py::arg("phi"), "exp(skew(phi)) for a rotation vector phi [rad].");
     m.def(
         "rotation_jacobian",
-        [](const Eigen::Vector3d& phi) { return from_mat3(rotation_jacobian(to_vec3(phi))); },
+        [](const Eigen::Vector3d& phi) { return from_mat3<RowMat3>(rotation_jacobian(to_vec3(phi))); },
         py::arg("phi"), "Left Jacobian T(phi): omega = T(phi) phi_dot.");
 }

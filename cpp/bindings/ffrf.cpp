@@ -70,15 +70,7 @@ void bind_ffrf(py::module_& m) {
             [](const FfrfBodyData& d, const Mat3d& R, const Vec3d& omega, const VecX& a, const VecX& eta,
                const VecX& eta_dot, double sdot, double sddot, const Vec3d& gravity, double wK, double wC, double wM,
                bool tangent) {
-                FfrfBodyMotion s;
-                s.R = R;
-                s.omega = omega;
-                s.a = a;
-                s.eta = eta;
-                s.eta_dot = eta_dot;
-                s.sdot = sdot;
-                s.sddot = sddot;
-                s.gravity = gravity;
+                const FfrfBodyMotion s{R, omega, a, eta, eta_dot, sdot, sddot, gravity};
                 const Eigen::Index n = d.M.rows();
                 VecX r(n);
                 MatX t(tangent ? n : 0, tangent ? n : 0);

@@ -168,12 +168,7 @@ void bind_multibody(py::module_& m) {
                const std::vector<long>& out_steps, double step, double rho_inf, double tol, int max_newton,
                long max_steps) {
                 MbState s = to_state(sys, r, R, eta, v, a, lam, t);
-                MbOptions opt;
-                opt.step = step;
-                opt.rho_inf = rho_inf;
-                opt.tol = tol;
-                opt.max_newton = max_newton;
-                opt.max_steps = max_steps;
+                const MbOptions opt{step, rho_inf, tol, max_newton, max_steps};
                 MbOutput out;
                 {
                     py::gil_scoped_release release;

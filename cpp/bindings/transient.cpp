@@ -1,10 +1,10 @@
 #include "convert.hpp"
+#include "pipeflex/core/format.hpp"
 #include "pipeflex/solvers/transient.hpp"
 
 #include <pybind11/functional.h>
 
 #include <cmath>
-#include <sstream>
 #include <string>
 
 namespace py = pybind11;
@@ -18,15 +18,15 @@ py::array_t<double> as_array(const std::vector<double>& v, std::vector<py::ssize
     return a;
 }
 
+// The work counters that both integrators' outputs have.
+template <class Output> void put_counters(py::dict& d, const Output& out) {
+    d["steps"] = out.steps;
+    d["newton_iterations"] = out.newton_iterations;
+    d["jacobians"] = out.jacobians;
+}
+
 using Integrator = TransientOutput (*)(const Model&, State&, const LoadState&, const TimeFunctions&,
                                        const std::vector<double>&, const TransientOptions&, const ProgressFn&);
-
-std::string fmt(double x) {
-    std::ostringstream os;
-    os.precision(6);
-    os << x;
-    return os.str();
-}
 
 // Largest output of one run [bytes]: the arrays of x, R, xd, omega (18 values per node)
 // and five energies per output time, allocated up front by the caller's numpy arrays.
@@ -89,9 +89,7 @@ py::dict run(Integrator f, const Model& model, State& state, const LoadState& lo
     d["gravity_potential"] = as_array(out.gravity_potential, {nt});
     d["fluid_work"] = as_array(out.fluid_work, {nt});
     d["load_work"] = as_array(out.load_work, {nt});
-    d["steps"] = out.steps;
-    d["newton_iterations"] = out.newton_iterations;
-    d["jacobians"] = out.jacobians;
+    put_counters(d, out);
     d["rebases"] = out.rebases;
     d["failed_steps"] = out.failed_steps;
     d["convergence_failures"] = out.convergence_failures;
@@ -124,15 +122,12 @@ void bind_transient(py::module_& m) {
         .def_readwrite("length_scale", &TransientOptions::length_scale)
         .def_readwrite("divergence_limit", &TransientOptions::divergence_limit)
         .def_readwrite("work", &TransientOptions::work);
-    m.def("integrate_ida", [](const Model& md, State& s, const LoadState& l, const TimeTable& f, const TimeTable& lf,
-                              const std::vector<double>& t, const TransientOptions& o, py::object p) {
-        return run(integrate_ida, md, s, l, f, lf, t, o, p);
-    });
-    m.def("integrate_generalized_alpha", [](const Model& md, State& s, const LoadState& l, const TimeTable& f,
-                                            const TimeTable& lf, const std::vector<double>& t,
-                                            const TransientOptions& o, py::object p) {
-        return run(integrate_generalized_alpha, md, s, l, f, lf, t, o, p);
-    });
+    for (const auto& [name, integrator] : {std::pair{"integrate_ida", &integrate_ida},
+                                           std::pair{"integrate_generalized_alpha", &integrate_generalized_alpha}}) {
+        m.def(name, [f = integrator](const Model& md, State& s, const LoadState& l, const TimeTable& flow,
+                                     const TimeTable& lf, const std::vector<double>& t, const TransientOptions& o,
+                                     py::object p) { return run(f, md, s, l, flow, lf, t, o, p); });
+    }
     m.def("generalized_alpha_flow_map",
           [](const Model& md, State& s, const LoadState& l, const Eigen::VectorXd& z0, const Eigen::VectorXd& v0,
              double duration, int n_steps, bool sensitivity, const TransientOptions& o) {
@@ -148,9 +143,7 @@ void bind_transient(py::module_& m) {
               d["a"] = out.a;
               d["a0"] = out.a0;
               d["monodromy"] = out.monodromy;
-              d["steps"] = out.steps;
-              d["newton_iterations"] = out.newton_iterations;
-              d["jacobians"] = out.jacobians;
+              put_counters(d, out);
               return d;
           });
     m.attr("MAX_OUTPUT_BYTES") = kMaxOutputBytes;  // pipeflex._checks.output_count checks it before allocating

@@ -1,48 +1,32 @@
 #include "pipeflex/elements/ancf_beam2d.hpp"
 
 #include "pipeflex/core/dual.hpp"
+#include "pipeflex/elements/hermite.hpp"
 
 #include <cmath>
 
 namespace pipeflex {
 namespace {
 
-// Hermite shape functions on xi in [0, 1] (coefficients of 1, xi, xi^2, xi^3); the slope
-// functions are scaled by l in the element matrices.
-constexpr double H[4][4] = {{1, 0, -3, 2}, {0, 1, -2, 1}, {0, 0, 3, -2}, {0, 0, -1, 1}};
-
-double poly(const double* c, double x) { return c[0] + x * (c[1] + x * (c[2] + x * c[3])); }
-double dpoly(const double* c, double x) { return c[1] + x * (2 * c[2] + 3 * x * c[3]); }
-double ddpoly(const double* c, double x) { return 2 * c[2] + 6 * x * c[3]; }
-
-// Integrals over xi in [0, 1] by 5-point Gauss-Legendre (exact to degree 9).
+// Integrals over xi in [0, 1] with the axial-strain weights N_X (X = A, M, B) that
+// hermite.hpp does not tabulate, by its Gauss rule (the integrands are of degree <= 6, so
+// exact). The Hermite functions s_i multiplying a slope are scaled by l in the element
+// matrices.
 struct Integrals {
-    double mass[4][4];      // int s_i s_j
-    double axial[3][4][4];  // int N_X s_i' s_j'  (X = A, M, B)
-    double stretch[4][4];   // int s_i' s_j'  (= sum over X, since N_A + N_M + N_B = 1)
-    double bend[4][4];      // int s_i'' s_j''
+    double axial[3][4][4];  // int N_X s_i' s_j'
     double quad[3][3];      // int N_X N_Y
-    double load[4];         // int s_i
 };
 
 const Integrals& integrals() {
     static const Integrals I = [] {
         Integrals r{};
-        const double x[5] = {-0.9061798459386640, -0.5384693101056831, 0.0, 0.5384693101056831, 0.9061798459386640};
-        const double w[5] = {0.2369268850561891, 0.4786286704993665, 0.5688888888888889, 0.4786286704993665,
-                             0.2369268850561891};
-        for (int g = 0; g < 5; ++g) {
-            const double xi = 0.5 * (x[g] + 1.0), wg = 0.5 * w[g];
+        for (int g = 0; g < hermite::n_gauss; ++g) {
+            const double xi = hermite::gauss_xi[g], wg = hermite::gauss_w[g];
+            const hermite::Shape s = hermite::shape(xi);
             const double N[3] = {1 - 4 * xi + 3 * xi * xi, 6 * xi - 6 * xi * xi, -2 * xi + 3 * xi * xi};
-            for (int i = 0; i < 4; ++i) {
-                r.load[i] += wg * poly(H[i], xi);
-                for (int j = 0; j < 4; ++j) {
-                    r.mass[i][j] += wg * poly(H[i], xi) * poly(H[j], xi);
-                    for (int k = 0; k < 3; ++k) r.axial[k][i][j] += wg * N[k] * dpoly(H[i], xi) * dpoly(H[j], xi);
-                    r.stretch[i][j] += wg * dpoly(H[i], xi) * dpoly(H[j], xi);
-                    r.bend[i][j] += wg * ddpoly(H[i], xi) * ddpoly(H[j], xi);
-                }
-            }
+            for (int i = 0; i < 4; ++i)
+                for (int j = 0; j < 4; ++j)
+                    for (int k = 0; k < 3; ++k) r.axial[k][i][j] += wg * N[k] * s.dN[i] * s.dN[j];
             for (int a = 0; a < 3; ++a)
                 for (int b = 0; b < 3; ++b) r.quad[a][b] += wg * N[a] * N[b];
         }
@@ -97,7 +81,6 @@ void model_a_forces(const AncfElementData& d, const ModelAMatrices& m, const S* 
 template <class S>
 S model_0_energy(const AncfElementData& d, const S* e) {
     using std::sqrt;
-    const Integrals& I = integrals();
     const double l = d.l;
     const S dx = e[4] - e[0], dy = e[5] - e[1];
     const S len = sqrt(dx * dx + dy * dy);
@@ -117,7 +100,8 @@ S model_0_energy(const AncfElementData& d, const S* e) {
     S U = S(0.0);
     for (int i = 0; i < 4; ++i)
         for (int j = 0; j < 4; ++j)
-            U += 0.5 * (d.EA / l * I.stretch[i][j] * ux[i] * ux[j] + d.EI / (l * l * l) * I.bend[i][j] * uy[i] * uy[j]);
+            U += 0.5 * (d.EA / l * hermite::stretch[i][j] * ux[i] * ux[j] +
+                        d.EI / (l * l * l) * hermite::bend[i][j] * uy[i] * uy[j]);
     return U;
 }
 
@@ -149,9 +133,9 @@ void ancf_model_a_matrix(const AncfElementData& d, int which, double* out) {
     if (which >= 0 && which < 3) {
         expand(I.axial[which], l, d.EA / l, out);
     } else if (which == 3) {
-        expand(I.bend, l, d.EI / (l * l * l), out);
+        expand(hermite::bend, l, d.EI / (l * l * l), out);
     } else {
-        expand(I.mass, l, d.mass * l, out);
+        expand(hermite::mass, l, d.mass * l, out);
         out[8 * 4 + 4] += d.tip_mass;
         out[8 * 5 + 5] += d.tip_mass;
     }
@@ -181,7 +165,6 @@ void ancf_tangent(const AncfElementData& d, const double* e, const double* v, co
     const double w = turning ? frame->rate : 0.0, wd = turning ? frame->acceleration : 0.0;
     auto S = [](const double* x, int i) { return i % 2 == 0 ? -x[i + 1] : x[i - 1]; };  // S on pairs
     if (r != nullptr) {
-        const Integrals& I = integrals();
         double f[8] = {};
         if (turning) {
             double rel[8];
@@ -195,7 +178,7 @@ void ancf_tangent(const AncfElementData& d, const double* e, const double* v, co
             if (gravity != nullptr) {
                 const int fn = i / 2;
                 const double sc = kSlope[fn] ? d.l : 1.0;
-                r[i] -= d.mass * d.l * sc * I.load[fn] * gravity[i % 2];
+                r[i] -= d.mass * d.l * sc * hermite::load[fn] * gravity[i % 2];
             }
         }
     }

@@ -1,5 +1,7 @@
 #include "pipeflex/elements/ffrf_body.hpp"
 
+#include "pipeflex/elements/hermite.hpp"
+
 #include <stdexcept>
 #include <string>
 
@@ -10,10 +12,11 @@ namespace {
 // Rows of N (3 x 12) and of its first and second derivatives in s at xi = s / l.
 void shape(double l, double xi, Eigen::Matrix<double, 3, 12>& N, Eigen::Matrix<double, 3, 12>& dN,
            Eigen::Matrix<double, 3, 12>& ddN) {
-    const double x2 = xi * xi, x3 = x2 * xi;
-    const double H[4] = {1 - 3 * x2 + 2 * x3, l * (xi - 2 * x2 + x3), 3 * x2 - 2 * x3, l * (-x2 + x3)};
-    const double dH[4] = {(-6 * xi + 6 * x2) / l, 1 - 4 * xi + 3 * x2, (6 * xi - 6 * x2) / l, -2 * xi + 3 * x2};
-    const double ddH[4] = {(-6 + 12 * xi) / (l * l), (-4 + 6 * xi) / l, (6 - 12 * xi) / (l * l), (-2 + 6 * xi) / l};
+    // derivatives in s = l xi; the slope functions (2 and 4) carry the length l
+    const hermite::Shape h = hermite::shape(xi);
+    const double H[4] = {h.N[0], l * h.N[1], h.N[2], l * h.N[3]};
+    const double dH[4] = {h.dN[0] / l, h.dN[1], h.dN[2] / l, h.dN[3]};
+    const double ddH[4] = {h.ddN[0] / (l * l), h.ddN[1] / l, h.ddN[2] / (l * l), h.ddN[3] / l};
     N.setZero();
     dN.setZero();
     ddN.setZero();
@@ -34,10 +37,6 @@ void shape(double l, double xi, Eigen::Matrix<double, 3, 12>& N, Eigen::Matrix<d
     }
 }
 
-// 4-point Gauss-Legendre on [0, 1]: exact to degree 7 (the integrands are of degree <= 6).
-constexpr double gp[4] = {0.0694318442029737, 0.3300094782075719, 0.6699905217924281, 0.9305681557970263};
-constexpr double gw[4] = {0.1739274225687269, 0.3260725774312731, 0.3260725774312731, 0.1739274225687269};
-
 }  // namespace
 
 void beam_integrals(double l, BeamIntegrals& out) {
@@ -51,15 +50,15 @@ void beam_integrals(double l, BeamIntegrals& out) {
         out.NSdN[k].setZero();
     }
     Eigen::Matrix<double, 3, 12> N, dN, ddN;
-    for (int g = 0; g < 4; ++g) {
-        shape(l, gp[g], N, dN, ddN);
-        const double w = gw[g] * l;
+    for (int g = 0; g < hermite::n_gauss; ++g) {
+        shape(l, hermite::gauss_xi[g], N, dN, ddN);
+        const double w = hermite::gauss_w[g] * l;
         out.NN.noalias() += w * N.transpose() * N;
         out.NdN.noalias() += w * N.transpose() * dN;
         out.NddN.noalias() += w * N.transpose() * ddN;
         out.N.noalias() += w * N.transpose();
         for (int k = 0; k < 3; ++k) {
-            const Mat3d nk = hat(Vec3d::Unit(k));
+            const Mat3d nk = skew(Vec3d::Unit(k));
             out.NSN[k].noalias() += w * N.transpose() * nk * N;
             out.NSdN[k].noalias() += w * N.transpose() * nk * dN;
         }
@@ -70,9 +69,9 @@ void beam_stiffness(double l, double EA, double GJ, double EIy, double EIz, Mat1
     if (!(l > 0.0)) throw std::invalid_argument("beam_stiffness: element length must be > 0");
     out.setZero();
     Eigen::Matrix<double, 3, 12> N, dN, ddN;
-    for (int g = 0; g < 4; ++g) {
-        shape(l, gp[g], N, dN, ddN);
-        const double w = gw[g] * l;
+    for (int g = 0; g < hermite::n_gauss; ++g) {
+        shape(l, hermite::gauss_xi[g], N, dN, ddN);
+        const double w = hermite::gauss_w[g] * l;
         out.noalias() += w * (EA * dN.row(0).transpose() * dN.row(0) + EIz * ddN.row(1).transpose() * ddN.row(1) +
                               EIy * ddN.row(2).transpose() * ddN.row(2));
     }
@@ -191,13 +190,13 @@ void ffrf_body_forces(const FfrfBodyData& d, const FfrfBodyMotion& s, double wK,
     if (wK != 0.0) {
         // rotation: R <- exp(dpi~) R; d(R^T x) = R^T x~ dpi, d(R y) = -(R y)~ dpi
         auto& dL = work.dL;
-        dL.noalias() = d.M.leftCols(3) * (R.transpose() * hat(s.a.head<3>()));
-        dL.noalias() += d.M.middleCols(3, 3) * (R.transpose() * hat(s.a.segment<3>(3)));
-        dL.noalias() += dQdw * (R.transpose() * hat(s.omega));
-        dL.noalias() -= d.Ng * (R.transpose() * hat(s.gravity));
+        dL.noalias() = d.M.leftCols(3) * (R.transpose() * skew(s.a.head<3>()));
+        dL.noalias() += d.M.middleCols(3, 3) * (R.transpose() * skew(s.a.segment<3>(3)));
+        dL.noalias() += dQdw * (R.transpose() * skew(s.omega));
+        dL.noalias() -= d.Ng * (R.transpose() * skew(s.gravity));
         rot_rows(dL, 3, wK);
-        tangent.block(0, 3, 3, 3) -= wK * hat(R * L.head<3>());
-        tangent.block(3, 3, 3, 3) -= wK * hat(R * L.segment<3>(3));
+        tangent.block(0, 3, 3, 3) -= wK * skew(R * L.head<3>());
+        tangent.block(3, 3, 3, 3) -= wK * skew(R * L.segment<3>(3));
         auto dQe = X.rightCols(m);
         dQe = sd * sd * d.HPhi + sdd * d.CPhi;
         for (int k = 0; k < 3; ++k) dQe += (2.0 * sd * w[k]) * d.GPhi[k];

@@ -1,5 +1,6 @@
 #include "pipeflex/solvers/equations.hpp"
 
+#include "pipeflex/core/format.hpp"
 #include "pipeflex/core/interrupt.hpp"
 #include "pipeflex/errors.hpp"
 #include "pipeflex/solvers/sparse_lu.hpp"
@@ -20,13 +21,6 @@ namespace {
 constexpr int kDenseBelow = 100;
 // Largest constrained system whose singular start is solved densely (minimum norm).
 constexpr int kDenseMinimumNormLimit = 4000;
-
-std::string fmt(double x) {
-    std::ostringstream os;
-    os.precision(6);
-    os << x;
-    return os.str();
-}
 
 // Scales the constraint rows and columns of the (n + nc) tangent by s; returns the largest
 // magnitude of its top-left block (the scale the next call should use).

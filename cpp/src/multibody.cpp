@@ -1,4 +1,5 @@
 #include "pipeflex/multibody/multibody.hpp"
+#include "pipeflex/core/format.hpp"
 #include "pipeflex/core/interrupt.hpp"
 #include "pipeflex/solvers/equations.hpp"
 
@@ -14,34 +15,6 @@
 namespace pipeflex {
 
 namespace {
-
-std::string fmt(double x) {
-    std::ostringstream os;
-    os.precision(6);
-    os << x;
-    return os.str();
-}
-
-// I + c1 W + c2 W^2 with W = phi~: exp (c1 = sin t / t, c2 = (1 - cos t)/t^2) and the
-// left Jacobian (c1 = (1 - cos t)/t^2, c2 = (t - sin t)/t^3).
-Mat3d rodrigues(const Vec3d& phi, bool jacobian) {
-    const double t2 = phi.squaredNorm();
-    double c1, c2;
-    if (t2 < 1e-8) {
-        c1 = jacobian ? 0.5 - t2 / 24.0 : 1.0 - t2 / 6.0;
-        c2 = jacobian ? 1.0 / 6.0 - t2 / 120.0 : 0.5 - t2 / 24.0;
-    } else {
-        const double t = std::sqrt(t2);
-        c1 = jacobian ? (1.0 - std::cos(t)) / t2 : std::sin(t) / t;
-        c2 = jacobian ? (t - std::sin(t)) / (t2 * t) : (1.0 - std::cos(t)) / t2;
-    }
-    const Mat3d W = hat(phi);
-    return Mat3d::Identity() + c1 * W + c2 * W * W;
-}
-
-Vec3d vee_skew(const Mat3d& D) {
-    return 0.5 * Vec3d(D(2, 1) - D(1, 2), D(0, 2) - D(2, 0), D(1, 0) - D(0, 1));
-}
 
 // A system of bodies as equations for the solvers: z moves the base state's frames
 // (r = r0 + z_r, R = exp(z_pi~) R0) and modal coordinates; v and a are the state's
@@ -81,7 +54,7 @@ class MultibodyEquations final : public Equations {
         for (int j = 0; j < sys_.n_bodies(); ++j) {
             const int o = sys_.offset(j), m = sys_.offset(j + 1) - o - 6;
             cur_.r[j] = base_.r[j] + z.segment<3>(o);
-            cur_.R[j] = rodrigues(z.segment<3>(o + 3), false) * base_.R[j];
+            cur_.R[j] = rotation_exp(Vec3d(z.segment<3>(o + 3))) * base_.R[j];
             cur_.eta.segment(o + 6, m) = base_.eta.segment(o + 6, m) + z.segment(o + 6, m);
         }
         cur_.v = v;
@@ -226,17 +199,17 @@ void MultibodySystemCore::node(const MbState& s, int body, int nd, Vec3d& p, Mat
     const Vec3d y = R * (Vec3d(b.s[nd], 0.0, 0.0) + Pu * eta);
     const Vec3d th = Pt * eta;
     p = s.r[body] + y;
-    A = R * rodrigues(th, false);
+    A = R * rotation_exp(th);
     if (Jp) {
         Jp->setZero(3, 6 + m);
         Jp->leftCols(3).setIdentity();
-        Jp->middleCols(3, 3) = -hat(y);
+        Jp->middleCols(3, 3) = -skew(y);
         Jp->rightCols(m) = R * Pu;
     }
     if (Ja) {
         Ja->setZero(3, 6 + m);
         Ja->middleCols(3, 3).setIdentity();
-        Ja->rightCols(m) = R * rodrigues(th, true) * Pt;
+        Ja->rightCols(m) = R * rotation_jacobian(th) * Pt;
     }
 }
 
@@ -249,7 +222,7 @@ void MultibodySystemCore::increment(MbState& s, const VecX& dq) const {
     for (int j = 0; j < n_bodies(); ++j) {
         const int o = offsets_[j], m = offsets_[j + 1] - o - 6;
         s.r[j] += dq.segment<3>(o);
-        s.R[j] = rodrigues(dq.segment<3>(o + 3), false) * s.R[j];
+        s.R[j] = rotation_exp(dq.segment<3>(o + 3)) * s.R[j];
         s.eta.segment(o + 6, m) += dq.segment(o + 6, m);
     }
 }
@@ -281,7 +254,7 @@ void MultibodySystemCore::joint_equations(const MbState& s, const MbJoint& j, Ei
         const Mat3d D = Aa.transpose() * Ab * j.C0.transpose();
         c.segment<3>(3) = vee_skew(D);
         Mat3d JD;
-        for (int k = 0; k < 3; ++k) JD.col(k) = vee_skew(hat(Vec3d::Unit(k)) * D);
+        for (int k = 0; k < 3; ++k) JD.col(k) = vee_skew(skew(Vec3d::Unit(k)) * D);
         JD = JD * Aa.transpose();
         Ja.middleRows(3, 3) = -JD * Jaa;
         if (!ground) Jb.middleRows(3, 3) = JD * Jab;
@@ -340,7 +313,7 @@ void MultibodySystemCore::body_columns(MbState& st, int body,
         const double e0 = st.eta(o + col);
         for (double sign : {1.0, -1.0}) {
             const double d = sign * h;
-            if (col < 6) st.R[body] = rodrigues(d * Vec3d::Unit(col - 3), false) * R0;
+            if (col < 6) st.R[body] = rotation_exp(d * Vec3d::Unit(col - 3)) * R0;
             else st.eta(o + col) += d;
             fn(col, h, sign);
             st.R[body] = R0;

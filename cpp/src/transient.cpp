@@ -1,5 +1,6 @@
 #include "pipeflex/solvers/transient.hpp"
 
+#include "pipeflex/core/format.hpp"
 #include "pipeflex/core/interrupt.hpp"
 #include "pipeflex/elements/hermite.hpp"
 #include "pipeflex/solvers/equations.hpp"
@@ -84,13 +85,6 @@ double gravity_potential(const Model& model, const State& s, const LoadState& lo
 }
 
 namespace {
-
-std::string fmt(double x) {
-    std::ostringstream os;
-    os.precision(6);
-    os << x;
-    return os.str();
-}
 
 // The element model as a system of equations for the solvers (reduced coordinates z
 // around a base state, chart rates), and the integrators' outputs and energy bookkeeping.

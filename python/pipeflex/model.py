@@ -20,6 +20,7 @@ import scipy.sparse as sp
 from scipy.sparse.csgraph import connected_components
 
 from . import _checks, _core
+from .rotation import skew
 from .sections import PipeSection, refuse_unsupported
 
 COMPONENTS = ("ux", "uy", "uz", "rx", "ry", "rz")
@@ -320,8 +321,9 @@ class ModelBuilder:
                              f"its ends close up), got angle = {angle:g} rad in n_elements = {n}: use at least "
                              f"{int(np.ceil(abs(angle) / np.pi - 1e-12))} elements")
 
-        def rot(th):
-            K = np.array([[0, -k[2], k[1]], [k[2], 0, -k[0]], [-k[1], k[0], 0]])
+        K = skew(k)
+
+        def rot(th):  # about the unit normal k by th: Rodrigues' formula
             return np.eye(3) + np.sin(th) * K + (1 - np.cos(th)) * K @ K
 
         nodes = [start]

@@ -23,6 +23,8 @@
 // G_k = int N^T n~_k N' mu_f, C = int N^T N' mu_f, H = int N^T N'' mu_f), all constant.
 #pragma once
 
+#include "pipeflex/core/rotation_eigen.hpp"
+
 #include <Eigen/Dense>
 
 #include <array>
@@ -34,13 +36,6 @@ using VecX = Eigen::VectorXd;
 using Mat12d = Eigen::Matrix<double, 12, 12>;
 using Mat3d = Eigen::Matrix3d;
 using Vec3d = Eigen::Vector3d;
-
-// Skew matrix: hat(w) x = w x x.
-inline Mat3d hat(const Vec3d& w) {
-    Mat3d r;
-    r << 0.0, -w[2], w[1], w[2], 0.0, -w[0], -w[1], w[0], 0.0;
-    return r;
-}
 
 // Integrals over one straight element of length l [m], per unit mass per length
 // (multiply by mu [kg/m]): N^T N, N^T N', N^T N'', N^T n~_k N, N^T n~_k N' (k = x, y, z),
