@@ -1,4 +1,5 @@
 // Bindings of the multibody system core (seed 004): states cross as numpy arrays.
+#include "outputs.hpp"
 #include "pipeflex/multibody/multibody.hpp"
 
 #include <pybind11/eigen.h>
@@ -11,11 +12,7 @@
 namespace py = pybind11;
 using namespace pipeflex;
 
-namespace {
-
-using Arr = py::array_t<double, py::array::c_style | py::array::forcecast>;
-
-MbState to_state(const MultibodySystemCore& sys, const Arr& r, const Arr& R, const VecX& eta, const VecX& v,
+MbState pipeflex::to_state(const MultibodySystemCore& sys, const Arr& r, const Arr& R, const VecX& eta, const VecX& v,
                  const VecX& a, const VecX& lam, double t) {
     const int nb = sys.n_bodies();
     if (r.size() != 3 * nb || R.size() != 9 * nb)
@@ -44,7 +41,7 @@ MbState to_state(const MultibodySystemCore& sys, const Arr& r, const Arr& R, con
     return s;
 }
 
-py::tuple from_state(const MbState& s) {
+py::tuple pipeflex::from_state(const MbState& s) {
     const size_t nb = s.r.size();
     Arr r({nb, size_t(3)}), R({nb, size_t(3), size_t(3)});
     auto rr = r.mutable_unchecked<2>();
@@ -56,6 +53,8 @@ py::tuple from_state(const MbState& s) {
         }
     return py::make_tuple(r, R, s.eta, s.v, s.a, s.lam, s.t);
 }
+
+namespace {
 
 }  // namespace
 

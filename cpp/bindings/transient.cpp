@@ -1,8 +1,12 @@
 #include "convert.hpp"
+#include "outputs.hpp"
 #include "pipeflex/core/format.hpp"
+#include "pipeflex/solvers/coupled.hpp"
 #include "pipeflex/solvers/transient.hpp"
 
+#include <pybind11/eigen.h>
 #include <pybind11/functional.h>
+#include <pybind11/stl.h>
 
 #include <cmath>
 #include <string>
@@ -77,7 +81,13 @@ py::dict run(Integrator f, const Model& model, State& state, const LoadState& lo
         py::gil_scoped_release release;
         out = f(model, state, load, TimeFunctions{flow, loads}, times, opt, cb);
     }
-    const py::ssize_t nt = static_cast<py::ssize_t>(out.t.size()), N = model.n_nodes();
+    return transient_dict(out, model.n_nodes());
+}
+
+}  // namespace
+
+py::dict pipeflex::transient_dict(const TransientOutput& out, py::ssize_t N) {
+    const py::ssize_t nt = static_cast<py::ssize_t>(out.t.size());
     py::dict d;
     d["t"] = as_array(out.t, {nt});
     d["x"] = as_array(out.x, {nt, N, 3});
@@ -95,8 +105,6 @@ py::dict run(Integrator f, const Model& model, State& state, const LoadState& lo
     d["convergence_failures"] = out.convergence_failures;
     return d;
 }
-
-}  // namespace
 
 void bind_transient(py::module_& m) {
     py::class_<TimeTable>(m, "TimeTable")
@@ -128,6 +136,52 @@ void bind_transient(py::module_& m) {
                                      const TimeTable& lf, const std::vector<double>& t, const TransientOptions& o,
                                      py::object p) { return run(f, md, s, l, flow, lf, t, o, p); });
     }
+    m.def(
+        "integrate_coupled",
+        [](const Model& md, State& s, const LoadState& l, const TimeTable& flow, const TimeTable& lf,
+           const MultibodySystemCore& bodies, const Arr& r, const Arr& R, const VecX& eta, const VecX& v,
+           const py::list& couplings, const std::vector<double>& times, const TransientOptions& o, py::object progress) {
+            check_run(md, s, times, o, true);
+            MbState bs = to_state(bodies, r, R, eta, v, VecX::Zero(v.size()), VecX::Zero(bodies.n_constraints()),
+                                  times.empty() ? 0.0 : times.front());
+            std::vector<Coupling> cp;
+            for (const py::handle& h : couplings) {
+                const py::tuple c = py::reinterpret_borrow<py::tuple>(h);
+                Coupling k;
+                k.element_node = c[0].cast<int>();
+                const int kind = c[1].cast<int>();
+                if (kind < 0 || kind > 2) throw std::invalid_argument("coupling kind must be 0 (rigid), 1 (hinge) or 2 (spherical)");
+                k.joint.kind = static_cast<JointKind>(kind);
+                k.joint.body_b = c[2].cast<int>();
+                k.joint.node_b = c[3].cast<int>();
+                k.joint.C0 = c[4].cast<Mat3d>();
+                k.joint.axis_b = c[5].cast<Vec3d>();
+                k.joint.perp_a = {c[6].cast<Vec3d>(), c[7].cast<Vec3d>()};
+                cp.push_back(k);
+            }
+            ProgressFn cb;
+            if (!progress.is_none()) {
+                cb = [progress](double t) {
+                    py::gil_scoped_acquire gil;
+                    progress(t);
+                };
+            }
+            CoupledOutput out;
+            {
+                py::gil_scoped_release release;
+                out = integrate_coupled(md, s, l, TimeFunctions{flow, lf}, bodies, bs, cp, times, o, cb);
+            }
+            py::dict d = transient_dict(out.elements, md.n_nodes());
+            py::list states, lams;
+            for (const auto& st : out.bodies) states.append(from_state(st));
+            for (const auto& lam : out.coupling_multipliers) lams.append(lam);
+            d["bodies"] = states;
+            d["coupling_multipliers"] = lams;
+            return d;
+        },
+        py::arg("model"), py::arg("state"), py::arg("load"), py::arg("mass_flow"), py::arg("load_factor"),
+        py::arg("bodies"), py::arg("r"), py::arg("R"), py::arg("eta"), py::arg("v"), py::arg("couplings"),
+        py::arg("times"), py::arg("options"), py::arg("progress") = py::none());
     m.def("generalized_alpha_flow_map",
           [](const Model& md, State& s, const LoadState& l, const Eigen::VectorXd& z0, const Eigen::VectorXd& v0,
              double duration, int n_steps, bool sensitivity, const TransientOptions& o) {

@@ -26,7 +26,8 @@ __version__ = "0.1.0"
 _LAZY = {"scenes": "pipeflex.scenes", "seeds": "pipeflex.seeds", "work_precision": "pipeflex.work_precision",
          "plotting": "pipeflex.plotting", "plot": "pipeflex.plot", "multibody": "pipeflex.multibody",
          "coriolis": "pipeflex.seeds.seed000.coriolis", "limit_cycle": "pipeflex.seeds.seed000.limit_cycle",
-         "sweep": "pipeflex.sweeps:sweep",
+         "sweep": "pipeflex.sweeps:sweep", "coupled": "pipeflex.coupled",
+         "CoupledSystem": "pipeflex.coupled:CoupledSystem",
          "stability_map": "pipeflex.analysis.stability_map:stability_map"}  # "module:attribute" for a module's attribute
 
 
@@ -48,4 +49,4 @@ __all__ = ["CriticalFlow", "EigenResult", "Linearization", "StaticResult",
            "RotatingFrequencies", "resonance_speed", "rotating_frequencies", "rotating_state",
            "OrbitBranch", "PeriodicOrbit", "continue_orbits", "periodic_orbit",
            "Campbell", "campbell",
-           "ConvergenceError", "LimitPointError", "SingularMatrixError", "Model", "ModelBuilder", "PipeSection", "Result", "State", "__version__"]
+           "ConvergenceError", "LimitPointError", "SingularMatrixError", "Model", "ModelBuilder", "PipeSection", "Result", "State", "CoupledSystem", "__version__"]

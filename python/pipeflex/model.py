@@ -434,17 +434,21 @@ class ModelBuilder:
         self._gravity = _checks.gravity("gravity", g)
 
     # -- build -------------------------------------------------------------------------
-    def build(self, *, mass_flow: float = 0.0) -> "Model":
+    def build(self, *, mass_flow: float = 0.0, floating: bool = False) -> "Model":
         """Check the description and return an immutable :class:`Model`.
 
         Args:
             mass_flow: mdot [kg/s] prescribed mass flow (analyses may override it).
+            floating: allow a model without supports, to be held by the couplings of a
+                :class:`~pipeflex.CoupledSystem` (alone it would drift: the element
+                analyses refuse its rigid-body motion as a mechanism).
         """
         mdot = _checks.finite("mass_flow", mass_flow)
         if not self._elements and not self._ancf:
             raise ValueError("the model has no elements")
-        if not self._constraints:
-            raise ValueError("the model has no supports: add clamp/pin/hinge/fix so it cannot drift")
+        if not self._constraints and not floating:
+            raise ValueError("the model has no supports: add clamp/pin/hinge/fix so it cannot drift (or build it "
+                             "with floating=True to join it to bodies in a pipeflex.CoupledSystem)")
         for n in self._ancf_nodes:  # planar: z and z' fixed
             rows = self._constraints.get(n, [])
             for k in (2, 5):
@@ -462,7 +466,8 @@ class ModelBuilder:
         loose = sorted(set(range(len(self._positions))) - used)
         if loose:
             raise ValueError(f"nodes {loose} are not connected to any element")
-        self._check_parts_supported(els)
+        if not floating:
+            self._check_parts_supported(els)
         for e in self._elements:
             if mdot != 0.0 and e["flow_factor"] != 0.0 and e["section"].fluid_mass <= 0.0:
                 raise ValueError(f"element {e['p']}->{e['q']} carries a mass flow but its fluid_mass is 0")

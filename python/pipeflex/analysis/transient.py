@@ -164,7 +164,10 @@ def simulate(model, t_end: float, *, integrator: str = "auto", state=None, t_sta
     """Integrate the equations of motion from ``state`` over [t_start, t_end].
 
     Args:
-        model: the model.
+        model: the model; a :class:`~pipeflex.CoupledSystem` (elements and floating-frame
+            bodies) goes to :func:`pipeflex.coupled.simulate` (generalised-alpha; ``step``
+            defaults to 1 ms there, ``state`` is the element model's, ``body_state`` the
+            bodies').
         t_end: final time [s] (> t_start).
         integrator: ``"auto"`` (default), ``"generalized_alpha"`` (second order, numerical
             damping set by ``rho_inf``; fixed step, halved when Newton fails) or ``"ida"``
@@ -217,6 +220,10 @@ def simulate(model, t_end: float, *, integrator: str = "auto", state=None, t_sta
 
     if isinstance(model, MultibodySystem):
         raise ValueError("a MultibodySystem (floating-frame bodies) is integrated by pipeflex.multibody.simulate")
+    own = getattr(model, "_simulate", None)  # a system with its own driver (pipeflex.CoupledSystem)
+    if own is not None:
+        return own(t_end, integrator=integrator, state=state, t_start=t_start, n_outputs=n_outputs, times=times,
+                   mass_flow=mass_flow, load_factor=load_factor, progress=progress, **options)
     require_model(model)
     hub = getattr(model, "hub", None)
     if hub is not None and hub.nodes and hub.nodes[0] in model.ancf_nodes and np.any(model.gravity[:2] != 0):

@@ -53,6 +53,14 @@ struct MbJoint {
     int rows() const;
 };
 
+// The constraint equations c (j.rows()) of joint j between node a (position pa [m],
+// orientation Aa, variation maps Jpa, Jaa: 3 x n_a) and node b (the same; Jpb = Jab =
+// nullptr for the ground), and their Jacobians Ja (rows x n_a), Jb (rows x n_b).
+// The nodes may be body nodes or element nodes: only their kinematics enter.
+void joint_rows(const MbJoint& j, const Vec3d& pa, const Mat3d& Aa, const MatX& Jpa, const MatX& Jaa,
+                const Vec3d& pb, const Mat3d& Ab, const MatX* Jpb, const MatX* Jab, Eigen::Ref<VecX> c,
+                Eigen::Ref<MatX> Ja, Eigen::Ref<MatX> Jb);
+
 struct MbLoad {
     int body = 0, node = 0;
     std::array<TimeTable, 3> force, moment;  // [N], [N m], global
@@ -105,7 +113,9 @@ class MultibodySystemCore {
 
     int n_coordinates() const { return n_; }
     int n_constraints() const { return nc_; }
-    int offset(int j) const { return offsets_[j]; }
+    int offset(int j) const { return offsets_[j]; }        // first coordinate of body j (j = n_bodies: n)
+    int constraint_row(int k) const { return rows_[k]; }  // first row of joint k (k = n_joints: nc)
+    const std::vector<MbJoint>& joints() const { return joints_; }
     int n_bodies() const { return static_cast<int>(bodies_.size()); }
     int n_nodes(int body) const { return static_cast<int>(bodies_.at(body).s.size()); }
     double length_scale() const { return length_scale_; }

@@ -1,0 +1,38 @@
+// An element model and a system of floating-frame bodies in one set of equations, joined
+// by Lagrange-multiplier joints between element frame nodes and body nodes:
+//     R_el(q_el, v_el, a_el) + C_el^T lambda_c = 0,
+//     F_b(q_b, v_b, a_b) + C_b^T lambda_b + C_cb^T lambda_c = 0,
+//     c_b(q_b) = 0,   c_c(q_el, q_b) = 0.
+// Coordinates [z_el (the model's reduced coordinates); q_b (body after body)], constraints
+// [the bodies' joints; the couplings]. The coupling equations are the body joints' (rigid,
+// hinge, spherical), with the element node as node a.
+#pragma once
+
+#include "pipeflex/multibody/multibody.hpp"
+#include "pipeflex/solvers/transient.hpp"
+
+#include <vector>
+
+namespace pipeflex {
+
+struct Coupling {
+    int element_node = 0;  // a frame node of the element model (node a of the joint)
+    MbJoint joint;         // kind, body_b / node_b (the body node), C0, axis_b, perp_a
+};
+
+struct CoupledOutput {
+    TransientOutput elements;    // the element model at the output times (as the element integrators')
+    std::vector<MbState> bodies; // the bodies' states at the output times
+    std::vector<Eigen::VectorXd> coupling_multipliers;  // lambda_c at the output times
+};
+
+// Generalised-alpha from the element state and the body state (time times.front(); the
+// body state's v, a, lam are replaced by consistent ones) through the output times.
+// The mass flow drives both (the pipe elements and the bodies carrying fluid).
+CoupledOutput integrate_coupled(const Model& model, State& state, const LoadState& load,
+                                const TimeFunctions& functions, const MultibodySystemCore& bodies,
+                                MbState& body_state, const std::vector<Coupling>& couplings,
+                                const std::vector<double>& times, const TransientOptions& opt,
+                                const ProgressFn& progress);
+
+}  // namespace pipeflex

@@ -1,0 +1,196 @@
+// The element model (pipe and ANCF elements, supports eliminated) as a system of
+// equations for the solvers, with the integrators' outputs and energy bookkeeping.
+#pragma once
+
+#include "pipeflex/core/format.hpp"
+#include "pipeflex/errors.hpp"
+#include "pipeflex/solvers/equations.hpp"
+#include "pipeflex/solvers/transient.hpp"
+
+#include <cmath>
+#include <sstream>
+#include <stdexcept>
+#include <string>
+
+namespace pipeflex {
+
+// The element model as a system of equations for the solvers (reduced coordinates z
+// around a base state, chart rates), and the integrators' outputs and energy bookkeeping.
+class ElementEquations final : public Equations {
+   public:
+    ElementEquations(const Model& m, State& s, const LoadState& load, const TimeFunctions& f, const TransientOptions& o)
+        : model(m), state(s), base_load(load), flow(f.mass_flow), loads(f.load_factor), opt(o), n(m.n_dofs),
+          base_q(s.q) {
+        if (n == 0)
+            throw std::invalid_argument("the model has no free coordinates (every node is fixed): there is no "
+                                        "motion to integrate");
+    }
+
+    const Model& model;
+    State& state;
+    LoadState base_load;
+    const TimeTable& flow;
+    const TimeTable& loads;
+    const TransientOptions& opt;
+    int n;
+    Eigen::VectorXd base_q;
+    double t_set = 0.0;
+    double fluid_work = 0.0, load_work = 0.0, last_power_t = 0.0, last_fluid_power = 0.0,
+           last_load_power = 0.0;
+
+    LoadState load_at(double t) const {
+        LoadState l = base_load;
+        l.mass_flow = flow.at(t);
+        l.mass_flow_rate = flow.rate(t);
+        apply_hub_frame(model, l, t);
+        return l;
+    }
+
+    Eigen::VectorXd full(const Eigen::VectorXd& z) const {
+        Eigen::VectorXd f = Eigen::VectorXd::Zero(6 * model.n_nodes());
+        add_increment(model, f, z);
+        return f;
+    }
+
+    // Coordinates from the reduced z, v, a; the hub-driven nodes from their motion at t.
+    void set(const Eigen::VectorXd& z, const Eigen::VectorXd& v, const Eigen::VectorXd& a, double t) {
+        state.q = base_q;
+        add_increment(model, state.q, z);
+        state.v.setZero();
+        add_increment(model, state.v, v);
+        state.a.setZero();
+        add_increment(model, state.a, a);
+        apply_hub(model, state, t);
+        t_set = t;
+    }
+
+    double load_factor(double t) const { return loads.at(t); }
+
+    Eigen::VectorXd residual(double t) const {
+        Eigen::VectorXd r;
+        assemble(model, state, load_at(t), load_factor(t), 0.0, 0.0, 0.0, &r, nullptr);
+        return r;
+    }
+
+    // Re-base the frames (nodes with |phi| > angle); returns the new reduced velocity and
+    // acceleration and resets the base so that z = 0.
+    int rebase(double angle, Eigen::VectorXd& v, Eigen::VectorXd& a) {
+        const int k = state.rebase(angle);
+        base_q = state.q;
+        v = reduce(model, state.v);
+        a = reduce(model, state.a);
+        return k;
+    }
+
+    // Equations
+    int n_coordinates() const override { return n; }
+    double length_scale() const override { return opt.length_scale; }
+    void set(const Eigen::VectorXd& z, const Eigen::VectorXd& v, const Eigen::VectorXd& a, const Eigen::VectorXd&,
+             double t) override {
+        set(z, v, a, t);
+    }
+    void evaluate(double wK, double wC, double wM, Eigen::VectorXd& r, Triplets* J) override {
+        assemble(model, state, load_at(t_set), load_factor(t_set), wK, wC, wM, &r, J);
+    }
+    int rebase(Eigen::VectorXd& v, Eigen::VectorXd& a) override { return rebase(0.0, v, a); }
+    void accept(double t, double h) override {
+        check_divergence(t, h);
+        accumulate_work(t);
+    }
+    double mass_flow(double t) const override { return load_at(t).mass_flow; }
+    std::string singular_mass_hint() const override {
+        return "some coordinates have no inertia (e.g. torsion or rotation about the pipe axis without rotary "
+               "inertia). Give the sections rotary_inertia, or constrain those coordinates.";
+    }
+
+    // Throws when a node has moved farther than divergence_limit length scales from its
+    // reference position, or the state is not finite (call after set()).
+    void check_divergence(double t, double h) const {
+        const double lim = opt.divergence_limit * opt.length_scale;
+        for (int i = 0; i < model.n_nodes(); ++i) {
+            double d2 = 0.0;
+            bool finite = true;
+            for (int k = 0; k < 3; ++k) {
+                const double d = state.q[6 * i + k] - model.positions[i][k];
+                d2 += d * d;
+                finite = finite && std::isfinite(state.q[6 * i + k]) && std::isfinite(state.v[6 * i + k]);
+            }
+            if (!finite || std::sqrt(d2) > lim) {
+                std::ostringstream os;
+                os << "the motion diverged at t = " << t << " s (step " << h << " s): node " << i
+                   << (finite ? " moved " + fmt(std::sqrt(d2)) + " m from its reference position (limit " +
+                                    fmt(lim) + " m)"
+                              : " has a non-finite position or velocity");
+                ConvergenceError::Where where;
+                where.time = t;
+                where.mass_flow = load_at(t).mass_flow;
+                throw ConvergenceError(os.str(), where);
+            }
+        }
+    }
+
+    // Power of the fluid forces and of the external loads on the structure [W].
+    void powers(double t, double* fluid, double* loads) const {
+        *fluid = fluid_power(model, state, load_at(t));
+        // state.v is B v_z, so v . f equals v_z . B^T f
+        *loads = load_factor(t) * state.v.dot(external_forces(model, state));
+    }
+
+    void start_work(double t) {
+        if (!opt.work) return;
+        powers(t, &last_fluid_power, &last_load_power);
+        last_power_t = t;
+    }
+
+    // Trapezoidal accumulation of the work from the last step to time t (current state).
+    void accumulate_work(double t) {
+        if (!opt.work) return;
+        double pf, pl;
+        powers(t, &pf, &pl);
+        const double dt = t - last_power_t;
+        fluid_work += 0.5 * dt * (pf + last_fluid_power);
+        load_work += 0.5 * dt * (pl + last_load_power);
+        last_fluid_power = pf;
+        last_load_power = pl;
+        last_power_t = t;
+    }
+
+    void record(double t, TransientOutput& out, double fw, double lw) const {
+        out.t.push_back(t);
+        const int N = model.n_nodes();
+        for (int i = 0; i < N; ++i) {
+            const Vec3<double> phi{{state.q[6 * i + 3], state.q[6 * i + 4], state.q[6 * i + 5]}};
+            const Vec3<double> phid{{state.v[6 * i + 3], state.v[6 * i + 4], state.v[6 * i + 5]}};
+            Vec3<double> w = rotation_jacobian(phi) * phid;
+            if (state.kinds[i] == NodeKind::ancf) w = (1.0 / dot(phi, phi)) * cross(phi, phid);  // slope's turn rate
+            const Mat3<double> R = state.rotation(i);
+            for (int k = 0; k < 3; ++k) {
+                out.x.push_back(state.q[6 * i + k]);
+                out.xd.push_back(state.v[6 * i + k]);
+                out.w.push_back(w[k]);
+            }
+            for (int k = 0; k < 9; ++k) out.R.push_back(R.c[k]);
+        }
+        double T, U;
+        energies(model, state, &T, &U);
+        out.kinetic.push_back(T);
+        out.elastic.push_back(U);
+        out.gravity_potential.push_back(gravity_potential(model, state, load_at(t)));
+        out.fluid_work.push_back(fw);
+        out.load_work.push_back(lw);
+    }
+};
+
+// The generalised-alpha options of a run's transient options.
+inline AlphaOptions alpha_options(const TransientOptions& opt) {
+    AlphaOptions a;
+    a.step = opt.step;
+    a.min_step = opt.min_step;
+    a.rho_inf = opt.rho_inf;
+    a.newton_tol = opt.newton_tol;
+    a.max_newton = opt.max_newton;
+    a.max_steps = opt.max_steps;
+    return a;
+}
+
+}  // namespace pipeflex

@@ -1,0 +1,244 @@
+#include "pipeflex/solvers/coupled.hpp"
+
+#include "pipeflex/core/format.hpp"
+#include "pipeflex/core/rotation.hpp"
+#include "pipeflex/core/small_matrix_eigen.hpp"
+#include "pipeflex/multibody/multibody_equations.hpp"
+#include "pipeflex/solvers/element_equations.hpp"
+
+#include <stdexcept>
+
+namespace pipeflex {
+
+namespace {
+
+class CoupledEquations final : public Equations {
+   public:
+    CoupledEquations(ElementEquations& el, MultibodyEquations& mb, const MultibodySystemCore& core,
+                     const std::vector<Coupling>& couplings)
+        : el_(el), mb_(mb), core_(core), cp_(couplings), n1_(el.n_coordinates()), n2_(mb.n_coordinates()),
+          nc2_(mb.n_constraints()) {
+        const Model& model = el.model;
+        rows_.push_back(0);
+        for (const Coupling& c : cp_) {
+            const int i = c.element_node;
+            if (i < 0 || i >= model.n_nodes())
+                throw std::invalid_argument("coupling: element node " + std::to_string(i) + " is not a node of the "
+                                            "model (it has " + std::to_string(model.n_nodes()) + ")");
+            if (model.kinds[i] != NodeKind::frame)
+                throw std::invalid_argument("coupling: element node " + std::to_string(i) +
+                                            " must be a frame node (pipe elements), not an ANCF node");
+            if (std::find(model.hub.nodes.begin(), model.hub.nodes.end(), i) != model.hub.nodes.end())
+                throw std::invalid_argument("coupling: element node " + std::to_string(i) + " is driven by the hub");
+            if (c.joint.body_b < 0 || c.joint.body_b >= core.n_bodies() || c.joint.node_b < 0 ||
+                c.joint.node_b >= core.n_nodes(c.joint.body_b))
+                throw std::invalid_argument("coupling: no node " + std::to_string(c.joint.node_b) + " on body " +
+                                            std::to_string(c.joint.body_b));
+            if (c.joint.kind == JointKind::roller)
+                throw std::invalid_argument("coupling: a roller joins a node to the ground, not to a body");
+            rows_.push_back(rows_.back() + c.joint.rows());
+        }
+        nc3_ = rows_.back();
+    }
+
+    const VecX& coupling_multipliers() const { return lam3_; }
+
+    int n_coordinates() const override { return n1_ + n2_; }
+    int n_constraints() const override { return nc2_ + nc3_; }
+    double length_scale() const override { return std::max(el_.length_scale(), mb_.length_scale()); }
+
+    void set(const VecX& z, const VecX& v, const VecX& a, const VecX& lam, double t) override {
+        el_.set(z.head(n1_), v.head(n1_), a.head(n1_), t);
+        mb_.set(z.tail(n2_), v.tail(n2_), a.tail(n2_), lam.head(nc2_), t);
+        lam3_ = lam.tail(nc3_);
+    }
+
+    void evaluate(double wK, double wC, double wM, VecX& r, Triplets* J) override {
+        const int n = n1_ + n2_;
+        el_.evaluate(wK, wC, wM, r1_, J ? &J1_ : nullptr);
+        mb_.evaluate(wK, wC, wM, r2_, J ? &J2_ : nullptr);
+        r.resize(n + nc2_ + nc3_);
+        r.head(n1_) = r1_;
+        r.segment(n1_, n2_ + nc2_) = r2_;
+        if (J) {
+            *J = J1_;
+            for (std::size_t k = 0; k < J2_.values.size(); ++k)
+                push(*J, n1_ + J2_.rows[k], n1_ + J2_.cols[k], J2_.values[k]);
+        }
+        for (std::size_t k = 0; k < cp_.size(); ++k) {
+            const int nr = cp_[k].joint.rows(), R0 = n + nc2_ + rows_[k];
+            equations(k, c_, Ja_, Jb_);
+            const auto lam = lam3_.segment(rows_[k], nr);
+            const int e0 = first_col(k), b0 = body_col(k);
+            r.segment(R0, nr) = c_;
+            r.segment(e0, Ja_.cols()) += Ja_.transpose() * lam;
+            r.segment(b0, Jb_.cols()) += Jb_.transpose() * lam;
+            if (!J) continue;
+            for (int i = 0; i < nr; ++i) {
+                for (int c = 0; c < Ja_.cols(); ++c) {
+                    push(*J, R0 + i, e0 + c, Ja_(i, c));
+                    push(*J, e0 + c, R0 + i, Ja_(i, c));
+                }
+                for (int c = 0; c < Jb_.cols(); ++c) {
+                    push(*J, R0 + i, b0 + c, Jb_(i, c));
+                    push(*J, b0 + c, R0 + i, Jb_(i, c));
+                }
+            }
+            if (wK != 0.0) geometric_stiffness(k, wK, *J);
+        }
+    }
+
+    int rebase(VecX& v, VecX& a) override {
+        VecX v1, a1;
+        VecX v2, a2;
+        const int k = el_.rebase(v1, a1) + mb_.rebase(v2, a2);
+        v.head(n1_) = v1;
+        a.head(n1_) = a1;
+        return k;
+    }
+
+    void accept(double t, double h) override {
+        el_.accept(t, h);
+        mb_.accept(t, h);
+    }
+    double mass_flow(double t) const override { return el_.mass_flow(t); }
+    RefreshPolicy refresh_policy() const override { return mb_.refresh_policy(); }
+    std::string singular_mass_hint() const override {
+        return el_.singular_mass_hint() + " Or: " + mb_.singular_mass_hint() +
+               ", or a coupling locks a motion the bodies' joints already lock";
+    }
+
+   private:
+    static void push(Triplets& J, int r, int c, double v) {
+        J.rows.push_back(r);
+        J.cols.push_back(c);
+        J.values.push_back(v);
+    }
+    int first_col(std::size_t k) const { return el_.model.first_dof[cp_[k].element_node]; }
+    int body_col(std::size_t k) const { return n1_ + core_.offset(cp_[k].joint.body_b); }
+
+    // Coupling k's equations and Jacobians (element node's reduced coordinates, body's).
+    void equations(std::size_t k, VecX& c, MatX& Ja, MatX& Jb) {
+        const Coupling& cp = cp_[k];
+        const int i = cp.element_node;
+        const State& st = el_.state;
+        const Eigen::MatrixXd& T = el_.model.bases[i];
+        const Vec3<double> phi{{st.q[6 * i + 3], st.q[6 * i + 4], st.q[6 * i + 5]}};
+        const Vec3d pa(st.q[6 * i], st.q[6 * i + 1], st.q[6 * i + 2]);
+        const Mat3d Aa = from_mat3(st.rotation(i));
+        // dp = dx, spatial rotation d alpha = T(phi) d phi; through the node's support basis
+        Jpa_ = T.topRows(3);
+        Jaa_ = from_mat3(rotation_jacobian(phi)) * T.bottomRows(3);
+        Vec3d pb;
+        Mat3d Ab;
+        core_.node(mb_.state(), cp.joint.body_b, cp.joint.node_b, pb, Ab, &Jpb_, &Jab_);
+        const int nr = cp.joint.rows();
+        c.resize(nr);
+        Ja.resize(nr, T.cols());
+        Jb.resize(nr, Jpb_.cols());
+        joint_rows(cp.joint, pa, Aa, Jpa_, Jaa_, pb, Ab, &Jpb_, &Jab_, c, Ja, Jb);
+    }
+
+    // wK d(C^T lambda)/dq of coupling k at fixed lambda, by central differences over the
+    // element node's and the body's coordinates (as the bodies' own joints).
+    void geometric_stiffness(std::size_t k, double wK, Triplets& J) {
+        const int nr = cp_[k].joint.rows();
+        const VecX lam = lam3_.segment(rows_[k], nr);
+        if (lam.isZero(0.0)) return;
+        const int i = cp_[k].element_node, body = cp_[k].joint.body_b;
+        const int e0 = first_col(k), b0 = body_col(k);
+        const Eigen::MatrixXd& T = el_.model.bases[i];
+        const int ne = static_cast<int>(T.cols()), nb = core_.offset(body + 1) - core_.offset(body);
+        const double h = 1e-7;
+        auto column = [&](int col) {
+            VecX plus(ne + nb), minus(ne + nb);
+            for (double sign : {1.0, -1.0}) {
+                perturb(k, col, sign * h);
+                equations(k, c_, Ja_, Jb_);
+                VecX& f = sign > 0 ? plus : minus;
+                f.head(ne) = Ja_.transpose() * lam;
+                f.tail(nb) = Jb_.transpose() * lam;
+                perturb(k, col, -sign * h);
+            }
+            const VecX d = (wK / (2.0 * h)) * (plus - minus);
+            const int cc = col < ne ? e0 + col : b0 + (col - ne);
+            for (int rr = 0; rr < ne; ++rr) push(J, e0 + rr, cc, d[rr]);
+            for (int rr = 0; rr < nb; ++rr) push(J, b0 + rr, cc, d[ne + rr]);
+        };
+        for (int col = 0; col < ne + nb; ++col) column(col);
+    }
+
+    // Moves coordinate col of coupling k's variables (the element node's reduced
+    // coordinates, then the body's) by d; moving by -d restores it (up to round-off in R).
+    void perturb(std::size_t k, int col, double d) {
+        const int i = cp_[k].element_node;
+        const Eigen::MatrixXd& T = el_.model.bases[i];
+        const int ne = static_cast<int>(T.cols());
+        if (col < ne) {
+            el_.state.q.segment(6 * i, 6) += d * T.col(col);
+            return;
+        }
+        MbState& s = mb_.mutable_state();
+        const int body = cp_[k].joint.body_b, o = core_.offset(body), c = col - ne;
+        if (c < 3)
+            s.r[body][c] += d;
+        else if (c < 6)
+            s.R[body] = rotation_exp(Vec3d(d * Vec3d::Unit(c - 3))) * s.R[body];
+        else
+            s.eta[o + c] += d;
+    }
+
+    ElementEquations& el_;
+    MultibodyEquations& mb_;
+    const MultibodySystemCore& core_;
+    const std::vector<Coupling>& cp_;
+    int n1_, n2_, nc2_, nc3_ = 0;
+    std::vector<int> rows_;
+    VecX lam3_, r1_, r2_, c_;
+    MatX Ja_, Jb_, Jpa_, Jaa_, Jpb_, Jab_;
+    Triplets J1_, J2_;
+};
+
+}  // namespace
+
+CoupledOutput integrate_coupled(const Model& model, State& state, const LoadState& load,
+                                const TimeFunctions& functions, const MultibodySystemCore& bodies,
+                                MbState& body_state, const std::vector<Coupling>& couplings,
+                                const std::vector<double>& times, const TransientOptions& opt,
+                                const ProgressFn& progress) {
+    CoupledOutput out;
+    if (times.empty()) return out;
+    check_state(model, state);
+    bodies.check_state(body_state);
+    ElementEquations el(model, state, load, functions, opt);
+    MultibodyEquations mb(bodies, body_state, functions.mass_flow);
+    CoupledEquations eq(el, mb, bodies, couplings);
+    const double t0 = times.front();
+    VecX v1 = reduce(model, state.v), a1;
+    el.rebase(0.0, v1, a1);
+    VecX v(eq.n_coordinates());
+    v << v1, body_state.v;
+    GeneralizedAlpha alpha(eq, alpha_options(opt), t0, v);
+    el.start_work(t0);
+    auto record = [&](double t) {
+        el.record(t, out.elements, el.fluid_work, el.load_work);
+        out.bodies.push_back(mb.state());
+        out.coupling_multipliers.push_back(eq.coupling_multipliers());
+    };
+    record(t0);
+    for (std::size_t next = 1; next < times.size(); ++next) {
+        alpha.advance_to(times[next]);
+        record(alpha.time());
+        if (progress) progress(alpha.time());
+    }
+    body_state = mb.state();
+    const AlphaStats& st = alpha.stats();
+    out.elements.steps = st.steps;
+    out.elements.newton_iterations = st.newton_iterations;
+    out.elements.jacobians = st.jacobians;
+    out.elements.rebases = st.rebases;
+    out.elements.convergence_failures = st.failed_steps;
+    return out;
+}
+
+}  // namespace pipeflex

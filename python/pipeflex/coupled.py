@@ -1,0 +1,230 @@
+"""Element models and floating-frame bodies in one system (issue "One engine").
+
+A :class:`CoupledSystem` joins a :class:`~pipeflex.Model` (pipe elements) and a
+:class:`~pipeflex.multibody.MultibodySystem` (floating-frame bodies and their joints) by
+Lagrange-multiplier joints between element frame nodes and body nodes, the bodies' own
+joint equations (rigid, hinge, spherical) with the element node as node a:
+
+    R_el(q_el, v_el, a_el) + C_el^T lambda_c = 0
+    F_b(q_b, v_b, a_b) + C_b^T lambda_b + C_cb^T lambda_c = 0
+    c_b(q_b) = 0,  c_c(q_el, q_b) = 0.
+
+It is integrated by the project's one generalised-alpha integrator (the index-3 form:
+positions constrained exactly), the same that integrates element models and bodies
+alone: :func:`simulate`, also reached through :func:`pipeflex.simulate`.
+
+Coordinates: the element model's reduced coordinates, then the bodies' (body after body);
+multipliers: the bodies' joints, then the couplings (:attr:`CoupledResult.coupling_forces`).
+"""
+from __future__ import annotations
+
+import time as _time
+from dataclasses import dataclass, field
+from typing import List, Optional, Sequence, Tuple
+
+import numpy as np
+
+from . import _checks, _core
+from .analysis.transient import TransientResult
+from .model import Model
+from .multibody.analysis import MAX_STEPS, MultibodyResult
+from .multibody.system import MultibodyState, MultibodySystem
+from .results import Result
+from .state import State, as_core
+from .time_functions import time_function
+
+KINDS = ("rigid", "hinge", "spherical")
+
+
+@dataclass(frozen=True)
+class CouplingJoint:
+    """A joint between element node ``node`` and node ``body_node`` of body ``body``:
+    ``kind`` "rigid" (no jump in position or orientation), "hinge" (free rotation about
+    ``axis``, a global unit vector in the assembly configuration) or "spherical"."""
+
+    kind: str
+    node: int
+    body: int
+    body_node: int
+    axis: Optional[Tuple[float, float, float]] = None
+
+
+class CoupledSystem:
+    """An element model and a multibody system joined at nodes (see the module doc).
+
+    Args:
+        model: the element model (its supports stay; the coupled nodes are usually free).
+        bodies: the floating-frame bodies with their own joints (at least one joint to the
+            ground, or a coupling, must hold the whole at rest).
+
+    Joints are added with :meth:`rigid`, :meth:`hinge` and :meth:`spherical`; the nodes
+    joined must coincide in the assembly configuration.
+    """
+
+    def __init__(self, model: Model, bodies: MultibodySystem) -> None:
+        if not isinstance(model, Model):
+            raise ValueError("model must be a pipeflex.Model (elements)")
+        if not isinstance(bodies, MultibodySystem):
+            raise ValueError("bodies must be a pipeflex.multibody.MultibodySystem")
+        self.model = model
+        self.bodies = bodies
+        self._joints: List[CouplingJoint] = []
+
+    @property
+    def joints(self) -> Tuple[CouplingJoint, ...]:
+        return tuple(self._joints)
+
+    def rigid(self, node: int, body: int, body_node="start") -> None:
+        """Rigid joint: element node ``node`` moves and turns with the body node."""
+        self._add("rigid", node, body, body_node)
+
+    def hinge(self, node: int, body: int, body_node, axis: Sequence[float]) -> None:
+        """Hinge about ``axis`` (global unit vector in the assembly configuration)."""
+        self._add("hinge", node, body, body_node, tuple(_checks.unit_vector("axis", axis)))
+
+    def spherical(self, node: int, body: int, body_node="start") -> None:
+        """Spherical joint: equal positions, free relative rotation."""
+        self._add("spherical", node, body, body_node)
+
+    def _add(self, kind, node, body, body_node, axis=None) -> None:
+        n = _checks.non_negative_int("node", node)
+        if n >= self.model.n_nodes:
+            raise ValueError(f"node must be a node of the element model, in [0, {self.model.n_nodes}), got {node}")
+        if n in set(self.model.ancf_nodes or ()):
+            raise ValueError(f"node {n} is an ANCF node: couplings join frame nodes (pipe elements)")
+        j = self.bodies.body_index(body)
+        i = self.bodies.bodies[j].node_index(body_node)
+        p_el = np.asarray(self.model.positions[n], float)
+        p_b = self.bodies.node_kinematics(self.bodies.initial_state(), j, i)[0]
+        gap = float(np.linalg.norm(p_el - p_b))
+        if gap > 1e-9 * max(1.0, float(np.linalg.norm(p_el))):
+            raise ValueError(f"{kind} coupling of element node {n} and body {j} node {i}: the nodes do not coincide "
+                             f"in the assembly configuration (gap {gap:.3g} m)")
+        self._joints.append(CouplingJoint(kind, n, j, i, axis))
+
+    def core_couplings(self) -> list:
+        """The couplings as the core takes them: (node, kind, body, body node, C0, axis_b,
+        perp0, perp1), with the reference orientations of the assembly configuration."""
+        st0 = as_core(self.model, None)
+        b0 = self.bodies.initial_state()
+        out = []
+        for c in self._joints:
+            Aa = st0.rotation(c.node)
+            Ab = self.bodies.node_kinematics(b0, c.body, c.body_node)[1]
+            axis_b, perp = np.array([0.0, 0.0, 1.0]), np.zeros((2, 3))
+            if c.kind == "hinge":
+                ax = np.asarray(c.axis)
+                axis_b = Ab.T @ ax
+                perp = (Aa.T @ np.linalg.svd(ax.reshape(1, 3))[2][1:].T).T
+            out.append((c.node, KINDS.index(c.kind), c.body, c.body_node, Aa.T @ Ab, axis_b, perp[0], perp[1]))
+        return out
+
+    def _simulate(self, t_end, *, integrator, state, t_start, n_outputs, times, mass_flow, load_factor, progress,
+                  **options) -> "CoupledResult":
+        """:func:`pipeflex.simulate`'s entry for a coupled system."""
+        if integrator not in ("auto", "generalized_alpha") or t_start != 0.0 or times is not None:
+            raise ValueError("a CoupledSystem is integrated by generalised-alpha from t_start = 0 with n_outputs "
+                             "equally spaced outputs (pipeflex.coupled.simulate)")
+        return simulate(self, t_end, n_outputs=n_outputs, state=state, mass_flow=mass_flow, load_factor=load_factor,
+                        progress=bool(progress), **{"step": 1e-3, **options})
+
+    @property
+    def n_coordinates(self) -> int:
+        return self.model.n_dofs + self.bodies.n_coordinates
+
+    @property
+    def n_constraints(self) -> int:
+        rows = {"rigid": 6, "hinge": 5, "spherical": 3}
+        return self.bodies.n_constraints + sum(rows[c.kind] for c in self._joints)
+
+
+@dataclass(frozen=True)
+class CoupledResult(Result):
+    """A coupled transient: ``elements`` (a :class:`~pipeflex.TransientResult`: node
+    positions, rotations, velocities, the element model's energies), ``bodies`` (a
+    :class:`~pipeflex.multibody.MultibodyResult` at the same times; its ``drift`` is not
+    computed: NaN), ``coupling_forces`` (n_out, rows) the couplings' multipliers [N, N m]
+    (forces and moments on the element nodes, as the bodies' joint multipliers), and
+    ``stats`` (steps, Newton iterations, Jacobians, failed steps, wall time [s])."""
+
+    elements: TransientResult
+    bodies: MultibodyResult
+    coupling_forces: np.ndarray
+    stats: dict = field(default_factory=dict)
+
+    @property
+    def t(self) -> np.ndarray:
+        return self.elements.t
+
+
+def simulate(system: CoupledSystem, t_end: float, *, step: float, n_outputs: int = 201,
+             state: Optional[State] = None, body_state: Optional[MultibodyState] = None,
+             mass_flow=None, load_factor=1.0, rho_inf: float = 0.8, newton_tol: float = 1e-9,
+             max_newton: int = 12, max_steps: int = MAX_STEPS, work: bool = True,
+             progress: bool = False) -> CoupledResult:
+    """Integrate a :class:`CoupledSystem` from t = 0 to ``t_end`` [s] with generalised-alpha.
+
+    Args:
+        step: h [s], the largest step (halved where Newton fails, restored after).
+        n_outputs: equally spaced output times.
+        state, body_state: initial states of the element model and of the bodies (default:
+            their assembly configurations at rest); they must satisfy the couplings.
+        mass_flow: mdot [kg/s] through the pipe elements and the bodies that carry fluid: a
+            number, a table ``(times [s], values)`` or a :class:`~pipeflex.Sine`; default the
+            element model's.
+        load_factor: scales the element model's nodal loads (number, table or Sine).
+        rho_inf: spectral radius at infinite frequency in [0, 1) (index-3 constraints need
+            numerical damping, as :func:`pipeflex.multibody.simulate`).
+        newton_tol: Newton tolerance on the position error left, relative to the model size.
+        max_newton, max_steps: Newton iterations per step; steps (failed ones included).
+        work: integrate the work of the fluid forces and loads on the elements.
+
+    Raises:
+        ValueError: bad options or states; ConvergenceError: where and why Newton failed.
+    """
+    if not isinstance(system, CoupledSystem):
+        raise ValueError("system must be a pipeflex.CoupledSystem")
+    t1 = _checks.positive("t_end", t_end)
+    h = _checks.positive("step", step)
+    n_out = _checks.positive_int("n_outputs", n_outputs)
+    rho = _checks.non_negative("rho_inf", rho_inf)
+    if rho >= 1:
+        raise ValueError(f"rho_inf must be in [0, 1) (index-3 constraints need numerical damping), got {rho}")
+    model, bodies = system.model, system.bodies
+    opt = _core.TransientOptions()
+    opt.step = min(h, t1)
+    opt.rho_inf = rho
+    opt.newton_tol = _checks.positive("newton_tol", newton_tol)
+    opt.max_newton = _checks.positive_int("max_newton", max_newton)
+    opt.max_steps = _checks.positive_int("max_steps", max_steps)
+    opt.work = bool(work)
+    opt.length_scale = max(float(np.ptp(model.positions, axis=0).max()), bodies.length_scale, 1e-3)
+    st = as_core(model, state)
+    if body_state is not None:
+        bodies.check_state(body_state, "body_state")
+    bs = bodies.initial_state() if body_state is None else body_state
+    flow = time_function("mass_flow", model.mass_flow if mass_flow is None else mass_flow)
+    loads = time_function("load_factor", load_factor)
+    times = list(np.linspace(0.0, t1, max(n_out, 2)))
+    wall = _time.perf_counter()
+    out = _core.integrate_coupled(model.core, st, model.load_state(), flow, loads, bodies.core, bs.r, bs.R, bs.eta,
+                                  bs.v, system.core_couplings(), times, opt, None)
+    wall = _time.perf_counter() - wall
+    stats = {k: int(out.pop(k)) for k in ("steps", "newton_iterations", "jacobians", "rebases", "failed_steps",
+                                               "convergence_failures")}
+    stats["wall_time"] = wall
+    states = out.pop("bodies")
+    lams = out.pop("coupling_multipliers")
+    if not opt.work:
+        out["fluid_work"][:] = np.nan
+        out["load_work"][:] = np.nan
+    elements = TransientResult(**out, stats=stats, metadata={"integrator": "generalized_alpha", "step": opt.step,
+                                                              "coupled": True},
+                               final_state=State.from_core(st, model))
+    t = np.array([s[6] for s in states])
+    body_res = MultibodyResult(t, np.array([s[0] for s in states]), np.array([s[1] for s in states]),
+                               np.array([s[2] for s in states]), np.array([s[3] for s in states]),
+                               np.full(len(states), np.nan), np.array(bodies.offsets), bodies.n_constraints,
+                               tuple(np.array(b.nodes_s) for b in bodies.bodies),
+                               tuple(np.array(b.basis) for b in bodies.bodies), stats)
+    return CoupledResult(elements, body_res, np.array(lams), stats)
