@@ -72,7 +72,7 @@ SUBSET=(
   tests/test_critical_flow.py tests/test_transient.py tests/test_periodic.py
   tests/test_ancf.py tests/test_rotating.py tests/test_sprinkler.py tests/test_ffrf_body.py
   tests/test_ffrf_scenes.py tests/test_multibody_joints.py tests/test_multibody_input.py
-  tests/test_properties.py
+  tests/test_properties.py tests/test_coupled.py
 )
 
 case "${1:-test}" in
