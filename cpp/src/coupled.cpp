@@ -25,9 +25,9 @@ class CoupledEquations final : public Equations {
             if (i < 0 || i >= model.n_nodes())
                 throw std::invalid_argument("coupling: element node " + std::to_string(i) + " is not a node of the "
                                             "model (it has " + std::to_string(model.n_nodes()) + ")");
-            if (model.kinds[i] != NodeKind::frame)
-                throw std::invalid_argument("coupling: element node " + std::to_string(i) +
-                                            " must be a frame node (pipe elements), not an ANCF node");
+            if (model.kinds[i] == NodeKind::ancf && c.joint.kind != JointKind::rigid)
+                throw std::invalid_argument("coupling: ANCF node " + std::to_string(i) +
+                                            " can only be clamped (rigid) to a body node");
             if (std::find(model.hub.nodes.begin(), model.hub.nodes.end(), i) != model.hub.nodes.end())
                 throw std::invalid_argument("coupling: element node " + std::to_string(i) + " is driven by the hub");
             if (c.joint.body_b < 0 || c.joint.body_b >= core.n_bodies() || c.joint.node_b < 0 ||
@@ -36,7 +36,7 @@ class CoupledEquations final : public Equations {
                                             std::to_string(c.joint.body_b));
             if (c.joint.kind == JointKind::roller)
                 throw std::invalid_argument("coupling: a roller joins a node to the ground, not to a body");
-            rows_.push_back(rows_.back() + c.joint.rows());
+            rows_.push_back(rows_.back() + rows(c));
         }
         nc3_ = rows_.back();
     }
@@ -66,7 +66,7 @@ class CoupledEquations final : public Equations {
                 push(*J, n1_ + J2_.rows[k], n1_ + J2_.cols[k], J2_.values[k]);
         }
         for (std::size_t k = 0; k < cp_.size(); ++k) {
-            const int nr = cp_[k].joint.rows(), R0 = n + nc2_ + rows_[k];
+            const int nr = rows(cp_[k]), R0 = n + nc2_ + rows_[k];
             equations(k, c_, Ja_, Jb_);
             const auto lam = lam3_.segment(rows_[k], nr);
             const int e0 = first_col(k), b0 = body_col(k);
@@ -114,6 +114,11 @@ class CoupledEquations final : public Equations {
         J.cols.push_back(c);
         J.values.push_back(v);
     }
+    // A clamped ANCF node (planar): its position in the plane and its slope's direction
+    // (3 rows); a frame node: the joint's rows.
+    int rows(const Coupling& c) const {
+        return el_.model.kinds[c.element_node] == NodeKind::ancf ? 3 : c.joint.rows();
+    }
     int first_col(std::size_t k) const { return el_.model.first_dof[cp_[k].element_node]; }
     int body_col(std::size_t k) const { return n1_ + core_.offset(cp_[k].joint.body_b); }
 
@@ -123,6 +128,10 @@ class CoupledEquations final : public Equations {
         const int i = cp.element_node;
         const State& st = el_.state;
         const Eigen::MatrixXd& T = el_.model.bases[i];
+        if (el_.model.kinds[i] == NodeKind::ancf) {
+            ancf_clamp(cp, T, c, Ja, Jb);
+            return;
+        }
         const Vec3<double> phi{{st.q[6 * i + 3], st.q[6 * i + 4], st.q[6 * i + 5]}};
         const Vec3d pa(st.q[6 * i], st.q[6 * i + 1], st.q[6 * i + 2]);
         const Mat3d Aa = from_mat3(st.rotation(i));
@@ -139,10 +148,35 @@ class CoupledEquations final : public Equations {
         joint_rows(cp.joint, pa, Aa, Jpa_, Jaa_, pb, Ab, &Jpb_, &Jab_, c, Ja, Jb);
     }
 
+    // ANCF node [r, r'] clamped to a body node in the x-y plane: c = [r - p (x, y);
+    // (r' x e)_z] with e = A_b d the slope's direction in the body node's frame (d, of
+    // unit length, in axis_b). Variations: de = d alpha x e, so d(r' x e)_z =
+    // (r' . e) d alpha_z in the plane.
+    void ancf_clamp(const Coupling& cp, const Eigen::MatrixXd& T, VecX& c, MatX& Ja, MatX& Jb) {
+        const int i = cp.element_node;
+        const State& st = el_.state;
+        Vec3d pb;
+        Mat3d Ab;
+        core_.node(mb_.state(), cp.joint.body_b, cp.joint.node_b, pb, Ab, &Jpb_, &Jab_);
+        const Vec3d r(st.q[6 * i], st.q[6 * i + 1], st.q[6 * i + 2]);
+        const Vec3d rs(st.q[6 * i + 3], st.q[6 * i + 4], st.q[6 * i + 5]);
+        const Vec3d e = Ab * cp.joint.axis_b;
+        c.resize(3);
+        c << r[0] - pb[0], r[1] - pb[1], rs[0] * e[1] - rs[1] * e[0];
+        Ja.resize(3, T.cols());
+        Ja.row(0) = T.row(0);
+        Ja.row(1) = T.row(1);
+        Ja.row(2) = e[1] * T.row(3) - e[0] * T.row(4);
+        Jb.resize(3, Jpb_.cols());
+        Jb.row(0) = -Jpb_.row(0);
+        Jb.row(1) = -Jpb_.row(1);
+        Jb.row(2) = rs.dot(e) * Jab_.row(2);
+    }
+
     // wK d(C^T lambda)/dq of coupling k at fixed lambda, by central differences over the
     // element node's and the body's coordinates (as the bodies' own joints).
     void geometric_stiffness(std::size_t k, double wK, Triplets& J) {
-        const int nr = cp_[k].joint.rows();
+        const int nr = rows(cp_[k]);
         const VecX lam = lam3_.segment(rows_[k], nr);
         if (lam.isZero(0.0)) return;
         const int i = cp_[k].element_node, body = cp_[k].joint.body_b;

@@ -15,6 +15,10 @@ alone: :func:`simulate`, also reached through :func:`pipeflex.simulate`.
 
 Coordinates: the element model's reduced coordinates, then the bodies' (body after body);
 multipliers: the bodies' joints, then the couplings (:attr:`CoupledResult.coupling_forces`).
+A planar ANCF node is clamped to a body node in the x-y plane (3 rows: its position, and
+its slope's direction; the slope's length, the root's axial strain, stays free), so a
+rotating ANCF beam can hang on a hub body with inertia and a motor torque instead of a
+prescribed hub angle.
 """
 from __future__ import annotations
 
@@ -75,7 +79,10 @@ class CoupledSystem:
         return tuple(self._joints)
 
     def rigid(self, node: int, body: int, body_node="start") -> None:
-        """Rigid joint: element node ``node`` moves and turns with the body node."""
+        """Rigid joint: element node ``node`` moves and turns with the body node. An ANCF
+        node (planar beams) is clamped in the x-y plane: its position and its slope's
+        direction move with the body node, the slope's length (the axial strain) stays
+        free."""
         self._add("rigid", node, body, body_node)
 
     def hinge(self, node: int, body: int, body_node, axis: Sequence[float]) -> None:
@@ -90,8 +97,8 @@ class CoupledSystem:
         n = _checks.non_negative_int("node", node)
         if n >= self.model.n_nodes:
             raise ValueError(f"node must be a node of the element model, in [0, {self.model.n_nodes}), got {node}")
-        if n in set(self.model.ancf_nodes or ()):
-            raise ValueError(f"node {n} is an ANCF node: couplings join frame nodes (pipe elements)")
+        if n in set(self.model.ancf_nodes or ()) and kind != "rigid":
+            raise ValueError(f"node {n} is an ANCF node: it can only be clamped to a body node (rigid)")
         j = self.bodies.body_index(body)
         i = self.bodies.bodies[j].node_index(body_node)
         p_el = np.asarray(self.model.positions[n], float)
@@ -112,7 +119,10 @@ class CoupledSystem:
             Aa = st0.rotation(c.node)
             Ab = self.bodies.node_kinematics(b0, c.body, c.body_node)[1]
             axis_b, perp = np.array([0.0, 0.0, 1.0]), np.zeros((2, 3))
-            if c.kind == "hinge":
+            if self._ancf(c.node):  # the slope's direction, in the body node's frame
+                slope = np.array(st0.q[6 * c.node + 3:6 * c.node + 6])
+                axis_b = Ab.T @ (slope / np.linalg.norm(slope))
+            elif c.kind == "hinge":
                 ax = np.asarray(c.axis)
                 axis_b = Ab.T @ ax
                 perp = (Aa.T @ np.linalg.svd(ax.reshape(1, 3))[2][1:].T).T
@@ -135,7 +145,10 @@ class CoupledSystem:
     @property
     def n_constraints(self) -> int:
         rows = {"rigid": 6, "hinge": 5, "spherical": 3}
-        return self.bodies.n_constraints + sum(rows[c.kind] for c in self._joints)
+        return self.bodies.n_constraints + sum(3 if self._ancf(c.node) else rows[c.kind] for c in self._joints)
+
+    def _ancf(self, node: int) -> bool:
+        return node in set(self.model.ancf_nodes or ())
 
 
 @dataclass(frozen=True)
