@@ -65,17 +65,20 @@ void check_run(const Model& model, const State& state, const std::vector<double>
                                     std::to_string(opt.max_steps) + " (raise step or max_steps, or shorten the run)");
 }
 
+// A Python callable (or None) as the integrators' progress callback, taking the GIL.
+ProgressFn progress_callback(py::object progress) {
+    if (progress.is_none()) return {};
+    return [progress](double t) {
+        py::gil_scoped_acquire gil;
+        progress(t);
+    };
+}
+
 py::dict run(Integrator f, const Model& model, State& state, const LoadState& load, const TimeTable& flow,
              const TimeTable& loads, const std::vector<double>& times, const TransientOptions& opt,
              py::object progress) {
     check_run(model, state, times, opt, f == integrate_generalized_alpha);
-    ProgressFn cb;
-    if (!progress.is_none()) {
-        cb = [progress](double t) {
-            py::gil_scoped_acquire gil;
-            progress(t);
-        };
-    }
+    const ProgressFn cb = progress_callback(progress);
     TransientOutput out;
     {
         py::gil_scoped_release release;
@@ -159,13 +162,7 @@ void bind_transient(py::module_& m) {
                 k.joint.perp_a = {c[6].cast<Vec3d>(), c[7].cast<Vec3d>()};
                 cp.push_back(k);
             }
-            ProgressFn cb;
-            if (!progress.is_none()) {
-                cb = [progress](double t) {
-                    py::gil_scoped_acquire gil;
-                    progress(t);
-                };
-            }
+            const ProgressFn cb = progress_callback(progress);
             CoupledOutput out;
             {
                 py::gil_scoped_release release;

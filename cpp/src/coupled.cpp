@@ -266,12 +266,7 @@ CoupledOutput integrate_coupled(const Model& model, State& state, const LoadStat
         if (progress) progress(alpha.time());
     }
     body_state = mb.state();
-    const AlphaStats& st = alpha.stats();
-    out.elements.steps = st.steps;
-    out.elements.newton_iterations = st.newton_iterations;
-    out.elements.jacobians = st.jacobians;
-    out.elements.rebases = st.rebases;
-    out.elements.convergence_failures = st.failed_steps;
+    put_stats(alpha.stats(), out.elements);
     return out;
 }
 

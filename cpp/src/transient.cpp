@@ -338,12 +338,7 @@ TransientOutput integrate_generalized_alpha(const Model& model, State& state, co
         sys.record(alpha.time(), out, sys.fluid_work, sys.load_work);
         if (progress) progress(alpha.time());
     }
-    const AlphaStats& st = alpha.stats();
-    out.steps = st.steps;
-    out.newton_iterations = st.newton_iterations;
-    out.jacobians = st.jacobians;
-    out.rebases = st.rebases;
-    out.convergence_failures = st.failed_steps;
+    put_stats(alpha.stats(), out);
     return out;
 }
 

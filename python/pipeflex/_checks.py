@@ -124,3 +124,11 @@ def output_count(name: str, value, n_nodes: int) -> int:
         raise ValueError(f"{name} = {n} output times of {n_nodes} nodes need {size / 2**30:.6g} GiB; at most "
                          f"{_core.MAX_OUTPUT_BYTES / 2**30:g} GiB (fewer outputs, or split the run)")
     return n
+
+
+def rho_inf_with_multipliers(value) -> float:
+    """rho_inf of generalised-alpha for equations with multipliers (index 3): in [0, 1)."""
+    rho = non_negative("rho_inf", value)
+    if rho >= 1:
+        raise ValueError(f"rho_inf must be in [0, 1) (index-3 constraints need numerical damping), got {rho}")
+    return rho

@@ -200,9 +200,7 @@ def simulate(system: CoupledSystem, t_end: float, *, step: float, n_outputs: int
     t1 = _checks.positive("t_end", t_end)
     h = _checks.positive("step", step)
     n_out = _checks.positive_int("n_outputs", n_outputs)
-    rho = _checks.non_negative("rho_inf", rho_inf)
-    if rho >= 1:
-        raise ValueError(f"rho_inf must be in [0, 1) (index-3 constraints need numerical damping), got {rho}")
+    rho = _checks.rho_inf_with_multipliers(rho_inf)
     model, bodies = system.model, system.bodies
     opt = _core.TransientOptions()
     opt.step = min(h, t1)

@@ -350,9 +350,7 @@ def simulate(system: MultibodySystem, t_end: float, *, step: float, state: Optio
     t_end = _checks.finite("t_end", t_end)
     h = _checks.positive("step", step)
     n_out = _checks.positive_int("n_outputs", n_outputs)
-    rho = _checks.non_negative("rho_inf", rho_inf)
-    if rho >= 1:
-        raise ValueError(f"rho_inf must be in [0, 1) (index-3 constraints need numerical damping), got {rho}")
+    rho = _checks.rho_inf_with_multipliers(rho_inf)
     tol = _checks.positive("newton_tol", newton_tol)
     max_iterations = _checks.positive_int("max_newton", max_newton)
     if refresh is not None:

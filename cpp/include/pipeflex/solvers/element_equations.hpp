@@ -193,4 +193,13 @@ inline AlphaOptions alpha_options(const TransientOptions& opt) {
     return a;
 }
 
+// The integrator's work counters in an element run's output.
+inline void put_stats(const AlphaStats& st, TransientOutput& out) {
+    out.steps = st.steps;
+    out.newton_iterations = st.newton_iterations;
+    out.jacobians = st.jacobians;
+    out.rebases = st.rebases;
+    out.convergence_failures = st.failed_steps;
+}
+
 }  // namespace pipeflex
