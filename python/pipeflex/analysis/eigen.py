@@ -29,7 +29,7 @@ from scipy.sparse.csgraph import breadth_first_order, connected_components
 
 from .. import _checks
 from ..results import Result
-from .._blas import small_problems_single_threaded
+from .._blas import one_thread, small_problems_single_threaded
 
 #: An eigenvalue counts as growing when Re(lambda) exceeds GROWTH_TOL * |lambda| and
 #: its round-off bound (see :func:`block_eigenvalues`).
@@ -95,25 +95,28 @@ def split_blocks(K, C, M, *, tol: float = 1e-13, sparse: bool = False) -> List[B
     With ``sparse=True`` the blocks hold CSC matrices (without the dropped entries).
     """
     n = K.shape[0]
-    rows, cols = [np.arange(n)], [np.arange(n)]
-    for X in (K, C, M):
-        X = sp.coo_matrix(X)
-        if X.nnz == 0:
+    entries = _csc_entries((K, C, M), n)
+    kept = {}  # per pattern (linearize's K, C, M share one): row, col, entries kept in any matrix
+    for row, col, data in entries:
+        if len(data) == 0:
             continue
-        d = np.zeros(n)
-        on_diag = X.row == X.col
-        np.add.at(d, X.row[on_diag], np.abs(X.data[on_diag]))
-        ref = np.sqrt(d[X.row] * d[X.col])
-        ref[ref == 0.0] = np.max(np.abs(X.data))
-        keep = np.abs(X.data) > tol * ref
-        rows.append(X.row[keep])
-        cols.append(X.col[keep])
+        on_diag = row == col
+        d = np.bincount(row[on_diag], weights=np.abs(data[on_diag]), minlength=n)
+        ref = np.sqrt(d[row] * d[col])
+        ref[ref == 0.0] = np.max(np.abs(data))
+        keep = np.abs(data) > tol * ref
+        if id(row) in kept:
+            kept[id(row)][2] |= keep
+        else:
+            kept[id(row)] = [row, col, keep]
+    rows = [np.arange(n)] + [row[keep] for row, _, keep in kept.values()]
+    cols = [np.arange(n)] + [col[keep] for _, col, keep in kept.values()]
     r, c = np.concatenate(rows), np.concatenate(cols)
     pattern = sp.csr_matrix((np.ones(len(r), bool), (r, c)), shape=(n, n))
+    ncomp, labels = connected_components(pattern, directed=False)
     if sparse:
-        return _sparse_blocks(K, C, M, pattern)
+        return _sparse_blocks(entries, ncomp, labels)
     dense = [X.toarray() if sp.issparse(X) else np.asarray(X) for X in (K, C, M)]
-    ncomp, labels = connected_components(sp.csr_matrix(pattern), directed=False)
     blocks = []
     for c in range(ncomp):
         idx = np.nonzero(labels == c)[0]
@@ -122,24 +125,45 @@ def split_blocks(K, C, M, *, tol: float = 1e-13, sparse: bool = False) -> List[B
     return blocks
 
 
-def _sparse_blocks(K, C, M, pattern) -> List[Block]:
-    ncomp, labels = connected_components(pattern, directed=False)
-    mats = []
-    for X in (K, C, M):
-        X = sp.coo_matrix(X)
-        keep = labels[X.row] == labels[X.col]  # cross-block entries are round-off
-        mats.append(sp.csr_matrix((X.data[keep], (X.row[keep], X.col[keep])), shape=X.shape))
-    blocks = []
-    for c in range(ncomp):
-        idx = np.nonzero(labels == c)[0]
-        sub = []
-        for X in mats:
-            Y = X[idx][:, idx].tocsc()
-            Y.eliminate_zeros()
-            Y.sort_indices()
-            sub.append(Y)
-        blocks.append(Block(idx, *sub))
-    return blocks
+def _csc_entries(matrices, n):
+    """(row, col, value) of the entries of each matrix in CSC order (duplicates summed);
+    matrices on the same pattern (as linearize's) share the very same row and col arrays."""
+    out = []
+    for X in matrices:
+        X = sp.csc_matrix(X)
+        if not X.has_canonical_format:
+            X = X.copy()
+            X.sum_duplicates()
+        same = next((e for e, (ip, ix) in out if np.array_equal(ip, X.indptr) and np.array_equal(ix, X.indices)),
+                    None)
+        rc = same[:2] if same else (X.indices, np.repeat(np.arange(n), np.diff(X.indptr)))
+        out.append(((*rc, X.data), (X.indptr, X.indices)))
+    return [e for e, _ in out]
+
+
+def _sparse_blocks(entries, ncomp, labels) -> List[Block]:
+    # Each block's entries are taken in CSC order (a stable sort by block keeps it), with
+    # coordinates renumbered increasingly inside the block: they form its CSC arrays as they
+    # are, without a sort or a sparse slice per block.
+    idx = [np.nonzero(labels == c)[0] for c in range(ncomp)]
+    local = np.empty(len(labels), np.int64)
+    for dofs in idx:
+        local[dofs] = np.arange(len(dofs))
+    mats = [[] for _ in range(ncomp)]
+    for row, col, data in entries:
+        owner = labels[col]
+        keep = (labels[row] == owner) & (data != 0.0)  # cross-block entries are round-off
+        order = np.flatnonzero(keep)
+        order = order[np.argsort(owner[order], kind="stable")]
+        bounds = np.searchsorted(owner[order], np.arange(ncomp + 1))
+        for c, dofs in enumerate(idx):
+            sel = order[bounds[c]:bounds[c + 1]]
+            m = len(dofs)
+            indptr = np.concatenate([[0], np.cumsum(np.bincount(local[col[sel]], minlength=m))])
+            Y = sp.csc_matrix((data[sel], local[row[sel]].astype(np.int32), indptr.astype(np.int32)), shape=(m, m))
+            Y.has_canonical_format = True
+            mats[c].append(Y)
+    return [Block(dofs, *mats[c]) for c, dofs in enumerate(idx)]
 
 
 def _sign_similarity_sparse(a: Block, b: Block):
@@ -396,13 +420,9 @@ def eigen_noise(K, C, M, lam, x) -> np.ndarray:
     nm = [spla.norm(X, 1) if sp.issparse(X) else np.linalg.norm(X, 1) for X in (K, C, M)]
     lam = np.atleast_1d(np.asarray(lam, complex))
     x = np.asarray(x, complex).reshape(K.shape[0], -1)
-    out = np.empty(len(lam))
-    for j, l in enumerate(lam):
-        v = x[:, j]
-        d = abs(np.vdot(v, 2 * l * (M @ v) + C @ v))
-        scale = (abs(l) ** 2 * nm[2] + abs(l) * nm[1] + nm[0]) * np.vdot(v, v).real
-        out[j] = np.finfo(float).eps * scale / max(d, 1e-300) / np.sqrt(K.shape[0])
-    return out
+    d = np.abs(np.sum(x.conj() * (2 * lam * (M @ x) + C @ x), axis=0))
+    scale = (np.abs(lam) ** 2 * nm[2] + np.abs(lam) * nm[1] + nm[0]) * np.sum(np.abs(x) ** 2, axis=0)
+    return np.finfo(float).eps * scale / np.maximum(d, 1e-300) / np.sqrt(K.shape[0])
 
 
 def _sparse_negative(K) -> int:
@@ -442,7 +462,7 @@ def sparse_block_eigenvalues(b: Block, k: int, sigma: complex, *, vectors: bool 
         keep = _nearest(lam, k, sigma)
         return lam[keep], noise[keep], V[:, keep], neg
     sigma = complex(sigma)
-    T, lu = _shift_factor(K, C, M, sigma)
+    T, lu = _shift_factor(QuadraticPencil(K, C, M), sigma)
     real = sigma.imag == 0.0
     s = sigma.real if real else sigma
     dtype = float if real else complex
@@ -469,7 +489,8 @@ def sparse_block_eigenvalues(b: Block, k: int, sigma: complex, *, vectors: bool 
     ncv = max(2 * kk + 1, 40)
     while True:  # a too small Krylov space can stall on undamped (+-i omega) spectra
         try:
-            nu, Z = spla.eigs(ops, k=kk, which="LM", tol=0.0, v0=v0, ncv=min(2 * n - 1, ncv))
+            with one_thread():
+                nu, Z = spla.eigs(ops, k=kk, which="LM", tol=0.0, v0=v0, ncv=min(2 * n - 1, ncv))
             break
         except spla.ArpackNoConvergence as e:
             if ncv >= 2 * n - 1 or ncv > 8 * kk + 100:
@@ -494,21 +515,48 @@ def sparse_block_eigenvalues(b: Block, k: int, sigma: complex, *, vectors: bool 
     return lam, noise, X, 0
 
 
-def _shift_factor(K, C, M, sigma):
-    """Sparse LU of T(sigma) = sigma^2 M + sigma C + K; the shift is moved off an
-    (exactly or numerically) singular point by a tiny amount."""
+class QuadraticPencil:
+    """T(s) = s^2 M + s C + K of sparse K, C, M, all on the union of their patterns, so
+    that each T(s) is one combination of value arrays instead of two sparse additions."""
+
+    def __init__(self, K, C, M):
+        self.K, self.C, self.M = (sp.csc_matrix(X) for X in (K, C, M))
+        U = (abs(self.K) + abs(self.C) + abs(self.M)).tocsc()  # no cancellation: the union pattern
+        U.sort_indices()
+        self.indices, self.indptr, self.shape = U.indices, U.indptr, U.shape
+        n = U.shape[0]
+        key = np.repeat(np.arange(n, dtype=np.int64), np.diff(U.indptr)) * n + U.indices
+        self.values = []
+        for X in (self.K, self.C, self.M):
+            X = X.copy()
+            X.sum_duplicates()
+            xkey = np.repeat(np.arange(n, dtype=np.int64), np.diff(X.indptr)) * n + X.indices
+            v = np.zeros(len(key))
+            v[np.searchsorted(key, xkey)] = X.data
+            self.values.append(v)
+
+    def __call__(self, s):
+        k, c, m = self.values
+        T = sp.csc_matrix((s * s * m + s * c + k, self.indices, self.indptr), shape=self.shape)
+        T.has_canonical_format = True
+        return T
+
+
+def _shift_factor(T, sigma):
+    """Sparse LU of T(sigma) = sigma^2 M + sigma C + K (a :class:`QuadraticPencil`); the
+    shift is moved off an (exactly or numerically) singular point by a tiny amount."""
     for attempt in range(3):
         s = sigma.real if sigma.imag == 0.0 else sigma
-        T = (s * s * M + s * C + K).tocsc()
+        Ts = T(s)
         try:
-            lu = spla.splu(T)
+            lu = spla.splu(Ts)
             u = np.abs(lu.U.diagonal())
             if u.min() > 1e-13 * u.max():
-                return T, lu
+                return Ts, lu
         except RuntimeError:
             pass
         # move by 1e-6 of the frequency scale sqrt(|K| / |M|) of the lightest/softest terms
-        scale = np.sqrt(spla.norm(K, 1) / max(spla.norm(M, 1), 1e-300)) if M.nnz else 1.0
+        scale = np.sqrt(spla.norm(T.K, 1) / max(spla.norm(T.M, 1), 1e-300)) if T.M.nnz else 1.0
         sigma = sigma + 1e-6 * scale * 10.0 ** attempt
     raise np.linalg.LinAlgError(f"T(sigma) is singular near sigma = {sigma}: choose another sigma")
 
