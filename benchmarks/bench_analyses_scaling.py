@@ -54,7 +54,10 @@ def main():
         r["linearize"], lin = best(lambda: pf.linearize(m, st.state, mass_flow=10.0), args.repeat)
         r["6 eigenvalues"], _ = best(lambda: pf.eigenvalues(lin, n_modes=6, sigma=0.0), args.repeat)
         if n <= args.max_critical:
-            r["critical flow"], _ = best(lambda: pf.critical_mass_flow(m), 1)
+            try:
+                r["critical flow"], _ = best(lambda: pf.critical_mass_flow(m), 1)
+            except pf.ConvergenceError as e:  # round-off from ~8192 elements on: docs/performance.md
+                print(f"  N = {n}: critical_mass_flow failed: {str(e)[:110]}...")
         sw = swinging(m)
 
         def steps(k):

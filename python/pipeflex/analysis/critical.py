@@ -38,8 +38,8 @@ from ..results import Result
 from .._options import renamed
 from ..errors import ConvergenceError
 from .eigen import (SPARSE_MIN_DOFS, classify, eigen_from_blocks, free_coordinates, sparse_block_eigenvalues,
-                    MECHANISM_CONDITIONING, QuadraticPencil, sparse_eigen_from_blocks, split_blocks,
-                    stiffness_conditioning)
+                    MECHANISM_CONDITIONING, QuadraticPencil, eigen_noise, sparse_eigen_from_blocks,
+                    split_blocks, stiffness_conditioning)
 from ._assembly import require_model
 from .linearize import linearize
 from .static import static_equilibrium
@@ -476,6 +476,10 @@ def _track_root(ev, lo, hi, eig_hi, xtol):
                 j = int(np.argmin(np.abs(cand - lam0)))
                 near, x = refine_eigenpair(block, cand[j], X[:, j])
         seen[m] = (near, x)
+        if abs(near.real) <= eigen_noise(block.K, block.C, block.M, near, x)[0]:
+            # Re(lambda) is zero to round-off: m is the crossing as far as it is determined
+            # (from ~256 elements on, where Brent's steps would only wander in the noise)
+            return 0.0
         return near.real
 
     return brentq(f, lo, hi, xtol=xtol, rtol=4 * np.finfo(float).eps)

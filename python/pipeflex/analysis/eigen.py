@@ -95,27 +95,30 @@ def split_blocks(K, C, M, *, tol: float = 1e-13, sparse: bool = False) -> List[B
     With ``sparse=True`` the blocks hold CSC matrices (without the dropped entries).
     """
     n = K.shape[0]
-    entries = _csc_entries((K, C, M), n)
-    kept = {}  # per pattern (linearize's K, C, M share one): row, col, entries kept in any matrix
-    for row, col, data in entries:
+    entries = []  # (pattern, values) of K, C, M; linearize's three share one pattern
+    for X in (K, C, M):
+        X = sp.csc_matrix(X)
+        if not X.has_canonical_format:
+            X = X.copy()
+            X.sum_duplicates()
+        pattern = next((p for p, _ in entries if p.matches(X)), None) or _CscPattern(X)
+        entries.append((pattern, X.data))
+    kept = {}  # per pattern: the entries that couple in any of the matrices
+    for pattern, data in entries:
         if len(data) == 0:
             continue
-        on_diag = row == col
-        d = np.bincount(row[on_diag], weights=np.abs(data[on_diag]), minlength=n)
-        ref = np.sqrt(d[row] * d[col])
+        d = np.zeros(n)
+        d[pattern.row[pattern.diagonal]] = np.abs(data[pattern.diagonal])
+        ref = np.sqrt(d[pattern.row] * d[pattern.col])
         ref[ref == 0.0] = np.max(np.abs(data))
         keep = np.abs(data) > tol * ref
-        if id(row) in kept:
-            kept[id(row)][2] |= keep
-        else:
-            kept[id(row)] = [row, col, keep]
-    rows = [np.arange(n)] + [row[keep] for row, _, keep in kept.values()]
-    cols = [np.arange(n)] + [col[keep] for _, col, keep in kept.values()]
-    r, c = np.concatenate(rows), np.concatenate(cols)
-    pattern = sp.csr_matrix((np.ones(len(r), bool), (r, c)), shape=(n, n))
-    ncomp, labels = connected_components(pattern, directed=False)
+        kept[pattern] = kept[pattern] | keep if pattern in kept else keep
+    r = np.concatenate([np.arange(n)] + [p.row[keep] for p, keep in kept.items()])
+    c = np.concatenate([np.arange(n)] + [p.col[keep] for p, keep in kept.items()])
+    coupling = sp.csr_matrix((np.ones(len(r), bool), (r, c)), shape=(n, n))
+    ncomp, labels = connected_components(coupling, directed=False)
     if sparse:
-        return _sparse_blocks(entries, ncomp, labels)
+        return [Block(dofs, *mats) for dofs, mats in _sparse_blocks(entries, ncomp, labels)]
     dense = [X.toarray() if sp.issparse(X) else np.asarray(X) for X in (K, C, M)]
     blocks = []
     for c in range(ncomp):
@@ -125,45 +128,73 @@ def split_blocks(K, C, M, *, tol: float = 1e-13, sparse: bool = False) -> List[B
     return blocks
 
 
-def _csc_entries(matrices, n):
-    """(row, col, value) of the entries of each matrix in CSC order (duplicates summed);
-    matrices on the same pattern (as linearize's) share the very same row and col arrays."""
-    out = []
-    for X in matrices:
-        X = sp.csc_matrix(X)
-        if not X.has_canonical_format:
-            X = X.copy()
-            X.sum_duplicates()
-        same = next((e for e, (ip, ix) in out if np.array_equal(ip, X.indptr) and np.array_equal(ix, X.indices)),
-                    None)
-        rc = same[:2] if same else (X.indices, np.repeat(np.arange(n), np.diff(X.indptr)))
-        out.append(((*rc, X.data), (X.indptr, X.indices)))
-    return [e for e, _ in out]
+class _CscPattern:
+    """Row and column of each entry of a canonical CSC matrix, and which are diagonal."""
+
+    def __init__(self, X):
+        self.indptr, self.indices = X.indptr, X.indices
+        self.row = X.indices
+        self.col = np.repeat(np.arange(X.shape[1]), np.diff(X.indptr))
+        self.diagonal = np.flatnonzero(self.row == self.col)
+
+    def matches(self, X):
+        return np.array_equal(X.indptr, self.indptr) and np.array_equal(X.indices, self.indices)
 
 
-def _sparse_blocks(entries, ncomp, labels) -> List[Block]:
-    # Each block's entries are taken in CSC order (a stable sort by block keeps it), with
-    # coordinates renumbered increasingly inside the block: they form its CSC arrays as they
-    # are, without a sort or a sparse slice per block.
-    idx = [np.nonzero(labels == c)[0] for c in range(ncomp)]
-    local = np.empty(len(labels), np.int64)
-    for dofs in idx:
-        local[dofs] = np.arange(len(dofs))
-    mats = [[] for _ in range(ncomp)]
-    for row, col, data in entries:
-        owner = labels[col]
-        keep = (labels[row] == owner) & (data != 0.0)  # cross-block entries are round-off
-        order = np.flatnonzero(keep)
+class _BlockLayout:
+    """Where the entries of a CSC pattern go in the blocks of a partition ``labels``: each
+    block's entries in CSC order (a stable sort by block keeps it), coordinates renumbered
+    increasingly inside the block, so they form its CSC arrays as they are. Cross-block
+    entries (round-off) are left out."""
+
+    def __init__(self, pattern, ncomp, labels):
+        self.pattern, self.labels = pattern, labels
+        self.dofs = [np.flatnonzero(labels == c) for c in range(ncomp)]
+        local = np.empty(len(labels), np.int64)
+        for dofs in self.dofs:
+            local[dofs] = np.arange(len(dofs))
+        owner = labels[pattern.col]
+        order = np.flatnonzero(labels[pattern.row] == owner)
         order = order[np.argsort(owner[order], kind="stable")]
         bounds = np.searchsorted(owner[order], np.arange(ncomp + 1))
-        for c, dofs in enumerate(idx):
+        self.parts = []  # per block: (entries taken, CSC indices, CSC indptr)
+        for c, dofs in enumerate(self.dofs):
             sel = order[bounds[c]:bounds[c + 1]]
-            m = len(dofs)
-            indptr = np.concatenate([[0], np.cumsum(np.bincount(local[col[sel]], minlength=m))])
-            Y = sp.csc_matrix((data[sel], local[row[sel]].astype(np.int32), indptr.astype(np.int32)), shape=(m, m))
+            counts = np.bincount(local[pattern.col[sel]], minlength=len(dofs))
+            indptr = np.concatenate([[0], np.cumsum(counts)]).astype(np.int32)
+            self.parts.append((sel, local[pattern.row[sel]].astype(np.int32), indptr))
+
+    def matches(self, pattern, labels):
+        return (pattern is self.pattern or pattern.matches(self.pattern)) and np.array_equal(labels, self.labels)
+
+    def blocks(self, data):
+        """The block matrices (CSC, explicit zeros dropped) of the values ``data``."""
+        out = []
+        for (sel, indices, indptr), dofs in zip(self.parts, self.dofs):
+            Y = sp.csc_matrix((data[sel], indices.copy(), indptr.copy()), shape=(len(dofs), len(dofs)))
             Y.has_canonical_format = True
-            mats[c].append(Y)
-    return [Block(dofs, *mats[c]) for c, dofs in enumerate(idx)]
+            Y.eliminate_zeros()
+            out.append(Y)
+        return out
+
+
+_layout = None  # the last block layout: the repeated splits of an analysis reuse it
+
+
+def _sparse_blocks(entries, ncomp, labels):
+    """[(dofs, [K, C, M] of the block)] for the partition ``labels``."""
+    global _layout
+    layouts = []
+    for pattern, _ in entries:
+        layout = next((lay for lay in layouts if lay.pattern is pattern), None)
+        if layout is None:
+            layout = _layout
+            if layout is None or not layout.matches(pattern, labels):
+                layout = _BlockLayout(pattern, ncomp, labels)
+            _layout = layout
+        layouts.append(layout)
+    mats = [layout.blocks(data) for layout, (_, data) in zip(layouts, entries)]
+    return [(dofs, [m[c] for m in mats]) for c, dofs in enumerate(layouts[0].dofs)]
 
 
 def _sign_similarity_sparse(a: Block, b: Block):
