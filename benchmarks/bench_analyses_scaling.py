@@ -3,7 +3,7 @@
 
 The cantilever pipe of Meijaard & Hakvoort's Table 2 (pf.scenes.cantilever_pipe, polar inertia 1e-4 kg m) with N
 elements: build; static equilibrium at 10 kg/s; linearisation; 6 eigenvalues nearest 0
-(sparse shift-invert from 400 coordinates on); the critical mass flow (up to
+(sparse shift-invert from SPARSE_MIN_DOFS coordinates on); the critical mass flow (up to
 --max-critical elements); 5 generalised-alpha steps of 1 ms from a swinging state (per
 step); the start of an IDA run (consistent initial values, one short output interval).
 Wall times are the best of --repeat runs; slopes between successive sizes.

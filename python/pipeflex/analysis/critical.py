@@ -387,9 +387,6 @@ def refine_eigenpair(block, lam, x=None, *, tol=1e-10, max_iterations=20):
 
         def factor(lam_):
             return spla.splu(T(complex(lam_)))
-
-        def solve(lam_, rhs):
-            return factor(lam_).solve(np.asarray(rhs, complex))
     else:
         K, C, M = block.K, block.C, block.M
         norms = [np.linalg.norm(X, 1) for X in (K, C, M)]
@@ -412,7 +409,10 @@ def refine_eigenpair(block, lam, x=None, *, tol=1e-10, max_iterations=20):
     for _ in range(max_iterations):
         if sparse:
             dTx = 2 * lam * (M @ x) + C @ x
-            u = solve(lam, dTx)
+            try:
+                u = factor(lam).solve(np.asarray(dTx, complex))
+            except RuntimeError:  # T(lam) exactly singular: lam is an eigenvalue to working precision
+                return lam, x / np.linalg.norm(x)
         else:  # the arithmetic of the original dense iteration (small models: same numbers)
             T = lam * lam * M + lam * C + K
             dTx = (2 * lam * M + C) @ x
@@ -460,25 +460,26 @@ def _track_root(ev, lo, hi, eig_hi, xtol):
         if block is None:
             raise ValueError("the block structure changed")
         ev.count += 1
-        if not sp.issparse(block.K):
+        sparse = sp.issparse(block.K)
+        try:
             near, x = refine_eigenpair(block, lam0, x0)
-        else:
-            try:
-                near, x = refine_eigenpair(block, lam0, x0)
-            except ConvergenceError:
-                near = np.inf
-            if not abs(near - lam0) <= TRACK_TRUST * abs(lam0):
-                # The shift is kept TRACK_TRUST |lambda| off the prediction: at a shift
-                # within the round-off of an eigenvalue (~1e-4 |lambda| at 2048 elements)
-                # T(sigma) is singular to working precision and Arnoldi returns spurious values.
-                cand, _, X, _ = sparse_block_eigenvalues(block, 3, lam0 - TRACK_TRUST * abs(lam0), vectors=True,
-                                                         guess=None if x0 is None else (lam0, x0))
-                j = int(np.argmin(np.abs(cand - lam0)))
-                near, x = refine_eigenpair(block, cand[j], X[:, j])
+        except ConvergenceError:
+            if not sparse:
+                raise
+            near = None
+        if sparse and (near is None or abs(near - lam0) > TRACK_TRUST * abs(lam0)):
+            # The shift is kept TRACK_TRUST |lambda| off the prediction: at a shift within
+            # the round-off of an eigenvalue (~1e-4 |lambda| at 2048 elements) T(sigma) is
+            # singular to working precision and Arnoldi returns spurious values.
+            cand, _, X, _ = sparse_block_eigenvalues(block, 3, lam0 - TRACK_TRUST * abs(lam0), vectors=True,
+                                                     guess=None if x0 is None else (lam0, x0))
+            j = int(np.argmin(np.abs(cand - lam0)))
+            near, x = refine_eigenpair(block, cand[j], X[:, j])
         seen[m] = (near, x)
-        if abs(near.real) <= eigen_noise(block.K, block.C, block.M, near, x)[0]:
-            # Re(lambda) is zero to round-off: m is the crossing as far as it is determined
-            # (from ~256 elements on, where Brent's steps would only wander in the noise)
+        if lo < m < hi and abs(near.real) <= eigen_noise(block.K, block.C, block.M, near, x)[0]:
+            # Re(lambda) is zero to round-off inside the bracket: m is the crossing as far
+            # as it is determined (from ~256 elements on Brent's further steps would only
+            # wander in the noise). Not at the ends: their signs must show the crossing.
             return 0.0
         return near.real
 

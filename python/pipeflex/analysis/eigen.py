@@ -36,9 +36,11 @@ from .._blas import one_thread, small_problems_single_threaded
 GROWTH_TOL = 1e-9
 
 #: ``method="auto"`` takes the sparse path when a few modes are asked for (``n_modes``)
-#: and the model has at least this many reduced coordinates (the dense solve of a
-#: 128-element beam, 768 coordinates, takes 0.16-0.7 s; the sparse one ~10 ms).
-SPARSE_MIN_DOFS = 400
+#: and the model has at least this many reduced coordinates: the break-even of the
+#: cantilever pipe (8 of its eigenvalues, one BLAS thread: 32 elements, 192 coordinates,
+#: 5.3 ms dense against 6.4 ms sparse; 48 elements 12 against 8.5 ms; 128 elements 125
+#: against 10 ms), above which the dense cost grows like N^3.
+SPARSE_MIN_DOFS = 240
 
 
 @dataclass(frozen=True)
