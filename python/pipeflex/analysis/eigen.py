@@ -186,17 +186,16 @@ _layout = None  # the last block layout: the repeated splits of an analysis reus
 def _sparse_blocks(entries, ncomp, labels):
     """[(dofs, [K, C, M] of the block)] for the partition ``labels``."""
     global _layout
-    layouts = []
+    layouts = {}  # per pattern of this call
     for pattern, _ in entries:
-        layout = next((lay for lay in layouts if lay.pattern is pattern), None)
-        if layout is None:
+        if pattern not in layouts:
             layout = _layout
             if layout is None or not layout.matches(pattern, labels):
                 layout = _BlockLayout(pattern, ncomp, labels)
-            _layout = layout
-        layouts.append(layout)
-    mats = [layout.blocks(data) for layout, (_, data) in zip(layouts, entries)]
-    return [(dofs, [m[c] for m in mats]) for c, dofs in enumerate(layouts[0].dofs)]
+            layouts[pattern] = _layout = layout
+    mats = [layouts[pattern].blocks(data) for pattern, data in entries]
+    dofs_of = next(iter(layouts.values())).dofs  # one partition: every layout's is the same
+    return [(dofs, [m[c] for m in mats]) for c, dofs in enumerate(dofs_of)]
 
 
 def _sign_similarity_sparse(a: Block, b: Block):
