@@ -3,7 +3,7 @@
 
 The cantilever pipe of Meijaard & Hakvoort's Table 2 (pf.scenes.cantilever_pipe, polar inertia 1e-4 kg m) with N
 elements: build; static equilibrium at 10 kg/s; linearisation; 6 eigenvalues nearest 0
-(sparse shift-invert from 400 coordinates on); the critical mass flow (up to
+(sparse shift-invert from SPARSE_MIN_DOFS coordinates on); the critical mass flow (up to
 --max-critical elements); 5 generalised-alpha steps of 1 ms from a swinging state (per
 step); the start of an IDA run (consistent initial values, one short output interval).
 Wall times are the best of --repeat runs; slopes between successive sizes.
@@ -54,7 +54,10 @@ def main():
         r["linearize"], lin = best(lambda: pf.linearize(m, st.state, mass_flow=10.0), args.repeat)
         r["6 eigenvalues"], _ = best(lambda: pf.eigenvalues(lin, n_modes=6, sigma=0.0), args.repeat)
         if n <= args.max_critical:
-            r["critical flow"], _ = best(lambda: pf.critical_mass_flow(m), 1)
+            try:
+                r["critical flow"], _ = best(lambda: pf.critical_mass_flow(m), 1)
+            except pf.ConvergenceError as e:  # round-off from ~8192 elements on: docs/performance.md
+                print(f"  N = {n}: critical_mass_flow failed: {str(e)[:110]}...")
         sw = swinging(m)
 
         def steps(k):

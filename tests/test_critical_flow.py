@@ -92,6 +92,18 @@ def test_table2_cantilever_128_elements_converges_with_order_four():
     assert abs(r.mass_flow - ext) < 1e-7  # kg/s: 128 elements are converged to ~2e-9 relative
 
 
+def test_sparse_tracking_at_256_elements_agrees_with_128():
+    """The crossing eigenpair followed by Newton on the sparse blocks (no Arnoldi per
+    step): 256 elements give 128's flow to within the round-off of the crossing
+    eigenvalue at 256 (~1e-8 relative, docs/performance.md); the discretisation error
+    between them is ~2e-9 relative (order 4)."""
+    r128 = pf.critical_mass_flow(pf.scenes.cantilever_pipe(n_elements=128))
+    r256 = pf.critical_mass_flow(pf.scenes.cantilever_pipe(n_elements=256))
+    assert r256.kind == "flutter"
+    assert r256.mass_flow == pytest.approx(r128.mass_flow, rel=2e-8)
+    assert r256.frequency == pytest.approx(r128.frequency, rel=1e-8)
+
+
 def test_static_flow_continuation_equals_hand_steps():
     """static_equilibrium(from_mass_flow=0) ramps flow and loads together from rest to
     375 kg/s (one solve from rest at 375 kg/s fails) and reaches the equilibrium of a

@@ -106,3 +106,35 @@ def test_generalized_path_when_damping_acts_on_massless_coordinates():
     assert len(lam) == 3
     for l in lam:
         assert abs(np.linalg.det(l * l * M + l * C + K)) < 1e-9 * (1 + abs(l)) ** 3
+
+
+def test_matrices_equal_the_summed_assembler_triplets_for_alternating_models():
+    # residual_and_tangent reuses the CSC structure of the last triplet pattern: models
+    # taken in turn (another pattern each time) must still give the plain COO sums.
+    import scipy.sparse as sp
+    from pipeflex import _core
+
+    models = [pf.scenes.cantilever_pipe(n_elements=5), pf.scenes.simply_supported_pipe(n_elements=7),
+              pf.scenes.cantilever_pipe(n_elements=5, polar_inertia=1e-3)]
+    for model in models + models:
+        lin = pf.linearize(model, mass_flow=3.0)
+        s = lin.state.to_core(model)
+        load = model.load_state(mass_flow=3.0)
+        for X, (lf, w) in zip((lin.K, lin.C, lin.M), ((1.0, (1, 0, 0)), (0.0, (0, 1, 0)), (0.0, (0, 0, 1)))):
+            rows, cols, vals = _core.assemble(model.core, s, load, lf, *w, True)[1]
+            ref = sp.csc_matrix((vals, (rows, cols)), shape=X.shape)
+            assert abs(X - ref).max() <= 1e-14 * abs(ref).max()
+            assert np.array_equal(X.indptr, ref.indptr) and np.array_equal(X.indices, ref.indices)
+
+
+def test_sparse_blocks_equal_dense_blocks_for_alternating_models():
+    # split_blocks(sparse=True) reuses the block layout of the last call
+    mats = [pf.linearize(pf.scenes.cantilever_pipe(n_elements=6), mass_flow=2.0),
+            pf.linearize(pf.scenes.simply_supported_pipe(n_elements=6), mass_flow=2.0)]
+    for lin in mats + mats:
+        sparse = split_blocks(lin.K, lin.C, lin.M, sparse=True)
+        dense = split_blocks(lin.K, lin.C, lin.M)
+        assert [list(b.dofs) for b in sparse] == [list(b.dofs) for b in dense]
+        for a, b in zip(sparse, dense):
+            for x, y in ((a.K, b.K), (a.C, b.C), (a.M, b.M)):
+                assert np.array_equal(x.toarray(), y) and np.all(x.data != 0.0)

@@ -44,6 +44,14 @@ def limited(size):
     """A context in which BLAS runs on one thread if ``size`` (coordinates) is small."""
     if size is None or size >= SMALL_MODEL:
         return contextlib.nullcontext()
+    return one_thread()
+
+
+def one_thread():
+    """A context in which BLAS runs on one thread, e.g. around ARPACK: its level-2 BLAS
+    on Krylov vectors of a few thousand entries took twice as long on two threads
+    (shift-invert Arnoldi of a 1024-element pipe's block: 54 against 27 ms), and no
+    slower up to 8192 elements."""
     controller = _get_controller()
     if not controller:
         return contextlib.nullcontext()

@@ -15,11 +15,12 @@ checks that no other eigenvalue is unstable.
 
 Large models (at least :data:`~pipeflex.analysis.eigen.SPARSE_MIN_DOFS` coordinates):
 the scan and the checks compute only the :data:`SCAN_MODES` eigenvalues nearest 0 in
-each block (the lowest modes, by sparse shift-invert Arnoldi), and the tracking takes
-the few eigenvalues nearest the predicted crossing eigenvalue before the Newton
-refinement, so that the cost grows about linearly with the number of elements. A pipe's
-flutter and divergence are instabilities of its lowest modes; an instability of a mode
-above the SCAN_MODES lowest of each block would be missed.
+each block (the lowest modes, by sparse shift-invert Arnoldi), and the tracking
+refines the crossing eigenpair by Newton from its eigenvector at the nearest flow (one
+sparse LU per step; Arnoldi near the predicted eigenvalue only if Newton lands elsewhere),
+so that the cost grows about linearly with the number of elements. A pipe's flutter and
+divergence are instabilities of its lowest modes; an instability of a mode above the
+SCAN_MODES lowest of each block would be missed.
 """
 from __future__ import annotations
 
@@ -37,7 +38,8 @@ from ..results import Result
 from .._options import renamed
 from ..errors import ConvergenceError
 from .eigen import (SPARSE_MIN_DOFS, classify, eigen_from_blocks, free_coordinates, sparse_block_eigenvalues,
-                    MECHANISM_CONDITIONING, sparse_eigen_from_blocks, split_blocks, stiffness_conditioning)
+                    MECHANISM_CONDITIONING, QuadraticPencil, eigen_noise, sparse_eigen_from_blocks,
+                    split_blocks, stiffness_conditioning)
 from ._assembly import require_model
 from .linearize import linearize
 from .static import static_equilibrium
@@ -48,6 +50,11 @@ SCAN_MODES = 16
 
 #: Halvings of a scan step allowed to the static flow continuation (down to 1/64 of it).
 FLOW_BISECTIONS = 6
+
+#: Large models: the followed eigenvalue's Newton refinement is trusted within this
+#: fraction of |lambda| of its prediction (the eigenvalues of a pipe's lowest modes lie
+#: tens of percent apart); farther, it is restarted from shift-invert Arnoldi.
+TRACK_TRUST = 0.05
 
 
 @dataclass(frozen=True)
@@ -374,12 +381,12 @@ def refine_eigenpair(block, lam, x=None, *, tol=1e-10, max_iterations=20):
     n = len(block.dofs)
     sparse = sp.issparse(block.K)
     if sparse:
-        K, C, M = (sp.csc_matrix(X) for X in (block.K, block.C, block.M))
+        T = QuadraticPencil(block.K, block.C, block.M)
+        K, C, M = T.K, T.C, T.M
         norms = [spla.norm(X, 1) for X in (K, C, M)]
 
-        def solve(lam_, rhs):
-            T = (lam_ * lam_ * M + lam_ * C + K).astype(complex).tocsc()
-            return spla.splu(T).solve(np.asarray(rhs, complex))
+        def factor(lam_):
+            return spla.splu(T(complex(lam_)))
     else:
         K, C, M = block.K, block.C, block.M
         norms = [np.linalg.norm(X, 1) for X in (K, C, M)]
@@ -388,8 +395,7 @@ def refine_eigenpair(block, lam, x=None, *, tol=1e-10, max_iterations=20):
         # A few inverse-iteration steps at the fixed shift lam give a starting vector.
         x = np.random.default_rng(0).standard_normal(n) + 0j
         if sparse:
-            lu = spla.splu((lam * lam * M + lam * C + K).astype(complex).tocsc())
-            fsolve = lu.solve
+            fsolve = factor(lam).solve
         else:
             lu = sla.lu_factor(lam * lam * M + lam * C + K)
             fsolve = lambda r: sla.lu_solve(lu, r)  # noqa: E731
@@ -403,7 +409,10 @@ def refine_eigenpair(block, lam, x=None, *, tol=1e-10, max_iterations=20):
     for _ in range(max_iterations):
         if sparse:
             dTx = 2 * lam * (M @ x) + C @ x
-            u = solve(lam, dTx)
+            try:
+                u = factor(lam).solve(np.asarray(dTx, complex))
+            except RuntimeError:  # T(lam) exactly singular: lam is an eigenvalue to working precision
+                return lam, x / np.linalg.norm(x)
         else:  # the arithmetic of the original dense iteration (small models: same numbers)
             T = lam * lam * M + lam * C + K
             dTx = (2 * lam * M + C) @ x
@@ -429,10 +438,11 @@ def _track_root(ev, lo, hi, eig_hi, xtol):
     """Brent's method on Re(lambda) of the eigenvalue that crosses at the flutter point.
 
     The eigenvalue is followed by Newton refinement (:func:`refine_eigenpair`) from the
-    value predicted linearly in mdot by the evaluations nearest to the new flow, in the
-    decoupled block it belongs to (large models: from the eigenpair nearest that
-    prediction by sparse shift-invert Arnoldi). A full eigen-analysis at the end checks
-    the result.
+    value predicted linearly in mdot by the evaluations nearest to the new flow and the
+    eigenvector of the nearest one, in the decoupled block it belongs to. Large models:
+    should Newton land farther than TRACK_TRUST |lambda| from the prediction (on another
+    eigenvalue), it starts again from the eigenpair nearest the prediction by sparse
+    shift-invert Arnoldi. A full eigen-analysis at the end checks the result.
     """
     lam = eig_hi.values
     i = int(np.argmax(lam.real - 1e300 * (lam.imag < 0)))
@@ -450,16 +460,27 @@ def _track_root(ev, lo, hi, eig_hi, xtol):
         if block is None:
             raise ValueError("the block structure changed")
         ev.count += 1
-        if sp.issparse(block.K):
-            # The shift is kept 5 % of |lambda| off the prediction: at a shift within the
-            # round-off of an eigenvalue (~1e-4 |lambda| at 2048 elements) T(sigma) is
+        sparse = sp.issparse(block.K)
+        try:
+            near, x = refine_eigenpair(block, lam0, x0)
+        except ConvergenceError:
+            if not sparse:
+                raise
+            near = None
+        if sparse and (near is None or abs(near - lam0) > TRACK_TRUST * abs(lam0)):
+            # The shift is kept TRACK_TRUST |lambda| off the prediction: at a shift within
+            # the round-off of an eigenvalue (~1e-4 |lambda| at 2048 elements) T(sigma) is
             # singular to working precision and Arnoldi returns spurious values.
-            near, _, X, _ = sparse_block_eigenvalues(block, 3, lam0 - 0.05 * abs(lam0), vectors=True,
+            cand, _, X, _ = sparse_block_eigenvalues(block, 3, lam0 - TRACK_TRUST * abs(lam0), vectors=True,
                                                      guess=None if x0 is None else (lam0, x0))
-            j = int(np.argmin(np.abs(near - lam0)))
-            lam0, x0 = near[j], X[:, j]
-        near, x = refine_eigenpair(block, lam0, x0)
+            j = int(np.argmin(np.abs(cand - lam0)))
+            near, x = refine_eigenpair(block, cand[j], X[:, j])
         seen[m] = (near, x)
+        if lo < m < hi and abs(near.real) <= eigen_noise(block.K, block.C, block.M, near, x)[0]:
+            # Re(lambda) is zero to round-off inside the bracket: m is the crossing as far
+            # as it is determined (from ~256 elements on Brent's further steps would only
+            # wander in the noise). Not at the ends: their signs must show the crossing.
+            return 0.0
         return near.real
 
     return brentq(f, lo, hi, xtol=xtol, rtol=4 * np.finfo(float).eps)

@@ -29,16 +29,18 @@ from scipy.sparse.csgraph import breadth_first_order, connected_components
 
 from .. import _checks
 from ..results import Result
-from .._blas import small_problems_single_threaded
+from .._blas import one_thread, small_problems_single_threaded
 
 #: An eigenvalue counts as growing when Re(lambda) exceeds GROWTH_TOL * |lambda| and
 #: its round-off bound (see :func:`block_eigenvalues`).
 GROWTH_TOL = 1e-9
 
 #: ``method="auto"`` takes the sparse path when a few modes are asked for (``n_modes``)
-#: and the model has at least this many reduced coordinates (the dense solve of a
-#: 128-element beam, 768 coordinates, takes 0.16-0.7 s; the sparse one ~10 ms).
-SPARSE_MIN_DOFS = 400
+#: and the model has at least this many reduced coordinates: the break-even of the
+#: cantilever pipe (8 of its eigenvalues, one BLAS thread: 32 elements, 192 coordinates,
+#: 5.3 ms dense against 6.4 ms sparse; 48 elements 12 against 8.5 ms; 128 elements 125
+#: against 10 ms), above which the dense cost grows like N^3.
+SPARSE_MIN_DOFS = 240
 
 
 @dataclass(frozen=True)
@@ -95,25 +97,31 @@ def split_blocks(K, C, M, *, tol: float = 1e-13, sparse: bool = False) -> List[B
     With ``sparse=True`` the blocks hold CSC matrices (without the dropped entries).
     """
     n = K.shape[0]
-    rows, cols = [np.arange(n)], [np.arange(n)]
+    entries = []  # (pattern, values) of K, C, M; linearize's three share one pattern
     for X in (K, C, M):
-        X = sp.coo_matrix(X)
-        if X.nnz == 0:
+        X = sp.csc_matrix(X)
+        if not X.has_canonical_format:
+            X = X.copy()
+            X.sum_duplicates()
+        pattern = next((p for p, _ in entries if p.matches(X)), None) or _CscPattern(X)
+        entries.append((pattern, X.data))
+    kept = {}  # per pattern: the entries that couple in any of the matrices
+    for pattern, data in entries:
+        if len(data) == 0:
             continue
         d = np.zeros(n)
-        on_diag = X.row == X.col
-        np.add.at(d, X.row[on_diag], np.abs(X.data[on_diag]))
-        ref = np.sqrt(d[X.row] * d[X.col])
-        ref[ref == 0.0] = np.max(np.abs(X.data))
-        keep = np.abs(X.data) > tol * ref
-        rows.append(X.row[keep])
-        cols.append(X.col[keep])
-    r, c = np.concatenate(rows), np.concatenate(cols)
-    pattern = sp.csr_matrix((np.ones(len(r), bool), (r, c)), shape=(n, n))
+        d[pattern.row[pattern.diagonal]] = np.abs(data[pattern.diagonal])
+        ref = np.sqrt(d[pattern.row] * d[pattern.col])
+        ref[ref == 0.0] = np.max(np.abs(data))
+        keep = np.abs(data) > tol * ref
+        kept[pattern] = kept[pattern] | keep if pattern in kept else keep
+    r = np.concatenate([np.arange(n)] + [p.row[keep] for p, keep in kept.items()])
+    c = np.concatenate([np.arange(n)] + [p.col[keep] for p, keep in kept.items()])
+    coupling = sp.csr_matrix((np.ones(len(r), bool), (r, c)), shape=(n, n))
+    ncomp, labels = connected_components(coupling, directed=False)
     if sparse:
-        return _sparse_blocks(K, C, M, pattern)
+        return [Block(dofs, *mats) for dofs, mats in _sparse_blocks(entries, ncomp, labels)]
     dense = [X.toarray() if sp.issparse(X) else np.asarray(X) for X in (K, C, M)]
-    ncomp, labels = connected_components(sp.csr_matrix(pattern), directed=False)
     blocks = []
     for c in range(ncomp):
         idx = np.nonzero(labels == c)[0]
@@ -122,24 +130,72 @@ def split_blocks(K, C, M, *, tol: float = 1e-13, sparse: bool = False) -> List[B
     return blocks
 
 
-def _sparse_blocks(K, C, M, pattern) -> List[Block]:
-    ncomp, labels = connected_components(pattern, directed=False)
-    mats = []
-    for X in (K, C, M):
-        X = sp.coo_matrix(X)
-        keep = labels[X.row] == labels[X.col]  # cross-block entries are round-off
-        mats.append(sp.csr_matrix((X.data[keep], (X.row[keep], X.col[keep])), shape=X.shape))
-    blocks = []
-    for c in range(ncomp):
-        idx = np.nonzero(labels == c)[0]
-        sub = []
-        for X in mats:
-            Y = X[idx][:, idx].tocsc()
+class _CscPattern:
+    """Row and column of each entry of a canonical CSC matrix, and which are diagonal."""
+
+    def __init__(self, X):
+        self.indptr, self.indices = X.indptr, X.indices
+        self.row = X.indices
+        self.col = np.repeat(np.arange(X.shape[1]), np.diff(X.indptr))
+        self.diagonal = np.flatnonzero(self.row == self.col)
+
+    def matches(self, X):
+        return np.array_equal(X.indptr, self.indptr) and np.array_equal(X.indices, self.indices)
+
+
+class _BlockLayout:
+    """Where the entries of a CSC pattern go in the blocks of a partition ``labels``: each
+    block's entries in CSC order (a stable sort by block keeps it), coordinates renumbered
+    increasingly inside the block, so they form its CSC arrays as they are. Cross-block
+    entries (round-off) are left out."""
+
+    def __init__(self, pattern, ncomp, labels):
+        self.pattern, self.labels = pattern, labels
+        self.dofs = [np.flatnonzero(labels == c) for c in range(ncomp)]
+        local = np.empty(len(labels), np.int64)
+        for dofs in self.dofs:
+            local[dofs] = np.arange(len(dofs))
+        owner = labels[pattern.col]
+        order = np.flatnonzero(labels[pattern.row] == owner)
+        order = order[np.argsort(owner[order], kind="stable")]
+        bounds = np.searchsorted(owner[order], np.arange(ncomp + 1))
+        self.parts = []  # per block: (entries taken, CSC indices, CSC indptr)
+        for c, dofs in enumerate(self.dofs):
+            sel = order[bounds[c]:bounds[c + 1]]
+            counts = np.bincount(local[pattern.col[sel]], minlength=len(dofs))
+            indptr = np.concatenate([[0], np.cumsum(counts)]).astype(np.int32)
+            self.parts.append((sel, local[pattern.row[sel]].astype(np.int32), indptr))
+
+    def matches(self, pattern, labels):
+        return (pattern is self.pattern or pattern.matches(self.pattern)) and np.array_equal(labels, self.labels)
+
+    def blocks(self, data):
+        """The block matrices (CSC, explicit zeros dropped) of the values ``data``."""
+        out = []
+        for (sel, indices, indptr), dofs in zip(self.parts, self.dofs):
+            Y = sp.csc_matrix((data[sel], indices.copy(), indptr.copy()), shape=(len(dofs), len(dofs)))
+            Y.has_canonical_format = True
             Y.eliminate_zeros()
-            Y.sort_indices()
-            sub.append(Y)
-        blocks.append(Block(idx, *sub))
-    return blocks
+            out.append(Y)
+        return out
+
+
+_layout = None  # the last block layout: the repeated splits of an analysis reuse it
+
+
+def _sparse_blocks(entries, ncomp, labels):
+    """[(dofs, [K, C, M] of the block)] for the partition ``labels``."""
+    global _layout
+    layouts = {}  # per pattern of this call
+    for pattern, _ in entries:
+        if pattern not in layouts:
+            layout = _layout
+            if layout is None or not layout.matches(pattern, labels):
+                layout = _BlockLayout(pattern, ncomp, labels)
+            layouts[pattern] = _layout = layout
+    mats = [layouts[pattern].blocks(data) for pattern, data in entries]
+    dofs_of = next(iter(layouts.values())).dofs  # one partition: every layout's is the same
+    return [(dofs, [m[c] for m in mats]) for c, dofs in enumerate(dofs_of)]
 
 
 def _sign_similarity_sparse(a: Block, b: Block):
@@ -396,13 +452,9 @@ def eigen_noise(K, C, M, lam, x) -> np.ndarray:
     nm = [spla.norm(X, 1) if sp.issparse(X) else np.linalg.norm(X, 1) for X in (K, C, M)]
     lam = np.atleast_1d(np.asarray(lam, complex))
     x = np.asarray(x, complex).reshape(K.shape[0], -1)
-    out = np.empty(len(lam))
-    for j, l in enumerate(lam):
-        v = x[:, j]
-        d = abs(np.vdot(v, 2 * l * (M @ v) + C @ v))
-        scale = (abs(l) ** 2 * nm[2] + abs(l) * nm[1] + nm[0]) * np.vdot(v, v).real
-        out[j] = np.finfo(float).eps * scale / max(d, 1e-300) / np.sqrt(K.shape[0])
-    return out
+    d = np.abs(np.sum(x.conj() * (2 * lam * (M @ x) + C @ x), axis=0))
+    scale = (np.abs(lam) ** 2 * nm[2] + np.abs(lam) * nm[1] + nm[0]) * np.sum(np.abs(x) ** 2, axis=0)
+    return np.finfo(float).eps * scale / np.maximum(d, 1e-300) / np.sqrt(K.shape[0])
 
 
 def _sparse_negative(K) -> int:
@@ -442,7 +494,7 @@ def sparse_block_eigenvalues(b: Block, k: int, sigma: complex, *, vectors: bool 
         keep = _nearest(lam, k, sigma)
         return lam[keep], noise[keep], V[:, keep], neg
     sigma = complex(sigma)
-    T, lu = _shift_factor(K, C, M, sigma)
+    T, lu = _shift_factor(QuadraticPencil(K, C, M), sigma)
     real = sigma.imag == 0.0
     s = sigma.real if real else sigma
     dtype = float if real else complex
@@ -469,7 +521,8 @@ def sparse_block_eigenvalues(b: Block, k: int, sigma: complex, *, vectors: bool 
     ncv = max(2 * kk + 1, 40)
     while True:  # a too small Krylov space can stall on undamped (+-i omega) spectra
         try:
-            nu, Z = spla.eigs(ops, k=kk, which="LM", tol=0.0, v0=v0, ncv=min(2 * n - 1, ncv))
+            with one_thread():
+                nu, Z = spla.eigs(ops, k=kk, which="LM", tol=0.0, v0=v0, ncv=min(2 * n - 1, ncv))
             break
         except spla.ArpackNoConvergence as e:
             if ncv >= 2 * n - 1 or ncv > 8 * kk + 100:
@@ -494,21 +547,48 @@ def sparse_block_eigenvalues(b: Block, k: int, sigma: complex, *, vectors: bool 
     return lam, noise, X, 0
 
 
-def _shift_factor(K, C, M, sigma):
-    """Sparse LU of T(sigma) = sigma^2 M + sigma C + K; the shift is moved off an
-    (exactly or numerically) singular point by a tiny amount."""
+class QuadraticPencil:
+    """T(s) = s^2 M + s C + K of sparse K, C, M, all on the union of their patterns, so
+    that each T(s) is one combination of value arrays instead of two sparse additions."""
+
+    def __init__(self, K, C, M):
+        self.K, self.C, self.M = (sp.csc_matrix(X) for X in (K, C, M))
+        U = (abs(self.K) + abs(self.C) + abs(self.M)).tocsc()  # no cancellation: the union pattern
+        U.sort_indices()
+        self.indices, self.indptr, self.shape = U.indices, U.indptr, U.shape
+        n = U.shape[0]
+        key = np.repeat(np.arange(n, dtype=np.int64), np.diff(U.indptr)) * n + U.indices
+        self.values = []
+        for X in (self.K, self.C, self.M):
+            X = X.copy()
+            X.sum_duplicates()
+            xkey = np.repeat(np.arange(n, dtype=np.int64), np.diff(X.indptr)) * n + X.indices
+            v = np.zeros(len(key))
+            v[np.searchsorted(key, xkey)] = X.data
+            self.values.append(v)
+
+    def __call__(self, s):
+        k, c, m = self.values
+        T = sp.csc_matrix((s * s * m + s * c + k, self.indices, self.indptr), shape=self.shape)
+        T.has_canonical_format = True
+        return T
+
+
+def _shift_factor(T, sigma):
+    """Sparse LU of T(sigma) = sigma^2 M + sigma C + K (a :class:`QuadraticPencil`); the
+    shift is moved off an (exactly or numerically) singular point by a tiny amount."""
     for attempt in range(3):
         s = sigma.real if sigma.imag == 0.0 else sigma
-        T = (s * s * M + s * C + K).tocsc()
+        Ts = T(s)
         try:
-            lu = spla.splu(T)
+            lu = spla.splu(Ts)
             u = np.abs(lu.U.diagonal())
             if u.min() > 1e-13 * u.max():
-                return T, lu
+                return Ts, lu
         except RuntimeError:
             pass
         # move by 1e-6 of the frequency scale sqrt(|K| / |M|) of the lightest/softest terms
-        scale = np.sqrt(spla.norm(K, 1) / max(spla.norm(M, 1), 1e-300)) if M.nnz else 1.0
+        scale = np.sqrt(spla.norm(T.K, 1) / max(spla.norm(T.M, 1), 1e-300)) if T.M.nnz else 1.0
         sigma = sigma + 1e-6 * scale * 10.0 ** attempt
     raise np.linalg.LinAlgError(f"T(sigma) is singular near sigma = {sigma}: choose another sigma")
 
