@@ -290,7 +290,6 @@ void MultibodySystemCore::evaluate(const MbState& s, double mdot, double mdot_ra
         check_state(s);  // throws, naming the sizes
     out.F.setZero(n_);
     out.c.setZero(nc_);
-    out.J.setZero(nc_, n_);
     if (with_tangent) out.S.setZero(n_, n_);
     MatX dummy(0, 0);
     out.work.resize(bodies_.size());
@@ -337,15 +336,38 @@ void MultibodySystemCore::evaluate(const MbState& s, double mdot, double mdot_ra
         w.Ja.resize(nr, na);
         w.Jb.resize(nr, nb);
         joint_equations(s, j, out.c.segment(r0, nr), w.Ja, w.Jb, w);
-        out.J.block(r0, oa, nr, na) += w.Ja;
-        if (nb) out.J.block(r0, ob, nr, nb) += w.Jb;
+        // reactions C_q^T lambda, joint by joint (C_q is sparse: a joint touches its bodies)
+        out.F.segment(oa, na).noalias() += w.Ja.transpose() * s.lam.segment(r0, nr);
+        if (nb) out.F.segment(ob, nb).noalias() += w.Jb.transpose() * s.lam.segment(r0, nr);
         if (joint_forces(s, j, mdot, load_factor, w)) {
             out.F.segment(oa, na) -= w.fa;
             if (nb) out.F.segment(ob, nb) -= w.fb;
         }
     }
-    out.F.noalias() += out.J.transpose() * s.lam;
     if (with_tangent && wK != 0.0) geometric_stiffness(s, mdot, load_factor, out.S, wK);
+}
+
+MatX MultibodySystemCore::constraint_jacobian(const MbEvaluation& ev) const {
+    MatX J = MatX::Zero(nc_, n_);
+    for (size_t k = 0; k < joints_.size() && k < ev.joint_work.size(); ++k) {
+        const MbJoint& j = joints_[k];
+        const MbJointWork& w = ev.joint_work[k];
+        J.block(rows_[k], offsets_[j.body_a], w.Ja.rows(), w.Ja.cols()) += w.Ja;
+        if (j.body_b >= 0) J.block(rows_[k], offsets_[j.body_b], w.Jb.rows(), w.Jb.cols()) += w.Jb;
+    }
+    return J;
+}
+
+double MultibodySystemCore::velocity_drift(const MbState& s, const MbEvaluation& ev) const {
+    double drift = 0.0;
+    for (size_t k = 0; k < joints_.size() && k < ev.joint_work.size(); ++k) {
+        const MbJoint& j = joints_[k];
+        const MbJointWork& w = ev.joint_work[k];
+        VecX cv = w.Ja * s.v.segment(offsets_[j.body_a], w.Ja.cols());
+        if (j.body_b >= 0) cv += w.Jb * s.v.segment(offsets_[j.body_b], w.Jb.cols());
+        drift = std::max(drift, cv.cwiseAbs().maxCoeff());
+    }
+    return drift;
 }
 
 MbOutput MultibodySystemCore::integrate(MbState& s, const TimeTable& mass_flow, double t_end,
@@ -385,7 +407,7 @@ MbOutput MultibodySystemCore::integrate(MbState& s, const TimeTable& mass_flow, 
         evaluate(st, mass_flow.at(st.t), mass_flow.rate(st.t), 1.0, 1.0, 0.0, 0.0, 0.0, false, ev);
         out.t.push_back(st.t);
         out.states.push_back(st);
-        out.drift.push_back(nc_ > 0 ? (ev.J * st.v).cwiseAbs().maxCoeff() : 0.0);
+        out.drift.push_back(velocity_drift(st, ev));
     };
     for (long k : out_steps) {
         if (k > 0) alpha.advance_to(k == n_steps ? t_end : t0 + static_cast<double>(k) * h);

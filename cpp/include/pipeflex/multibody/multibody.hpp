@@ -82,7 +82,6 @@ struct MbJointWork {
 struct MbEvaluation {
     VecX F;   // body residuals - loads + C_q^T lambda
     VecX c;   // constraint equations
-    MatX J;   // C_q
     MatX S;   // wK dF/dq + wC dF/dv + wM dF/da, dF/dq including the joint reactions and loads
     // scratch, kept between evaluations so that a time loop does not allocate
     std::vector<FfrfBodyWork> work;
@@ -130,6 +129,10 @@ class MultibodySystemCore {
     // reactions' geometric stiffness at the state's multipliers).
     void evaluate(const MbState& s, double mdot, double mdot_rate, double load_factor, double gravity_factor,
                   double wK, double wC, double wM, bool with_tangent, MbEvaluation& out) const;
+    // C_q (n_constraints x n_coordinates, dense) of the joints' blocks of an evaluation.
+    MatX constraint_jacobian(const MbEvaluation& ev) const;
+    // max |C_q v| [m/s, rad/s] from an evaluation's joint blocks.
+    double velocity_drift(const MbState& s, const MbEvaluation& ev) const;
     // Checks the state, the options and out_steps (increasing, within the run's steps)
     // before the first step; polls for an interrupt (Ctrl-C) in its loops.
     MbOutput integrate(MbState& s, const TimeTable& mass_flow, double t_end, const std::vector<long>& out_steps,

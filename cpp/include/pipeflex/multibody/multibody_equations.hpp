@@ -6,7 +6,10 @@
 #include "pipeflex/multibody/multibody.hpp"
 #include "pipeflex/solvers/equations.hpp"
 
+#include <algorithm>
+#include <set>
 #include <string>
+#include <utility>
 #include <vector>
 
 namespace pipeflex {
@@ -22,21 +25,18 @@ class MultibodyEquations final : public Equations {
         // S couples only bodies that share a joint, and a joint's rows touch only its
         // bodies: the triplets cover these blocks (a fixed pattern, zeros included).
         const int nb = sys.n_bodies();
-        const std::vector<MbJoint>& joints = sys.joints();
-        auto offsets = [&](int b) { return sys.offset(b); };
-        auto rows = [&](std::size_t k) { return sys.constraint_row(static_cast<int>(k)); };
-        std::vector<char> coupled(static_cast<size_t>(nb) * nb, 0);
-        for (int b = 0; b < nb; ++b) coupled[b * nb + b] = 1;
-        for (const MbJoint& j : joints)
-            if (j.body_b >= 0) coupled[j.body_a * nb + j.body_b] = coupled[j.body_b * nb + j.body_a] = 1;
-        for (int a = 0; a < nb; ++a)
-            for (int b = 0; b < nb; ++b)
-                if (coupled[a * nb + b])
-                    blocks_.push_back({offsets(a), offsets(a + 1) - offsets(a), offsets(b), offsets(b + 1) - offsets(b)});
-        for (size_t k = 0; k < joints.size(); ++k)
-            for (int body : {joints[k].body_a, joints[k].body_b})
-                if (body >= 0)
-                    joint_blocks_.push_back({rows(k), rows(k + 1) - rows(k), offsets(body), offsets(body + 1) - offsets(body)});
+        auto block = [&](int a, int b) {
+            blocks_.push_back({sys.offset(a), sys.offset(a + 1) - sys.offset(a), sys.offset(b),
+                               sys.offset(b + 1) - sys.offset(b)});
+        };
+        std::set<std::pair<int, int>> pairs;  // bodies joined to each other, once per pair
+        for (const MbJoint& j : sys.joints())
+            if (j.body_b >= 0 && j.body_b != j.body_a) pairs.insert(std::minmax(j.body_a, j.body_b));
+        for (int b = 0; b < nb; ++b) block(b, b);
+        for (const auto& [a, b] : pairs) {
+            block(a, b);
+            block(b, a);
+        }
     }
 
     const MbState& state() const { return cur_; }
@@ -71,12 +71,13 @@ class MultibodyEquations final : public Equations {
         for (const Block& b : blocks_)
             for (int c = b.c0; c < b.c0 + b.nc; ++c)
                 for (int i = b.r0; i < b.r0 + b.nr; ++i) push(*J, i, c, ev_.S(i, c));
-        for (const Block& b : joint_blocks_)
-            for (int c = b.c0; c < b.c0 + b.nc; ++c)
-                for (int i = b.r0; i < b.r0 + b.nr; ++i) {
-                    push(*J, n_ + i, c, ev_.J(i, c));
-                    push(*J, c, n_ + i, ev_.J(i, c));
-                }
+        const std::vector<MbJoint>& joints = sys_.joints();
+        for (std::size_t k = 0; k < joints.size(); ++k) {
+            const MbJointWork& w = ev_.joint_work[k];
+            const int r0 = n_ + sys_.constraint_row(static_cast<int>(k));
+            push_block(*J, r0, sys_.offset(joints[k].body_a), w.Ja);
+            if (joints[k].body_b >= 0) push_block(*J, r0, sys_.offset(joints[k].body_b), w.Jb);
+        }
     }
 
     int rebase(Eigen::VectorXd&, Eigen::VectorXd&) override {
@@ -106,6 +107,14 @@ class MultibodyEquations final : public Equations {
     struct Block {
         int r0, nr, c0, nc;
     };
+    // A joint's block B at rows r0.. and body columns c0.., and its transpose.
+    static void push_block(Triplets& J, int r0, int c0, const MatX& B) {
+        for (int c = 0; c < B.cols(); ++c)
+            for (int i = 0; i < B.rows(); ++i) {
+                push(J, r0 + i, c0 + c, B(i, c));
+                push(J, c0 + c, r0 + i, B(i, c));
+            }
+    }
     static void push(Triplets& J, int r, int c, double v) {
         J.rows.push_back(r);
         J.cols.push_back(c);
@@ -117,7 +126,7 @@ class MultibodyEquations final : public Equations {
     const TimeTable& flow_;
     int n_, nc_;
     MbEvaluation ev_;
-    std::vector<Block> blocks_, joint_blocks_;
+    std::vector<Block> blocks_;
 };
 
 }  // namespace pipeflex
