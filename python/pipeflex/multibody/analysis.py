@@ -23,6 +23,7 @@ from typing import Optional, Tuple
 import numpy as np
 import scipy.linalg as sla
 import scipy.sparse as sp
+import scipy.sparse.linalg as spla
 
 from .. import _checks
 from .._options import renamed
@@ -108,6 +109,30 @@ def _null_space_step(S, J, F, c, elastic, cutoff=1e-9):
     return dq, dlam
 
 
+def _kkt_step(S, J, F, c):
+    """Newton increment (dq, dlam) of a system without mechanism by one sparse LU of
+    [S, s J^T; s J, 0] (constraint rows scaled by s = max |S|, as the integrator's); None
+    if the matrix is singular or the increment not finite (the caller falls back to the
+    null-space step)."""
+    n, nc = S.shape[0], J.shape[0]
+    scale = float(np.abs(S).max()) or 1.0
+    A = sp.bmat([[sp.csc_matrix(S), scale * sp.csc_matrix(J.T)], [scale * sp.csc_matrix(J), None]], format="csc")
+    try:
+        x = spla.splu(A).solve(-np.concatenate([F, scale * c]))
+    except RuntimeError:  # exactly singular
+        return None
+    if not np.all(np.isfinite(x)):
+        return None
+    return x[:n], scale * x[n:]
+
+
+def _has_mechanism(J, elastic) -> bool:
+    """Whether the joints leave a rigid motion of the bodies free (a hinge, a spherical
+    joint, an unsupported body): J restricted to the frame coordinates is rank-deficient."""
+    rigid = J[:, ~elastic]
+    return np.linalg.matrix_rank(rigid) < rigid.shape[1] if rigid.shape[1] else False
+
+
 def static_equilibrium(system: MultibodySystem, *, state: Optional[MultibodyState] = None,
                        mass_flow: Optional[float] = None, t: float = 0.0, load_steps: int = 1,
                        tol: float = 1e-10, max_iterations: int = 30) -> MultibodyStatic:
@@ -152,6 +177,9 @@ def static_equilibrium(system: MultibodySystem, *, state: Optional[MultibodyStat
         sl = system.body_slice(j)
         elastic[sl.start + 6:sl.stop] = True
     total = 0
+    # Without a mechanism the KKT matrix is regular: one sparse LU per iteration instead of
+    # the null-space step's dense SVDs (cubic in the number of bodies).
+    sparse_path = not _has_mechanism(system.constraints(st)[1], elastic)
     for k in range(1, steps + 1):
         lf = k / steps
         last = np.inf
@@ -161,7 +189,11 @@ def static_equilibrium(system: MultibodySystem, *, state: Optional[MultibodyStat
             if not (np.all(np.isfinite(S)) and np.all(np.isfinite(F)) and np.all(np.isfinite(c))):
                 raise ConvergenceError(f"static solve: non-finite tangent or residual at load factor {lf:.3g}, "
                                        f"iteration {it}", **where)
-            dq, dlam = _null_space_step(S, J, F, c, elastic)
+            step = _kkt_step(S, J, F, c) if sparse_path else None
+            if step is None:
+                sparse_path = False
+                step = _null_space_step(S, J, F, c, elastic)
+            dq, dlam = step
             total += 1
             if not (np.all(np.isfinite(dq)) and np.all(np.isfinite(dlam))):
                 raise ConvergenceError(f"static solve: non-finite increment at load factor {lf:.3g}, iteration {it}",
