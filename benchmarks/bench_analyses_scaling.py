@@ -7,7 +7,11 @@ elements: build; static equilibrium at 10 kg/s; linearisation; 6 eigenvalues nea
 --max-critical elements); 5 generalised-alpha steps of 1 ms from a swinging state (per
 step); the start of an IDA run (consistent initial values, one short output interval).
 Wall times are the best of --repeat runs; slopes between successive sizes.
+Then the floating-frame chain (pf.scenes.ffrf_cantilever_pipe, 4 elements per body, 1.5 N
+tip force) with B bodies (--bodies): static equilibrium without flow, and a generalised-
+alpha step at 30 kg/s (h = 1 ms; the difference of 50- and 100-step runs over 50).
 Run: .venv/bin/python benchmarks/bench_analyses_scaling.py [--sizes 8 32 128 512 2048 8192]
+     [--bodies 4 16 64 128]
 """
 import argparse
 import math
@@ -17,6 +21,7 @@ import time
 import numpy as np
 
 import pipeflex as pf
+from pipeflex.multibody import simulate as mb_simulate, static_equilibrium as mb_static
 
 
 def best(f, repeat):
@@ -43,6 +48,7 @@ def main():
     ap.add_argument("--sizes", type=int, nargs="+", default=[8, 32, 128, 512, 2048, 8192])
     ap.add_argument("--max-critical", type=int, default=2048)
     ap.add_argument("--repeat", type=int, default=2)
+    ap.add_argument("--bodies", type=int, nargs="+", default=[4, 16, 64, 128])
     args = ap.parse_args()
     print(f"load average {os.getloadavg()[0]:.2f}; OPENBLAS_NUM_THREADS={os.environ.get('OPENBLAS_NUM_THREADS', 'unset')}")
     names = ("build", "static", "linearize", "6 eigenvalues", "critical flow", "gen-alpha step", "IDA start")
@@ -70,8 +76,27 @@ def main():
                                                        progress=False, rtol=1e-3, atol=1e-6), 1)
         rows[n] = r
         print(f"{n:6d} elements: " + ", ".join(f"{k} {v:.3g} s" for k, v in r.items()), flush=True)
+    table(rows, names)
+    chain = {}
+    for nb in args.bodies:
+        s = pf.scenes.ffrf_cantilever_pipe(n_bodies=nb, elements_per_body=4, tip_force=1.5)
+        r = {}
+        r["FFRF static"], st = best(lambda: mb_static(s, mass_flow=0.0), args.repeat)
+
+        def run(k):
+            return mb_simulate(s, k * 1e-3, step=1e-3, state=st.state, mass_flow=30.0, n_outputs=2)
+        t50, _ = best(lambda: run(50), args.repeat)
+        t100, _ = best(lambda: run(100), args.repeat)
+        r["FFRF step"] = max(t100 - t50, 1e-9) / 50
+        chain[nb] = r
+        print(f"{nb:6d} bodies ({s.n_coordinates} coordinates): " + ", ".join(f"{k} {v:.3g} s" for k, v in r.items()),
+              flush=True)
+    table(chain, ("FFRF static", "FFRF step"), unit="bodies")
+
+
+def table(rows, names, unit="elements"):
     sizes = list(rows)
-    print(f"\n{'analysis':16s} " + " ".join(f"{n:>9d}" for n in sizes) + "   slopes")
+    print(f"\n{unit:16s} " + " ".join(f"{n:>9d}" for n in sizes) + "   slopes")
     for name in names:
         vals = [rows[n].get(name) for n in sizes]
         slopes = [f"{math.log(b / a) / math.log(n1 / n0):.2f}" for (n0, a), (n1, b) in
