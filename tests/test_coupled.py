@@ -8,6 +8,7 @@ from pipeflex import scenes
 from pipeflex.coupled import CoupledSystem, simulate
 from pipeflex.multibody import MultibodyBuilder, flexible_body
 from pipeflex.seeds.seed002.studies import tip_deflection
+from pipeflex.seeds.seed004.coupled_scenes import angular_momentum_z, hub_frame_deflection
 
 HUB = pf.PipeSection(EI=1e5, pipe_mass=5.0, rotary_inertia=(1e-2, 0.0, 0.0))
 
@@ -38,10 +39,7 @@ def test_sprinkler_on_a_hub_body_reaches_the_element_sprinklers_speed():
     rho_inf: the same discrete steady state, 9.00976 rad/s; steady_rotation's
     9.009826 differs by the O(h^2) error of h = 1 ms). The hub's inertia only slows the
     spin-up."""
-    arm, n0 = sprinkler_arm()
-    hub, j = hub_body()
-    cs = CoupledSystem(arm, hub)
-    cs.rigid(n0, j, "end")
+    cs, n0, j = scenes.sprinkler_on_hub()
     res = simulate(cs, 3.0, step=1e-3, n_outputs=31)
     alone = pf.simulate(scenes.sprinkler(EI=100.0), 3.0, integrator="generalized_alpha", step=1e-3,
                         rho_inf=0.8, n_outputs=31, progress=False)
@@ -52,6 +50,10 @@ def test_sprinkler_on_a_hub_body_reaches_the_element_sprinklers_speed():
     assert w_hub[-1] == pytest.approx(pf.steady_rotation(scenes.sprinkler(EI=100.0)).omega, rel=2e-5)
     # positions: the arm's inlet stays on the hinge with the hub's node
     assert np.abs(res.elements.x[:, n0]).max() < 1e-9
+    # a heavier hub spins up later to the same speed
+    heavy, _, jh = scenes.sprinkler_on_hub(hub_inertia=1.0)
+    slow = simulate(heavy, 0.5, step=1e-3, n_outputs=6)
+    assert slow.bodies.angular_velocity(jh)[-1, 2] < 0.95 * w_hub[5]  # 8.24 against 8.87 rad/s at 0.5 s
 
 
 def test_pendulum_of_elements_and_a_body_keeps_its_energy():
@@ -127,44 +129,7 @@ def test_pf_simulate_takes_a_coupled_system():
 
 # -- acceptance scene (b): seed 002's rotating cantilever on a free hub ------------------
 
-SPIN_RATE, SPIN_TIME, SPIN_END, SPIN_ELEMENTS = 2.0, 2.0, 3.0, 6  # Omega [rad/s], T [s], run [s]
-HERMITE_MASS = np.array([[13 / 35, 11 / 210, 9 / 70, -13 / 420], [11 / 210, 1 / 105, 13 / 420, -1 / 140],
-                         [9 / 70, 13 / 420, 13 / 35, -11 / 210], [-13 / 420, -1 / 140, -11 / 210, 1 / 105]])
-
-
-def spin_up_acceleration(t):
-    """theta'' of seed 002's eq. 13 [rad/s^2]: Omega / T (1 - cos(2 pi t / T)) for t < T."""
-    return np.where(t < SPIN_TIME, SPIN_RATE / SPIN_TIME * (1 - np.cos(2 * np.pi * t / SPIN_TIME)), 0.0)
-
-
-def free_hub_beam(hub_inertia):
-    """The default rotating cantilever (L = 1 m, EI = 1 N m^2, rho A = 1 kg/m, 6 ANCF
-    elements) clamped to a hub body of inertia J [kg m^2] about the z hinge at the
-    beam's root, driven by the motor torque (J + m L^2 / 3) theta''(t) that would turn
-    a rigid beam by eq. 13. Returns (system, beam nodes, hub body, torque table)."""
-    sec = pf.PipeSection(EI=1.0, EA=216.22**2, pipe_mass=1.0)
-    b = pf.ModelBuilder()
-    nodes = b.add_ancf_beam((0.0, 0.0, 0.0), (1.0, 0.0, 0.0), SPIN_ELEMENTS, sec)
-    beam = b.build(floating=True)
-    length = 0.2
-    mu = 3 * hub_inertia / length**3
-    hub_sec = pf.PipeSection(EI=1e3 * mu, pipe_mass=mu, rotary_inertia=(1e-3 * mu, 0.0, 0.0))
-    mb = MultibodyBuilder()
-    j = mb.add_body(flexible_body(length=length, n_elements=2, section=hub_sec), position=(-length / 2, 0.0, 0.0))
-    t = np.linspace(0.0, SPIN_END, 601)
-    torque = (t, (hub_inertia + 1.0 / 3.0) * spin_up_acceleration(t))
-    mb.hinge(j, "end", (0.0, 0.0, 1.0), torque=torque)
-    cs = CoupledSystem(beam, mb.build())
-    cs.rigid(nodes[0], j, "end")
-    return cs, nodes, j, torque
-
-
-def hub_frame_tip_deflection(res, nodes, j):
-    """The tip's position normal to the hub body's x axis [m] (the hub frame's y)."""
-    R = res.bodies.R[:, j]
-    theta = np.unwrap(np.arctan2(R[:, 1, 0], R[:, 0, 0]))
-    normal = np.stack([-np.sin(theta), np.cos(theta), np.zeros_like(theta)], axis=1)
-    return np.einsum("ij,ij->i", res.elements.x[:, nodes[-1]], normal)
+SPIN = dict(omega=2.0, spin_up_time=2.0, t_end=3.0)  # Omega [rad/s], T [s], run [s]
 
 
 def test_free_hub_approaches_the_prescribed_spin_up():
@@ -172,41 +137,30 @@ def test_free_hub_approaches_the_prescribed_spin_up():
     deflection in the hub frame approaches the prescribed-rate result (the co-rotating
     model of scenes.rotating_cantilever, same elements and step) as the hub's inertia
     grows: its deviation falls like 1/J (measured 2.0e-3 at J = 100, 2.1e-5 at 1e4)."""
-    ref = scenes.rotating_cantilever(n_elements=SPIN_ELEMENTS, omega=SPIN_RATE, spin_up_time=SPIN_TIME)
-    prescribed = pf.simulate(ref, SPIN_END, integrator="generalized_alpha", step=1e-3, n_outputs=7, rho_inf=0.8,
-                             progress=False)
+    ref = scenes.rotating_cantilever(n_elements=6, omega=SPIN["omega"], spin_up_time=SPIN["spin_up_time"])
+    prescribed = pf.simulate(ref, SPIN["t_end"], integrator="generalized_alpha", step=1e-3, n_outputs=7,
+                             rho_inf=0.8, progress=False)
     expected = tip_deflection(ref, prescribed)
     deviation = []
     for J in (1e2, 1e4):
-        cs, nodes, j, _ = free_hub_beam(J)
-        res = simulate(cs, SPIN_END, step=1e-3, n_outputs=7, mass_flow=0.0)
-        deviation.append(np.abs(hub_frame_tip_deflection(res, nodes, j) - expected).max())
+        cs, nodes, j, _ = scenes.beam_on_free_hub(hub_inertia=J, **SPIN)
+        res = simulate(cs, SPIN["t_end"], step=1e-3, n_outputs=7, mass_flow=0.0)
+        deviation.append(np.abs(hub_frame_deflection(res, nodes[-1], j) - expected).max())
     assert deviation[1] < 1e-4 < deviation[0] < 1e-2
     assert deviation[0] / deviation[1] == pytest.approx(100.0, rel=0.3)
 
 
 def test_free_hub_angular_momentum_equals_the_torque_impulse():
     """Angular momentum about the hinge axis at the end of the run, beam (Hermite
-    interpolation of the ANCF nodes, computed here) plus hub body (the generalised
-    momentum of its mass matrix), equals the impulse of the motor torque from rest (the
-    table's integral), to 1e-6: a light hub (J = 1 kg m^2, three times the beam's
-    inertia) whose motion the beam's bending disturbs strongly."""
-    cs, nodes, j, (tt, torque) = free_hub_beam(1.0)
-    res = simulate(cs, SPIN_END, step=1e-3, n_outputs=3, mass_flow=0.0)
-    q = np.asarray(res.elements.final_state.q).reshape(-1, 6)
-    v = np.asarray(res.elements.final_state.v).reshape(-1, 6)
-    l = 1.0 / SPIN_ELEMENTS
-    H_beam = 0.0
-    for A, B in zip(nodes[:-1], nodes[1:]):
-        a = [q[A, :3], l * q[A, 3:], q[B, :3], l * q[B, 3:]]
-        ad = [v[A, :3], l * v[A, 3:], v[B, :3], l * v[B, 3:]]
-        H_beam += l * sum(HERMITE_MASS[i, k] * np.cross(a[i], ad[k])[2] for i in range(4) for k in range(4))
-    hub = cs.bodies
-    st = res.bodies.state(len(res.t) - 1)
-    o, e = hub.offsets[j], hub.offsets[j + 1]
-    R = st.R[j]
-    p = hub.bodies[j].data.M @ np.concatenate([R.T @ st.v[o:o + 3], R.T @ st.v[o + 3:o + 6], st.v[o + 6:e]])
-    H_hub = (np.cross(st.r[j], R @ p[:3]) + R @ p[3:6])[2]
+    interpolation of the ANCF nodes) plus hub body (the generalised momentum of its mass
+    matrix), equals the impulse of the motor torque from rest (the table's integral), to
+    1e-6: a light hub (J = 1 kg m^2, three times the beam's inertia) whose motion the
+    beam's bending disturbs strongly."""
+    cs, nodes, j, (tt, torque) = scenes.beam_on_free_hub(hub_inertia=1.0, **SPIN)
+    res = simulate(cs, SPIN["t_end"], step=1e-3, n_outputs=3, mass_flow=0.0)
     impulse = np.trapz(torque, tt)
-    assert H_beam > 0.2 * impulse  # the beam carries a good part of it
-    assert H_beam + H_hub == pytest.approx(impulse, rel=1e-6)
+    H = angular_momentum_z(res, cs, nodes, j)
+    assert H == pytest.approx(impulse, rel=1e-6)
+    # the beam carries a good part of it: the hub alone would not balance
+    hub_only = angular_momentum_z(res, cs, nodes[:1], j)
+    assert abs(hub_only - impulse) > 0.2 * impulse

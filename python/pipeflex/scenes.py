@@ -14,7 +14,8 @@ from .seeds.seed000.scenes import (RIGID_EI, SPRINKLER_EA, cantilever_pipe, cori
 from .seeds.seed002.scenes import SPIN_UP_BEAMS, rotating_cantilever, spin_up_beam
 from .seeds.seed004.scenes import (PRINTER_POINTS, concrete_printer, ffrf_cantilever_pipe,
                                    ffrf_curved_pipe)
+from .seeds.seed004.coupled_scenes import beam_on_free_hub, sprinkler_on_hub
 
 __all__ = ["RIGID_EI", "SPRINKLER_EA", "cantilever_pipe", "coriolis_meter", "simply_supported_pipe", "sprinkler",
            "SPIN_UP_BEAMS", "rotating_cantilever", "spin_up_beam", "PRINTER_POINTS", "concrete_printer",
-           "ffrf_cantilever_pipe", "ffrf_curved_pipe"]
+           "ffrf_cantilever_pipe", "ffrf_curved_pipe", "sprinkler_on_hub", "beam_on_free_hub"]
