@@ -56,6 +56,13 @@ def table2(expression, n_elements, note=""):
                 f"seed 000, Table 2, {n_elements} elements{note}: critical mass flow [kg/s]")
 
 CHECKS = {
+    "coupled_systems.ipynb": [
+        within("sprinkler_final_difference", 0.0, 1e-8,
+               "the element-only sprinkler's speed at the same step (acceptance scene a)"),
+        within("free_hub_deviation_ratio", 70.0, 140.0,
+               "deviation from the prescribed spin-up falls like 1/J: J = 100 -> 1e4 (acceptance scene b)"),
+        within("largest_momentum_error", 0.0, 2e-6, "angular momentum = torque impulse (acceptance scene b)"),
+    ],
     "campbell.ipynb": [
         near("campbell_resonance", 3.88, 5e-3,
              "seed 002, section 7: resonance omega_1 = Omega at gamma = 3.88, 2 decimals (here the crossing of "
