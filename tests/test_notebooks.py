@@ -75,6 +75,8 @@ CHECKS = {
              "seed 000, Fig. 3 (30 kg/s, 4 elements, EA = 1e5 N): the orbit continued from the Hopf point and the "
              "long transient of the same model, relative"),
         near("exponent", 0.5, 0.05, "a supercritical Hopf bifurcation: amplitude ~ (mdot - mdot_c)^(1/2)"),
+        near("ffrf_amplitude_30", 0.38, 0.005,
+             "seed 004, Fig. 4: 2 FFRF bodies saturate at a 0.38 m tip amplitude at 15 m/s (30 kg/s), 2 decimals"),
     ],
     "seed000_coriolis_meter.ipynb": [
         # The seed prints no numbers for Figs. 7-8; its plotted range and statements are the checks.

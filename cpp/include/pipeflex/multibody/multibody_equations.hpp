@@ -21,7 +21,8 @@ namespace pipeflex {
 class MultibodyEquations final : public Equations {
    public:
     MultibodyEquations(const MultibodySystemCore& sys, const MbState& s, const TimeTable& flow)
-        : sys_(sys), base_(s), cur_(s), flow_(flow), n_(sys.n_coordinates()), nc_(sys.n_constraints()) {
+        : sys_(sys), base_(s), cur_(s), flow_(flow), n_(sys.n_coordinates()), nc_(sys.n_constraints()),
+          start_r_(s.r) {
         // S couples only bodies that share a joint, and a joint's rows touch only its
         // bodies: the triplets cover these blocks (a fixed pattern, zeros included).
         const int nb = sys.n_bodies();
@@ -85,14 +86,25 @@ class MultibodyEquations final : public Equations {
         return 0;
     }
 
-    void accept(double t, double) override {
+    void accept(double t, double h) override {
         bool finite = cur_.eta.allFinite() && cur_.v.allFinite() && cur_.lam.allFinite();
-        for (int j = 0; j < sys_.n_bodies(); ++j) finite = finite && cur_.r[j].allFinite() && cur_.R[j].allFinite();
-        if (finite) return;
+        double far = 0.0;
+        int body = 0;
+        for (int j = 0; j < sys_.n_bodies(); ++j) {
+            finite = finite && cur_.r[j].allFinite() && cur_.R[j].allFinite();
+            const double d = (cur_.r[j] - start_r_[j]).norm();
+            if (d > far) far = d, body = j;
+        }
+        const double limit = kDivergenceLimit * sys_.length_scale();
+        if (finite && far <= limit) return;
         ConvergenceError::Where where;
         where.time = t;
         where.mass_flow = mass_flow(t);
-        throw ConvergenceError("the motion diverged at t = " + fmt(t) + " s: the state is not finite", where);
+        throw ConvergenceError("the motion diverged at t = " + fmt(t) + " s (step " + fmt(h) + " s): " +
+                                   (finite ? "body " + std::to_string(body) + " moved " + fmt(far) +
+                                                 " m from where it started (limit " + fmt(limit) + " m)"
+                                           : std::string("the state is not finite")),
+                               where);
     }
 
     double mass_flow(double t) const override { return flow_.at(t); }
@@ -102,6 +114,8 @@ class MultibodyEquations final : public Equations {
     }
 
    private:
+    // a frame farther than this many body lengths from its start: the motion diverged
+    static constexpr double kDivergenceLimit = 1e3;
     static constexpr double kSlowRate = 1.5;
     static constexpr int kLongStep = 5;
     struct Block {
@@ -125,6 +139,7 @@ class MultibodyEquations final : public Equations {
     MbState base_, cur_;
     const TimeTable& flow_;
     int n_, nc_;
+    std::vector<Vec3d> start_r_;
     MbEvaluation ev_;
     std::vector<Block> blocks_;
 };

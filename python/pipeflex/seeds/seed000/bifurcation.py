@@ -76,11 +76,13 @@ def continue_orbits_orbit(model, branch: OrbitBranch, index: int, steps: int) ->
                           mass_flow=float(branch.mass_flow[index]), steps=steps)
 
 
-def figure(diagrams, *, transients=()):
+def figure(diagrams, *, transients=(), curves=()):
     """Amplitude and period of the tip's lateral motion against the mass flow, drawn by
     :func:`pipeflex.plot.bifurcation`: one colour per diagram, solid between orbits stable
     in 3D, dashed where unstable (out of plane); the Hopf points as dots; ``transients``:
-    (label, mdot [kg/s], amplitude [m], period [s]) marked. Returns the figure."""
+    (label, mdot [kg/s], amplitude [m], period [s]) marked; ``curves``: (label, mdot,
+    amplitudes, periods) of other models (arrays), drawn with square markers. Returns the
+    figure."""
     import matplotlib.pyplot as plt
     from matplotlib.lines import Line2D
 
@@ -99,6 +101,11 @@ def figure(diagrams, *, transients=()):
         ax_t.plot(mdot, period, "k*", ms=9)
     if transients:
         handles.append(Line2D([], [], color="k", marker="*", ls="none", ms=9, label="long transient (Fig. 3)"))
+    for i, (label, mdot, amp, period) in enumerate(curves):
+        style = dict(color=f"C{len(diagrams) + i}", marker="s", ms=4, ls=":")
+        ax_a.plot(mdot, amp, **style)
+        ax_t.plot(mdot, period, **style)
+        handles.append(Line2D([], [], label=label, **style))
     handles += [Line2D([], [], color="grey", ls="-", label="stable in 3D"),
                 Line2D([], [], color="grey", ls="--", label="unstable out of plane"),
                 Line2D([], [], color="grey", ls="none", marker="o", ms=4, label="Hopf point")]

@@ -45,10 +45,12 @@ class Trace:
 
 def ffrf_cantilever_tip(*, n_bodies: int, elements_per_body: int = 20, internal_modes: int = 0,
                         t_end: float = 2.0, step: float = 1e-3, n_outputs: int = 401,
-                        rho_inf: Optional[float] = None, until_failure: bool = False) -> Trace:
+                        rho_inf: Optional[float] = None, until_failure: bool = False,
+                        flow_speed: float = CANTILEVER_FLOW_SPEED) -> Trace:
     """Tip deflection [m] (along the 1.5 N tip force, global z) of the FFRF cantilever of
-    sec. 8.1: static deflection without flow, then sdot = 15 m/s (mdot = 30 kg/s) from
-    t = 0 on (a sudden start, as seed 000's Fig. 3), to ``t_end`` [s] with ``step`` [s].
+    sec. 8.1: static deflection without flow, then sdot = ``flow_speed`` [m/s] (the seed's
+    15 m/s: mdot = 30 kg/s) from t = 0 on (a sudden start, as seed 000's Fig. 3), to
+    ``t_end`` [s] with ``step`` [s].
 
     ``until_failure``: if the integration fails (a diverging model), return the run up to
     0.05 s before the failure, with the failure time in ``Trace.failed_at``, instead of
@@ -61,7 +63,7 @@ def ffrf_cantilever_tip(*, n_bodies: int, elements_per_body: int = 20, internal_
     rho = (0.8 if internal_modes else 0.9) if rho_inf is None else rho_inf
     s = scenes.ffrf_cantilever_pipe(n_bodies=n_bodies, elements_per_body=elements_per_body,
                                     internal_modes=internal_modes, tip_force=CANTILEVER_TIP_FORCE)
-    sdot = CANTILEVER_FLOW_SPEED
+    sdot = flow_speed
     mdot = s.bodies[0].section.fluid_mass * sdot
     w = time.perf_counter()
     st = mb_static(s, mass_flow=0.0).state
@@ -99,6 +101,23 @@ def cycle_summary(trace: Trace, *, after: float) -> Dict[str, float]:
     """Amplitude [m] and period [s] of a tip trace after ``after`` [s]."""
     amp, period, _ = cycle_metrics(trace.t, trace.y, after=after)
     return {"amplitude": amp, "period": period}
+
+
+def ffrf_cycle_branch(mass_flows: Sequence[float], *, n_bodies: int, t_end: float = 6.0, settle: float = 3.0,
+                      step: float = 1e-3) -> Dict[str, np.ndarray]:
+    """The FFRF cantilever's limit cycle at each mass flow [kg/s] by long transients (the
+    stable cycles only; the elements' cycles are continued by pipeflex.continue_orbits):
+    ``amplitude`` [m] and ``period`` [s] of the tip's motion along the tip force after
+    ``settle`` [s] of a ``t_end`` [s] run, and ``mass_flow``."""
+    mu_f = scenes.ffrf_cantilever_pipe(n_bodies=1).bodies[0].section.fluid_mass
+    amp, period = [], []
+    for mdot in mass_flows:
+        tr = ffrf_cantilever_tip(n_bodies=n_bodies, t_end=t_end, step=step, n_outputs=int(round(t_end / step)) + 1,
+                                 flow_speed=mdot / mu_f)
+        c = cycle_summary(tr, after=settle)
+        amp.append(c["amplitude"])
+        period.append(c["period"])
+    return {"mass_flow": np.asarray(mass_flows, float), "amplitude": np.array(amp), "period": np.array(period)}
 
 
 def critical_flow_speed(system) -> float:
