@@ -164,3 +164,16 @@ def test_free_hub_angular_momentum_equals_the_torque_impulse():
     # the beam carries a good part of it: the hub alone would not balance
     hub_only = angular_momentum_z(res, cs, nodes[:1], j)
     assert abs(hub_only - impulse) > 0.2 * impulse
+
+
+def test_pf_simulate_takes_a_multibody_system():
+    """One entry for every system: pf.simulate runs a MultibodySystem through
+    pipeflex.multibody.simulate (the same integrator), with the same option names."""
+    from pipeflex.multibody import simulate as mb_simulate
+
+    s = scenes.ffrf_cantilever_pipe(n_bodies=2, elements_per_body=4, tip_force=1.5)
+    a = pf.simulate(s, 0.02, step=1e-3, n_outputs=3, mass_flow=30.0, rho_inf=0.8)
+    b = mb_simulate(s, 0.02, step=1e-3, n_outputs=3, mass_flow=30.0, rho_inf=0.8)
+    assert np.array_equal(a.r, b.r) and np.array_equal(a.eta, b.eta)
+    with pytest.raises(ValueError, match="generalised-alpha"):
+        pf.simulate(s, 0.02, integrator="ida")

@@ -165,9 +165,10 @@ def simulate(model, t_end: float, *, integrator: str = "auto", state=None, t_sta
 
     Args:
         model: the model; a :class:`~pipeflex.CoupledSystem` (elements and floating-frame
-            bodies) goes to :func:`pipeflex.coupled.simulate` (generalised-alpha; ``step``
-            defaults to 1 ms there, ``state`` is the element model's, ``body_state`` the
-            bodies').
+            bodies) goes to :func:`pipeflex.coupled.simulate` and a
+            :class:`~pipeflex.multibody.MultibodySystem` to
+            :func:`pipeflex.multibody.simulate` (both generalised-alpha, the same integrator;
+            ``step`` defaults to 1 ms there).
         t_end: final time [s] (> t_start).
         integrator: ``"auto"`` (default), ``"generalized_alpha"`` (second order, numerical
             damping set by ``rho_inf``; fixed step, halved when Newton fails) or ``"ida"``
@@ -219,7 +220,14 @@ def simulate(model, t_end: float, *, integrator: str = "auto", state=None, t_sta
     from ..multibody import MultibodySystem
 
     if isinstance(model, MultibodySystem):
-        raise ValueError("a MultibodySystem (floating-frame bodies) is integrated by pipeflex.multibody.simulate")
+        from ..multibody import simulate as multibody_simulate
+
+        if integrator not in ("auto", "generalized_alpha") or times is not None or t_start != 0.0 \
+                or not (np.isscalar(load_factor) and load_factor == 1.0):
+            raise ValueError("a MultibodySystem is integrated by generalised-alpha from its state's time, with "
+                             "n_outputs equal output times and its own loads (pipeflex.multibody.simulate)")
+        return multibody_simulate(model, t_end, state=state, mass_flow=mass_flow, n_outputs=n_outputs,
+                                  **{"step": 1e-3, **options})
     own = getattr(model, "_simulate", None)  # a system with its own driver (pipeflex.CoupledSystem)
     if own is not None:
         return own(t_end, integrator=integrator, state=state, t_start=t_start, n_outputs=n_outputs, times=times,
