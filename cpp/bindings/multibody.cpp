@@ -1,6 +1,7 @@
 // Bindings of the multibody system core (seed 004): states cross as numpy arrays.
 #include "outputs.hpp"
 #include "pipeflex/multibody/multibody.hpp"
+#include "pipeflex/multibody/multibody_equations.hpp"
 
 #include <pybind11/eigen.h>
 #include <pybind11/numpy.h>
@@ -160,6 +161,22 @@ void bind_multibody(py::module_& m) {
             py::arg("r"), py::arg("R"), py::arg("eta"), py::arg("v"), py::arg("a"), py::arg("lam"), py::arg("t"),
             py::arg("mass_flow"), py::arg("mass_flow_rate"), py::arg("load_factor"), py::arg("gravity_factor"),
             py::arg("wK"), py::arg("wC"), py::arg("wM"), py::arg("tangent"))
+        .def(
+            "static_newton",
+            [](const MultibodySystemCore& sys, const Arr& r, const Arr& R, const VecX& eta, const VecX& lam, double t,
+               double mass_flow, double load_factor, double tol, int max_iterations) {
+                MbState s = to_state(sys, r, R, eta, VecX::Zero(eta.size()), VecX::Zero(eta.size()), lam, t);
+                StaticNewtonResult res;
+                {
+                    py::gil_scoped_release release;
+                    res = multibody_static(sys, s, mass_flow, load_factor, tol, max_iterations);
+                }
+                py::dict d = static_dict(res);
+                d["state"] = from_state(s);
+                return d;
+            },
+            py::arg("r"), py::arg("R"), py::arg("eta"), py::arg("lam"), py::arg("t"), py::arg("mass_flow"),
+            py::arg("load_factor"), py::arg("tol"), py::arg("max_iterations"))
         .def(
             "integrate",
             [](const MultibodySystemCore& sys, const Arr& r, const Arr& R, const VecX& eta, const VecX& v,

@@ -2,6 +2,7 @@
 #pragma once
 
 #include "pipeflex/multibody/multibody.hpp"
+#include "pipeflex/solvers/equations.hpp"
 #include "pipeflex/solvers/transient.hpp"
 
 #include <pybind11/numpy.h>
@@ -18,5 +19,17 @@ pybind11::dict transient_dict(const TransientOutput& out, pybind11::ssize_t n_no
 MbState to_state(const MultibodySystemCore& sys, const Arr& r, const Arr& R, const VecX& eta, const VecX& v,
                  const VecX& a, const VecX& lam, double t);
 pybind11::tuple from_state(const MbState& s);
+
+// A static solve's outcome: converged, singular, iterations, residual [N], correction.
+inline pybind11::dict static_dict(const StaticNewtonResult& r) {
+    pybind11::dict d;
+    d["converged"] = r.converged;
+    d["singular"] = r.singular;
+    d["diverged"] = r.diverged;
+    d["iterations"] = r.iterations;
+    d["residual"] = r.residual;
+    d["correction"] = r.correction;
+    return d;
+}
 
 }  // namespace pipeflex

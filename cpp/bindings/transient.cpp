@@ -65,6 +65,27 @@ void check_run(const Model& model, const State& state, const std::vector<double>
                                     std::to_string(opt.max_steps) + " (raise step or max_steps, or shorten the run)");
 }
 
+// Couplings from Python: (element node, kind 0 rigid / 1 hinge / 2 spherical, body, body
+// node, C0, axis_b, perp0, perp1) tuples.
+std::vector<Coupling> couplings_from(const py::list& couplings) {
+    std::vector<Coupling> cp;
+    for (const py::handle& h : couplings) {
+        const py::tuple c = py::reinterpret_borrow<py::tuple>(h);
+        Coupling k;
+        k.element_node = c[0].cast<int>();
+        const int kind = c[1].cast<int>();
+        if (kind < 0 || kind > 2) throw std::invalid_argument("coupling kind must be 0 (rigid), 1 (hinge) or 2 (spherical)");
+        k.joint.kind = static_cast<JointKind>(kind);
+        k.joint.body_b = c[2].cast<int>();
+        k.joint.node_b = c[3].cast<int>();
+        k.joint.C0 = c[4].cast<Mat3d>();
+        k.joint.axis_b = c[5].cast<Vec3d>();
+        k.joint.perp_a = {c[6].cast<Vec3d>(), c[7].cast<Vec3d>()};
+        cp.push_back(k);
+    }
+    return cp;
+}
+
 // A Python callable (or None) as the integrators' progress callback, taking the GIL.
 ProgressFn progress_callback(py::object progress) {
     if (progress.is_none()) return {};
@@ -147,21 +168,7 @@ void bind_transient(py::module_& m) {
             check_run(md, s, times, o, true);
             MbState bs = to_state(bodies, r, R, eta, v, VecX::Zero(v.size()), VecX::Zero(bodies.n_constraints()),
                                   times.empty() ? 0.0 : times.front());
-            std::vector<Coupling> cp;
-            for (const py::handle& h : couplings) {
-                const py::tuple c = py::reinterpret_borrow<py::tuple>(h);
-                Coupling k;
-                k.element_node = c[0].cast<int>();
-                const int kind = c[1].cast<int>();
-                if (kind < 0 || kind > 2) throw std::invalid_argument("coupling kind must be 0 (rigid), 1 (hinge) or 2 (spherical)");
-                k.joint.kind = static_cast<JointKind>(kind);
-                k.joint.body_b = c[2].cast<int>();
-                k.joint.node_b = c[3].cast<int>();
-                k.joint.C0 = c[4].cast<Mat3d>();
-                k.joint.axis_b = c[5].cast<Vec3d>();
-                k.joint.perp_a = {c[6].cast<Vec3d>(), c[7].cast<Vec3d>()};
-                cp.push_back(k);
-            }
+            const std::vector<Coupling> cp = couplings_from(couplings);
             const ProgressFn cb = progress_callback(progress);
             CoupledOutput out;
             {
@@ -179,6 +186,27 @@ void bind_transient(py::module_& m) {
         py::arg("model"), py::arg("state"), py::arg("load"), py::arg("mass_flow"), py::arg("load_factor"),
         py::arg("bodies"), py::arg("r"), py::arg("R"), py::arg("eta"), py::arg("v"), py::arg("couplings"),
         py::arg("times"), py::arg("options"), py::arg("progress") = py::none());
+    m.def(
+        "coupled_static",
+        [](const Model& md, State& s, const LoadState& l, const MultibodySystemCore& bodies, const Arr& r,
+           const Arr& R, const VecX& eta, const VecX& lam, const py::list& couplings, VecX coupling_lam,
+           double load_factor, const TransientOptions& o, double tol, int max_iterations) {
+            check_state(md, s);
+            MbState bs = to_state(bodies, r, R, eta, VecX::Zero(eta.size()), VecX::Zero(eta.size()), lam, 0.0);
+            const std::vector<Coupling> cp = couplings_from(couplings);
+            StaticNewtonResult res;
+            {
+                py::gil_scoped_release release;
+                res = coupled_static(md, s, l, bodies, bs, cp, coupling_lam, load_factor, o, tol, max_iterations);
+            }
+            py::dict d = static_dict(res);
+            d["bodies"] = from_state(bs);
+            d["coupling_multipliers"] = coupling_lam;
+            return d;
+        },
+        py::arg("model"), py::arg("state"), py::arg("load"), py::arg("bodies"), py::arg("r"), py::arg("R"),
+        py::arg("eta"), py::arg("lam"), py::arg("couplings"), py::arg("coupling_lam"), py::arg("load_factor"),
+        py::arg("options"), py::arg("tol"), py::arg("max_iterations"));
     m.def("generalized_alpha_flow_map",
           [](const Model& md, State& s, const LoadState& l, const Eigen::VectorXd& z0, const Eigen::VectorXd& v0,
              double duration, int n_steps, bool sensitivity, const TransientOptions& o) {

@@ -102,6 +102,10 @@ class CoupledEquations final : public Equations {
         mb_.accept(t, h);
     }
     double mass_flow(double t) const override { return el_.mass_flow(t); }
+    void set_static_load_factor(double f) override {
+        el_.set_static_load_factor(f);
+        mb_.set_static_load_factor(f);
+    }
     RefreshPolicy refresh_policy() const override { return mb_.refresh_policy(); }
     std::string singular_mass_hint() const override {
         return el_.singular_mass_hint() + " Or: " + mb_.singular_mass_hint() +
@@ -268,6 +272,38 @@ CoupledOutput integrate_coupled(const Model& model, State& state, const LoadStat
     body_state = mb.state();
     put_stats(alpha.stats(), out.elements);
     return out;
+}
+
+StaticNewtonResult coupled_static(const Model& model, State& state, const LoadState& load,
+                                  const MultibodySystemCore& bodies, MbState& body_state,
+                                  const std::vector<Coupling>& couplings, Eigen::VectorXd& coupling_lam,
+                                  double load_factor, const TransientOptions& opt, double tol, int max_iterations) {
+    check_state(model, state);
+    bodies.check_state(body_state);
+    TimeTable flow, loads;
+    flow.t = loads.t = {0.0};
+    flow.value = {load.mass_flow};
+    loads.value = {1.0};
+    const TimeFunctions functions{flow, loads};
+    ElementEquations el(model, state, load, functions, opt);
+    MultibodyEquations mb(bodies, body_state, flow);
+    CoupledEquations eq(el, mb, bodies, couplings);
+    eq.set_static_load_factor(load_factor);
+    VecX v1 = reduce(model, state.v), a1;
+    el.rebase(0.0, v1, a1);
+    VecX lam(eq.n_constraints());
+    lam << body_state.lam, (coupling_lam.size() == eq.n_constraints() - bodies.n_constraints()
+                                ? coupling_lam
+                                : VecX::Zero(eq.n_constraints() - bodies.n_constraints()));
+    const StaticNewtonResult res = static_newton(eq, body_state.t, lam, tol, max_iterations);
+    body_state = mb.state();
+    body_state.lam = lam.head(bodies.n_constraints());
+    body_state.v.setZero();
+    body_state.a.setZero();
+    state.v.setZero();
+    state.a.setZero();
+    coupling_lam = lam.tail(eq.n_constraints() - bodies.n_constraints());
+    return res;
 }
 
 }  // namespace pipeflex

@@ -370,6 +370,23 @@ double MultibodySystemCore::velocity_drift(const MbState& s, const MbEvaluation&
     return drift;
 }
 
+StaticNewtonResult multibody_static(const MultibodySystemCore& sys, MbState& s, double mdot, double load_factor,
+                                    double tol, int max_iterations) {
+    sys.check_state(s);
+    TimeTable flow;
+    flow.t = {0.0};
+    flow.value = {mdot};
+    MultibodyEquations eq(sys, s, flow);
+    eq.set_static_load_factor(load_factor);
+    VecX lam = s.lam;
+    const StaticNewtonResult res = static_newton(eq, s.t, lam, tol, max_iterations);
+    s = eq.state();
+    s.lam = lam;
+    s.v.setZero();
+    s.a.setZero();
+    return res;
+}
+
 MbOutput MultibodySystemCore::integrate(MbState& s, const TimeTable& mass_flow, double t_end,
                                         const std::vector<long>& out_steps, const MbOptions& opt) const {
     check_state(s);

@@ -33,6 +33,7 @@ from .analysis.transient import TransientResult
 from .model import Model
 from .multibody.analysis import MAX_STEPS, MultibodyResult
 from .multibody.system import MultibodyState, MultibodySystem
+from .errors import ConvergenceError, SingularMatrixError
 from .results import Result
 from .state import State, as_core
 from .time_functions import time_function
@@ -129,6 +130,17 @@ class CoupledSystem:
             out.append((c.node, KINDS.index(c.kind), c.body, c.body_node, Aa.T @ Ab, axis_b, perp[0], perp[1]))
         return out
 
+    def _static(self, *, state=None, mass_flow=None, load_steps=1, **options) -> "CoupledStatic":
+        """:func:`pipeflex.static_equilibrium`'s entry for a coupled system."""
+        if state is not None:
+            raise ValueError("a CoupledSystem's static solve starts from its assembly configuration "
+                             "(pipeflex.coupled.static_equilibrium)")
+        unknown = set(options) - {"tol", "max_iterations"}
+        if unknown:
+            raise ValueError(f"unknown option(s) {sorted(unknown)} for a CoupledSystem's static solve; "
+                             f"valid: load_steps, mass_flow, max_iterations, tol")
+        return static_equilibrium(self, mass_flow=mass_flow, load_steps=load_steps, **options)
+
     def _simulate(self, t_end, *, integrator, state, t_start, n_outputs, times, mass_flow, load_factor, progress,
                   **options) -> "CoupledResult":
         """:func:`pipeflex.simulate`'s entry for a coupled system."""
@@ -168,6 +180,78 @@ class CoupledResult(Result):
     @property
     def t(self) -> np.ndarray:
         return self.elements.t
+
+
+@dataclass(frozen=True)
+class CoupledStatic(Result):
+    """A coupled static equilibrium: ``state`` (the element model's
+    :class:`~pipeflex.State`), ``body_state`` (a :class:`~pipeflex.multibody.MultibodyState`
+    with the bodies' joint multipliers), ``coupling_forces`` (the couplings' multipliers
+    [N, N m]), ``iterations`` (Newton's, all load steps), ``residual`` [N] and
+    ``mass_flow`` mdot [kg/s]."""
+
+    state: State
+    body_state: MultibodyState
+    coupling_forces: np.ndarray
+    iterations: int
+    residual: float
+    mass_flow: float
+
+
+def static_equilibrium(system: CoupledSystem, *, mass_flow: Optional[float] = None, load_steps: int = 1,
+                       tol: float = 1e-10, max_iterations: int = 30) -> CoupledStatic:
+    """Static equilibrium of a :class:`CoupledSystem` from its assembly configuration: the
+    core's Newton on the scaled KKT matrix of the element and body equations with their
+    joints (one sparse LU per iteration), loads and gravity applied in ``load_steps``
+    increments; converged when the correction is below ``tol`` model sizes.
+
+    Args:
+        mass_flow: mdot [kg/s] (default: the element model's).
+        load_steps: increments of the loads and gravity.
+        tol: Newton tolerance on the correction, relative to the model size [-].
+        max_iterations: Newton iterations per load step.
+
+    Raises:
+        SingularMatrixError: the KKT matrix is singular (a mechanism: a rigid motion that
+            neither supports, joints nor couplings lock, or a motion locked twice).
+        ConvergenceError: no convergence (load factor, iterations, residual).
+    """
+    if not isinstance(system, CoupledSystem):
+        raise ValueError("system must be a pipeflex.CoupledSystem")
+    steps = _checks.positive_int("load_steps", load_steps)
+    tol = _checks.positive("tol", tol)
+    max_iterations = _checks.positive_int("max_iterations", max_iterations)
+    model, bodies = system.model, system.bodies
+    mdot = model.mass_flow if mass_flow is None else _checks.finite("mass_flow", mass_flow)
+    opt = _core.TransientOptions()
+    opt.length_scale = max(float(np.ptp(model.positions, axis=0).max()), bodies.length_scale, 1e-3)
+    st = as_core(model, None)
+    bs = bodies.initial_state()
+    r, R, eta, lam = bs.r, bs.R, bs.eta, bs.lam
+    lam_c = np.zeros(system.n_constraints - bodies.n_constraints)
+    total = 0
+    for k in range(1, steps + 1):
+        lf = k / steps
+        out = _core.coupled_static(model.core, st, model.load_state(mass_flow=mdot), bodies.core, r, R, eta, lam,
+                                   system.core_couplings(), lam_c, lf, opt, tol, max_iterations)
+        total += out["iterations"]
+        r, R, eta, _, _, lam, _ = out["bodies"]
+        lam_c = np.array(out["coupling_multipliers"])
+        if out["singular"] or out["diverged"]:
+            what = "singular KKT matrix" if out["singular"] else \
+                f"a correction of {out['correction']:.3g} m, beyond the model's size (a nearly singular tangent)"
+            raise SingularMatrixError(f"coupled static solve: {what} at load factor {lf:.3g}, iteration "
+                                      f"{out['iterations']}: a mechanism (a rigid motion that supports, joints and "
+                                      f"couplings leave free, loaded) or a motion locked twice", load_factor=lf,
+                                      iteration=out["iterations"], residual=out["residual"], mass_flow=mdot)
+        if not out["converged"]:
+            raise ConvergenceError(f"coupled static solve did not converge at load factor {lf:.3g} after "
+                                   f"{max_iterations} iterations (last correction {out['correction']:.3g}, residual "
+                                   f"{out['residual']:.3g} N)", load_factor=lf, iteration=max_iterations,
+                                   residual=out["residual"], mass_flow=mdot)
+    zero = np.zeros_like(eta)
+    return CoupledStatic(State.from_core(st, model), MultibodyState(r, R, eta, zero, zero.copy(), lam, 0.0), lam_c,
+                         total, float(out["residual"]), mdot)
 
 
 def simulate(system: CoupledSystem, t_end: float, *, step: float, n_outputs: int = 201,

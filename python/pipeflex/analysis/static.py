@@ -96,10 +96,16 @@ def static_equilibrium(model, *, state=None, mass_flow: Optional[float] = None, 
             point below t = 1: ``load_factor`` [-] of the limit point, ``reached_state``
             there, ``mass_flow`` its mdot [kg/s].
 
+    A :class:`~pipeflex.CoupledSystem` is solved by :func:`pipeflex.coupled.static_equilibrium`.
     A :class:`~pipeflex.multibody.MultibodySystem` is solved by
     :func:`pipeflex.multibody.static_equilibrium` (same options).
     """
     from ..multibody import MultibodySystem, static_equilibrium as multibody_static
+    own = getattr(model, "_static", None)  # a system with its own solver (pipeflex.CoupledSystem)
+    if own is not None:
+        if path != "auto" or from_mass_flow is not None:
+            raise NotImplementedError("path and from_mass_flow for a CoupledSystem")
+        return own(state=state, mass_flow=mass_flow, load_steps=load_steps, tol=tol, max_iterations=max_iterations)
 
     if path not in ("auto", "load", "arclength"):
         raise ValueError(f"path must be 'auto', 'load' or 'arclength', got {path!r}")

@@ -109,28 +109,19 @@ def _null_space_step(S, J, F, c, elastic, cutoff=1e-9):
     return dq, dlam
 
 
-def _kkt_step(S, J, F, c):
-    """Newton increment (dq, dlam) of a system without mechanism by one sparse LU of
-    [S, s J^T; s J, 0] (constraint rows scaled by s = max |S|, as the integrator's); None
-    if the matrix is singular or the increment not finite (the caller falls back to the
-    null-space step)."""
-    n, nc = S.shape[0], J.shape[0]
-    scale = float(np.abs(S).max()) or 1.0
-    A = sp.bmat([[sp.csc_matrix(S), scale * sp.csc_matrix(J.T)], [scale * sp.csc_matrix(J), None]], format="csc")
-    try:
-        x = spla.splu(A).solve(-np.concatenate([F, scale * c]))
-    except RuntimeError:  # exactly singular
-        return None
-    if not np.all(np.isfinite(x)):
-        return None
-    return x[:n], scale * x[n:]
-
-
 def _has_mechanism(J, elastic) -> bool:
     """Whether the joints leave a rigid motion of the bodies free (a hinge, a spherical
-    joint, an unsupported body): J restricted to the frame coordinates is rank-deficient."""
-    rigid = J[:, ~elastic]
-    return np.linalg.matrix_rank(rigid) < rigid.shape[1] if rigid.shape[1] else False
+    joint, an unsupported body): J restricted to the frame coordinates is rank-deficient,
+    seen as a vanishing pivot of the sparse LU of its Gram matrix (J_r^T J_r is banded for
+    a chain: linear in the number of bodies, where a dense rank is cubic)."""
+    rigid = sp.csc_matrix(J[:, ~elastic])
+    if rigid.shape[1] == 0:
+        return False
+    try:
+        pivots = np.abs(spla.splu((rigid.T @ rigid).tocsc()).U.diagonal())
+    except RuntimeError:  # exactly singular
+        return True
+    return not pivots.min() > 1e-12 * pivots.max()
 
 
 def static_equilibrium(system: MultibodySystem, *, state: Optional[MultibodyState] = None,
@@ -177,23 +168,35 @@ def static_equilibrium(system: MultibodySystem, *, state: Optional[MultibodyStat
         sl = system.body_slice(j)
         elastic[sl.start + 6:sl.stop] = True
     total = 0
-    # Without a mechanism the KKT matrix is regular: one sparse LU per iteration instead of
-    # the null-space step's dense SVDs (cubic in the number of bodies).
+    # Without a mechanism the KKT matrix is regular: the core's Newton (static_newton, one
+    # sparse LU per iteration, the equations the integrator uses) instead of the null-space
+    # step's dense SVDs (cubic in the number of bodies), which remain for mechanisms and as
+    # the fallback.
     sparse_path = not _has_mechanism(system.constraints(st)[1], elastic)
+    S = None
     for k in range(1, steps + 1):
         lf = k / steps
         last = np.inf
+        if sparse_path:
+            out = system.core.static_newton(st.r, st.R, st.eta, st.lam, st.t, mdot, lf, tol, max_iterations)
+            total += out["iterations"]
+            if out["converged"]:
+                r, R, eta, _, _, lam, t_ = out["state"]
+                st = MultibodyState(r, R, eta, np.zeros_like(eta), np.zeros_like(eta), lam, t_)
+                continue
+            if not (out["singular"] or out["diverged"]):
+                raise ConvergenceError(f"static solve did not converge at load factor {lf:.3g} after "
+                                       f"{max_iterations} iterations (last increment {out['correction']:.3g})",
+                                       load_factor=lf, iteration=max_iterations, residual=out["residual"],
+                                       mass_flow=mdot)
+            sparse_path = False  # (nearly) singular, a mechanism after all: the null-space step from here
         for it in range(max_iterations):
             F, c, J, S = system.evaluate(st, mass_flow=mdot, load_factor=lf, gravity_factor=lf)
             where = dict(load_factor=lf, iteration=it, mass_flow=mdot)
             if not (np.all(np.isfinite(S)) and np.all(np.isfinite(F)) and np.all(np.isfinite(c))):
                 raise ConvergenceError(f"static solve: non-finite tangent or residual at load factor {lf:.3g}, "
                                        f"iteration {it}", **where)
-            step = _kkt_step(S, J, F, c) if sparse_path else None
-            if step is None:
-                sparse_path = False
-                step = _null_space_step(S, J, F, c, elastic)
-            dq, dlam = step
+            dq, dlam = _null_space_step(S, J, F, c, elastic)
             total += 1
             if not (np.all(np.isfinite(dq)) and np.all(np.isfinite(dlam))):
                 raise ConvergenceError(f"static solve: non-finite increment at load factor {lf:.3g}, iteration {it}",
@@ -216,9 +219,11 @@ def static_equilibrium(system: MultibodySystem, *, state: Optional[MultibodyStat
                                    residual=float(np.abs(F).max()), mass_flow=mdot)
     F, _, _, _ = system.evaluate(st, mass_flow=mdot, tangent=False)
     res = float(np.abs(F).max())
-    # round-off of the stiffest forces: ~eps |S| L (nearly inextensible bodies: EA ~ 1e10 EI)
-    roundoff = 1e3 * np.finfo(float).eps * float(np.abs(S).max()) * L
-    if not res <= max(RESIDUAL_TOL * applied, roundoff):
+    if not res <= RESIDUAL_TOL * applied:
+        # round-off of the stiffest forces: ~eps |S| L (nearly inextensible bodies: EA ~ 1e10 EI)
+        S = system.evaluate(st, mass_flow=mdot)[3] if S is None else S
+        roundoff = 1e3 * np.finfo(float).eps * float(np.abs(S).max()) * L
+    if not res <= RESIDUAL_TOL * applied and not res <= roundoff:
         worst = int(np.argmax(np.abs(F)))
         body = int(np.searchsorted(system.offsets, worst, side="right")) - 1
         raise SingularMatrixError(

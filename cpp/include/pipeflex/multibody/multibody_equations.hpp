@@ -63,7 +63,7 @@ class MultibodyEquations final : public Equations {
     }
 
     void evaluate(double wK, double wC, double wM, Eigen::VectorXd& r, Triplets* J) override {
-        sys_.evaluate(cur_, flow_.at(cur_.t), flow_.rate(cur_.t), 1.0, 1.0, wK, wC, wM, J != nullptr, ev_);
+        sys_.evaluate(cur_, flow_.at(cur_.t), flow_.rate(cur_.t), factor_, factor_, wK, wC, wM, J != nullptr, ev_);
         r.resize(n_ + nc_);
         r.head(n_) = ev_.F;
         r.tail(nc_) = ev_.c;
@@ -108,6 +108,7 @@ class MultibodyEquations final : public Equations {
     }
 
     double mass_flow(double t) const override { return flow_.at(t); }
+    void set_static_load_factor(double f) override { factor_ = f >= 0.0 ? f : 1.0; }
     RefreshPolicy refresh_policy() const override { return {kSlowRate, kLongStep}; }
     std::string singular_mass_hint() const override {
         return "the joints lock a motion twice or leave a body's mass matrix singular";
@@ -140,8 +141,15 @@ class MultibodyEquations final : public Equations {
     const TimeTable& flow_;
     int n_, nc_;
     std::vector<Vec3d> start_r_;
+    double factor_ = 1.0;  // loads and gravity (statics steps them)
     MbEvaluation ev_;
     std::vector<Block> blocks_;
 };
+
+// Static equilibrium of the bodies from the state s (its frames, modal coordinates and
+// multipliers; updated) under the mass flow mdot [kg/s] and the loads and gravity scaled by
+// load_factor: static_newton on the system's equations.
+StaticNewtonResult multibody_static(const MultibodySystemCore& sys, MbState& s, double mdot, double load_factor,
+                                    double tol, int max_iterations);
 
 }  // namespace pipeflex

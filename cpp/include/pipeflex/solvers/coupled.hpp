@@ -9,6 +9,7 @@
 #pragma once
 
 #include "pipeflex/multibody/multibody.hpp"
+#include "pipeflex/solvers/equations.hpp"
 #include "pipeflex/solvers/transient.hpp"
 
 #include <vector>
@@ -34,5 +35,13 @@ CoupledOutput integrate_coupled(const Model& model, State& state, const LoadStat
                                 MbState& body_state, const std::vector<Coupling>& couplings,
                                 const std::vector<double>& times, const TransientOptions& opt,
                                 const ProgressFn& progress);
+
+// Static equilibrium of a coupled system from the element state and the body state (both
+// updated; the couplings' multipliers in coupling_lam, n rows, updated) under the mass flow
+// mdot [kg/s] and the loads and gravity scaled by load_factor.
+StaticNewtonResult coupled_static(const Model& model, State& state, const LoadState& load,
+                                  const MultibodySystemCore& bodies, MbState& body_state,
+                                  const std::vector<Coupling>& couplings, Eigen::VectorXd& coupling_lam,
+                                  double load_factor, const TransientOptions& opt, double tol, int max_iterations);
 
 }  // namespace pipeflex

@@ -35,6 +35,7 @@ class ElementEquations final : public Equations {
     int n;
     Eigen::VectorXd base_q;
     double t_set = 0.0;
+    double static_factor = -1.0;  // >= 0: statics' load factor (loads and gravity)
     double fluid_work = 0.0, load_work = 0.0, last_power_t = 0.0, last_fluid_power = 0.0,
            last_load_power = 0.0;
 
@@ -90,8 +91,15 @@ class ElementEquations final : public Equations {
         set(z, v, a, t);
     }
     void evaluate(double wK, double wC, double wM, Eigen::VectorXd& r, Triplets* J) override {
-        assemble(model, state, load_at(t_set), load_factor(t_set), wK, wC, wM, &r, J);
+        LoadState l = load_at(t_set);
+        double lf = load_factor(t_set);
+        if (static_factor >= 0.0) {  // statics: loads and gravity stepped together
+            l.gravity_factor *= static_factor;
+            lf = static_factor;
+        }
+        assemble(model, state, l, lf, wK, wC, wM, &r, J);
     }
+    void set_static_load_factor(double f) override { static_factor = f; }
     int rebase(Eigen::VectorXd& v, Eigen::VectorXd& a) override { return rebase(0.0, v, a); }
     void accept(double t, double h) override {
         check_divergence(t, h);

@@ -55,6 +55,8 @@ class Equations {
         int long_step = 3;
     };
     virtual RefreshPolicy refresh_policy() const { return {}; }
+    // Statics: scale the applied loads and gravity by f (< 0: the run's own load factor).
+    virtual void set_static_load_factor(double f) { (void)f; }
     // Mass flow at t [kg/s], for error reports.
     virtual double mass_flow(double t) const { (void)t; return 0.0; }
     // Why a singular mass matrix or iteration matrix is singular, in the system's terms.
@@ -128,6 +130,20 @@ class AlphaNewton {
 // (singular mass) if the system's mass matrix is singular on the constraints' null space.
 void initial_acceleration(Equations& eq, const Eigen::VectorXd& z, const Eigen::VectorXd& v, double t,
                           Eigen::VectorXd& a, Eigen::VectorXd& lam);
+
+// Static equilibrium R(q, 0, 0) + C_q^T lambda = 0, c(q) = 0 at time t by Newton's method
+// on the scaled KKT matrix [K, s C_q^T; s C_q, 0] (sparse LU): from the state's base
+// configuration and the multipliers lam (updated). Converged when the correction is
+// below tol model sizes and the constraints below 1e-6 model sizes (or stalls at
+// round-off within 1e3 tol). The configuration is re-based after every iteration.
+struct StaticNewtonResult {
+    bool converged = false, singular = false;
+    bool diverged = false;  // a correction longer than 10 model sizes (a nearly singular tangent)
+    int iterations = 0;
+    double residual = 0.0;    // |R + C_q^T lambda| at the end [N]
+    double correction = 0.0;  // last |dz| [m, rad]
+};
+StaticNewtonResult static_newton(Equations& eq, double t, Eigen::VectorXd& lam, double tol, int max_iterations);
 
 // The Lie-group generalised-alpha integrator (Arnold & Bruls 2007) of any system: equal
 // steps within each interval between output times, halved after a failed Newton
