@@ -156,7 +156,7 @@ void bind_multibody(py::module_& m) {
                 const MbState s = to_state(sys, r, R, eta, v, a, lam, t);
                 MbEvaluation ev;
                 sys.evaluate(s, mdot, mdot_rate, load_factor, gravity_factor, wK, wC, wM, tangent, ev);
-                return py::make_tuple(ev.F, ev.c, sys.constraint_jacobian(ev), tangent ? py::object(py::cast(ev.S)) : py::none());
+                return py::make_tuple(ev.F, ev.c, sys.constraint_jacobian(ev), tangent ? py::object(py::cast(sys.dense_tangent(ev))) : py::none());
             },
             py::arg("r"), py::arg("R"), py::arg("eta"), py::arg("v"), py::arg("a"), py::arg("lam"), py::arg("t"),
             py::arg("mass_flow"), py::arg("mass_flow_rate"), py::arg("load_factor"), py::arg("gravity_factor"),

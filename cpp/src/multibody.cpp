@@ -63,6 +63,31 @@ void MultibodySystemCore::add_load(const MbLoad& l) {
 void MultibodySystemCore::finalize() {
     n_ = offsets_.back();
     nc_ = rows_.back();
+    pairs_.clear();
+    pair_index_.clear();
+    auto add = [&](int a, int b) {
+        if (pair_index_.emplace(std::make_pair(a, b), static_cast<int>(pairs_.size())).second) pairs_.emplace_back(a, b);
+    };
+    for (int b = 0; b < n_bodies(); ++b) add(b, b);
+    for (const MbJoint& j : joints_)
+        if (j.body_b >= 0) {
+            add(j.body_a, j.body_b);
+            add(j.body_b, j.body_a);
+        }
+}
+
+int MultibodySystemCore::tangent_block(int a, int b) const {
+    const auto it = pair_index_.find(std::make_pair(a, b));
+    return it == pair_index_.end() ? -1 : it->second;
+}
+
+MatX MultibodySystemCore::dense_tangent(const MbEvaluation& ev) const {
+    MatX S = MatX::Zero(n_, n_);
+    for (std::size_t k = 0; k < pairs_.size() && k < ev.S.size(); ++k) {
+        const auto [a, b] = pairs_[k];
+        S.block(offsets_[a], offsets_[b], ev.S[k].rows(), ev.S[k].cols()) = ev.S[k];
+    }
+    return S;
 }
 
 void MultibodySystemCore::check_state(const MbState& s) const {
@@ -223,7 +248,7 @@ void MultibodySystemCore::body_columns(MbState& st, int body,
     }
 }
 
-void MultibodySystemCore::geometric_stiffness(const MbState& s, double mdot, double load_factor, MatX& S,
+void MultibodySystemCore::geometric_stiffness(const MbState& s, double mdot, double load_factor, std::vector<MatX>& S,
                                               double w) const {
     MbState st = s;
     // joint reactions C_q^T lambda at fixed lambda
@@ -242,8 +267,8 @@ void MultibodySystemCore::geometric_stiffness(const MbState& s, double mdot, dou
             body_columns(st, body, [&](int col, double h, double sign) {
                 joint_equations(st, j, c, Ja, Jb, jw);
                 const double f = sign * w / (2 * h);
-                S.block(offsets_[j.body_a], offsets_[body] + col, na, 1) += f * (Ja.transpose() * lam);
-                if (nb) S.block(offsets_[j.body_b], offsets_[body] + col, nb, 1) += f * (Jb.transpose() * lam);
+                S[tangent_block(j.body_a, body)].col(col) += f * (Ja.transpose() * lam);
+                if (nb) S[tangent_block(j.body_b, body)].col(col) += f * (Jb.transpose() * lam);
             });
         }
     }
@@ -252,14 +277,13 @@ void MultibodySystemCore::geometric_stiffness(const MbState& s, double mdot, dou
         if (!j.actuated && !j.junction) continue;
         MbJointWork jw;
         const VecX &fa = jw.fa, &fb = jw.fb;
-        const int oa = offsets_[j.body_a], na = offsets_[j.body_a + 1] - oa;
         for (int body : {j.body_a, j.body_b}) {
             if (body < 0) continue;
             body_columns(st, body, [&](int col, double h, double sign) {
                 joint_forces(st, j, mdot, load_factor, jw);
                 const double f = -sign * w / (2 * h);
-                S.block(oa, offsets_[body] + col, na, 1) += f * fa;
-                if (fb.size()) S.block(offsets_[j.body_b], offsets_[body] + col, fb.size(), 1) += f * fb;
+                S[tangent_block(j.body_a, body)].col(col) += f * fa;
+                if (fb.size()) S[tangent_block(j.body_b, body)].col(col) += f * fb;
             });
         }
     }
@@ -274,10 +298,9 @@ void MultibodySystemCore::geometric_stiffness(const MbState& s, double mdot, dou
             mo[i] = load_factor * l.moment[i].at(s.t);
         }
         if (fo.isZero(0.0) && mo.isZero(0.0)) continue;
-        const int o = offsets_[l.body], n = offsets_[l.body + 1] - o;
         body_columns(st, l.body, [&](int col, double h, double sign) {
             node(st, l.body, l.node, p, A, &Jp, &Ja);
-            S.block(o, o + col, n, 1) -= sign * w / (2 * h) * (Jp.transpose() * fo + Ja.transpose() * mo);
+            S[tangent_block(l.body, l.body)].col(col) -= sign * w / (2 * h) * (Jp.transpose() * fo + Ja.transpose() * mo);
         });
     }
 }
@@ -290,7 +313,13 @@ void MultibodySystemCore::evaluate(const MbState& s, double mdot, double mdot_ra
         check_state(s);  // throws, naming the sizes
     out.F.setZero(n_);
     out.c.setZero(nc_);
-    if (with_tangent) out.S.setZero(n_, n_);
+    if (with_tangent) {
+        out.S.resize(pairs_.size());
+        for (std::size_t k = 0; k < pairs_.size(); ++k) {
+            const auto [a, b] = pairs_[k];
+            out.S[k].setZero(offsets_[a + 1] - offsets_[a], offsets_[b + 1] - offsets_[b]);
+        }
+    }
     MatX dummy(0, 0);
     out.work.resize(bodies_.size());
     out.motion.resize(bodies_.size());
@@ -309,7 +338,7 @@ void MultibodySystemCore::evaluate(const MbState& s, double mdot, double mdot_ra
         mo.sdot = f * mdot;
         mo.sddot = f * mdot_rate;
         if (with_tangent)
-            ffrf_body_forces(b.data, mo, wK, wC, wM, out.work[j], out.F.segment(o, n), out.S.block(o, o, n, n), true);
+            ffrf_body_forces(b.data, mo, wK, wC, wM, out.work[j], out.F.segment(o, n), out.S[tangent_block(j, j)], true);
         else
             ffrf_body_forces(b.data, mo, wK, wC, wM, out.work[j], out.F.segment(o, n), dummy, false);
     }

@@ -18,6 +18,8 @@
 
 #include <array>
 #include <functional>
+#include <map>
+#include <utility>
 #include <vector>
 
 namespace pipeflex {
@@ -82,7 +84,10 @@ struct MbJointWork {
 struct MbEvaluation {
     VecX F;   // body residuals - loads + C_q^T lambda
     VecX c;   // constraint equations
-    MatX S;   // wK dF/dq + wC dF/dv + wM dF/da, dF/dq including the joint reactions and loads
+    // wK dF/dq + wC dF/dv + wM dF/da, dF/dq including the joint reactions and loads, by
+    // blocks between bodies: S[k] couples the pair tangent_pairs()[k] (a body with itself,
+    // or two bodies a joint joins); the rest of S is zero.
+    std::vector<MatX> S;
     // scratch, kept between evaluations so that a time loop does not allocate
     std::vector<FfrfBodyWork> work;
     std::vector<FfrfBodyMotion> motion;
@@ -129,6 +134,12 @@ class MultibodySystemCore {
     // reactions' geometric stiffness at the state's multipliers).
     void evaluate(const MbState& s, double mdot, double mdot_rate, double load_factor, double gravity_factor,
                   double wK, double wC, double wM, bool with_tangent, MbEvaluation& out) const;
+    // The pairs of bodies (a, b) whose tangent block S(a, b) can be nonzero, and the index
+    // of a pair's block (-1 if none); set by finalize().
+    const std::vector<std::pair<int, int>>& tangent_pairs() const { return pairs_; }
+    int tangent_block(int a, int b) const;
+    // S (n_coordinates square, dense) of an evaluation's blocks.
+    MatX dense_tangent(const MbEvaluation& ev) const;
     // C_q (n_constraints x n_coordinates, dense) of the joints' blocks of an evaluation.
     MatX constraint_jacobian(const MbEvaluation& ev) const;
     // max |C_q v| [m/s, rad/s] from an evaluation's joint blocks.
@@ -147,13 +158,15 @@ class MultibodySystemCore {
     bool joint_forces(const MbState& s, const MbJoint& j, double mdot, double load_factor, MbJointWork& w) const;
     double junction_pressure(int body, double mdot) const;  // P = mu_f sdot^2 [N]
     // w d(C_q^T lambda - Q_loads)/dq by central differences, body by body.
-    void geometric_stiffness(const MbState& s, double mdot, double load_factor, MatX& S, double w) const;
+    void geometric_stiffness(const MbState& s, double mdot, double load_factor, std::vector<MatX>& S, double w) const;
     void body_columns(MbState& st, int body, const std::function<void(int col, double h, double sign)>& fn) const;
 
     std::vector<MbBody> bodies_;
     std::vector<MbJoint> joints_;
     std::vector<MbLoad> loads_;
     std::vector<int> offsets_{0}, rows_{0};
+    std::vector<std::pair<int, int>> pairs_;
+    std::map<std::pair<int, int>, int> pair_index_;
     Vec3d gravity_ = Vec3d::Zero();
     int n_ = 0, nc_ = 0;
     double length_scale_ = 1.0;

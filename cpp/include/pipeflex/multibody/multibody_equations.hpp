@@ -22,23 +22,7 @@ class MultibodyEquations final : public Equations {
    public:
     MultibodyEquations(const MultibodySystemCore& sys, const MbState& s, const TimeTable& flow)
         : sys_(sys), base_(s), cur_(s), flow_(flow), n_(sys.n_coordinates()), nc_(sys.n_constraints()),
-          start_r_(s.r) {
-        // S couples only bodies that share a joint, and a joint's rows touch only its
-        // bodies: the triplets cover these blocks (a fixed pattern, zeros included).
-        const int nb = sys.n_bodies();
-        auto block = [&](int a, int b) {
-            blocks_.push_back({sys.offset(a), sys.offset(a + 1) - sys.offset(a), sys.offset(b),
-                               sys.offset(b + 1) - sys.offset(b)});
-        };
-        std::set<std::pair<int, int>> pairs;  // bodies joined to each other, once per pair
-        for (const MbJoint& j : sys.joints())
-            if (j.body_b >= 0 && j.body_b != j.body_a) pairs.insert(std::minmax(j.body_a, j.body_b));
-        for (int b = 0; b < nb; ++b) block(b, b);
-        for (const auto& [a, b] : pairs) {
-            block(a, b);
-            block(b, a);
-        }
-    }
+          start_r_(s.r) {}
 
     const MbState& state() const { return cur_; }
     MbState& mutable_state() { return cur_; }  // for differencing; restore what you change
@@ -69,9 +53,15 @@ class MultibodyEquations final : public Equations {
         r.tail(nc_) = ev_.c;
         if (!J) return;
         J->clear();
-        for (const Block& b : blocks_)
-            for (int c = b.c0; c < b.c0 + b.nc; ++c)
-                for (int i = b.r0; i < b.r0 + b.nr; ++i) push(*J, i, c, ev_.S(i, c));
+        // S couples only bodies that share a joint, and a joint's rows touch only its bodies:
+        // the triplets cover these blocks (a fixed pattern, zeros included)
+        const auto& pairs = sys_.tangent_pairs();
+        for (std::size_t k = 0; k < pairs.size(); ++k) {
+            const MatX& B = ev_.S[k];
+            const int r0 = sys_.offset(pairs[k].first), c0 = sys_.offset(pairs[k].second);
+            for (int c = 0; c < B.cols(); ++c)
+                for (int i = 0; i < B.rows(); ++i) push(*J, r0 + i, c0 + c, B(i, c));
+        }
         const std::vector<MbJoint>& joints = sys_.joints();
         for (std::size_t k = 0; k < joints.size(); ++k) {
             const MbJointWork& w = ev_.joint_work[k];
@@ -119,9 +109,6 @@ class MultibodyEquations final : public Equations {
     static constexpr double kDivergenceLimit = 1e3;
     static constexpr double kSlowRate = 1.5;
     static constexpr int kLongStep = 5;
-    struct Block {
-        int r0, nr, c0, nc;
-    };
     // A joint's block B at rows r0.. and body columns c0.., and its transpose.
     static void push_block(Triplets& J, int r0, int c0, const MatX& B) {
         for (int c = 0; c < B.cols(); ++c)
@@ -143,7 +130,6 @@ class MultibodyEquations final : public Equations {
     std::vector<Vec3d> start_r_;
     double factor_ = 1.0;  // loads and gravity (statics steps them)
     MbEvaluation ev_;
-    std::vector<Block> blocks_;
 };
 
 // Static equilibrium of the bodies from the state s (its frames, modal coordinates and
