@@ -6,6 +6,7 @@
 #include "pipeflex/multibody/multibody_equations.hpp"
 #include "pipeflex/solvers/element_equations.hpp"
 
+#include <algorithm>
 #include <stdexcept>
 
 namespace pipeflex {
@@ -63,7 +64,7 @@ class CoupledEquations final : public Equations {
         if (J) {
             *J = J1_;
             for (std::size_t k = 0; k < J2_.values.size(); ++k)
-                push(*J, n1_ + J2_.rows[k], n1_ + J2_.cols[k], J2_.values[k]);
+                J->add(n1_ + J2_.rows[k], n1_ + J2_.cols[k], J2_.values[k]);
         }
         for (std::size_t k = 0; k < cp_.size(); ++k) {
             const int nr = rows(cp_[k]), R0 = n + nc2_ + rows_[k];
@@ -76,12 +77,12 @@ class CoupledEquations final : public Equations {
             if (!J) continue;
             for (int i = 0; i < nr; ++i) {
                 for (int c = 0; c < Ja_.cols(); ++c) {
-                    push(*J, R0 + i, e0 + c, Ja_(i, c));
-                    push(*J, e0 + c, R0 + i, Ja_(i, c));
+                    J->add(R0 + i, e0 + c, Ja_(i, c));
+                    J->add(e0 + c, R0 + i, Ja_(i, c));
                 }
                 for (int c = 0; c < Jb_.cols(); ++c) {
-                    push(*J, R0 + i, b0 + c, Jb_(i, c));
-                    push(*J, b0 + c, R0 + i, Jb_(i, c));
+                    J->add(R0 + i, b0 + c, Jb_(i, c));
+                    J->add(b0 + c, R0 + i, Jb_(i, c));
                 }
             }
             if (wK != 0.0) geometric_stiffness(k, wK, *J);
@@ -89,8 +90,7 @@ class CoupledEquations final : public Equations {
     }
 
     int rebase(VecX& v, VecX& a) override {
-        VecX v1, a1;
-        VecX v2, a2;
+        VecX v1, a1, v2, a2;
         const int k = el_.rebase(v1, a1) + mb_.rebase(v2, a2);
         v.head(n1_) = v1;
         a.head(n1_) = a1;
@@ -113,11 +113,6 @@ class CoupledEquations final : public Equations {
     }
 
    private:
-    static void push(Triplets& J, int r, int c, double v) {
-        J.rows.push_back(r);
-        J.cols.push_back(c);
-        J.values.push_back(v);
-    }
     // A clamped ANCF node (planar): its position in the plane and its slope's direction
     // (3 rows); a frame node: the joint's rows.
     int rows(const Coupling& c) const {
@@ -200,8 +195,8 @@ class CoupledEquations final : public Equations {
             }
             const VecX d = (wK / (2.0 * h)) * (plus - minus);
             const int cc = col < ne ? e0 + col : b0 + (col - ne);
-            for (int rr = 0; rr < ne; ++rr) push(J, e0 + rr, cc, d[rr]);
-            for (int rr = 0; rr < nb; ++rr) push(J, b0 + rr, cc, d[ne + rr]);
+            for (int rr = 0; rr < ne; ++rr) J.add(e0 + rr, cc, d[rr]);
+            for (int rr = 0; rr < nb; ++rr) J.add(b0 + rr, cc, d[ne + rr]);
         };
         for (int col = 0; col < ne + nb; ++col) column(col);
     }

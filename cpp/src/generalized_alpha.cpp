@@ -22,8 +22,8 @@ constexpr int kDenseBelow = 100;
 // Largest constrained system whose singular start is solved densely (minimum norm).
 constexpr int kDenseMinimumNormLimit = 4000;
 
-// Scales the constraint rows and columns of the (n + nc) tangent by s; returns the largest
-// magnitude of its top-left block (the scale the next call should use).
+}  // namespace
+
 double scale_constraints(Triplets& J, int n, double s) {
     double size = 0.0;
     for (std::size_t k = 0; k < J.values.size(); ++k) {
@@ -35,8 +35,6 @@ double scale_constraints(Triplets& J, int n, double s) {
     }
     return size;
 }
-
-}  // namespace
 
 // ----------------------------------------------------------------- Newton -------------
 

@@ -30,12 +30,9 @@ StaticNewtonResult static_newton(Equations& eq, double t, Eigen::VectorXd& lam, 
         out.residual = r.head(n).norm();
         if (!r.allFinite()) return out;
         // constraint rows and columns scaled by the stiffness block's size (as the integrator's)
-        double s = 0.0;
-        for (std::size_t k = 0; k < J.values.size(); ++k)
-            if (J.rows[k] < n && J.cols[k] < n) s = std::max(s, std::abs(J.values[k]));
+        double s = scale_constraints(J, n, 1.0);
         s = s > 0.0 ? s : 1.0;
-        for (std::size_t k = 0; k < J.values.size(); ++k)
-            if ((J.rows[k] >= n) != (J.cols[k] >= n)) J.values[k] *= s;
+        scale_constraints(J, n, s);
         if (!lu.factorize(n + nc, J.rows, J.cols, J.values)) {
             out.singular = true;
             return out;

@@ -116,6 +116,11 @@ struct Triplets {
     std::vector<int> rows, cols;
     std::vector<double> values;
     void clear() { rows.clear(); cols.clear(); values.clear(); }
+    void add(int r, int c, double v) {
+        rows.push_back(r);
+        cols.push_back(c);
+        values.push_back(v);
+    }
 };
 
 // Reduced residual (size n_dofs) and, if J is not null, the weighted tangent.

@@ -60,7 +60,7 @@ class MultibodyEquations final : public Equations {
             const MatX& B = ev_.S[k];
             const int r0 = sys_.offset(pairs[k].first), c0 = sys_.offset(pairs[k].second);
             for (int c = 0; c < B.cols(); ++c)
-                for (int i = 0; i < B.rows(); ++i) push(*J, r0 + i, c0 + c, B(i, c));
+                for (int i = 0; i < B.rows(); ++i) J->add(r0 + i, c0 + c, B(i, c));
         }
         const std::vector<MbJoint>& joints = sys_.joints();
         for (std::size_t k = 0; k < joints.size(); ++k) {
@@ -113,14 +113,9 @@ class MultibodyEquations final : public Equations {
     static void push_block(Triplets& J, int r0, int c0, const MatX& B) {
         for (int c = 0; c < B.cols(); ++c)
             for (int i = 0; i < B.rows(); ++i) {
-                push(J, r0 + i, c0 + c, B(i, c));
-                push(J, c0 + c, r0 + i, B(i, c));
+                J.add(r0 + i, c0 + c, B(i, c));
+                J.add(c0 + c, r0 + i, B(i, c));
             }
-    }
-    static void push(Triplets& J, int r, int c, double v) {
-        J.rows.push_back(r);
-        J.cols.push_back(c);
-        J.values.push_back(v);
     }
 
     const MultibodySystemCore& sys_;

@@ -63,6 +63,11 @@ class Equations {
     virtual std::string singular_mass_hint() const { return "coordinates without inertia"; }
 };
 
+// Scales the constraint rows and columns of an (n + nc) tangent's triplets by s (so that
+// pivoting sees entries comparable to the top-left block's); returns the largest magnitude
+// of that block.
+double scale_constraints(Triplets& J, int n, double s);
+
 struct AlphaOptions {
     double step = 1e-3;         // h [s], the largest step
     double min_step = 1e-12;    // smallest step before giving up [s]
