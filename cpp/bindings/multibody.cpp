@@ -162,6 +162,16 @@ void bind_multibody(py::module_& m) {
             py::arg("mass_flow"), py::arg("mass_flow_rate"), py::arg("load_factor"), py::arg("gravity_factor"),
             py::arg("wK"), py::arg("wC"), py::arg("wM"), py::arg("tangent"))
         .def(
+            "linear_matrices",
+            [](const MultibodySystemCore& sys, const Arr& r, const Arr& R, const VecX& eta, const VecX& v,
+               const VecX& a, const VecX& lam, double t, double mass_flow) {
+                const MbState s = to_state(sys, r, R, eta, v, a, lam, t);
+                return linear_dict(multibody_linear_matrices(sys, s, mass_flow));
+            },
+            "The linearised equations about the state: K, C, M (N x N) and C_q, as triplets.",
+            py::arg("r"), py::arg("R"), py::arg("eta"), py::arg("v"), py::arg("a"), py::arg("lam"), py::arg("t"),
+            py::arg("mass_flow"))
+        .def(
             "static_newton",
             [](const MultibodySystemCore& sys, const Arr& r, const Arr& R, const VecX& eta, const VecX& lam, double t,
                double mass_flow, double load_factor, double tol, int max_iterations) {

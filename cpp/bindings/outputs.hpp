@@ -3,6 +3,7 @@
 
 #include "pipeflex/multibody/multibody.hpp"
 #include "pipeflex/solvers/equations.hpp"
+#include "pipeflex/solvers/linear_matrices.hpp"
 #include "pipeflex/solvers/transient.hpp"
 
 #include <pybind11/numpy.h>
@@ -29,6 +30,24 @@ inline pybind11::dict static_dict(const StaticNewtonResult& r) {
     d["iterations"] = r.iterations;
     d["residual"] = r.residual;
     d["correction"] = r.correction;
+    return d;
+}
+
+// Linearised equations as {"n", "nc", "K", "C", "M", "Cq"}, each matrix a (rows, cols,
+// values) tuple of numpy arrays (repeats to be summed).
+inline pybind11::dict linear_dict(const LinearMatrices& m) {
+    auto coo = [](const Triplets& t) {
+        return pybind11::make_tuple(pybind11::array_t<int>(t.rows.size(), t.rows.data()),
+                                    pybind11::array_t<int>(t.cols.size(), t.cols.data()),
+                                    pybind11::array_t<double>(t.values.size(), t.values.data()));
+    };
+    pybind11::dict d;
+    d["n"] = m.n;
+    d["nc"] = m.nc;
+    d["K"] = coo(m.K);
+    d["C"] = coo(m.C);
+    d["M"] = coo(m.M);
+    d["Cq"] = coo(m.Cq);
     return d;
 }
 

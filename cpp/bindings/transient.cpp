@@ -207,6 +207,19 @@ void bind_transient(py::module_& m) {
         py::arg("model"), py::arg("state"), py::arg("load"), py::arg("bodies"), py::arg("r"), py::arg("R"),
         py::arg("eta"), py::arg("lam"), py::arg("couplings"), py::arg("coupling_lam"), py::arg("load_factor"),
         py::arg("options"), py::arg("tol"), py::arg("max_iterations"));
+    m.def(
+        "coupled_linear_matrices",
+        [](const Model& md, State& s, const LoadState& l, const MultibodySystemCore& bodies, const Arr& r,
+           const Arr& R, const VecX& eta, const VecX& v, const VecX& a, const VecX& lam, const py::list& couplings,
+           const VecX& coupling_lam, const TransientOptions& o) {
+            const MbState bs = to_state(bodies, r, R, eta, v, a, lam, 0.0);
+            return linear_dict(coupled_linear_matrices(md, s, l, bodies, bs, couplings_from(couplings), coupling_lam, o));
+        },
+        "The linearised equations of a coupled system about the element state (re-based in place) and the body "
+        "state: K, C, M and C_q as triplets, coordinates [z_el; q_b].",
+        py::arg("model"), py::arg("state"), py::arg("load"), py::arg("bodies"), py::arg("r"), py::arg("R"),
+        py::arg("eta"), py::arg("v"), py::arg("a"), py::arg("lam"), py::arg("couplings"), py::arg("coupling_lam"),
+        py::arg("options"));
     m.def("generalized_alpha_flow_map",
           [](const Model& md, State& s, const LoadState& l, const Eigen::VectorXd& z0, const Eigen::VectorXd& v0,
              double duration, int n_steps, bool sensitivity, const TransientOptions& o) {

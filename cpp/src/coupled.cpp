@@ -1,4 +1,5 @@
 #include "pipeflex/solvers/coupled.hpp"
+#include "pipeflex/solvers/linear_matrices.hpp"
 
 #include "pipeflex/core/format.hpp"
 #include "pipeflex/core/rotation.hpp"
@@ -267,6 +268,31 @@ CoupledOutput integrate_coupled(const Model& model, State& state, const LoadStat
     body_state = mb.state();
     put_stats(alpha.stats(), out.elements);
     return out;
+}
+
+LinearMatrices coupled_linear_matrices(const Model& model, State& state, const LoadState& load,
+                                       const MultibodySystemCore& bodies, const MbState& body_state,
+                                       const std::vector<Coupling>& couplings, const Eigen::VectorXd& coupling_lam,
+                                       const TransientOptions& opt) {
+    check_state(model, state);
+    bodies.check_state(body_state);
+    TimeTable flow, loads;
+    flow.t = loads.t = {0.0};
+    flow.value = {load.mass_flow};
+    loads.value = {1.0};
+    const TimeFunctions functions{flow, loads};
+    ElementEquations el(model, state, load, functions, opt);
+    MultibodyEquations mb(bodies, body_state, flow);
+    CoupledEquations eq(el, mb, bodies, couplings);
+    VecX v1 = reduce(model, state.v), a1 = reduce(model, state.a);
+    el.rebase(0.0, v1, a1);
+    const int n1 = model.n_dofs, n2 = bodies.n_coordinates(), nc2 = bodies.n_constraints();
+    VecX v(n1 + n2), a(n1 + n2), lam(eq.n_constraints());
+    v << v1, body_state.v;
+    a << a1, body_state.a;
+    lam << body_state.lam,
+        (coupling_lam.size() == eq.n_constraints() - nc2 ? coupling_lam : VecX::Zero(eq.n_constraints() - nc2));
+    return linear_matrices(eq, v, a, lam, body_state.t);
 }
 
 StaticNewtonResult coupled_static(const Model& model, State& state, const LoadState& load,

@@ -399,6 +399,15 @@ double MultibodySystemCore::velocity_drift(const MbState& s, const MbEvaluation&
     return drift;
 }
 
+LinearMatrices multibody_linear_matrices(const MultibodySystemCore& sys, const MbState& s, double mdot) {
+    sys.check_state(s);
+    TimeTable flow;
+    flow.t = {0.0};
+    flow.value = {mdot};
+    MultibodyEquations eq(sys, s, flow);
+    return linear_matrices(eq, s.v, s.a, s.lam, s.t);
+}
+
 StaticNewtonResult multibody_static(const MultibodySystemCore& sys, MbState& s, double mdot, double load_factor,
                                     double tol, int max_iterations) {
     sys.check_state(s);

@@ -27,6 +27,7 @@ from dataclasses import dataclass, field
 from typing import List, Optional, Sequence, Tuple
 
 import numpy as np
+import scipy.sparse as sp
 
 from . import _checks, _core
 from .analysis.transient import TransientResult
@@ -141,6 +142,10 @@ class CoupledSystem:
                              f"valid: load_steps, mass_flow, max_iterations, tol")
         return static_equilibrium(self, mass_flow=mass_flow, load_steps=load_steps, **options)
 
+    def _linearize(self, state=None, *, mass_flow=None) -> "CoupledLinearization":
+        """:func:`pipeflex.linearize`'s entry for a coupled system."""
+        return linearize(self, state, mass_flow=mass_flow)
+
     def _simulate(self, t_end, *, integrator, state, t_start, n_outputs, times, mass_flow, load_factor, progress,
                   **options) -> "CoupledResult":
         """:func:`pipeflex.simulate`'s entry for a coupled system."""
@@ -252,6 +257,51 @@ def static_equilibrium(system: CoupledSystem, *, mass_flow: Optional[float] = No
     zero = np.zeros_like(eta)
     return CoupledStatic(State.from_core(st, model), MultibodyState(r, R, eta, zero, zero.copy(), lam, 0.0), lam_c,
                          total, float(out["residual"]), mdot)
+
+
+@dataclass(frozen=True)
+class CoupledLinearization(Result):
+    """M, C, K (CSC) of a coupled system in independent coordinates z: the system's
+    coordinates [z_el; q_b] are q = T z with C_q T = 0 (``basis`` T, orthonormal), about
+    ``state`` (a :class:`CoupledStatic`), at ``mass_flow`` mdot [kg/s]. Same use as
+    :class:`pipeflex.Linearization` (:func:`pipeflex.eigenvalues`, :func:`pipeflex.stability`)."""
+
+    M: sp.csc_matrix
+    C: sp.csc_matrix
+    K: sp.csc_matrix
+    mass_flow: float
+    state: CoupledStatic
+    basis: np.ndarray
+
+
+def linearize(system: CoupledSystem, state: Optional[CoupledStatic] = None, *,
+              mass_flow: Optional[float] = None) -> CoupledLinearization:
+    """Linearise a :class:`CoupledSystem` about ``state`` (a :class:`CoupledStatic` with its
+    multipliers; default: the static equilibrium at ``mass_flow`` mdot [kg/s]): the one
+    constrained linearisation of the bodies (:mod:`pipeflex.analysis.constrained`), K with
+    the geometric stiffness of the joints' and couplings' reactions."""
+    from .analysis import constrained
+
+    if not isinstance(system, CoupledSystem):
+        raise ValueError("system must be a pipeflex.CoupledSystem")
+    if state is not None and not isinstance(state, CoupledStatic):
+        raise TypeError(f"state must be a CoupledStatic (pipeflex.static_equilibrium(system)), "
+                        f"got {type(state).__name__}")
+    model, bodies = system.model, system.bodies
+    mdot = (model.mass_flow if state is None else state.mass_flow) if mass_flow is None else \
+        _checks.finite("mass_flow", mass_flow)
+    st = static_equilibrium(system, mass_flow=mdot) if state is None else state
+    core_state = as_core(model, st.state)
+    b = st.body_state
+    opt = _core.TransientOptions()
+    opt.length_scale = max(float(np.ptp(model.positions, axis=0).max()), bodies.length_scale, 1e-3)
+    out = _core.coupled_linear_matrices(model.core, core_state, model.load_state(mass_flow=mdot), bodies.core, b.r,
+                                        b.R, b.eta, b.v, b.a, b.lam, system.core_couplings(),
+                                        np.asarray(st.coupling_forces, float), opt)
+    K, C, M, Cq = constrained.from_core(out)
+    T = constrained.null_space_basis(Cq)
+    Mr, Cr, Kr = constrained.reduce(T, M, C, K)
+    return CoupledLinearization(Mr, Cr, Kr, mdot, st, T)
 
 
 def simulate(system: CoupledSystem, t_end: float, *, step: float, n_outputs: int = 201,

@@ -46,13 +46,18 @@ def linearize(model, state=None, *, mass_flow: Optional[float] = None) -> Linear
             :class:`~pipeflex.state.State` or ``_core.State``); not modified.
         mass_flow: mdot [kg/s] (default the model's).
 
-    A :class:`~pipeflex.multibody.MultibodySystem` is linearised in independent
-    coordinates by :func:`pipeflex.multibody.linearize`.
+    A :class:`~pipeflex.multibody.MultibodySystem` and a :class:`~pipeflex.CoupledSystem`
+    are linearised in independent coordinates by :func:`pipeflex.multibody.linearize` and
+    :func:`pipeflex.coupled.linearize` (one constrained linearisation,
+    :mod:`pipeflex.analysis.constrained`).
     """
     from ..multibody import MultibodySystem, linearize as multibody_linearize
 
     if isinstance(model, MultibodySystem):
         return multibody_linearize(model, state, mass_flow=mass_flow)
+    own = getattr(model, "_linearize", None)  # a system with its own (pipeflex.CoupledSystem)
+    if own is not None:
+        return own(state, mass_flow=mass_flow)
     require_model(model)
     s = as_core(model, state)
     s.rebase(0.0)

@@ -21,11 +21,11 @@ from dataclasses import dataclass, field, replace
 from typing import Optional, Tuple
 
 import numpy as np
-import scipy.linalg as sla
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
 from .. import _checks
+from ..analysis import constrained
 from .._options import renamed
 from ..time_functions import time_function
 from ..errors import ConvergenceError, SingularMatrixError
@@ -249,13 +249,6 @@ class MultibodyLinearization(Result):
     basis: np.ndarray
 
 
-def null_space_basis(J: np.ndarray) -> np.ndarray:
-    """Orthonormal basis of the null space of the constraint Jacobian."""
-    if J.shape[0] == 0:
-        return np.eye(J.shape[1])
-    return sla.null_space(J, rcond=1e-10)
-
-
 def linearize(system: MultibodySystem, state: Optional[MultibodyState] = None, *,
               mass_flow: Optional[float] = None) -> MultibodyLinearization:
     """Linearise about ``state`` with its multipliers (default: the static equilibrium at
@@ -267,12 +260,11 @@ def linearize(system: MultibodySystem, state: Optional[MultibodyState] = None, *
     if state is not None:
         system.check_state(state)
     st = static_equilibrium(system, mass_flow=mdot).state if state is None else state
-    _, _, J, K = system.evaluate(st, mass_flow=mdot, wK=1.0)
-    C = system.evaluate(st, mass_flow=mdot, wK=0.0, wC=1.0)[3]
-    M = system.evaluate(st, mass_flow=mdot, wK=0.0, wM=1.0)[3]
-    Tb = null_space_basis(J)
-    red = lambda X: sp.csc_matrix(Tb.T @ X @ Tb)  # noqa: E731
-    return MultibodyLinearization(red(M), red(C), red(K), mdot, st, Tb)
+    K, C, M, Cq = constrained.from_core(system.core.linear_matrices(st.r, st.R, st.eta, st.v, st.a, st.lam, st.t,
+                                                                    mdot))
+    Tb = constrained.null_space_basis(Cq)
+    Mr, Cr, Kr = constrained.reduce(Tb, M, C, K)
+    return MultibodyLinearization(Mr, Cr, Kr, mdot, st, Tb)
 
 
 @dataclass(frozen=True)

@@ -5,6 +5,7 @@
 #include "pipeflex/errors.hpp"
 #include "pipeflex/multibody/multibody.hpp"
 #include "pipeflex/solvers/equations.hpp"
+#include "pipeflex/solvers/linear_matrices.hpp"
 
 #include <algorithm>
 #include <set>
@@ -132,5 +133,9 @@ class MultibodyEquations final : public Equations {
 // load_factor: static_newton on the system's equations.
 StaticNewtonResult multibody_static(const MultibodySystemCore& sys, MbState& s, double mdot, double load_factor,
                                     double tol, int max_iterations);
+
+// The linearised equations (linear_matrices) of the bodies about the state s (its rates and
+// multipliers) under the mass flow mdot [kg/s].
+LinearMatrices multibody_linear_matrices(const MultibodySystemCore& sys, const MbState& s, double mdot);
 
 }  // namespace pipeflex

@@ -10,6 +10,7 @@
 
 #include "pipeflex/multibody/multibody.hpp"
 #include "pipeflex/solvers/equations.hpp"
+#include "pipeflex/solvers/linear_matrices.hpp"
 #include "pipeflex/solvers/transient.hpp"
 
 #include <vector>
@@ -43,5 +44,12 @@ StaticNewtonResult coupled_static(const Model& model, State& state, const LoadSt
                                   const MultibodySystemCore& bodies, MbState& body_state,
                                   const std::vector<Coupling>& couplings, Eigen::VectorXd& coupling_lam,
                                   double load_factor, const TransientOptions& opt, double tol, int max_iterations);
+
+// The linearised equations (linear_matrices) of a coupled system about the element state
+// (re-based) and the body state with their multipliers, under the load's mass flow.
+LinearMatrices coupled_linear_matrices(const Model& model, State& state, const LoadState& load,
+                                       const MultibodySystemCore& bodies, const MbState& body_state,
+                                       const std::vector<Coupling>& couplings, const Eigen::VectorXd& coupling_lam,
+                                       const TransientOptions& opt);
 
 }  // namespace pipeflex

@@ -1,0 +1,20 @@
+// The linearised equations of any system (element model, bodies, both coupled).
+#pragma once
+
+#include "pipeflex/solvers/equations.hpp"
+
+namespace pipeflex {
+
+// About the state (z = 0, rates v and a, multipliers lam, time t) of the equations:
+//     M dz'' + C dz' + K dz + C_q^T dlam = 0,   C_q dz = 0,
+// with K = d(R + C_q^T lam)/dz (the constraint forces' geometric stiffness included),
+// C = dR/dv and M = dR/da in the equations' own coordinates (n x n), and C_q (nc x n).
+// Loads and gravity at their full value (load factor 1).
+struct LinearMatrices {
+    int n = 0, nc = 0;
+    Triplets K, C, M, Cq;
+};
+LinearMatrices linear_matrices(Equations& eq, const Eigen::VectorXd& v, const Eigen::VectorXd& a,
+                               const Eigen::VectorXd& lam, double t);
+
+}  // namespace pipeflex

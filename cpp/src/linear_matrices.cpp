@@ -1,0 +1,37 @@
+#include "pipeflex/solvers/linear_matrices.hpp"
+
+namespace pipeflex {
+
+namespace {
+// The n x n block of a KKT tangent's triplets (and, if Cq is given, its constraint rows).
+void split(const Triplets& J, int n, Triplets& A, Triplets* Cq) {
+    for (std::size_t k = 0; k < J.values.size(); ++k) {
+        const int r = J.rows[k], c = J.cols[k];
+        if (c >= n) continue;
+        if (r < n)
+            A.add(r, c, J.values[k]);
+        else if (Cq)
+            Cq->add(r - n, c, J.values[k]);
+    }
+}
+}  // namespace
+
+LinearMatrices linear_matrices(Equations& eq, const Eigen::VectorXd& v, const Eigen::VectorXd& a,
+                               const Eigen::VectorXd& lam, double t) {
+    LinearMatrices out;
+    out.n = eq.n_coordinates();
+    out.nc = eq.n_constraints();
+    eq.set_static_load_factor(1.0);
+    eq.set(Eigen::VectorXd::Zero(out.n), v, a, lam, t);
+    Eigen::VectorXd r;
+    Triplets J;
+    eq.evaluate(1.0, 0.0, 0.0, r, &J);
+    split(J, out.n, out.K, &out.Cq);
+    eq.evaluate(0.0, 1.0, 0.0, r, &J);
+    split(J, out.n, out.C, nullptr);
+    eq.evaluate(0.0, 0.0, 1.0, r, &J);
+    split(J, out.n, out.M, nullptr);
+    return out;
+}
+
+}  // namespace pipeflex

@@ -1,0 +1,88 @@
+"""One linearisation for constrained systems (pipeflex.analysis.constrained): bodies and
+coupled element + body models, from the core's linear_matrices on the equations
+interface (issue "One engine": one null-space linearisation)."""
+import numpy as np
+import pytest
+
+import pipeflex as pf
+from pipeflex.multibody import MultibodyBuilder, flexible_body, static_equilibrium
+
+SEC = pf.PipeSection(EI=10.0, pipe_mass=8.0, fluid_mass=2.0, EA=1e5, rotary_inertia=(1e-3, 1e-3, 1e-3))
+
+
+def arm(clamped, mass_flow):
+    b = pf.ModelBuilder()
+    n0 = b.add_node((0.0, 0.0, 0.0))
+    b.add_line(n0, (1.0, 0.0, 0.0), 8, SEC)
+    if clamped:
+        b.clamp(n0)
+    return b.build(mass_flow=mass_flow, floating=not clamped), n0
+
+
+def on_stiff_hub(mass_flow):
+    """The arm rigidly joined to a short, very stiff body clamped to the ground."""
+    floating, n0 = arm(False, mass_flow)
+    mb = MultibodyBuilder()
+    mu = 3 * 10.0 / 0.2**3
+    hub = pf.PipeSection(EI=1e6 * mu, pipe_mass=mu, rotary_inertia=(1.0, 1.0, 1.0))
+    j = mb.add_body(flexible_body(length=0.2, n_elements=2, section=hub), position=(-0.1, 0.0, 0.0))
+    mb.fix(j, "start")
+    cs = pf.CoupledSystem(floating, mb.build())
+    cs.rigid(n0, j, "end")
+    return cs
+
+
+def lowest(eig, k):
+    v = np.asarray(eig.values)
+    v = v[v.imag > 0]
+    return v[np.argsort(v.imag)][:k]
+
+
+@pytest.mark.parametrize("mass_flow", [10.0, 25.0])
+def test_cantilever_on_a_stiff_clamped_hub_has_the_clamped_cantilevers_eigenvalues(mass_flow):
+    """The arm on a stiff hub body (itself clamped) vibrates, with the flow's damping, as
+    the arm clamped to the ground: the four lowest eigenvalues agree to 1e-5 (the hub's
+    compliance, 1e-6 of the arm's)."""
+    alone, _ = arm(True, mass_flow)
+    expected = lowest(pf.eigenvalues(pf.linearize(alone, pf.static_equilibrium(alone).state)), 4)
+    cs = on_stiff_hub(mass_flow)
+    lin = pf.linearize(cs)
+    assert isinstance(lin, pf.coupled.CoupledLinearization)
+    assert lin.K.shape == (cs.n_coordinates - cs.n_constraints,) * 2
+    assert np.abs(cs.core_couplings()[0][4] - np.eye(3)).max() < 1e-12
+    got = lowest(pf.eigenvalues(lin), 4)
+    assert np.allclose(got, expected, rtol=1e-5, atol=0)
+
+
+def test_coupled_linearization_basis_is_orthonormal_and_satisfies_the_constraints():
+    cs = on_stiff_hub(10.0)
+    lin = pf.linearize(cs)
+    T = lin.basis
+    assert np.allclose(T.T @ T, np.eye(T.shape[1]), atol=1e-12)
+    # symmetric mass, and without flow a symmetric stiffness and no damping
+    assert abs(lin.M - lin.M.T).max() <= 1e-12 * abs(lin.M).max()
+    still = pf.linearize(cs, mass_flow=0.0)
+    assert abs(still.K - still.K.T).max() <= 1e-9 * abs(still.K).max()
+    assert abs(still.C).max() <= 1e-12 * abs(still.K).max()
+
+
+def test_bodies_linearization_equals_the_dense_evaluation():
+    """pipeflex.multibody.linearize (the core's sparse linear_matrices) equals the reduction
+    of the system's dense tangent evaluations (the route it replaced) to round-off."""
+    system = pf.scenes.ffrf_cantilever_pipe(n_bodies=4, elements_per_body=4, tip_force=1.5)
+    st = static_equilibrium(system, mass_flow=20.0).state
+    lin = pf.linearize(system, st, mass_flow=20.0)
+    T = lin.basis
+    _, _, J, K = system.evaluate(st, mass_flow=20.0, wK=1.0)
+    C = system.evaluate(st, mass_flow=20.0, wK=0.0, wC=1.0)[3]
+    M = system.evaluate(st, mass_flow=20.0, wK=0.0, wM=1.0)[3]
+    assert np.abs(J @ T).max() <= 1e-10 * np.abs(J).max()
+    for dense, reduced in ((M, lin.M), (C, lin.C), (K, lin.K)):
+        R = reduced.toarray()
+        assert np.abs(T.T @ dense @ T - R).max() <= 1e-12 * np.abs(R).max()
+
+
+def test_bad_state_is_refused():
+    cs = on_stiff_hub(10.0)
+    with pytest.raises(TypeError, match="CoupledStatic"):
+        pf.linearize(cs, object())
