@@ -56,3 +56,16 @@ def test_reverse_sprinkler_hardly_moves():
 def test_steady_rotation_needs_one_hinge():
     with pytest.raises(ValueError, match="exactly one hinge"):
         pf.steady_rotation(pf.scenes.cantilever_pipe(n_elements=2))
+
+
+def test_steady_rotation_sparse_and_dense_solves_agree(monkeypatch):
+    """steady_rotation solves its Newton systems densely below DENSE_BELOW coordinates and
+    sparsely above (linear in the model size): both give the same rotation rate and shape."""
+    from pipeflex.analysis import steady
+
+    model = pf.scenes.sprinkler(EI=100.0, n_elements=16)
+    dense = pf.steady_rotation(model)
+    monkeypatch.setattr(steady, "DENSE_BELOW", 0)
+    sparse = pf.steady_rotation(model)
+    assert sparse.omega == pytest.approx(dense.omega, rel=1e-11)
+    assert np.allclose(sparse.state.q, dense.state.q, rtol=0, atol=1e-11)

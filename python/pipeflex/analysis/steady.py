@@ -15,6 +15,8 @@ from dataclasses import dataclass
 from typing import Optional
 
 import numpy as np
+import scipy.sparse as sp
+import scipy.sparse.linalg as spla
 
 from .. import _checks, _core
 from ..errors import ConvergenceError, SingularMatrixError
@@ -23,6 +25,11 @@ from ..state import State, as_core
 from ._assembly import require_model, residual_and_tangent
 from ..rotation import skew
 from .._blas import small_problems_single_threaded
+
+
+# below this many coordinates the Newton systems are solved densely (cheaper than sparse
+# bookkeeping); above, sparsely (linear in the model size)
+DENSE_BELOW = 300
 
 
 @dataclass(frozen=True)
@@ -75,26 +82,31 @@ def _rigid_rotation(model, state, node, axis, omega):
     return xh
 
 
-def _jacobian_blocks(model, state, axis, xh, omega):
-    """Full-coordinate dv/dq, da/dq (block diagonal) and dv/domega, da/domega at phi = 0."""
+def _rate_operators(model, axis):
+    """Full-coordinate dv/dq / omega and da/dq / omega^2 at phi = 0 (the same 6 x 6 block
+    on every node, sparse: the Jacobian stays banded and linear in the model size)."""
     S = skew(axis)
     S2 = S @ S
-    N = model.n_nodes
-    Dv = np.zeros((6 * N, 6 * N))
-    Da = np.zeros((6 * N, 6 * N))
-    dv = np.zeros(6 * N)
-    da = np.zeros(6 * N)
-    for i in range(N):
-        p, r = slice(6 * i, 6 * i + 3), slice(6 * i + 3, 6 * i + 6)
-        x = state.q[6 * i:6 * i + 3] - xh
-        Dv[p, p] = omega * S
-        Dv[r, r] = 0.5 * omega * S            # phi_dot = T(phi)^-1 omega a, T^-1 = I - skew(phi)/2 + ...
-        Da[p, p] = omega**2 * S2
-        Da[r, r] = omega**2 * S2 / 6.0        # phi_ddot = -T^-1 d/dt[T] phi_dot to first order in phi
-        dv[p] = S @ x
-        dv[r] = axis
-        da[p] = 2 * omega * S2 @ x
-    return Dv, Da, dv, da
+    Bv = np.zeros((6, 6))
+    Ba = np.zeros((6, 6))
+    Bv[:3, :3] = S
+    Bv[3:, 3:] = 0.5 * S            # phi_dot = T(phi)^-1 omega a, T^-1 = I - skew(phi)/2 + ...
+    Ba[:3, :3] = S2
+    Ba[3:, 3:] = S2 / 6.0           # phi_ddot = -T^-1 d/dt[T] phi_dot to first order in phi
+    eye = sp.identity(model.n_nodes, format="csr")
+    return sp.kron(eye, sp.csr_matrix(Bv), format="csr"), sp.kron(eye, sp.csr_matrix(Ba), format="csr")
+
+
+def _rate_columns(model, state, axis, xh, omega):
+    """dv/domega and da/domega (full coordinates) at phi = 0."""
+    S = skew(axis)
+    x = np.asarray(state.q).reshape(-1, 6)[:, :3] - xh
+    dv = np.zeros((model.n_nodes, 6))
+    da = np.zeros((model.n_nodes, 6))
+    dv[:, :3] = x @ S.T
+    dv[:, 3:] = axis
+    da[:, :3] = 2 * omega * x @ (S @ S).T
+    return dv.ravel(), da.ravel()
 
 
 @small_problems_single_threaded
@@ -126,7 +138,13 @@ def steady_rotation(model, *, omega_guess: Optional[float] = None, mass_flow: Op
     mdot = model.mass_flow if mass_flow is None else _checks.finite("mass_flow", mass_flow)
     st = as_core(model, state)
     size = max(float(np.ptp(model.positions, axis=0).max()), 1e-3)
-    T = model.basis
+    T = sp.csc_matrix(model.basis)
+    Dv1, Da1 = _rate_operators(model, axis)
+    Av, Aa = (T.T @ Dv1 @ T).tocsc(), (T.T @ Da1 @ T).tocsc()  # reduced dv/dq / omega, da/dq / omega^2
+    dense = model.n_dofs < DENSE_BELOW
+    if dense:
+        Av, Aa = Av.toarray(), Aa.toarray()
+    keep = np.arange(model.n_dofs) != hinge_dof
     omega = None if omega_guess is None else _checks.finite("omega_guess", omega_guess)
     total = 0
     rnorm = np.inf
@@ -146,13 +164,21 @@ def steady_rotation(model, *, omega_guess: Optional[float] = None, mass_flow: Op
             _, Cm = residual_and_tangent(model, st, load, load_factor=0.0, wK=0.0, wC=1.0)
             _, Mm = residual_and_tangent(model, st, load, load_factor=0.0, wK=0.0, wM=1.0)
             rnorm = float(np.linalg.norm(r))
-            Dv, Da, dv, da = _jacobian_blocks(model, st, axis, xh, omega)
-            Tm = T.toarray()
-            J = K.toarray() + Cm @ (Tm.T @ Dv @ Tm) + Mm @ (Tm.T @ Da @ Tm)
-            J[:, hinge_dof] = Cm @ (Tm.T @ dv) + Mm @ (Tm.T @ da)
+            dv, da = _rate_columns(model, st, axis, xh, omega)
+            # the hinge angle is arbitrary: its column carries omega's derivative instead
+            column = Cm @ (T.T @ dv) + Mm @ (T.T @ da)
             try:
-                dz = np.linalg.solve(J, -r)
-            except np.linalg.LinAlgError:
+                if dense:
+                    Cd, Md = Cm.toarray(), Mm.toarray()
+                    J = K.toarray() + omega * (Cd @ Av) + omega**2 * (Md @ Aa)
+                    J[:, hinge_dof] = column
+                    dz = np.linalg.solve(J, -r)
+                else:
+                    J = (K + omega * (Cm @ Av) + omega**2 * (Mm @ Aa)).tocsc()[:, keep]
+                    J = sp.hstack([J[:, :hinge_dof], sp.csc_matrix(column.reshape(-1, 1)), J[:, hinge_dof:]],
+                                  format="csc")
+                    dz = spla.splu(J).solve(-r)
+            except (np.linalg.LinAlgError, RuntimeError):
                 raise SingularMatrixError(f"steady_rotation: singular Jacobian at flow step {k}/{steps}, "
                                           f"iteration {it} (omega = {omega:.6g} rad/s)", iteration=it,
                                           residual=rnorm, mass_flow=m_k) from None
