@@ -430,8 +430,8 @@ int State::rebase(double max_angle) {
 namespace {
 
 // The assembler: the residual (if not null) and the tangents for the nw weight sets
-// w[i] into sinks[i] (nw = 0: residual only). Every element kernel runs once per weight
-// set, the data of an element still in cache; the residual comes with the first.
+// w[i] into sinks[i] (nw = 0: residual only), all in one pass over the elements (an
+// element's data still in cache for every set); the residual comes with the first set.
 // Entries are emitted whatever the weights (zeros included), so that the order is
 // the pattern's.
 template <class Sink>

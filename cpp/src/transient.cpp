@@ -131,20 +131,18 @@ int ida_residual(sunrealtype t, N_Vector yy, N_Vector yp, N_Vector rr, void* use
 // solved through its Schur complement on the velocity: J (dz, dv) = (b1, b2) gives
 //     (K + cj C + cj^2 M) dv = cj b2 - K b1,   dz = (b1 + dv) / cj,
 // one sparse LU of n unknowns on the tangent's cached pattern, K and the iteration
-// matrix assembled in one pass (assemble_csc). A band LU of the 2n unknowns costs
-// (2 b)^2 per unknown for the half bandwidth b of the node numbering: superlinear in
-// size through the cache, and quadratic in b for a network numbered badly.
+// matrix assembled in one pass (assemble_csc). A band LU of the 2n unknowns costs of
+// the order of (2 b)^2 per unknown for the half bandwidth b of the node numbering:
+// superlinear in size through the cache (measured), quadratic in b for a network
+// numbered badly.
 struct NewtonMatrix {
-    IdaData* data = nullptr;
     std::shared_ptr<const TangentPattern> pattern;
     std::vector<double> K, S;
     FixedPatternLU lu;
     double cj = 0.0;
     Eigen::VectorXd b1, b2, rhs, dv;
 
-    NewtonMatrix(IdaData* d, int dense_below) : data(d), lu(dense_below) {
-        const Model& model = d->sys->model;
-        pattern = tangent_pattern(model);
+    NewtonMatrix(const Model& model, int dense_below) : pattern(tangent_pattern(model)), lu(dense_below) {
         const int n = pattern->n;
         std::vector<int> rows(pattern->nnz()), cols(pattern->nnz());
         for (int c = 0; c < n; ++c)
@@ -247,7 +245,7 @@ TransientOutput integrate_ida(const Model& model, State& state, const LoadState&
     const int N = 2 * n;
     std::unique_ptr<_generic_N_Vector, void (*)(N_Vector)> yy(N_VNew_Serial(N, ctx), N_VDestroy);
     std::unique_ptr<_generic_N_Vector, void (*)(N_Vector)> yp(N_VNew_Serial(N, ctx), N_VDestroy);
-    NewtonMatrix newton(&data, kDenseBelow);
+    NewtonMatrix newton(model, kDenseBelow);
     std::unique_ptr<_generic_SUNMatrix, void (*)(SUNMatrix)> A(SUNMatNewEmpty(ctx), SUNMatFreeEmpty);
     std::unique_ptr<_generic_SUNLinearSolver, void (*)(SUNLinearSolver)> LS(SUNLinSolNewEmpty(ctx),
                                                                            SUNLinSolFreeEmpty);
