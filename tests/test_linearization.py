@@ -109,8 +109,8 @@ def test_generalized_path_when_damping_acts_on_massless_coordinates():
 
 
 def test_matrices_equal_the_summed_assembler_triplets_for_alternating_models():
-    # residual_and_tangent reuses the CSC structure of the last triplet pattern: models
-    # taken in turn (another pattern each time) must still give the plain COO sums.
+    # linearize assembles into each model's cached CSC pattern: models taken in turn
+    # must still give the plain COO sums of the assembler's triplets.
     import scipy.sparse as sp
     from pipeflex import _core
 

@@ -3,6 +3,8 @@
 
 #include <pybind11/stl.h>
 
+#include <tuple>
+
 namespace py = pybind11;
 using namespace pipeflex;
 using namespace pipeflex::bindings;
@@ -164,7 +166,39 @@ void bind_assembly(py::module_& m) {
         },
         py::arg("model"), py::arg("state"), py::arg("load"), py::arg("load_factor"), py::arg("wK"),
         py::arg("wC"), py::arg("wM"), py::arg("matrix") = true,
-        "Reduced residual and weighted tangent triplets (rows, cols, values).");
+        "Reduced residual and weighted tangent triplets (rows, cols, values): the route of the C++ "
+        "integrators, kept as the reference of assemble_csc's tests.");
+    m.def(
+        "assemble_csc",
+        [](const Model& md, const State& s, const LoadState& load, double lf,
+           const std::vector<std::tuple<double, double, double>>& weights, bool residual) {
+            check_state(md, s);
+            const auto pattern = tangent_pattern(md);
+            const auto nnz = static_cast<py::ssize_t>(pattern->nnz());
+            std::vector<TangentWeights> w;
+            std::vector<py::array_t<double>> data;
+            std::vector<double*> values;
+            for (const auto& [wK, wC, wM] : weights) {
+                w.push_back({wK, wC, wM});
+                data.emplace_back(nnz);
+                values.push_back(data.back().mutable_data());
+            }
+            Eigen::VectorXd r;
+            {
+                py::gil_scoped_release release;
+                assemble_csc(md, s, load, lf, w, residual ? &r : nullptr, values.data());
+            }
+            py::list out;
+            for (auto& d : data) out.append(d);
+            const py::array_t<int> indices(nnz, pattern->row_index.data());
+            const py::array_t<int> indptr(static_cast<py::ssize_t>(pattern->col_ptr.size()), pattern->col_ptr.data());
+            return py::make_tuple(residual ? py::cast(r) : py::none(), out, indices, indptr);
+        },
+        py::arg("model"), py::arg("state"), py::arg("load"), py::arg("load_factor"), py::arg("weights"),
+        py::arg("residual") = true,
+        "Reduced residual (or None) and, in one pass over the elements, the values of the tangent "
+        "wK K + wC C + wM M for each (wK, wC, wM) of weights on the model's cached CSC pattern: "
+        "(r, [data per weight set], indices, indptr), with fresh copies of the pattern arrays.");
     m.def(
         "assemble_geometric",
         [](const Model& md, const State& s, const Eigen::VectorXd& dq) {

@@ -1,6 +1,7 @@
 #include "pipeflex/assembly/model.hpp"
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
 #include <string>
 #include <utility>
@@ -59,9 +60,33 @@ void mass_residual(const NodalMass& nm, const Mat3<double>& frame, const LoadSta
     for (int i = 0; i < 3; ++i) r[3 + i] = m[i];
 }
 
+// Destinations of the tangent entries, which the assembler emits in a fixed order (the
+// same for every state, load and weights): triplets, the (row, col) list of the pattern,
+// or the value slots of the cached CSC pattern.
+struct TripletSink {
+    Triplets* t;
+    void add(int r, int c, double v) { t->add(r, c, v); }
+};
+
+struct PatternSink {
+    std::vector<int> rows, cols;
+    void add(int r, int c, double) {
+        rows.push_back(r);
+        cols.push_back(c);
+    }
+};
+
+struct SlotSink {
+    const int* slot;
+    double* values;
+    std::size_t k = 0;
+    void add(int, int, double v) { values[slot[k++]] += v; }
+};
+
 // Scatter a full 6-per-node block pair (rows of node a, cols of node b) into the reduced
-// triplets: T_a^T B T_b.
-void scatter_block(const Model& m, int na, int nb, const double* blk, int ld, Triplets* J) {
+// tangent: T_a^T B T_b.
+template <class Sink>
+void scatter_block(const Model& m, int na, int nb, const double* blk, int ld, Sink* J) {
     const Eigen::MatrixXd& Ta = m.bases[na];
     const Eigen::MatrixXd& Tb = m.bases[nb];
     if (Ta.cols() == 0 || Tb.cols() == 0) return;
@@ -69,11 +94,9 @@ void scatter_block(const Model& m, int na, int nb, const double* blk, int ld, Tr
         const auto& sa = m.selected[na];
         const auto& sb = m.selected[nb];
         for (std::size_t i = 0; i < sa.size(); ++i)
-            for (std::size_t j = 0; j < sb.size(); ++j) {
-                J->rows.push_back(m.first_dof[na] + static_cast<int>(i));
-                J->cols.push_back(m.first_dof[nb] + static_cast<int>(j));
-                J->values.push_back(blk[ld * sa[i] + sb[j]]);
-            }
+            for (std::size_t j = 0; j < sb.size(); ++j)
+                J->add(m.first_dof[na] + static_cast<int>(i), m.first_dof[nb] + static_cast<int>(j),
+                       blk[ld * sa[i] + sb[j]]);
         return;
     }
     Eigen::Matrix<double, 6, 6> B;
@@ -81,11 +104,7 @@ void scatter_block(const Model& m, int na, int nb, const double* blk, int ld, Tr
         for (int j = 0; j < 6; ++j) B(i, j) = blk[ld * i + j];
     const Eigen::MatrixXd R = Ta.transpose() * B * Tb;
     for (int i = 0; i < R.rows(); ++i)
-        for (int j = 0; j < R.cols(); ++j) {
-            J->rows.push_back(m.first_dof[na] + i);
-            J->cols.push_back(m.first_dof[nb] + j);
-            J->values.push_back(R(i, j));
-        }
+        for (int j = 0; j < R.cols(); ++j) J->add(m.first_dof[na] + i, m.first_dof[nb] + j, R(i, j));
 }
 
 // ANCF element coordinates e (8) from a 6-per-node vector: slots 0, 1 (position) and
@@ -127,19 +146,18 @@ void scatter_vector(const Model& m, int n, const double* f, Eigen::VectorXd* r) 
     }
 }
 
-// Scatter a two-node element's residual (12) and tangent (12x12, row-major); either
-// destination may be null.
-void scatter_element(const Model& m, int p, int q, const double* re, const double* Je, Eigen::VectorXd* residual,
-                     Triplets* J) {
-    if (residual != nullptr) {
-        scatter_vector(m, p, re, residual);
-        scatter_vector(m, q, re + 6, residual);
-    }
-    if (J != nullptr) {
-        const int nodes[2] = {p, q};
-        for (int a = 0; a < 2; ++a)
-            for (int b = 0; b < 2; ++b) scatter_block(m, nodes[a], nodes[b], Je + 72 * a + 6 * b, 12, J);
-    }
+// Scatter a two-node element's tangent (12x12, row-major).
+template <class Sink>
+void scatter_element(const Model& m, int p, int q, const double* Je, Sink* J) {
+    const int nodes[2] = {p, q};
+    for (int a = 0; a < 2; ++a)
+        for (int b = 0; b < 2; ++b) scatter_block(m, nodes[a], nodes[b], Je + 72 * a + 6 * b, 12, J);
+}
+
+void scatter_residual(const Model& m, int p, int q, const double* re, Eigen::VectorXd* residual) {
+    if (residual == nullptr) return;
+    scatter_vector(m, p, re, residual);
+    scatter_vector(m, q, re + 6, residual);
 }
 
 }  // namespace
@@ -152,6 +170,7 @@ void Model::finalize() {
     if (static_cast<int>(bases.size()) != n)
         throw std::invalid_argument("the model has " + std::to_string(n) + " nodes but " +
                                     std::to_string(bases.size()) + " bases (set_bases: one 6 x k basis per node)");
+    pattern_cache.reset();
     first_dof.assign(n, 0);
     int k = 0;
     for (int i = 0; i < n; ++i) {
@@ -408,101 +427,220 @@ int State::rebase(double max_angle) {
     return count;
 }
 
-void assemble(const Model& model, const State& state, const LoadState& load, double load_factor,
-              double wK, double wC, double wM, Eigen::VectorXd* residual, Triplets* J) {
+namespace {
+
+// The assembler: the residual (if not null) and the tangents for the nw weight sets
+// w[i] into sinks[i] (nw = 0: residual only), all in one pass over the elements (an
+// element's data still in cache for every set); the residual comes with the first set.
+// Entries are emitted whatever the weights (zeros included), so that the order is
+// the pattern's.
+template <class Sink>
+void assemble_into(const Model& model, const State& state, const LoadState& load, double load_factor,
+                   const TangentWeights* w, Sink* sinks, int nw, Eigen::VectorXd* residual) {
     check_state(model, state);
     if (residual != nullptr) residual->setZero(model.n_dofs);
-    if (J != nullptr) J->clear();
     double qe[12], ve[12], ae[12], re[12], Je[144];
+    // Several weight sets with derivatives: the pipe kernel differentiates once for all
+    // (pipe_tangents); one set, or mass matrices only, take pipe_tangent's shortcuts.
+    std::vector<double> wflat(3 * nw), Jmany(nw > 1 ? 144 * nw : 0);
+    std::vector<double*> Jptr(nw);
+    bool derivatives = false;
+    for (int i = 0; i < nw; ++i) {
+        wflat[3 * i] = w[i].wK;
+        wflat[3 * i + 1] = w[i].wC;
+        wflat[3 * i + 2] = w[i].wM;
+        Jptr[i] = nw > 1 ? Jmany.data() + 144 * i : Je;
+        derivatives = derivatives || w[i].wK != 0.0 || w[i].wC != 0.0;
+    }
+    const bool at_once = nw > 1 && derivatives;
     for (const auto& el : model.pipes) {
         gather(state.q, el.p, el.q, qe);
         gather(state.v, el.p, el.q, ve);
         gather(state.a, el.p, el.q, ae);
-        pipe_tangent(el.data, frames_of(state, el), load, qe, ve, ae, wK, wC, wM, re,
-                     J != nullptr ? Je : nullptr);
-        scatter_element(model, el.p, el.q, re, Je, residual, J);
+        double* r = residual != nullptr ? re : nullptr;
+        if (nw == 0) pipe_tangent(el.data, frames_of(state, el), load, qe, ve, ae, 0.0, 0.0, 0.0, re, nullptr);
+        if (at_once) pipe_tangents(el.data, frames_of(state, el), load, qe, ve, ae, nw, wflat.data(), r, Jptr.data());
+        for (int i = 0; i < nw; ++i) {
+            if (!at_once)
+                pipe_tangent(el.data, frames_of(state, el), load, qe, ve, ae, w[i].wK, w[i].wC, w[i].wM,
+                             i == 0 ? r : nullptr, Jptr[i]);
+            scatter_element(model, el.p, el.q, Jptr[i], &sinks[i]);
+        }
+        scatter_residual(model, el.p, el.q, re, residual);
     }
     AncfFrame frame;
     frame.rate = load.frame_rate;
     frame.acceleration = load.frame_acceleration;
     frame.center[0] = load.frame_center[0];
     frame.center[1] = load.frame_center[1];
+    const double g[2] = {load.gravity[0] * load.gravity_factor, load.gravity[1] * load.gravity_factor};
     for (const auto& el : model.ancf) {
         double e[8], v8[8], a8[8], r8[8], J8[64];
         gather_ancf(state.q, el, e);
         gather_ancf(state.a, el, a8);
         gather_ancf(state.v, el, v8);
-        const double g[2] = {load.gravity[0] * load.gravity_factor, load.gravity[1] * load.gravity_factor};
-        ancf_tangent(el.data, e, v8, a8, g, &frame, wK, wC, wM, r8, J != nullptr ? J8 : nullptr);
-        widen_ancf(r8, J != nullptr ? J8 : nullptr, re, Je);
-        scatter_element(model, el.p, el.q, re, Je, residual, J);
+        if (nw == 0) ancf_tangent(el.data, e, v8, a8, g, &frame, 0.0, 0.0, 0.0, r8, nullptr);
+        for (int i = 0; i < nw; ++i) {
+            ancf_tangent(el.data, e, v8, a8, g, &frame, w[i].wK, w[i].wC, w[i].wM,
+                         i == 0 && residual != nullptr ? r8 : nullptr, J8);
+            widen_ancf(nullptr, J8, nullptr, Je);
+            scatter_element(model, el.p, el.q, Je, &sinks[i]);
+        }
+        if (residual != nullptr) {
+            widen_ancf(r8, nullptr, re, nullptr);
+            scatter_residual(model, el.p, el.q, re, residual);
+        }
     }
     for (const auto& nm : model.masses) {
         const int n = nm.node;
         if (model.kinds[n] == NodeKind::ancf) {
-            double rv[6] = {}, blk[36] = {};
             // inertia in the (possibly) turning frame: a + 2 w S v + (w^2 S^2 + w_dot S)(x - c)
-            const double w = frame.rate, wd = frame.acceleration;
-            const double rx = state.q[6 * n] - frame.center[0], ry = state.q[6 * n + 1] - frame.center[1];
-            const double f[2] = {-2.0 * w * state.v[6 * n + 1] - w * w * rx - wd * ry,
-                                 2.0 * w * state.v[6 * n] - w * w * ry + wd * rx};
-            for (int i = 0; i < 3; ++i) {
-                rv[i] = nm.mass * (state.a[6 * n + i] + (i < 2 ? f[i] : 0.0) - load.gravity[i] * load.gravity_factor);
-                blk[6 * i + i] = wM * nm.mass - wK * nm.mass * w * w * (i < 2);
+            const double wf = frame.rate, wd = frame.acceleration;
+            if (residual != nullptr) {
+                double rv[6] = {};
+                const double rx = state.q[6 * n] - frame.center[0], ry = state.q[6 * n + 1] - frame.center[1];
+                const double f[2] = {-2.0 * wf * state.v[6 * n + 1] - wf * wf * rx - wd * ry,
+                                     2.0 * wf * state.v[6 * n] - wf * wf * ry + wd * rx};
+                for (int i = 0; i < 3; ++i)
+                    rv[i] = nm.mass * (state.a[6 * n + i] + (i < 2 ? f[i] : 0.0) - load.gravity[i] * load.gravity_factor);
+                scatter_vector(model, n, rv, residual);
             }
-            blk[0 * 6 + 1] = nm.mass * (-wK * wd - wC * 2.0 * w);
-            blk[1 * 6 + 0] = nm.mass * (wK * wd + wC * 2.0 * w);
-            if (residual != nullptr) scatter_vector(model, n, rv, residual);
-            if (J != nullptr) scatter_block(model, n, n, blk, 6, J);
+            for (int k = 0; k < nw; ++k) {
+                double blk[36] = {};
+                for (int i = 0; i < 3; ++i) blk[6 * i + i] = w[k].wM * nm.mass - w[k].wK * nm.mass * wf * wf * (i < 2);
+                blk[0 * 6 + 1] = nm.mass * (-w[k].wK * wd - w[k].wC * 2.0 * wf);
+                blk[1 * 6 + 0] = nm.mass * (w[k].wK * wd + w[k].wC * 2.0 * wf);
+                scatter_block(model, n, n, blk, 6, &sinks[k]);
+            }
             continue;
         }
         using D = Dual<double, 6>;
-        D qd[6], vd[6], rd[6];
-        for (int i = 0; i < 6; ++i) {
-            qd[i] = D(state.q[6 * n + i]);
-            qd[i].d[i] = wK;
-            vd[i] = D(state.v[6 * n + i]);
-            vd[i].d[i] = wC;
-        }
-        mass_residual(nm, state.frames[n], load, qd, vd, state.a.data() + 6 * n, rd);
-        double rv[6], blk[36];
-        for (int i = 0; i < 6; ++i) {
-            rv[i] = rd[i].v;
-            for (int j = 0; j < 6; ++j) blk[6 * i + j] = rd[i].d[j];
-        }
-        if (wM != 0.0) {
-            // Mass matrix: m I and T^T R J R^T T.
-            const Mat3<double> R = state.rotation(n);
-            const Mat3<double> T = rotation_jacobian(node_vec(state.q, n, 3));
-            const Mat3<double> RT = transpose(R) * T;
-            Mat3<double> Jb{};
-            for (int i = 0; i < 3; ++i) Jb(i, i) = nm.inertia[i];
-            const Mat3<double> Mr = transpose(RT) * (Jb * RT);
-            for (int i = 0; i < 3; ++i) {
-                blk[6 * i + i] += wM * nm.mass;
-                for (int j = 0; j < 3; ++j) blk[6 * (3 + i) + 3 + j] += wM * Mr(i, j);
-            }
-        }
-        if (residual != nullptr) scatter_vector(model, n, rv, residual);
-        if (J != nullptr) scatter_block(model, n, n, blk, 6, J);
-    }
-    if (load_factor != 0.0) {
-        for (const auto& l : model.loads) {
-            const int n = l.node;
-            using D = Dual<double, 3>;
-            Vec3<D> phi;
-            for (int i = 0; i < 3; ++i) phi[i] = D(state.q[6 * n + 3 + i], i);
-            D f[6];
-            load_force(l, state.frames[n], phi, f);
-            double rv[6], blk[36] = {};
+        for (int k = 0; k < std::max(nw, 1); ++k) {
+            const double wK = nw > 0 ? w[k].wK : 0.0, wC = nw > 0 ? w[k].wC : 0.0, wM = nw > 0 ? w[k].wM : 0.0;
+            D qd[6], vd[6], rd[6];
             for (int i = 0; i < 6; ++i) {
-                rv[i] = -load_factor * f[i].v;
-                for (int j = 0; j < 3; ++j) blk[6 * i + 3 + j] = -load_factor * wK * f[i].d[j];
+                qd[i] = D(state.q[6 * n + i]);
+                qd[i].d[i] = wK;
+                vd[i] = D(state.v[6 * n + i]);
+                vd[i].d[i] = wC;
             }
-            if (residual != nullptr) scatter_vector(model, n, rv, residual);
-            if (J != nullptr && wK != 0.0) scatter_block(model, n, n, blk, 6, J);
+            mass_residual(nm, state.frames[n], load, qd, vd, state.a.data() + 6 * n, rd);
+            double rv[6], blk[36];
+            for (int i = 0; i < 6; ++i) {
+                rv[i] = rd[i].v;
+                for (int j = 0; j < 6; ++j) blk[6 * i + j] = rd[i].d[j];
+            }
+            if (k == 0 && residual != nullptr) scatter_vector(model, n, rv, residual);
+            if (nw == 0) break;
+            if (wM != 0.0) {
+                // Mass matrix: m I and T^T R J R^T T.
+                const Mat3<double> R = state.rotation(n);
+                const Mat3<double> T = rotation_jacobian(node_vec(state.q, n, 3));
+                const Mat3<double> RT = transpose(R) * T;
+                Mat3<double> Jb{};
+                for (int i = 0; i < 3; ++i) Jb(i, i) = nm.inertia[i];
+                const Mat3<double> Mr = transpose(RT) * (Jb * RT);
+                for (int i = 0; i < 3; ++i) {
+                    blk[6 * i + i] += wM * nm.mass;
+                    for (int j = 0; j < 3; ++j) blk[6 * (3 + i) + 3 + j] += wM * Mr(i, j);
+                }
+            }
+            scatter_block(model, n, n, blk, 6, &sinks[k]);
         }
     }
+    if (load_factor == 0.0 && nw == 0) return;
+    for (const auto& l : model.loads) {
+        const int n = l.node;
+        using D = Dual<double, 3>;
+        Vec3<D> phi;
+        for (int i = 0; i < 3; ++i) phi[i] = D(state.q[6 * n + 3 + i], i);
+        D f[6];
+        load_force(l, state.frames[n], phi, f);
+        if (residual != nullptr) {
+            double rv[6];
+            for (int i = 0; i < 6; ++i) rv[i] = -load_factor * f[i].v;
+            scatter_vector(model, n, rv, residual);
+        }
+        for (int k = 0; k < nw; ++k) {
+            double blk[36] = {};
+            for (int i = 0; i < 6; ++i)
+                for (int j = 0; j < 3; ++j) blk[6 * i + 3 + j] = -load_factor * w[k].wK * f[i].d[j];
+            scatter_block(model, n, n, blk, 6, &sinks[k]);
+        }
+    }
+}
+
+// CSC structure of the emitted (row, col) list: a counting sort by column, rows sorted
+// and merged within each column (a few dozen entries), each entry's slot recorded.
+std::shared_ptr<const TangentPattern> build_pattern(const Model& model) {
+    const State state(model);
+    const TangentWeights mass_only{0.0, 0.0, 1.0};  // the cheapest kernels; the order is the same
+    PatternSink sink;
+    assemble_into(model, state, LoadState{}, 1.0, &mass_only, &sink, 1, nullptr);
+    auto p = std::make_shared<TangentPattern>();
+    const int n = model.n_dofs;
+    const std::size_t m = sink.rows.size();
+    p->n = n;
+    std::vector<int> start(n + 1, 0), order(m);
+    for (int c : sink.cols) ++start[c + 1];
+    for (int c = 0; c < n; ++c) start[c + 1] += start[c];
+    {
+        std::vector<int> next(start.begin(), start.end() - 1);
+        for (std::size_t k = 0; k < m; ++k) order[next[sink.cols[k]]++] = static_cast<int>(k);
+    }
+    p->slot.assign(m, 0);
+    p->col_ptr.assign(n + 1, 0);
+    p->row_index.reserve(m / 2);
+    for (int c = 0; c < n; ++c) {
+        auto* b = order.data() + start[c];
+        auto* e = order.data() + start[c + 1];
+        std::sort(b, e, [&](int x, int y) { return sink.rows[x] < sink.rows[y]; });
+        for (auto* it = b; it != e; ++it) {
+            if (it == b || sink.rows[*it] != sink.rows[*(it - 1)]) p->row_index.push_back(sink.rows[*it]);
+            p->slot[*it] = static_cast<int>(p->row_index.size()) - 1;
+        }
+        p->col_ptr[c + 1] = static_cast<int>(p->row_index.size());
+    }
+    p->row_index.shrink_to_fit();
+    return p;
+}
+
+}  // namespace
+
+void assemble(const Model& model, const State& state, const LoadState& load, double load_factor,
+              double wK, double wC, double wM, Eigen::VectorXd* residual, Triplets* J) {
+    if (J != nullptr) J->clear();
+    const TangentWeights w{wK, wC, wM};
+    TripletSink sink{J};
+    assemble_into(model, state, load, load_factor, &w, &sink, J != nullptr ? 1 : 0, residual);
+}
+
+std::shared_ptr<const TangentPattern> tangent_pattern(const Model& model) {
+    if (static_cast<int>(model.first_dof.size()) != model.n_nodes())
+        throw std::invalid_argument("the model is not finalized (call finalize() after its last node)");
+    auto p = std::atomic_load(&model.pattern_cache);
+    if (p == nullptr) {
+        p = build_pattern(model);
+        std::atomic_store(&model.pattern_cache, p);
+    }
+    return p;
+}
+
+void assemble_csc(const Model& model, const State& state, const LoadState& load, double load_factor,
+                  const std::vector<TangentWeights>& w, Eigen::VectorXd* residual, double* const* values) {
+    check_state(model, state);
+    const auto pattern = tangent_pattern(model);
+    std::vector<SlotSink> sinks;
+    sinks.reserve(w.size());
+    for (std::size_t i = 0; i < w.size(); ++i) {
+        std::fill(values[i], values[i] + pattern->nnz(), 0.0);
+        sinks.push_back(SlotSink{pattern->slot.data(), values[i]});
+    }
+    assemble_into(model, state, load, load_factor, w.data(), sinks.data(), static_cast<int>(w.size()), residual);
+    for (const auto& s : sinks)
+        if (s.k != pattern->slot.size())
+            throw std::logic_error("assemble_csc: the assembler emitted " + std::to_string(s.k) +
+                                   " tangent entries, its pattern has " + std::to_string(pattern->slot.size()));
 }
 
 void assemble_geometric(const Model& model, const State& state, const Eigen::VectorXd& dq, Triplets* G) {
@@ -510,6 +648,7 @@ void assemble_geometric(const Model& model, const State& state, const Eigen::Vec
         throw std::invalid_argument("the small-deformation prestress stiffness is defined for ANCF Model A elements "
                                     "only; this model has pipe elements (use the steady-state linearisation)");
     G->clear();
+    TripletSink sink{G};
     double e[8], de[8], G8[64], G12[144];
     for (const auto& el : model.ancf) {
         if (el.data.elastic != AncfElastic::model_a)
@@ -522,7 +661,7 @@ void assemble_geometric(const Model& model, const State& state, const Eigen::Vec
         widen_ancf(nullptr, G8, nullptr, G12);
         const int nodes[2] = {el.p, el.q};
         for (int a = 0; a < 2; ++a)
-            for (int b = 0; b < 2; ++b) scatter_block(model, nodes[a], nodes[b], G12 + 72 * a + 6 * b, 12, G);
+            for (int b = 0; b < 2; ++b) scatter_block(model, nodes[a], nodes[b], G12 + 72 * a + 6 * b, 12, &sink);
     }
 }
 

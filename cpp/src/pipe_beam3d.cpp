@@ -462,6 +462,13 @@ void pipe_tangent(const PipeElementData& e, const NodeFrames& ref, const LoadSta
                   const double* q, const double* v, const double* acc, double wK, double wC,
                   double wM, double* r, double* J) {
     if (residual_or_mass_only(e, ref, load, q, v, acc, wK, wC, wM, r, J)) return;
+    const double w[3] = {wK, wC, wM};
+    pipe_tangents(e, ref, load, q, v, acc, 1, w, r, &J);
+}
+
+void pipe_tangents(const PipeElementData& e, const NodeFrames& ref, const LoadState& load,
+                   const double* q, const double* v, const double* acc, int nw, const double* weights,
+                   double* r, double* const* Js) {
     const double l0 = e.l0;
     const V3 xp = vec(q), xq = vec(q + 6), vxp = vec(v), vxq = vec(v + 6);
     const NodeRotation nd[2] = {node_rotation(vec(q + 3), vec(v + 3), vec(acc + 3), ref.p, e.offset_p),
@@ -582,36 +589,40 @@ void pipe_tangent(const PipeElementData& e, const NodeFrames& ref, const LoadSta
     // J = wK dr/dq + wC dr/dqdot + wM dr/dqddot: a rotation column maps through
     // theta = T phi, w(phi, phid), al(phi, phid, phidd); a rotation row through T^T, whose
     // own derivative adds d(T^T m)/dphi.
-    M3 Sth[2], Sw[2], Sal[2];
-    for (int n = 0; n < 2; ++n) {
-        Sth[n] = wK * nd[n].T;
-        Sw[n] = wK * nd[n].Bw + wC * nd[n].T;
-        Sal[n] = wK * nd[n].Ba + wC * nd[n].Cc + wM * nd[n].T;
-    }
-    for (int rb = 0; rb < 4; ++rb)
+    for (int set = 0; set < nw; ++set) {
+        const double wK = weights[3 * set], wC = weights[3 * set + 1], wM = weights[3 * set + 2];
+        double* J = Js[set];
+        M3 Sth[2], Sw[2], Sal[2];
         for (int n = 0; n < 2; ++n) {
-            M3 bx = wK * df[rb][cX + 2 * n];
-            axpy(bx, wC, df[rb][cVX + 2 * n]);
-            axpy(bx, wM, df[rb][cAX + 2 * n]);
-            M3 bp = df[rb][cTH + 2 * n] * Sth[n] + df[rb][cW + 2 * n] * Sw[n] + df[rb][cAL + 2 * n] * Sal[n];
-            if (rb % 2 == 1) {
-                const M3& T = nd[rb / 2].T;
-                bx = tmul(T, bx);
-                bp = tmul(T, bp);
-                if (rb / 2 == n && wK != 0.0) {
-                    const V3 m = vec(f + 3 * rb);
-                    for (int k = 0; k < 3; ++k) {
-                        const V3 col = tmul(nd[n].dT[k], m);
-                        for (int i = 0; i < 3; ++i) bp(i, k) += wK * col[i];
+            Sth[n] = wK * nd[n].T;
+            Sw[n] = wK * nd[n].Bw + wC * nd[n].T;
+            Sal[n] = wK * nd[n].Ba + wC * nd[n].Cc + wM * nd[n].T;
+        }
+        for (int rb = 0; rb < 4; ++rb)
+            for (int n = 0; n < 2; ++n) {
+                M3 bx = wK * df[rb][cX + 2 * n];
+                axpy(bx, wC, df[rb][cVX + 2 * n]);
+                axpy(bx, wM, df[rb][cAX + 2 * n]);
+                M3 bp = df[rb][cTH + 2 * n] * Sth[n] + df[rb][cW + 2 * n] * Sw[n] + df[rb][cAL + 2 * n] * Sal[n];
+                if (rb % 2 == 1) {
+                    const M3& T = nd[rb / 2].T;
+                    bx = tmul(T, bx);
+                    bp = tmul(T, bp);
+                    if (rb / 2 == n && wK != 0.0) {
+                        const V3 m = vec(f + 3 * rb);
+                        for (int k = 0; k < 3; ++k) {
+                            const V3 col = tmul(nd[n].dT[k], m);
+                            for (int i = 0; i < 3; ++i) bp(i, k) += wK * col[i];
+                        }
                     }
                 }
+                for (int i = 0; i < 3; ++i)
+                    for (int j = 0; j < 3; ++j) {
+                        J[12 * (3 * rb + i) + 6 * n + j] = bx(i, j);
+                        J[12 * (3 * rb + i) + 6 * n + 3 + j] = bp(i, j);
+                    }
             }
-            for (int i = 0; i < 3; ++i)
-                for (int j = 0; j < 3; ++j) {
-                    J[12 * (3 * rb + i) + 6 * n + j] = bx(i, j);
-                    J[12 * (3 * rb + i) + 6 * n + 3 + j] = bp(i, j);
-                }
-        }
+    }
 }
 
 void pipe_fluid_forces(const PipeElementData& e, const NodeFrames& ref, const LoadState& load,

@@ -19,44 +19,35 @@ def require_model(model, name: str = "model"):
     return model
 
 
-class _TripletPattern:
-    """CSC structure of a triplet list (rows, cols) with duplicates, and where each triplet
-    lands in it: the assembler emits the same triplet order at every call, so the sort of a
-    COO -> CSC conversion (most of linearize's time beyond the assembly) is done once and
-    each later matrix is one weighted bincount."""
-
-    def __init__(self, rows, cols, n):
-        self.rows, self.cols, self.n = rows, cols, n
-        key = cols.astype(np.int64) * n + rows
-        uniq, self.slot = np.unique(key, return_inverse=True)
-        self.indices = (uniq % n).astype(np.int32)
-        self.indptr = np.concatenate([[0], np.cumsum(np.bincount(uniq // n, minlength=n))]).astype(np.int32)
-
-    def matches(self, rows, cols, n):
-        return n == self.n and np.array_equal(rows, self.rows) and np.array_equal(cols, self.cols)
-
-    def csc(self, vals):
-        data = np.bincount(self.slot, weights=vals, minlength=len(self.indices))
-        A = sp.csc_matrix((data, self.indices.copy(), self.indptr.copy()), shape=(self.n, self.n))
-        A.has_canonical_format = True
-        return A
+def _csc(data, indices, indptr, n):
+    A = sp.csc_matrix((data, indices, indptr), shape=(n, n), copy=False)
+    A.has_sorted_indices = True  # the core's pattern: rows ascending, no repeats
+    A.has_canonical_format = True
+    return A
 
 
-_pattern = None  # the last triplet pattern (models alternate rarely; a mismatch rebuilds it)
+def tangents(model, state, load, weights, *, load_factor=1.0, residual=False):
+    """Tangents wK dR/dq + wC dR/dq_dot + wM M (CSC) for each (wK, wC, wM) in ``weights``,
+    assembled by the core in one pass over the elements straight into the model's cached
+    CSC pattern (no triplets); with ``residual``, (R, [matrices]) else [matrices]."""
+    if isinstance(state, State):
+        state = state.to_core(model)
+    r, data, indices, indptr = _core.assemble_csc(model.core, state, load, load_factor,
+                                                  [tuple(map(float, w)) for w in weights], residual)
+    n = model.n_dofs
+    mats = [_csc(d, indices if k == 0 else indices.copy(), indptr if k == 0 else indptr.copy(), n)
+            for k, d in enumerate(data)]
+    return (np.asarray(r), mats) if residual else mats
 
 
 def residual_and_tangent(model, state, load, *, load_factor=1.0, wK=1.0, wC=0.0, wM=0.0, matrix=True):
     """Reduced residual R and tangent wK dR/dq + wC dR/dq_dot + wM M (CSC) at ``state``
-    (a ``_core.State`` or a :class:`~pipeflex.state.State`)."""
-    global _pattern
+    (a ``_core.State`` or a :class:`~pipeflex.state.State`); None for the matrix unless
+    ``matrix``."""
     if isinstance(state, State):
         state = state.to_core(model)
-    r, trip = _core.assemble(model.core, state, load, load_factor, wK, wC, wM, matrix)
-    if trip is None:
+    if not matrix:
+        r, _ = _core.assemble(model.core, state, load, load_factor, wK, wC, wM, False)
         return np.asarray(r), None
-    rows, cols, vals = (np.asarray(x) for x in trip)
-    n = model.n_dofs
-    pattern = _pattern
-    if pattern is None or not pattern.matches(rows, cols, n):
-        pattern = _pattern = _TripletPattern(rows, cols, n)
-    return np.asarray(r), pattern.csc(vals)
+    r, (J,) = tangents(model, state, load, [(wK, wC, wM)], load_factor=load_factor, residual=True)
+    return r, J

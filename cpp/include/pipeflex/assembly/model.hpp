@@ -14,6 +14,7 @@
 #include "pipeflex/elements/pipe_beam3d.hpp"
 
 #include <Eigen/Core>
+#include <memory>
 #include <stdexcept>
 #include <vector>
 
@@ -67,6 +68,8 @@ struct NodalMass {
     Vec3<double> inertia{};
 };
 
+struct TangentPattern;
+
 struct Model {
     std::vector<Vec3<double>> positions;  // reference node positions [m]
     std::vector<PipeElement> pipes;
@@ -82,6 +85,9 @@ struct Model {
     std::vector<bool> is_selection;
     std::vector<std::vector<int>> selected;
     int n_dofs = 0;
+    // The CSC pattern of the tangent, built by tangent_pattern() at its first use and
+    // dropped by finalize(): every change of the structure ends with finalize().
+    mutable std::shared_ptr<const TangentPattern> pattern_cache;
 
     int n_nodes() const { return static_cast<int>(positions.size()); }
     void finalize();  // numbers the reduced coordinates; checks consistency
@@ -126,6 +132,31 @@ struct Triplets {
 // Reduced residual (size n_dofs) and, if J is not null, the weighted tangent.
 void assemble(const Model& model, const State& state, const LoadState& load, double load_factor,
               double wK, double wC, double wM, Eigen::VectorXd* residual, Triplets* J);
+
+// Sparsity of the reduced tangent wK K + wC C + wM M for any weights (the assembler
+// emits the same entries in the same order whatever the weights, state and loads):
+// compressed columns (col_ptr, n + 1; row_index, rows ascending in each column, no
+// repeats) and the value slot of each emitted entry, in emission order.
+struct TangentPattern {
+    int n = 0;
+    std::vector<int> col_ptr, row_index;
+    std::vector<int> slot;
+    std::size_t nnz() const { return row_index.size(); }
+};
+
+// The model's tangent pattern, computed at the first call after finalize() and shared
+// by later calls (safe from several threads: a race computes it twice).
+std::shared_ptr<const TangentPattern> tangent_pattern(const Model& model);
+
+struct TangentWeights {
+    double wK = 1.0, wC = 0.0, wM = 0.0;
+};
+
+// Reduced residual (if not null) and, in one pass over the elements, the tangent for
+// each weight set w[i] written to values[i] (pattern->nnz() entries each, overwritten)
+// on pattern = tangent_pattern(model): K, C and M at once without triplets.
+void assemble_csc(const Model& model, const State& state, const LoadState& load, double load_factor,
+                  const std::vector<TangentWeights>& w, Eigen::VectorXd* residual, double* const* values);
 
 // Geometric stiffness (reduced triplets) of the prestress that the full-coordinate
 // displacement dq produces to first order about the state: ANCF Model A elements only.

@@ -73,6 +73,13 @@ void pipe_tangent(const PipeElementData& e, const NodeFrames& ref, const LoadSta
                   const double* q, const double* v, const double* acc, double wK, double wC,
                   double wM, double* r, double* J);
 
+// The tangents for nw weight sets at once, J[k] for weights[3k..3k+2] = (wK, wC, wM):
+// the derivatives are computed once and only their weighted sums nw times (K, C and M
+// of a linearisation for the cost of about one tangent). r may be null.
+void pipe_tangents(const PipeElementData& e, const NodeFrames& ref, const LoadState& load,
+                   const double* q, const double* v, const double* acc, int nw, const double* weights,
+                   double* r, double* const* J);
+
 // The same by forward AD of pipe_residual (12 directions): the reference for tests.
 void pipe_tangent_ad(const PipeElementData& e, const NodeFrames& ref, const LoadState& load,
                      const double* q, const double* v, const double* acc, double wK, double wC,
