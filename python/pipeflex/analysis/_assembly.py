@@ -26,6 +26,10 @@ def _csc(data, indices, indptr, n):
     return A
 
 
+# the weights of K, C and M, for tangents()
+KCM = ((1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.0, 0.0, 1.0))
+
+
 def tangents(model, state, load, weights, *, load_factor=1.0, residual=False):
     """Tangents wK dR/dq + wC dR/dq_dot + wM M (CSC) for each (wK, wC, wM) in ``weights``,
     assembled by the core in one pass over the elements straight into the model's cached

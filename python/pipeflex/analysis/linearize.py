@@ -9,7 +9,7 @@ import scipy.sparse as sp
 from .. import _checks
 from ..results import Result
 from ..state import State, as_core
-from ._assembly import require_model, tangents
+from ._assembly import KCM, require_model, tangents
 from .._blas import small_problems_single_threaded
 
 
@@ -63,5 +63,5 @@ def linearize(model, state=None, *, mass_flow: Optional[float] = None) -> Linear
     s.rebase(0.0)
     mdot = model.mass_flow if mass_flow is None else _checks.finite("mass_flow", mass_flow)
     load = model.load_state(mass_flow=mdot)
-    K, C, M = tangents(model, s, load, [(1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.0, 0.0, 1.0)])
+    K, C, M = tangents(model, s, load, KCM)
     return Linearization(M, C, K, mdot, State.from_core(s, model), model.dof_labels)

@@ -22,7 +22,7 @@ from .. import _checks, _core
 from ..errors import ConvergenceError, SingularMatrixError
 from ..results import Result
 from ..state import State, as_core
-from ._assembly import require_model, residual_and_tangent
+from ._assembly import KCM, require_model, residual_and_tangent, tangents
 from ..rotation import skew
 from .._blas import small_problems_single_threaded
 
@@ -160,9 +160,7 @@ def steady_rotation(model, *, omega_guess: Optional[float] = None, mass_flow: Op
             total += 1
             st.rebase(0.0)
             xh = _rigid_rotation(model, st, node, axis, omega)
-            r, K = residual_and_tangent(model, st, load, wK=1.0)
-            _, Cm = residual_and_tangent(model, st, load, load_factor=0.0, wK=0.0, wC=1.0)
-            _, Mm = residual_and_tangent(model, st, load, load_factor=0.0, wK=0.0, wM=1.0)
+            r, (K, Cm, Mm) = tangents(model, st, load, KCM, residual=True)
             rnorm = float(np.linalg.norm(r))
             dv, da = _rate_columns(model, st, axis, xh, omega)
             # the hinge angle is arbitrary: its column carries omega's derivative instead
