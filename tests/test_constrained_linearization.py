@@ -10,21 +10,24 @@ from pipeflex.multibody import MultibodyBuilder, flexible_body, static_equilibri
 SEC = pf.PipeSection(EI=10.0, pipe_mass=8.0, fluid_mass=2.0, EA=1e5, rotary_inertia=(1e-3, 1e-3, 1e-3))
 
 
-def arm(clamped, mass_flow):
+def arm(clamped, mass_flow, tip_force=0.0):
     b = pf.ModelBuilder()
     n0 = b.add_node((0.0, 0.0, 0.0))
-    b.add_line(n0, (1.0, 0.0, 0.0), 8, SEC)
+    nodes = b.add_line(n0, (1.0, 0.0, 0.0), 8, SEC)
+    if tip_force:
+        b.add_load(nodes[-1], force=(0.0, tip_force, 0.0))
     if clamped:
         b.clamp(n0)
     return b.build(mass_flow=mass_flow, floating=not clamped), n0
 
 
-def on_stiff_hub(mass_flow):
-    """The arm rigidly joined to a short, very stiff body clamped to the ground."""
-    floating, n0 = arm(False, mass_flow)
+def on_stiff_hub(mass_flow, stiffness=1e6, tip_force=0.0):
+    """The arm rigidly joined to a short stiff body clamped to the ground (the body's EI
+    ``stiffness`` times that of a body as compliant as the arm)."""
+    floating, n0 = arm(False, mass_flow, tip_force)
     mb = MultibodyBuilder()
     mu = 3 * 10.0 / 0.2**3
-    hub = pf.PipeSection(EI=1e6 * mu, pipe_mass=mu, rotary_inertia=(1.0, 1.0, 1.0))
+    hub = pf.PipeSection(EI=stiffness * mu, pipe_mass=mu, rotary_inertia=(1.0, 1.0, 1.0))
     j = mb.add_body(flexible_body(length=0.2, n_elements=2, section=hub), position=(-0.1, 0.0, 0.0))
     mb.fix(j, "start")
     cs = pf.CoupledSystem(floating, mb.build())
@@ -86,3 +89,19 @@ def test_bad_state_is_refused():
     cs = on_stiff_hub(10.0)
     with pytest.raises(TypeError, match="CoupledStatic"):
         pf.linearize(cs, object())
+
+
+def test_coupled_static_warm_start_from_another_flow():
+    """static_equilibrium(system, state=...) starts from a CoupledStatic (both parts and the
+    multipliers): from the equilibrium at 10 kg/s to 12 kg/s it reaches the cold start's
+    equilibrium (1.5 N tip force); from its own equilibrium it stops at once."""
+    cs = on_stiff_hub(10.0, 1e4, tip_force=1.5)
+    ten = pf.static_equilibrium(cs, mass_flow=10.0)
+    cold = pf.static_equilibrium(cs, mass_flow=12.0)
+    warm = pf.static_equilibrium(cs, state=ten, mass_flow=12.0)
+    assert np.allclose(warm.state.q, cold.state.q, rtol=0, atol=1e-9)
+    assert np.allclose(warm.body_state.lam, cold.body_state.lam, rtol=1e-7, atol=1e-9)
+    again = pf.static_equilibrium(cs, state=cold, mass_flow=12.0)
+    assert again.iterations <= 1
+    with pytest.raises(TypeError, match="CoupledStatic"):
+        pf.static_equilibrium(cs, state=cold.state)

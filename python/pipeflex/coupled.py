@@ -133,14 +133,11 @@ class CoupledSystem:
 
     def _static(self, *, state=None, mass_flow=None, load_steps=1, **options) -> "CoupledStatic":
         """:func:`pipeflex.static_equilibrium`'s entry for a coupled system."""
-        if state is not None:
-            raise ValueError("a CoupledSystem's static solve starts from its assembly configuration "
-                             "(pipeflex.coupled.static_equilibrium)")
         unknown = set(options) - {"tol", "max_iterations"}
         if unknown:
             raise ValueError(f"unknown option(s) {sorted(unknown)} for a CoupledSystem's static solve; "
-                             f"valid: load_steps, mass_flow, max_iterations, tol")
-        return static_equilibrium(self, mass_flow=mass_flow, load_steps=load_steps, **options)
+                             f"valid: load_steps, mass_flow, max_iterations, state, tol")
+        return static_equilibrium(self, state=state, mass_flow=mass_flow, load_steps=load_steps, **options)
 
     def _linearize(self, state=None, *, mass_flow=None) -> "CoupledLinearization":
         """:func:`pipeflex.linearize`'s entry for a coupled system."""
@@ -203,14 +200,18 @@ class CoupledStatic(Result):
     mass_flow: float
 
 
-def static_equilibrium(system: CoupledSystem, *, mass_flow: Optional[float] = None, load_steps: int = 1,
+def static_equilibrium(system: CoupledSystem, *, state: Optional["CoupledStatic"] = None,
+                       mass_flow: Optional[float] = None, load_steps: int = 1,
                        tol: float = 1e-10, max_iterations: int = 30) -> CoupledStatic:
-    """Static equilibrium of a :class:`CoupledSystem` from its assembly configuration: the
-    core's Newton on the scaled KKT matrix of the element and body equations with their
-    joints (one sparse LU per iteration), loads and gravity applied in ``load_steps``
-    increments; converged when the correction is below ``tol`` model sizes.
+    """Static equilibrium of a :class:`CoupledSystem` from its assembly configuration (or
+    from ``state``): the core's Newton on the scaled KKT matrix of the element and body
+    equations with their joints (one sparse LU per iteration), loads and gravity applied
+    in ``load_steps`` increments; converged when the correction is below ``tol`` model
+    sizes.
 
     Args:
+        state: a :class:`CoupledStatic` to start from (e.g. the equilibrium at another
+            flow; its multipliers too), default the assembly configuration.
         mass_flow: mdot [kg/s] (default: the element model's).
         load_steps: increments of the loads and gravity.
         tol: Newton tolerance on the correction, relative to the model size [-].
@@ -230,10 +231,16 @@ def static_equilibrium(system: CoupledSystem, *, mass_flow: Optional[float] = No
     mdot = model.mass_flow if mass_flow is None else _checks.finite("mass_flow", mass_flow)
     opt = _core.TransientOptions()
     opt.length_scale = max(float(np.ptp(model.positions, axis=0).max()), bodies.length_scale, 1e-3)
-    st = as_core(model, None)
-    bs = bodies.initial_state()
+    if state is None:
+        st = as_core(model, None)
+        bs = bodies.initial_state()
+        lam_c = np.zeros(system.n_constraints - bodies.n_constraints)
+    elif isinstance(state, CoupledStatic):
+        st, bs, lam_c = as_core(model, state.state), state.body_state, np.array(state.coupling_forces, float)
+    else:
+        raise TypeError(f"state must be a CoupledStatic (pipeflex.static_equilibrium(system)), "
+                        f"got {type(state).__name__}")
     r, R, eta, lam = bs.r, bs.R, bs.eta, bs.lam
-    lam_c = np.zeros(system.n_constraints - bodies.n_constraints)
     total = 0
     for k in range(1, steps + 1):
         lf = k / steps
