@@ -69,3 +69,13 @@ def test_steady_rotation_sparse_and_dense_solves_agree(monkeypatch):
     sparse = pf.steady_rotation(model)
     assert sparse.omega == pytest.approx(dense.omega, rel=1e-11)
     assert np.allclose(sparse.state.q, dense.state.q, rtol=0, atol=1e-11)
+
+
+def test_steady_rotation_accepts_round_off_stall():
+    """A tolerance below round-off (1e-17) is met as the static solvers meet it: the
+    correction stops halving within ROUNDOFF_STALL tolerances. Before, omega's last digits
+    wandered and the 4096-element sprinkler failed to converge."""
+    model = pf.scenes.sprinkler(EI=100.0)
+    usual = pf.steady_rotation(model)
+    strict = pf.steady_rotation(model, tol=1e-17)
+    assert strict.omega == pytest.approx(usual.omega, rel=1e-12)
