@@ -31,7 +31,6 @@ import numpy as np
 import scipy.linalg as sla
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
-from scipy.optimize import brentq
 
 from .. import _checks
 from ..results import Result
@@ -236,7 +235,7 @@ def critical_mass_flow(model, *, tol: float = 1e-10, mass_flow_max: Optional[flo
 
         try:
             try:
-                mc = brentq(kmin, lo, hi, xtol=xtol, rtol=4 * np.finfo(float).eps)
+                mc = _brentq(kmin, lo, hi, xtol=xtol, rtol=4 * np.finfo(float).eps)
             except ValueError:
                 if not ev.sparse:
                     raise
@@ -248,7 +247,7 @@ def critical_mass_flow(model, *, tol: float = 1e-10, mass_flow_max: Optional[flo
                     if a <= 0.0:
                         raise
                     a = max(0.0, hi - 2.0 * (hi - a))
-                mc = brentq(kmin, a, hi, xtol=xtol, rtol=4 * np.finfo(float).eps)
+                mc = _brentq(kmin, a, hi, xtol=xtol, rtol=4 * np.finfo(float).eps)
         except ValueError:
             raise ConvergenceError(f"divergence between {lo:.6g} and {hi:.6g} kg/s, but no stiffness eigenvalue "
                                    "changes sign there (a neutral direction, or an unstable eigenvalue that the "
@@ -483,7 +482,7 @@ def _track_root(ev, lo, hi, eig_hi, xtol):
             return 0.0
         return near.real
 
-    return brentq(f, lo, hi, xtol=xtol, rtol=4 * np.finfo(float).eps)
+    return _brentq(f, lo, hi, xtol=xtol, rtol=4 * np.finfo(float).eps)
 
 
 def _result(ev, mc, kind, eig_c=None):
@@ -519,3 +518,11 @@ def _result(ev, mc, kind, eig_c=None):
     mode = np.zeros(ev.model.n_dofs, complex)
     mode[block.dofs] = x / x[np.argmax(np.abs(x))]
     return CriticalFlow(float(mc), kind, float(freq), complex(lam_c), mode, ev.count)
+
+
+def _brentq(f, a, b, **options):
+    """scipy.optimize.brentq, imported when first needed: scipy.optimize adds ~40 ms to
+    `import pipeflex`, a third of it (the peer scene's process time, docs/performance.md)."""
+    from scipy.optimize import brentq
+
+    return brentq(f, a, b, **options)
