@@ -270,29 +270,56 @@ CoupledOutput integrate_coupled(const Model& model, State& state, const LoadStat
     return out;
 }
 
+namespace {
+TimeTable constant(double value) {
+    TimeTable t;
+    t.t = {0.0};
+    t.value = {value};
+    return t;
+}
+
+// The coupled equations at a constant mass flow (the load's), loads at their full value
+// unless a static load factor is set: statics and linearisation.
+struct ConstantFlowSystem {
+    ConstantFlowSystem(const Model& model, State& state, const LoadState& load, const MultibodySystemCore& bodies,
+                       const MbState& body_state, const std::vector<Coupling>& couplings,
+                       const TransientOptions& opt)
+        : functions{constant(load.mass_flow), constant(1.0)},
+          el(model, state, load, functions, opt),
+          mb(bodies, body_state, functions.mass_flow),
+          eq(el, mb, bodies, couplings),
+          nc2(bodies.n_constraints()) {}
+
+    // [the bodies' multipliers; the couplings'] (zero if coupling_lam does not fit)
+    VecX multipliers(const MbState& body_state, const VecX& coupling_lam) const {
+        const int nc3 = eq.n_constraints() - nc2;
+        VecX lam(eq.n_constraints());
+        lam << body_state.lam, (coupling_lam.size() == nc3 ? coupling_lam : VecX::Zero(nc3));
+        return lam;
+    }
+
+    TimeFunctions functions;
+    ElementEquations el;
+    MultibodyEquations mb;
+    CoupledEquations eq;
+    int nc2;
+};
+}  // namespace
+
 LinearMatrices coupled_linear_matrices(const Model& model, State& state, const LoadState& load,
                                        const MultibodySystemCore& bodies, const MbState& body_state,
                                        const std::vector<Coupling>& couplings, const Eigen::VectorXd& coupling_lam,
                                        const TransientOptions& opt) {
     check_state(model, state);
     bodies.check_state(body_state);
-    TimeTable flow, loads;
-    flow.t = loads.t = {0.0};
-    flow.value = {load.mass_flow};
-    loads.value = {1.0};
-    const TimeFunctions functions{flow, loads};
-    ElementEquations el(model, state, load, functions, opt);
-    MultibodyEquations mb(bodies, body_state, flow);
-    CoupledEquations eq(el, mb, bodies, couplings);
+    ConstantFlowSystem sys(model, state, load, bodies, body_state, couplings, opt);
     VecX v1 = reduce(model, state.v), a1 = reduce(model, state.a);
-    el.rebase(0.0, v1, a1);
-    const int n1 = model.n_dofs, n2 = bodies.n_coordinates(), nc2 = bodies.n_constraints();
-    VecX v(n1 + n2), a(n1 + n2), lam(eq.n_constraints());
+    sys.el.rebase(0.0, v1, a1);
+    const int n1 = model.n_dofs, n2 = bodies.n_coordinates();
+    VecX v(n1 + n2), a(n1 + n2);
     v << v1, body_state.v;
     a << a1, body_state.a;
-    lam << body_state.lam,
-        (coupling_lam.size() == eq.n_constraints() - nc2 ? coupling_lam : VecX::Zero(eq.n_constraints() - nc2));
-    return linear_matrices(eq, v, a, lam, body_state.t);
+    return linear_matrices(sys.eq, v, a, sys.multipliers(body_state, coupling_lam), body_state.t);
 }
 
 StaticNewtonResult coupled_static(const Model& model, State& state, const LoadState& load,
@@ -301,21 +328,13 @@ StaticNewtonResult coupled_static(const Model& model, State& state, const LoadSt
                                   double load_factor, const TransientOptions& opt, double tol, int max_iterations) {
     check_state(model, state);
     bodies.check_state(body_state);
-    TimeTable flow, loads;
-    flow.t = loads.t = {0.0};
-    flow.value = {load.mass_flow};
-    loads.value = {1.0};
-    const TimeFunctions functions{flow, loads};
-    ElementEquations el(model, state, load, functions, opt);
-    MultibodyEquations mb(bodies, body_state, flow);
-    CoupledEquations eq(el, mb, bodies, couplings);
+    ConstantFlowSystem sys(model, state, load, bodies, body_state, couplings, opt);
+    CoupledEquations& eq = sys.eq;
+    MultibodyEquations& mb = sys.mb;
     eq.set_static_load_factor(load_factor);
     VecX v1 = reduce(model, state.v), a1;
-    el.rebase(0.0, v1, a1);
-    VecX lam(eq.n_constraints());
-    lam << body_state.lam, (coupling_lam.size() == eq.n_constraints() - bodies.n_constraints()
-                                ? coupling_lam
-                                : VecX::Zero(eq.n_constraints() - bodies.n_constraints()));
+    sys.el.rebase(0.0, v1, a1);
+    VecX lam = sys.multipliers(body_state, coupling_lam);
     const StaticNewtonResult res = static_newton(eq, body_state.t, lam, tol, max_iterations);
     body_state = mb.state();
     body_state.lam = lam.head(bodies.n_constraints());

@@ -30,6 +30,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from . import _checks, _core
+from .analysis import constrained
 from .analysis.transient import TransientResult
 from .model import Model
 from .multibody.analysis import MAX_STEPS, MultibodyResult
@@ -267,18 +268,9 @@ def static_equilibrium(system: CoupledSystem, *, state: Optional["CoupledStatic"
 
 
 @dataclass(frozen=True)
-class CoupledLinearization(Result):
-    """M, C, K (CSC) of a coupled system in independent coordinates z: the system's
-    coordinates [z_el; q_b] are q = T z with C_q T = 0 (``basis`` T, orthonormal), about
-    ``state`` (a :class:`CoupledStatic`), at ``mass_flow`` mdot [kg/s]. Same use as
-    :class:`pipeflex.Linearization` (:func:`pipeflex.eigenvalues`, :func:`pipeflex.stability`)."""
-
-    M: sp.csc_matrix
-    C: sp.csc_matrix
-    K: sp.csc_matrix
-    mass_flow: float
-    state: CoupledStatic
-    basis: np.ndarray
+class CoupledLinearization(constrained.ConstrainedLinearization):
+    """The linearisation of a coupled system: coordinates [z_el; q_b], ``state`` a
+    :class:`CoupledStatic`."""
 
 
 def linearize(system: CoupledSystem, state: Optional[CoupledStatic] = None, *,
@@ -287,8 +279,6 @@ def linearize(system: CoupledSystem, state: Optional[CoupledStatic] = None, *,
     multipliers; default: the static equilibrium at ``mass_flow`` mdot [kg/s]): the one
     constrained linearisation of the bodies (:mod:`pipeflex.analysis.constrained`), K with
     the geometric stiffness of the joints' and couplings' reactions."""
-    from .analysis import constrained
-
     if not isinstance(system, CoupledSystem):
         raise ValueError("system must be a pipeflex.CoupledSystem")
     if state is not None and not isinstance(state, CoupledStatic):
@@ -305,10 +295,7 @@ def linearize(system: CoupledSystem, state: Optional[CoupledStatic] = None, *,
     out = _core.coupled_linear_matrices(model.core, core_state, model.load_state(mass_flow=mdot), bodies.core, b.r,
                                         b.R, b.eta, b.v, b.a, b.lam, system.core_couplings(),
                                         np.asarray(st.coupling_forces, float), opt)
-    K, C, M, Cq = constrained.from_core(out)
-    T = constrained.null_space_basis(Cq)
-    Mr, Cr, Kr = constrained.reduce(T, M, C, K)
-    return CoupledLinearization(Mr, Cr, Kr, mdot, st, T)
+    return constrained.linearization(CoupledLinearization, out, mdot, st)
 
 
 def simulate(system: CoupledSystem, t_end: float, *, step: float, n_outputs: int = 201,

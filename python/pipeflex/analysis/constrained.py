@@ -9,9 +9,29 @@ null space: the reduced matrices T^T X T are what :func:`pipeflex.eigenvalues` a
 """
 from __future__ import annotations
 
+from dataclasses import dataclass
+from typing import Any
+
 import numpy as np
 import scipy.linalg as sla
 import scipy.sparse as sp
+
+from ..results import Result
+
+
+@dataclass(frozen=True)
+class ConstrainedLinearization(Result):
+    """M, C, K (CSC) in independent coordinates z: the system's coordinates are
+    q = q0 (+) T z with C_q T = 0 (``basis`` T, N x n_dofs, orthonormal), about ``state``,
+    at ``mass_flow`` mdot [kg/s]. Same use as :class:`pipeflex.Linearization`
+    (:func:`pipeflex.eigenvalues`, :func:`pipeflex.stability`)."""
+
+    M: sp.csc_matrix
+    C: sp.csc_matrix
+    K: sp.csc_matrix
+    mass_flow: float
+    state: Any
+    basis: np.ndarray
 
 
 def from_core(out: dict):
@@ -36,3 +56,12 @@ def null_space_basis(Cq) -> np.ndarray:
 def reduce(T: np.ndarray, *matrices):
     """T^T X T (CSC) of each sparse X."""
     return tuple(sp.csc_matrix(T.T @ (X @ T)) for X in matrices)
+
+
+def linearization(cls, out: dict, mass_flow: float, state):
+    """A ``cls`` (a :class:`ConstrainedLinearization`) from the core's ``linear_matrices``
+    about ``state``: the matrices reduced to the constraints' null space."""
+    K, C, M, Cq = from_core(out)
+    T = null_space_basis(Cq)
+    Mr, Cr, Kr = reduce(T, M, C, K)
+    return cls(Mr, Cr, Kr, mass_flow, state, T)

@@ -236,17 +236,9 @@ def static_equilibrium(system: MultibodySystem, *, state: Optional[MultibodyStat
 
 
 @dataclass(frozen=True)
-class MultibodyLinearization(Result):
-    """M, C, K (CSC) in independent coordinates z (q = q0 (+) T z, C_q T = 0), the basis
-    T (N x n_dofs) and the state. Same use as :class:`pipeflex.Linearization`
-    (``mass_flow`` mdot [kg/s])."""
-
-    M: sp.csc_matrix
-    C: sp.csc_matrix
-    K: sp.csc_matrix
-    mass_flow: float
-    state: MultibodyState
-    basis: np.ndarray
+class MultibodyLinearization(constrained.ConstrainedLinearization):
+    """The linearisation of a system of bodies: ``state`` a
+    :class:`~pipeflex.multibody.MultibodyState` with its multipliers."""
 
 
 def linearize(system: MultibodySystem, state: Optional[MultibodyState] = None, *,
@@ -260,11 +252,8 @@ def linearize(system: MultibodySystem, state: Optional[MultibodyState] = None, *
     if state is not None:
         system.check_state(state)
     st = static_equilibrium(system, mass_flow=mdot).state if state is None else state
-    K, C, M, Cq = constrained.from_core(system.core.linear_matrices(st.r, st.R, st.eta, st.v, st.a, st.lam, st.t,
-                                                                    mdot))
-    Tb = constrained.null_space_basis(Cq)
-    Mr, Cr, Kr = constrained.reduce(Tb, M, C, K)
-    return MultibodyLinearization(Mr, Cr, Kr, mdot, st, Tb)
+    out = system.core.linear_matrices(st.r, st.R, st.eta, st.v, st.a, st.lam, st.t, mdot)
+    return constrained.linearization(MultibodyLinearization, out, mdot, st)
 
 
 @dataclass(frozen=True)
