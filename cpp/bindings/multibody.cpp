@@ -164,13 +164,14 @@ void bind_multibody(py::module_& m) {
         .def(
             "linear_matrices",
             [](const MultibodySystemCore& sys, const Arr& r, const Arr& R, const VecX& eta, const VecX& v,
-               const VecX& a, const VecX& lam, double t, double mass_flow) {
+               const VecX& a, const VecX& lam, double t, double mass_flow, double differences_step) {
                 const MbState s = to_state(sys, r, R, eta, v, a, lam, t);
-                return linear_dict(multibody_linear_matrices(sys, s, mass_flow));
+                return linear_dict(multibody_linear_matrices(sys, s, mass_flow, differences_step));
             },
-            "The linearised equations about the state: K, C, M (N x N) and C_q, as triplets.",
+            "The linearised equations about the state: K, C, M (N x N) and C_q, as triplets (with "
+            "differences_step > 0 also the residual's central differences, 'differences').",
             py::arg("r"), py::arg("R"), py::arg("eta"), py::arg("v"), py::arg("a"), py::arg("lam"), py::arg("t"),
-            py::arg("mass_flow"))
+            py::arg("mass_flow"), py::arg("differences_step") = 0.0)
         .def(
             "static_newton",
             [](const MultibodySystemCore& sys, const Arr& r, const Arr& R, const VecX& eta, const VecX& lam, double t,

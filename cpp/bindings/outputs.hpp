@@ -48,6 +48,7 @@ inline pybind11::dict linear_dict(const LinearMatrices& m) {
     d["C"] = coo(m.C);
     d["M"] = coo(m.M);
     d["Cq"] = coo(m.Cq);
+    if (m.differences.size()) d["differences"] = m.differences;
     return d;
 }
 

@@ -211,15 +211,24 @@ void bind_transient(py::module_& m) {
         "coupled_linear_matrices",
         [](const Model& md, State& s, const LoadState& l, const MultibodySystemCore& bodies, const Arr& r,
            const Arr& R, const VecX& eta, const VecX& v, const VecX& a, const VecX& lam, const py::list& couplings,
-           const VecX& coupling_lam, const TransientOptions& o) {
+           const VecX& coupling_lam, const TransientOptions& o, double differences_step) {
             const MbState bs = to_state(bodies, r, R, eta, v, a, lam, 0.0);
-            return linear_dict(coupled_linear_matrices(md, s, l, bodies, bs, couplings_from(couplings), coupling_lam, o));
+            return linear_dict(coupled_linear_matrices(md, s, l, bodies, bs, couplings_from(couplings), coupling_lam, o,
+                                                       differences_step));
         },
         "The linearised equations of a coupled system about the element state (re-based in place) and the body "
         "state: K, C, M and C_q as triplets, coordinates [z_el; q_b].",
         py::arg("model"), py::arg("state"), py::arg("load"), py::arg("bodies"), py::arg("r"), py::arg("R"),
         py::arg("eta"), py::arg("v"), py::arg("a"), py::arg("lam"), py::arg("couplings"), py::arg("coupling_lam"),
-        py::arg("options"));
+        py::arg("options"), py::arg("differences_step") = 0.0);
+    m.def(
+        "element_linear_matrices",
+        [](const Model& md, State& s, const LoadState& l, const TransientOptions& o, double differences_step) {
+            return linear_dict(element_linear_matrices(md, s, l, o, differences_step));
+        },
+        "The element model's linearised equations by the generic route (linear_matrices on its equations), "
+        "with differences_step > 0 also the residual's central differences: tests.",
+        py::arg("model"), py::arg("state"), py::arg("load"), py::arg("options"), py::arg("differences_step") = 0.0);
     m.def("generalized_alpha_flow_map",
           [](const Model& md, State& s, const LoadState& l, const Eigen::VectorXd& z0, const Eigen::VectorXd& v0,
              double duration, int n_steps, bool sensitivity, const TransientOptions& o) {

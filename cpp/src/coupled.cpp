@@ -306,10 +306,20 @@ struct ConstantFlowSystem {
 };
 }  // namespace
 
+LinearMatrices element_linear_matrices(const Model& model, State& state, const LoadState& load,
+                                       const TransientOptions& opt, double differences_step) {
+    check_state(model, state);
+    const TimeFunctions functions{constant(load.mass_flow), constant(1.0)};
+    ElementEquations el(model, state, load, functions, opt);
+    VecX v = reduce(model, state.v), a = reduce(model, state.a);
+    el.rebase(0.0, v, a);
+    return linear_matrices(el, v, a, VecX(), 0.0, differences_step);
+}
+
 LinearMatrices coupled_linear_matrices(const Model& model, State& state, const LoadState& load,
                                        const MultibodySystemCore& bodies, const MbState& body_state,
                                        const std::vector<Coupling>& couplings, const Eigen::VectorXd& coupling_lam,
-                                       const TransientOptions& opt) {
+                                       const TransientOptions& opt, double differences_step) {
     check_state(model, state);
     bodies.check_state(body_state);
     ConstantFlowSystem sys(model, state, load, bodies, body_state, couplings, opt);
@@ -319,7 +329,7 @@ LinearMatrices coupled_linear_matrices(const Model& model, State& state, const L
     VecX v(n1 + n2), a(n1 + n2);
     v << v1, body_state.v;
     a << a1, body_state.a;
-    return linear_matrices(sys.eq, v, a, sys.multipliers(body_state, coupling_lam), body_state.t);
+    return linear_matrices(sys.eq, v, a, sys.multipliers(body_state, coupling_lam), body_state.t, differences_step);
 }
 
 StaticNewtonResult coupled_static(const Model& model, State& state, const LoadState& load,

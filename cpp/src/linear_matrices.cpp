@@ -17,7 +17,7 @@ void split(const Triplets& J, int n, Triplets& A, Triplets* Cq) {
 }  // namespace
 
 LinearMatrices linear_matrices(Equations& eq, const Eigen::VectorXd& v, const Eigen::VectorXd& a,
-                               const Eigen::VectorXd& lam, double t) {
+                               const Eigen::VectorXd& lam, double t, double differences_step) {
     LinearMatrices out;
     out.n = eq.n_coordinates();
     out.nc = eq.n_constraints();
@@ -31,7 +31,28 @@ LinearMatrices linear_matrices(Equations& eq, const Eigen::VectorXd& v, const Ei
     split(J, out.n, out.C, nullptr);
     eq.evaluate(0.0, 0.0, 1.0, r, &J);
     split(J, out.n, out.M, nullptr);
+    if (differences_step > 0.0) out.differences = residual_differences(eq, v, a, lam, t, differences_step);
     return out;
+}
+
+Eigen::MatrixXd residual_differences(Equations& eq, const Eigen::VectorXd& v, const Eigen::VectorXd& a,
+                                     const Eigen::VectorXd& lam, double t, double h) {
+    const int n = eq.n_coordinates(), nc = eq.n_constraints();
+    eq.set_static_load_factor(1.0);
+    Eigen::MatrixXd D(n + nc, n);
+    Eigen::VectorXd z = Eigen::VectorXd::Zero(n), rp, rm;
+    for (int j = 0; j < n; ++j) {
+        z[j] = h;
+        eq.set(z, v, a, lam, t);
+        eq.evaluate(1.0, 0.0, 0.0, rp, nullptr);
+        z[j] = -h;
+        eq.set(z, v, a, lam, t);
+        eq.evaluate(1.0, 0.0, 0.0, rm, nullptr);
+        z[j] = 0.0;
+        D.col(j) = (rp - rm) / (2.0 * h);
+    }
+    eq.set(z, v, a, lam, t);
+    return D;
 }
 
 }  // namespace pipeflex

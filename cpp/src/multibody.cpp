@@ -399,13 +399,14 @@ double MultibodySystemCore::velocity_drift(const MbState& s, const MbEvaluation&
     return drift;
 }
 
-LinearMatrices multibody_linear_matrices(const MultibodySystemCore& sys, const MbState& s, double mdot) {
+LinearMatrices multibody_linear_matrices(const MultibodySystemCore& sys, const MbState& s, double mdot,
+                                         double differences_step) {
     sys.check_state(s);
     TimeTable flow;
     flow.t = {0.0};
     flow.value = {mdot};
     MultibodyEquations eq(sys, s, flow);
-    return linear_matrices(eq, s.v, s.a, s.lam, s.t);
+    return linear_matrices(eq, s.v, s.a, s.lam, s.t, differences_step);
 }
 
 StaticNewtonResult multibody_static(const MultibodySystemCore& sys, MbState& s, double mdot, double load_factor,

@@ -136,6 +136,7 @@ StaticNewtonResult multibody_static(const MultibodySystemCore& sys, MbState& s, 
 
 // The linearised equations (linear_matrices) of the bodies about the state s (its rates and
 // multipliers) under the mass flow mdot [kg/s].
-LinearMatrices multibody_linear_matrices(const MultibodySystemCore& sys, const MbState& s, double mdot);
+LinearMatrices multibody_linear_matrices(const MultibodySystemCore& sys, const MbState& s, double mdot,
+                                         double differences_step = 0.0);
 
 }  // namespace pipeflex

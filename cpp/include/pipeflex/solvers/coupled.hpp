@@ -45,11 +45,17 @@ StaticNewtonResult coupled_static(const Model& model, State& state, const LoadSt
                                   const std::vector<Coupling>& couplings, Eigen::VectorXd& coupling_lam,
                                   double load_factor, const TransientOptions& opt, double tol, int max_iterations);
 
+// The linearised equations (linear_matrices) of the element model alone about the state
+// (re-based in place), under the load's mass flow: the generic route (pf.linearize has a
+// faster one-pass assembly); for tests against residual differences.
+LinearMatrices element_linear_matrices(const Model& model, State& state, const LoadState& load,
+                                       const TransientOptions& opt, double differences_step = 0.0);
+
 // The linearised equations (linear_matrices) of a coupled system about the element state
 // (re-based) and the body state with their multipliers, under the load's mass flow.
 LinearMatrices coupled_linear_matrices(const Model& model, State& state, const LoadState& load,
                                        const MultibodySystemCore& bodies, const MbState& body_state,
                                        const std::vector<Coupling>& couplings, const Eigen::VectorXd& coupling_lam,
-                                       const TransientOptions& opt);
+                                       const TransientOptions& opt, double differences_step = 0.0);
 
 }  // namespace pipeflex
