@@ -49,7 +49,7 @@ STEPS_PER_PERIOD = 512
 NEUTRAL = 1e-6
 #: the shooting's first monodromy comes from a flow map in this many times fewer steps
 #: (when that leaves at least MIN_COARSE_STEPS)
-COARSE = 4
+COARSE = 8
 MIN_COARSE_STEPS = 64
 #: the integrator's Newton tolerance of the flow maps far from the orbit (tightened with
 #: the defect down to the user's newton_tol)
@@ -201,7 +201,7 @@ def _finish(shooter, z0, v0, period, mass_flow, out, iterations, residual) -> Pe
 
 
 def _solve(shooter, y, mass_flow, *, tol, max_iterations, phase=None, arclength=None, coarse=False,
-           monodromy=True):
+           monodromy=True, jacobian=None):
     """Newton on (z0, v0, T) [and mdot with an arclength row].
 
     ``phase`` = (y_ref, xdot_ref): the phase condition xdot_ref . (x0 - x_ref) = 0
@@ -209,8 +209,9 @@ def _solve(shooter, y, mass_flow, *, tol, max_iterations, phase=None, arclength=
     tangent, ds): the extra unknown mdot and the equation tangent . ((y, mdot) - (y_prev,
     mdot_prev)) = ds; its parameter column is differenced once, at the start (a chord:
     it sets Newton's rate, not the solution). ``coarse``: the first Jacobian from the
-    flow map in COARSE times fewer steps. ``monodromy``: the returned flow map carries the
-    monodromy at the solution (for the multipliers)."""
+    flow map in COARSE times fewer steps. ``jacobian``: a monodromy to start from instead
+    (e.g. the previous orbit's on a branch). ``monodromy``: the returned flow map carries
+    the monodromy at the solution (for the multipliers)."""
     n = shooter.n
     y = np.array(y, float)
     mdot = float(mass_flow)
@@ -232,11 +233,15 @@ def _solve(shooter, y, mass_flow, *, tol, max_iterations, phase=None, arclength=
     # defect, and then the exact monodromy takes over.
     coarse_steps = shooter.steps // COARSE if coarse and shooter.steps >= COARSE * MIN_COARSE_STEPS else None
     exact = coarse_steps is None
-    out = shooter(y[:n], y[n:2 * n], y[-1], mdot, exact, newton_tol=floor)
-    if exact:
+    out = shooter(y[:n], y[n:2 * n], y[-1], mdot, exact and jacobian is None, newton_tol=floor)
+    if jacobian is not None:
+        Phi, fresh = jacobian, False
+    elif exact:
         Phi, fresh = out["monodromy"], True
     else:
-        Phi = shooter(y[:n], y[n:2 * n], y[-1], mdot, True, steps=coarse_steps, newton_tol=floor)["monodromy"]
+        # an approximate Jacobian anyway: its integrator's Newton need not be tight
+        Phi = shooter(y[:n], y[n:2 * n], y[-1], mdot, True, steps=coarse_steps,
+                      newton_tol=max(floor, LOOSE_NEWTON_TOL))["monodromy"]
         fresh = False
     if phase is None:
         phase = (y.copy(), np.concatenate([y[n:2 * n], out["a0"]]))
@@ -432,18 +437,23 @@ def continue_orbits(model, *, start, mass_flow_end: float, amplitude: float = 1e
     flows, periods, amps, stable, mmax, folds, starts = [], [], [], [], [], [], []
     h = ds
     first = True
+    # the monodromy at the last orbit: the next orbit's first Jacobian (a chord across
+    # the step; refreshed where the defect stops falling fast)
+    Phi_prev = None
     while len(flows) < max_points:
         y_pred = y_prev + h * tangent[:-1]
         m_pred = m_prev + h * tangent[-1]
         try:
             y, mdot, out, it, res = _solve(shooter, y_pred, m_pred, tol=tol, max_iterations=max_iterations,
-                                           phase=(y_pred, xdot_prev), arclength=(y_prev, m_prev, tangent, h))
+                                           phase=(y_pred, xdot_prev), arclength=(y_prev, m_prev, tangent, h),
+                                           jacobian=Phi_prev)
         except (ConvergenceError, np.linalg.LinAlgError):
             h *= 0.5
             if h < 1e-6 * ds:
                 break
             continue
         orbit = _finish(shooter, y[:n], y[n:2 * n], y[-1], mdot, out, it, res)
+        Phi_prev = out["monodromy"]
         new_tangent = np.concatenate([y - y_prev, [mdot - m_prev]])
         new_tangent /= np.linalg.norm(new_tangent)
         if not first and tangent[-1] != 0.0 and np.sign(new_tangent[-1]) != np.sign(tangent[-1]):
