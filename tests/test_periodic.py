@@ -56,6 +56,42 @@ def test_monodromy_equals_finite_differences(planar4):
     assert np.abs(Phi - fd).max() <= 1e-6 * np.abs(Phi).max()
 
 
+def test_stored_tangent_applies_the_monodromy(planar4):
+    """The flow map's stored tangent-linear map (the matrix-free form the shooting's
+    multipliers come from) applied to any directions equals the monodromy times them."""
+    m, _ = planar4
+    n = m.n_dofs
+    opt = _core.TransientOptions()
+    opt.newton_tol, opt.max_newton = 1e-12, 30
+    base = pf.static_equilibrium(m).state.to_core(m)
+    rng = np.random.default_rng(5)
+    z0, v0 = 1e-3 * rng.standard_normal(n), 1e-2 * rng.standard_normal(n)
+    out = _core.generalized_alpha_flow_map(m.core, base.copy(), m.load_state(), z0, v0, 0.2, 200, True, opt)
+    D = rng.standard_normal((2 * n, 3))
+    Phi = out["monodromy"]
+    assert out["tangent"].dimension == 2 * n
+    assert np.abs(out["tangent"].apply(D) - Phi @ D).max() <= 1e-10 * np.abs(Phi @ D).max()
+    lean = _core.generalized_alpha_flow_map(m.core, base.copy(), m.load_state(), z0, v0, 0.2, 200, True, opt,
+                                            monodromy=False)
+    assert "monodromy" not in lean and np.array_equal(lean["v"], out["v"])
+    with pytest.raises(ValueError, match="rows"):
+        out["tangent"].apply(np.zeros((n, 1)))
+
+
+def test_orbit_without_multipliers_is_the_same_orbit(planar4, settled):
+    """multipliers=False skips the monodromy at the solution: the same orbit, no
+    multipliers and no stability verdict."""
+    m, tip = planar4
+    r, amp, period = settled
+    steps = int(round(period / 5e-4))
+    full = periodic_orbit(m, period=period, state=r.final_state, steps=steps)
+    lean = periodic_orbit(m, period=period, state=r.final_state, steps=steps, multipliers=False)
+    assert lean.multipliers.size == 0 and lean.trivial == -1 and lean.stable is None
+    assert lean.residual <= 1e-8
+    assert lean.amplitude[tip, 1] == pytest.approx(full.amplitude[tip, 1], rel=1e-6)
+    assert lean.period == pytest.approx(full.period, rel=1e-7)
+
+
 def test_orbit_equals_the_settled_transient(planar4, settled):
     """Shooting from the transient's last state converges to the cycle the transient
     reached: amplitude and period to 1e-3 (the same model, step and method)."""

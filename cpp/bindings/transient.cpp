@@ -229,24 +229,43 @@ void bind_transient(py::module_& m) {
         "The element model's linearised equations by the generic route (linear_matrices on its equations), "
         "with differences_step > 0 also the residual's central differences: tests.",
         py::arg("model"), py::arg("state"), py::arg("load"), py::arg("options"), py::arg("differences_step") = 0.0);
-    m.def("generalized_alpha_flow_map",
-          [](const Model& md, State& s, const LoadState& l, const Eigen::VectorXd& z0, const Eigen::VectorXd& v0,
-             double duration, int n_steps, bool sensitivity, const TransientOptions& o) {
-              check_state(md, s);
-              FlowMapOutput out;
-              {
-                  py::gil_scoped_release release;
-                  out = generalized_alpha_flow_map(md, s, l, z0, v0, duration, n_steps, sensitivity, o);
-              }
-              py::dict d;
-              d["z"] = as_array(out.z, {static_cast<py::ssize_t>(n_steps) + 1, md.n_dofs});
-              d["v"] = out.v;
-              d["a"] = out.a;
-              d["a0"] = out.a0;
-              d["monodromy"] = out.monodromy;
-              put_counters(d, out);
-              return d;
-          });
+    py::class_<FlowMapTangent, std::shared_ptr<FlowMapTangent>>(
+        m, "FlowMapTangent",
+        "The tangent-linear map d(z, v)_end / d(z0, v0) of a flow map, kept step by step.")
+        .def("apply",
+             [](const FlowMapTangent& t, const Eigen::MatrixXd& directions) {
+                 py::gil_scoped_release release;
+                 return t.apply(directions);
+             },
+             py::arg("directions"), "(2n, p) directions [dz0; dv0] -> (2n, p) [dz; dv] at the end")
+        .def_property_readonly("dimension", &FlowMapTangent::dimension)
+        .def_property_readonly("nbytes", &FlowMapTangent::bytes);
+    m.def(
+        "generalized_alpha_flow_map",
+        [](const Model& md, State& s, const LoadState& l, const Eigen::VectorXd& z0, const Eigen::VectorXd& v0,
+           double duration, int n_steps, bool sensitivity, const TransientOptions& o, bool monodromy) {
+            check_state(md, s);
+            FlowMapOutput out;
+            Eigen::MatrixXd Phi;
+            {
+                py::gil_scoped_release release;
+                out = generalized_alpha_flow_map(md, s, l, z0, v0, duration, n_steps, sensitivity, o);
+                if (sensitivity && monodromy) Phi = out.tangent->apply(Eigen::MatrixXd::Identity(2 * md.n_dofs, 2 * md.n_dofs));
+            }
+            py::dict d;
+            d["z"] = as_array(out.z, {static_cast<py::ssize_t>(n_steps) + 1, md.n_dofs});
+            d["v"] = out.v;
+            d["a"] = out.a;
+            d["a0"] = out.a0;
+            if (sensitivity) {
+                d["tangent"] = out.tangent;
+                if (monodromy) d["monodromy"] = Phi;
+            }
+            put_counters(d, out);
+            return d;
+        },
+        py::arg("model"), py::arg("state"), py::arg("load"), py::arg("z0"), py::arg("v0"), py::arg("duration"),
+        py::arg("n_steps"), py::arg("sensitivity"), py::arg("options"), py::arg("monodromy") = true);
     m.attr("MAX_OUTPUT_BYTES") = kMaxOutputBytes;  // pipeflex._checks.output_count checks it before allocating
     m.def("gravity_potential", [](const Model& md, const State& s, const LoadState& l) {
         check_state(md, s);

@@ -7,6 +7,8 @@
 #include "pipeflex/solvers/sparse_lu.hpp"
 
 #include <Eigen/Dense>
+#include <Eigen/OrderingMethods>
+#include <Eigen/SparseLU>
 #include <ida/ida.h>
 #include <nvector/nvector_serial.h>
 #include <sundials/sundials_linearsolver.h>
@@ -404,6 +406,78 @@ TransientOutput integrate_generalized_alpha(const Model& model, State& state, co
     return out;
 }
 
+// The linearisation of one step of the flow map (or of its start): K and C at the
+// converged state, dense below kDenseBelow unknowns (where the products with the
+// directions are dense anyway), and the step's iteration matrix factorised.
+struct TangentStep {
+    Eigen::MatrixXd Kd, Cd;
+    Eigen::SparseMatrix<double> Ks, Cs;
+    Eigen::PartialPivLU<Eigen::MatrixXd> dense_lu;
+    std::shared_ptr<Eigen::SparseLU<Eigen::SparseMatrix<double>, Eigen::COLAMDOrdering<int>>> sparse_lu;
+};
+
+struct FlowMapTangent::Impl {
+    int n = 0;
+    AlphaMethod m{0.9};
+    double h = 0.0;
+    bool dense = true;
+    std::vector<TangentStep> steps;  // [0]: the start (M, for the initial acceleration)
+};
+
+int FlowMapTangent::dimension() const { return 2 * impl_->n; }
+
+std::size_t FlowMapTangent::bytes() const {
+    std::size_t b = 0;
+    for (const auto& s : impl_->steps) {
+        b += sizeof(double) * static_cast<std::size_t>(s.Kd.size() + s.Cd.size() + s.dense_lu.matrixLU().size());
+        b += (sizeof(double) + sizeof(int)) * static_cast<std::size_t>(s.Ks.nonZeros() + s.Cs.nonZeros());
+        if (s.sparse_lu) b += (sizeof(double) + sizeof(int)) * static_cast<std::size_t>(s.sparse_lu->nnzL() + s.sparse_lu->nnzU());
+    }
+    return b;
+}
+
+Eigen::MatrixXd FlowMapTangent::apply(const Eigen::MatrixXd& directions) const {
+    const Impl& T = *impl_;
+    const int n = T.n;
+    if (directions.rows() != 2 * n)
+        throw std::invalid_argument("flow map tangent: directions must have " + std::to_string(2 * n) +
+                                    " rows (dz0 then dv0), got " + std::to_string(directions.rows()));
+    const Eigen::Index p = directions.cols();
+    // Sensitivities of (z, v, a, pa) to the directions: n x p each.
+    Eigen::MatrixXd Sz = directions.topRows(n), Sv = directions.bottomRows(n);
+    Eigen::MatrixXd Sa(n, p), Spa(n, p), Pz(n, p), Pv(n, p), San(n, p), rhs(n, p);
+    // out = S^-1 (-(K X + C Y)) with the step's K, C and iteration matrix S
+    auto solve = [&](const TangentStep& s, const Eigen::MatrixXd& X, const Eigen::MatrixXd& Y, Eigen::MatrixXd& out) {
+        if (T.dense) {
+            rhs.noalias() = -s.Kd * X;
+            rhs.noalias() -= s.Cd * Y;
+            out = s.dense_lu.solve(rhs);
+        } else {
+            rhs = -(s.Ks * X + s.Cs * Y);
+            out = s.sparse_lu->solve(rhs);
+        }
+    };
+    solve(T.steps.front(), Sz, Sv, Sa);  // M da0 = -(K dz0 + C dv0)
+    Spa = Sa;
+    const AlphaMethod& m = T.m;
+    const double h = T.h, hh = h * h;
+    const double zpa = hh * (0.5 - m.beta) + hh * m.beta * m.c3, za = hh * m.beta * m.c2;
+    const double vpa = h * (1.0 - m.gamma) + h * m.gamma * m.c3, va = h * m.gamma * m.c2;
+    for (std::size_t k = 1; k < T.steps.size(); ++k) {
+        poll_interrupt();
+        Pz = Sz + h * Sv + zpa * Spa + za * Sa;
+        Pv = Sv + vpa * Spa + va * Sa;
+        solve(T.steps[k], Pz, Pv, San);
+        Spa = m.c1 * San + m.c2 * Sa + m.c3 * Spa;
+        Sz = Pz + m.bp(h) * San;
+        Sv = Pv + m.gp(h) * San;
+        Sa.swap(San);
+    }
+    Eigen::MatrixXd out(2 * n, p);
+    out << Sz, Sv;
+    return out;
+}
+
 FlowMapOutput generalized_alpha_flow_map(const Model& model, State& state, const LoadState& load,
                                          const Eigen::VectorXd& z0, const Eigen::VectorXd& v0, double duration,
                                          int n_steps, bool sensitivity, const TransientOptions& opt) {
@@ -438,57 +512,51 @@ FlowMapOutput generalized_alpha_flow_map(const Model& model, State& state, const
     out.z.reserve(static_cast<std::size_t>(n) * (n_steps + 1));
     out.z.insert(out.z.end(), z.data(), z.data() + n);
 
-    // Sensitivities of (z, v, a, pa) to (z0, v0): n x 2n each.
-    Eigen::MatrixXd Sz, Sv, Sa, Spa, Pz, Pv, rhs, San;
+    // The tangent-linear map: each step's linearisation at its converged state, kept for
+    // FlowMapTangent::apply.
+    std::shared_ptr<FlowMapTangent::Impl> tangent;
     Triplets tK, tC, tS;
-    FixedPatternLU exact_lu(kDenseBelow);
-    // K and C at the state just set, dense below kDenseBelow unknowns (where the products
-    // with the n x 2n sensitivities are dense anyway), and the exact iteration matrix
-    // M + wC C + wK K factorised.
-    const bool dense = n < kDenseBelow;
-    Eigen::MatrixXd Kd, Cd;
-    Eigen::SparseMatrix<double> Ks, Cs;
-    auto tangents = [&](double t, double wK, double wC) {
+    auto dense_of = [n](const Triplets& t) {
+        Eigen::MatrixXd A = Eigen::MatrixXd::Zero(n, n);
+        for (std::size_t k = 0; k < t.values.size(); ++k) A(t.rows[k], t.cols[k]) += t.values[k];
+        return A;
+    };
+    // K, C and the exact iteration matrix M + wC C + wK K at the state just set
+    auto linearize = [&](double t, double wK, double wC) {
         const LoadState l = sys.load_at(t);
         assemble(model, state, l, 1.0, 1.0, 0.0, 0.0, nullptr, &tK);
         assemble(model, state, l, 1.0, 0.0, 1.0, 0.0, nullptr, &tC);
         assemble(model, state, l, 1.0, wK, wC, 1.0, nullptr, &tS);
-        if (dense) {
-            Kd.setZero(n, n);
-            Cd.setZero(n, n);
-            for (std::size_t k = 0; k < tK.values.size(); ++k) Kd(tK.rows[k], tK.cols[k]) += tK.values[k];
-            for (std::size_t k = 0; k < tC.values.size(); ++k) Cd(tC.rows[k], tC.cols[k]) += tC.values[k];
+        TangentStep s;
+        bool ok;
+        if (tangent->dense) {
+            s.Kd = dense_of(tK);
+            s.Cd = dense_of(tC);
+            s.dense_lu.compute(dense_of(tS));
+            const auto d = s.dense_lu.matrixLU().diagonal();
+            ok = d.allFinite() && (d.array() != 0.0).all();
         } else {
-            Ks = sparse(n, tK);
-            Cs = sparse(n, tC);
+            s.Ks = sparse(n, tK);
+            s.Cs = sparse(n, tC);
+            s.sparse_lu = std::make_shared<Eigen::SparseLU<Eigen::SparseMatrix<double>, Eigen::COLAMDOrdering<int>>>();
+            Eigen::SparseMatrix<double> S = sparse(n, tS);
+            S.makeCompressed();
+            s.sparse_lu->compute(S);
+            ok = s.sparse_lu->info() == Eigen::Success;
         }
+        if (!ok) throw SingularMatrixError("flow map: singular tangent at t = " + fmt(t) + " s", ConvergenceError::Where{});
         ++out.jacobians;
-        if (!exact_lu.factorize(n, tS.rows, tS.cols, tS.values))
-            throw SingularMatrixError("flow map: singular tangent at t = " + fmt(t) + " s", ConvergenceError::Where{});
-    };
-    // rhs = -(K X + C Y)
-    auto load_rhs = [&](const Eigen::MatrixXd& X, const Eigen::MatrixXd& Y) {
-        if (dense) {
-            rhs.noalias() = -Kd * X;
-            rhs.noalias() -= Cd * Y;
-        } else {
-            rhs = -(Ks * X + Cs * Y);
-        }
+        tangent->steps.push_back(std::move(s));
     };
     if (sensitivity) {
+        tangent = std::make_shared<FlowMapTangent::Impl>();
+        tangent->n = n;
+        tangent->m = m;
+        tangent->h = h;
+        tangent->dense = n < kDenseBelow;
+        tangent->steps.reserve(static_cast<std::size_t>(n_steps) + 1);
         sys.set(z, v, a, 0.0);
-        tangents(0.0, 0.0, 0.0);  // M da0 = -(K dz0 + C dv0)
-        Sz = Eigen::MatrixXd::Zero(n, 2 * n);
-        Sv = Eigen::MatrixXd::Zero(n, 2 * n);
-        Sz.leftCols(n).setIdentity();
-        Sv.rightCols(n).setIdentity();
-        load_rhs(Sz, Sv);
-        Sa.resize(n, 2 * n);
-        exact_lu.solve(rhs, Sa);
-        Spa = Sa;
-        Pz.resize(n, 2 * n);
-        Pv.resize(n, 2 * n);
-        San.resize(n, 2 * n);
+        linearize(0.0, 0.0, 0.0);  // M da0 = -(K dz0 + C dv0)
     }
 
     AlphaNewton newton(sys, m, aopt);
@@ -508,18 +576,9 @@ FlowMapOutput generalized_alpha_flow_map(const Model& model, State& state, const
         if (!ok) throw_newton_failure(sys, t, h, failure);
         const double tn = t + h;
         if (sensitivity) {
-            // tangent-linear step: the exact iteration matrix at the converged state
+            // the exact iteration matrix at the converged state
             sys.set(zn, vn, an, tn);
-            tangents(tn, m.bp(h), m.gp(h));
-            const double hh = h * h;
-            Pz = Sz + h * Sv + (hh * (0.5 - m.beta) + hh * m.beta * m.c3) * Spa + (hh * m.beta * m.c2) * Sa;
-            Pv = Sv + (h * (1.0 - m.gamma) + h * m.gamma * m.c3) * Spa + (h * m.gamma * m.c2) * Sa;
-            load_rhs(Pz, Pv);
-            exact_lu.solve(rhs, San);
-            Spa = m.c1 * San + m.c2 * Sa + m.c3 * Spa;
-            Sz = Pz + m.bp(h) * San;
-            Sv = Pv + m.gp(h) * San;
-            Sa.swap(San);
+            linearize(tn, m.bp(h), m.gp(h));
         }
         a_prev = a;
         z = zn;
@@ -536,10 +595,7 @@ FlowMapOutput generalized_alpha_flow_map(const Model& model, State& state, const
     out.steps = n_steps;
     out.newton_iterations = stats.newton_iterations;
     out.jacobians += stats.jacobians;
-    if (sensitivity) {
-        out.monodromy.resize(2 * n, 2 * n);
-        out.monodromy << Sz, Sv;
-    }
+    if (sensitivity) out.tangent = std::make_shared<FlowMapTangent>(tangent);
     return out;
 }
 

@@ -13,9 +13,11 @@ from the integrator's tangent-linear step (the exact iteration matrix of every s
 from finite differences; d phi_T / dT is approximated by the vector field at the end,
 which only slows Newton where it is inexact, never the answer. The monodromy is kept
 across iterations while the defect falls fast (a chord method: the tangent-linear map
-costs several plain ones) and computed again at the solution for the multipliers. The eigenvalues of the
-monodromy matrix are the Floquet multipliers: one is 1 (the shift along the orbit), the
-orbit is stable when all others lie inside the unit circle.
+costs several plain ones); the first one comes from a flow map in fewer steps (cheap,
+right for the slow modes that carry the amplitude), and far from the orbit the flow maps
+run to a looser Newton tolerance. At the solution the monodromy is computed again for
+the multipliers, when asked. Its eigenvalues are the Floquet multipliers: one is 1 (the
+shift along the orbit), the orbit is stable when all others lie inside the unit circle.
 
 Coordinates z are reduced displacements from a base state (its node frames held fixed:
 no re-basing along the orbit, so rotations must stay well below pi from the base), v
@@ -45,6 +47,13 @@ STEPS_PER_PERIOD = 512
 #: turn of a planar orbit of an axisymmetric pipe about its axis), which round-off puts
 #: on either side
 NEUTRAL = 1e-6
+#: the shooting's first monodromy comes from a flow map in this many times fewer steps
+#: (when that leaves at least MIN_COARSE_STEPS)
+COARSE = 8
+MIN_COARSE_STEPS = 64
+#: the integrator's Newton tolerance of the flow maps far from the orbit (tightened with
+#: the defect down to the user's newton_tol)
+LOOSE_NEWTON_TOL = 1e-8
 
 
 @dataclass(frozen=True)
@@ -61,9 +70,12 @@ class PeriodicOrbit(Result):
         t: (N + 1,) times over one period [s].
         x: (N + 1, n_nodes, 3) node positions over one period [m].
         amplitude: (n_nodes, 3) half the peak-to-peak excursion of each node coordinate [m].
-        multipliers: (2 n_dofs,) Floquet multipliers by decreasing modulus [-].
-        trivial: index in ``multipliers`` of the one closest to 1 (the shift along the orbit).
-        stable: all other multipliers inside the unit circle (or on it, to NEUTRAL).
+        multipliers: (2 n_dofs,) Floquet multipliers by decreasing modulus [-] (empty
+            if not asked for: ``periodic_orbit(..., multipliers=False)``).
+        trivial: index in ``multipliers`` of the one closest to 1 (the shift along the
+            orbit); -1 without multipliers.
+        stable: all other multipliers inside the unit circle (or on it, to NEUTRAL);
+            None without multipliers.
         residual: max |phi_T(x0) - x0| at the solution [m, m/s].
         iterations: Newton iterations of the shooting.
         steps: N, integrator steps per period.
@@ -80,7 +92,7 @@ class PeriodicOrbit(Result):
     amplitude: np.ndarray
     multipliers: np.ndarray
     trivial: int
-    stable: bool
+    stable: Optional[bool]
     residual: float
     iterations: int
     steps: int
@@ -135,12 +147,18 @@ class _Shooter:
         self.calls = 0
         self.newton_iterations = 0
 
-    def __call__(self, z0, v0, period, mass_flow, sensitivity):
+    def __call__(self, z0, v0, period, mass_flow, sensitivity, *, steps=None, newton_tol=None):
+        """The flow map over ``period`` in ``steps`` steps (default the shooter's), its
+        integrator's Newton to ``newton_tol`` (default the options'); with
+        ``sensitivity`` also its monodromy matrix."""
         load = self.model.load_state(mass_flow=mass_flow)
+        opt = self.opt
+        if newton_tol is not None and newton_tol != opt.newton_tol:
+            opt = _options(self.model, newton_tol, opt.rho_inf)
         self.calls += 1
         out = _core.generalized_alpha_flow_map(self.model.core, self.base.to_core(self.model), load,
                                                np.asarray(z0, float), np.asarray(v0, float), float(period),
-                                               self.steps, bool(sensitivity), self.opt)
+                                               self.steps if steps is None else int(steps), bool(sensitivity), opt)
         self.newton_iterations += int(out["newton_iterations"])
         return out
 
@@ -162,11 +180,13 @@ def _options(model, newton_tol, rho_inf):
 
 def _finish(shooter, z0, v0, period, mass_flow, out, iterations, residual) -> PeriodicOrbit:
     model, n = shooter.model, shooter.n
-    Phi = out["monodromy"]
-    mu = np.linalg.eigvals(Phi)
-    mu = mu[np.argsort(-np.abs(mu), kind="stable")]
-    trivial = int(np.argmin(np.abs(mu - 1.0)))
-    others = np.delete(np.abs(mu), trivial)
+    if "monodromy" in out:
+        mu = np.linalg.eigvals(out["monodromy"])
+        mu = mu[np.argsort(-np.abs(mu), kind="stable")]
+        trivial = int(np.argmin(np.abs(mu - 1.0)))
+        stable = bool(np.delete(np.abs(mu), trivial).max(initial=0.0) <= 1.0 + NEUTRAL)
+    else:  # not asked for
+        mu, trivial, stable = np.zeros(0, complex), -1, None
     z = out["z"]
     basis = model.basis
     q = shooter.base.q[None, :] + (basis @ z.T).T
@@ -174,33 +194,58 @@ def _finish(shooter, z0, v0, period, mass_flow, out, iterations, residual) -> Pe
     amplitude = 0.5 * (x.max(axis=0) - x.min(axis=0))
     orbit = PeriodicOrbit(mass_flow=float(mass_flow), period=float(period), base=shooter.base, z0=np.array(z0),
                           v0=np.array(v0), start=_state_at(shooter.base, basis, z0, v0), t=np.linspace(0.0, period, len(z)), x=x, amplitude=amplitude,
-                          multipliers=mu, trivial=trivial, stable=bool(others.max(initial=0.0) <= 1.0 + NEUTRAL),
+                          multipliers=mu, trivial=trivial, stable=stable,
                           residual=float(residual), iterations=int(iterations), steps=shooter.steps,
                           stats={"flow_maps": shooter.calls, "newton_iterations": shooter.newton_iterations})
     return orbit
 
 
-def _solve(shooter, y, mass_flow, *, tol, max_iterations, phase=None, arclength=None):
+def _solve(shooter, y, mass_flow, *, tol, max_iterations, phase=None, arclength=None, coarse=False,
+           monodromy=True, jacobian=None):
     """Newton on (z0, v0, T) [and mdot with an arclength row].
 
     ``phase`` = (y_ref, xdot_ref): the phase condition xdot_ref . (x0 - x_ref) = 0
     (default: the starting y and its vector field). ``arclength`` = (y_prev, mdot_prev,
     tangent, ds): the extra unknown mdot and the equation tangent . ((y, mdot) - (y_prev,
     mdot_prev)) = ds; its parameter column is differenced once, at the start (a chord:
-    it sets Newton's rate, not the solution)."""
+    it sets Newton's rate, not the solution). ``coarse``: the first Jacobian from the
+    flow map in COARSE times fewer steps. ``jacobian``: a monodromy to start from instead
+    (e.g. the previous orbit's on a branch). ``monodromy``: the returned flow map carries
+    the monodromy at the solution (for the multipliers)."""
     n = shooter.n
     y = np.array(y, float)
     mdot = float(mass_flow)
-    if phase is None:
-        out0 = shooter(y[:n], y[n:2 * n], y[-1], mdot, False)
-        phase = (y.copy(), np.concatenate([y[n:2 * n], out0["a0"]]))
-    y_ref, xdot_ref = phase
+    # Inexact flow maps: far from the orbit the integrator's Newton need not be tight; its
+    # tolerance follows the defect (the flow map's error grew about 1e5 times its per-step
+    # tolerance over 877 steps of the Fig. 3 cantilever), down to the user's at the end.
+    floor = shooter.opt.newton_tol
+
+    def newton_tol(residual):
+        return float(min(max(1e-7 * residual, floor), max(floor, LOOSE_NEWTON_TOL)))
+
     dF_dm = None
     residual = previous = np.inf
     # Chord Newton: the monodromy (the expensive tangent-linear map) is refreshed only
     # when the defect stops falling fast; the cheap flow maps in between give the defect.
-    out = shooter(y[:n], y[n:2 * n], y[-1], mdot, True)
-    Phi, fresh = out["monodromy"], True
+    # A coarse start: the monodromy of the same period in COARSE times fewer steps costs
+    # a fraction of the exact one and points the first steps well (the slow modes, which
+    # set the amplitude, are resolved alike); the stiff modes it gets wrong stall the
+    # defect, and then the exact monodromy takes over.
+    coarse_steps = shooter.steps // COARSE if coarse and shooter.steps >= COARSE * MIN_COARSE_STEPS else None
+    exact = coarse_steps is None
+    out = shooter(y[:n], y[n:2 * n], y[-1], mdot, exact and jacobian is None, newton_tol=floor)
+    if jacobian is not None:
+        Phi, fresh = jacobian, False
+    elif exact:
+        Phi, fresh = out["monodromy"], True
+    else:
+        # an approximate Jacobian anyway: its integrator's Newton need not be tight
+        Phi = shooter(y[:n], y[n:2 * n], y[-1], mdot, True, steps=coarse_steps,
+                      newton_tol=max(floor, LOOSE_NEWTON_TOL))["monodromy"]
+        fresh = False
+    if phase is None:
+        phase = (y.copy(), np.concatenate([y[n:2 * n], out["a0"]]))
+    y_ref, xdot_ref = phase
     for it in range(1, max_iterations + 1):
         z0, v0, T = y[:n], y[n:2 * n], y[-1]
         F = shooter.defect(out, z0, v0)
@@ -215,12 +260,13 @@ def _solve(shooter, y, mass_flow, *, tol, max_iterations, phase=None, arclength=
             s = float(tangent @ np.concatenate([y - y_prev, [mdot - m_prev]])) - ds
             done = done and abs(s) <= tol * max(1.0, abs(ds))
         if done:
-            if not fresh:  # the multipliers need the monodromy at the solution
+            if monodromy and not fresh:  # the multipliers need the monodromy at the solution
                 out = shooter(z0, v0, T, mdot, True)
             return y, mdot, out, it, residual
+        ntol = newton_tol(residual)
         if not fresh and residual > 0.25 * previous:
-            out = shooter(z0, v0, T, mdot, True)
-            Phi, fresh = out["monodromy"], True
+            out = shooter(z0, v0, T, mdot, True, newton_tol=ntol)
+            Phi, fresh, exact = out["monodromy"], True, True
         previous = residual
         J = np.zeros((2 * n + 1, 2 * n + 1))
         J[:2 * n, :2 * n] = Phi - np.eye(2 * n)
@@ -235,19 +281,26 @@ def _solve(shooter, y, mass_flow, *, tol, max_iterations, phase=None, arclength=
         step = np.linalg.solve(J, -np.concatenate(rows))
         # Backtracking: lightly damped modes put multipliers next to 1, so a rough start
         # can ask for large corrections along them; halve the step while the flow map
-        # fails or the defect grows more than tenfold.
-        for _ in range(8):
+        # fails or the defect grows more than tenfold. A step of the coarse monodromy
+        # must lower the defect, else the exact monodromy is taken at once.
+        growth = 10.0 if exact else 1.0
+        for _ in range(8 if exact else 1):
             y_try = y + step[:2 * n + 1]
             m_try = mdot + step[-1] if arclength is not None else mdot
             if y_try[-1] > 0.0:
                 try:
-                    out_try = shooter(y_try[:n], y_try[n:2 * n], y_try[-1], m_try, False)
-                    if np.abs(shooter.defect(out_try, y_try[:n], y_try[n:2 * n])).max() <= 10.0 * residual:
+                    out_try = shooter(y_try[:n], y_try[n:2 * n], y_try[-1], m_try, False, newton_tol=ntol)
+                    if np.abs(shooter.defect(out_try, y_try[:n], y_try[n:2 * n])).max() <= growth * residual:
                         break
                 except ConvergenceError:
                     pass
             step = 0.5 * step
         else:
+            if not exact:
+                out = shooter(z0, v0, T, mdot, True, newton_tol=ntol)
+                Phi, fresh, exact = out["monodromy"], True, True
+                previous = np.inf
+                continue
             raise ConvergenceError(f"periodic orbit: no Newton step of the shooting reduces the periodicity defect "
                                    f"{residual:.3g} at mdot = {mdot:.6g} kg/s (iteration {it}); start closer to "
                                    f"the orbit", iteration=it, residual=residual, mass_flow=mdot)
@@ -269,7 +322,7 @@ def _flow_derivative(shooter, z0, v0, T, mdot, rel=1e-6):
 @small_problems_single_threaded
 def periodic_orbit(model, *, period: float, state=None, base=None, mass_flow: Optional[float] = None,
                    steps: int = STEPS_PER_PERIOD, tol: float = 1e-8, max_iterations: int = 20,
-                   newton_tol: float = 1e-12, rho_inf: float = 0.9) -> PeriodicOrbit:
+                   newton_tol: float = 1e-12, rho_inf: float = 0.9, multipliers: bool = True) -> PeriodicOrbit:
     """The periodic orbit through (near) ``state`` with period near ``period``.
 
     Args:
@@ -284,7 +337,13 @@ def periodic_orbit(model, *, period: float, state=None, base=None, mass_flow: Op
         steps: N, generalised-alpha steps per period (h = T / N) [-].
         tol: Newton tolerance on the periodicity defect max |phi_T(x0) - x0| [m, m/s].
         max_iterations: Newton iterations of the shooting.
-        newton_tol, rho_inf: the integrator's options (as in :func:`pipeflex.simulate`).
+        newton_tol, rho_inf: the integrator's options (as in :func:`pipeflex.simulate`);
+            far from the orbit the flow maps use a looser Newton tolerance (at most
+            LOOSE_NEWTON_TOL, tightened with the defect down to ``newton_tol``).
+        multipliers: compute the Floquet multipliers (the monodromy matrix at the
+            solution: about as much work as 7 flow maps at 8 elements); False leaves
+            ``multipliers`` empty and ``stable`` None, and starts Newton from a coarse
+            monodromy (a flow map in COARSE times fewer steps).
 
     Returns:
         :class:`PeriodicOrbit` with the orbit over one period, its amplitude and its
@@ -306,7 +365,11 @@ def periodic_orbit(model, *, period: float, state=None, base=None, mass_flow: Op
     z0 = _reduced(basis, start.q - chart.q, chart, start)
     v0 = _reduced(basis, start.v, chart, start)
     y = np.concatenate([z0, v0, [T]])
-    y, mdot, out, it, res = _solve(shooter, y, mdot, tol=tol, max_iterations=max_iterations)
+    # The coarse start pays where no exact monodromy is needed: with multipliers one is
+    # computed anyway, and an exact first one then serves the whole chord (measured:
+    # 6 flow maps instead of 10 from the 2.5 s guess of bench_periodic.py).
+    y, mdot, out, it, res = _solve(shooter, y, mdot, tol=tol, max_iterations=max_iterations,
+                                   coarse=not multipliers, monodromy=bool(multipliers))
     n = model.n_dofs
     return _finish(shooter, y[:n], y[n:2 * n], y[-1], mdot, out, it, res)
 
@@ -378,18 +441,23 @@ def continue_orbits(model, *, start, mass_flow_end: float, amplitude: float = 1e
     flows, periods, amps, stable, mmax, folds, starts = [], [], [], [], [], [], []
     h = ds
     first = True
+    # the monodromy at the last orbit: the next orbit's first Jacobian (a chord across
+    # the step; refreshed where the defect stops falling fast)
+    Phi_prev = None
     while len(flows) < max_points:
         y_pred = y_prev + h * tangent[:-1]
         m_pred = m_prev + h * tangent[-1]
         try:
             y, mdot, out, it, res = _solve(shooter, y_pred, m_pred, tol=tol, max_iterations=max_iterations,
-                                           phase=(y_pred, xdot_prev), arclength=(y_prev, m_prev, tangent, h))
+                                           phase=(y_pred, xdot_prev), arclength=(y_prev, m_prev, tangent, h),
+                                           jacobian=Phi_prev)
         except (ConvergenceError, np.linalg.LinAlgError):
             h *= 0.5
             if h < 1e-6 * ds:
                 break
             continue
         orbit = _finish(shooter, y[:n], y[n:2 * n], y[-1], mdot, out, it, res)
+        Phi_prev = out["monodromy"]
         new_tangent = np.concatenate([y - y_prev, [mdot - m_prev]])
         new_tangent /= np.linalg.norm(new_tangent)
         if not first and tangent[-1] != 0.0 and np.sign(new_tangent[-1]) != np.sign(tangent[-1]):

@@ -16,6 +16,7 @@
 #include "pipeflex/errors.hpp"
 
 #include <functional>
+#include <memory>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -74,19 +75,39 @@ TransientOutput integrate_generalized_alpha(const Model& model, State& state, co
                                             const TimeFunctions& functions, const std::vector<double>& times,
                                             const TransientOptions& opt, const ProgressFn& progress);
 
+// The tangent-linear map of a generalised-alpha flow map, kept step by step: K and C at
+// every converged step and the step's exact iteration matrix M + gamma' C + beta' K,
+// factorised (at the start M alone, for the initial acceleration consistent with z0, v0).
+// apply() maps directions (dz0, dv0) to d(z, v)_end without integrating again: one pass
+// of products and triangular solves per call, so a matrix-free (Krylov) shooting pays
+// one flow map per Newton iteration and a pass per direction, and the monodromy matrix
+// (the identity's 2n columns) is formed only when asked.
+class FlowMapTangent {
+   public:
+    struct Impl;
+    explicit FlowMapTangent(std::shared_ptr<const Impl> impl) : impl_(std::move(impl)) {}
+    // (2n x p) directions [dz0; dv0] -> (2n x p) [dz; dv] at the end
+    Eigen::MatrixXd apply(const Eigen::MatrixXd& directions) const;
+    int dimension() const;       // 2n
+    std::size_t bytes() const;   // memory held [bytes]
+
+   private:
+    std::shared_ptr<const Impl> impl_;
+};
+
 // The generalised-alpha flow map of an autonomous model (constant flow and loads) over
 // `duration` [s] in n_steps equal steps, in the fixed chart of `state` (its positions and
 // node frames; no re-basing, so rotations must stay well below pi from it): from the
 // reduced displacement z0 [m, rad] and velocity v0 to z, v at the end. With sensitivity,
-// also the tangent-linear map d(z, v)_end / d(z0, v0) (2n x 2n; the initial acceleration
-// consistent with z0, v0), propagated step by step with the exact iteration matrix:
-// the monodromy matrix of a periodic orbit, whose eigenvalues are its Floquet
-// multipliers.
+// also its tangent-linear map d(z, v)_end / d(z0, v0) (FlowMapTangent; the initial
+// acceleration consistent with z0, v0), with the exact iteration matrix of every step:
+// applied to the identity it is the monodromy matrix of a periodic orbit, whose
+// eigenvalues are its Floquet multipliers.
 struct FlowMapOutput {
     std::vector<double> z;   // displacement after each step, (n_steps + 1) x n, row-major
     Eigen::VectorXd v, a;    // velocity and acceleration at the end
     Eigen::VectorXd a0;      // consistent initial acceleration
-    Eigen::MatrixXd monodromy;
+    std::shared_ptr<FlowMapTangent> tangent;  // with sensitivity only
     long steps = 0, newton_iterations = 0, jacobians = 0;
 };
 
