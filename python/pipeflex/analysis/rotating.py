@@ -27,6 +27,7 @@ from typing import Sequence
 
 import numpy as np
 import scipy.sparse as sp
+import scipy.sparse.linalg as spla
 
 from .. import _checks, _core
 from .._options import renamed
@@ -34,7 +35,7 @@ from ..errors import ConvergenceError
 from ..results import Result
 from ..state import State, as_core
 from ._assembly import require_model, residual_and_tangent
-from .eigen import GROWTH_TOL, eigenvalues
+from .eigen import GROWTH_TOL, SPARSE_MIN_DOFS, eigenvalues
 from .linearize import Linearization
 from ..rotation import skew
 from .._blas import small_problems_single_threaded
@@ -83,7 +84,9 @@ class RotatingFrequencies(Result):
 class _Frame:
     """The rotating-frame operators A, B (per unit Omega) of a model, on the coordinates of
     its unconstrained variant: the supports hold in the rotating frame, so the reduced
-    matrices are T^T (K + Omega C A + Omega^2 M B) T with the full M, C, K."""
+    matrices are T^T (K + Omega C A + Omega^2 M B) T with the full M, C, K. All sparse
+    (A, B are nodal 3 x 3 blocks; the bases select coordinates): memory and work linear
+    in the number of nodes."""
 
     def __init__(self, model):
         require_model(model)
@@ -94,34 +97,39 @@ class _Frame:
         self.axis = model.hub.axis
         self.center = model.hub.center
         S = skew(self.axis)
-        n = model.n_nodes
-        A = np.zeros((6 * n, 6 * n))
-        B = np.zeros((6 * n, 6 * n))
+        S2 = S @ S
         ancf = set(model.ancf_nodes)
-        for i in range(n):
-            p, r = slice(6 * i, 6 * i + 3), slice(6 * i + 3, 6 * i + 6)
-            A[p, p], B[p, p] = S, S @ S
-            if i in ancf:
-                A[r, r], B[r, r] = S, S @ S
-            else:
-                A[r, r], B[r, r] = 0.5 * S, S @ S / 6.0
-        Tf = self.free.basis.toarray()
-        T = model.basis.toarray()
-        Tfp = np.linalg.pinv(Tf)
+        a_blocks, b_blocks = [], []
+        for i in range(model.n_nodes):
+            a_blocks += [S, S if i in ancf else 0.5 * S]
+            b_blocks += [S2, S2 if i in ancf else S2 / 6.0]
+        A = sp.block_diag(a_blocks, format="csr")
+        B = sp.block_diag(b_blocks, format="csr")
+        Tf = sp.csr_matrix(self.free.basis)
+        T = sp.csr_matrix(model.basis)
+        # pinv(Tf) = (Tf^T Tf)^-1 Tf^T: a basis has full column rank; Tf^T Tf is diagonal
+        # when the basis selects coordinates (spsolve's sparse right-hand side is slow)
+        G = sp.csr_matrix(Tf.T @ Tf)
+        d = G.diagonal()
+        if _max_abs(G - sp.diags(d)) == 0.0:
+            Tfp = sp.csr_matrix(sp.diags(1.0 / d) @ Tf.T)
+        else:
+            Tfp = sp.csr_matrix(spla.spsolve(sp.csc_matrix(G), sp.csc_matrix(Tf.T)))
         self.T = T
-        self.T_rel = Tfp @ T
-        self.A = Tfp @ A @ Tf
-        self.B = Tfp @ B @ Tf
-        if np.abs(Tf @ self.A - A @ Tf).max() > 1e-12 or np.abs(Tf @ self.T_rel - T).max() > 1e-12:
+        self.T_rel = sp.csc_matrix(Tfp @ T)
+        self.A = sp.csc_matrix(Tfp @ A @ Tf)
+        self.B = sp.csc_matrix(Tfp @ B @ Tf)
+        if _max_abs(Tf @ self.A - A @ Tf) > 1e-12 or _max_abs(Tf @ self.T_rel - T) > 1e-12:
             raise ValueError("planar ANCF nodes can only turn about the z axis")
         self.radial, self.tangential = self._directions()
+        self.present = self.families()
 
     def matrices(self, state, omega):
-        """Reduced M, C, K of the rotating-frame equations at rate omega [rad/s]."""
+        """Reduced M, C, K (sparse) of the rotating-frame equations at rate omega [rad/s]."""
         K, C, M = _matrices(self.free, state)
         Tr = self.T_rel
-        return (Tr.T @ M @ Tr, Tr.T @ (C + 2 * omega * M @ self.A) @ Tr,
-                Tr.T @ (K + omega * C @ self.A + omega**2 * M @ self.B) @ Tr)
+        return (sp.csc_matrix(Tr.T @ M @ Tr), sp.csc_matrix(Tr.T @ (C + 2 * omega * M @ self.A) @ Tr),
+                sp.csc_matrix(Tr.T @ (K + omega * C @ self.A + omega**2 * M @ self.B) @ Tr))
 
     def _directions(self):
         """Unit radial (along the reference beam, normal to the axis) and tangential
@@ -155,6 +163,15 @@ class _Frame:
         state.v = v
         state.a = a
 
+    def families(self):
+        """Which of the directions radial, tangential, axial the structure can move in
+        (a planar model has no axial, i.e. out-of-plane, family)."""
+        n = self.model.n_nodes
+        pos = np.concatenate([np.arange(6 * i, 6 * i + 3) for i in range(n)])
+        Tp = sp.csr_matrix(self.T)[pos]
+        return np.array([_max_abs(sp.kron(sp.identity(n), sp.csr_matrix(d[None, :])) @ Tp) > 0.0
+                         for d in (self.radial, self.tangential, self.axis)])
+
     def classify(self, vectors):
         """Share of each mode's nodal displacement along radial, tangential, axial."""
         full = self.T @ vectors
@@ -166,12 +183,17 @@ class _Frame:
         return parts / np.maximum(parts.sum(axis=0), 1e-300)
 
 
+def _max_abs(X) -> float:
+    return float(abs(X).max()) if X.nnz else 0.0
+
+
 def _matrices(model, state):
+    """K, C, M (sparse CSC) of ``model`` at ``state``."""
     load = model.load_state()
     _, K = residual_and_tangent(model, state, load, wK=1.0)
     _, C = residual_and_tangent(model, state, load, load_factor=0.0, wK=0.0, wC=1.0)
     _, M = residual_and_tangent(model, state, load, load_factor=0.0, wK=0.0, wM=1.0)
-    return K.toarray(), C.toarray(), M.toarray()
+    return sp.csc_matrix(K), sp.csc_matrix(C), sp.csc_matrix(M)
 
 
 def _axial_strains(model, state) -> float:
@@ -239,8 +261,8 @@ def rotating_state(model, omega: float, *, state=None, state_omega: float = 0.0,
             r, _ = residual_and_tangent(model, trial, load, matrix=False)
             rnorm = float(np.linalg.norm(r))
             try:
-                dz = np.linalg.solve(J, -r)
-            except np.linalg.LinAlgError:
+                dz = spla.splu(sp.csc_matrix(J)).solve(-np.asarray(r, dtype=float))
+            except RuntimeError:  # singular J
                 break
             _core.add_increment(model.core, trial, dz, "q")
             if np.abs(dz).max() <= tol * size:
@@ -271,15 +293,35 @@ def rotating_state(model, omega: float, *, state=None, state_omega: float = 0.0,
     return last_good
 
 
-def _modes(fr, M, C, K, state, n_modes):
-    """Frequencies sorted into transverse, longitudinal and out-of-plane families."""
+def _family_eigen(fr, lin, n_modes, k=None):
+    """Eigenvalues with vectors holding the ``n_modes`` lowest modes (Im lambda > 0) of
+    each family the structure has (:meth:`_Frame.families`), and (lambda, vectors,
+    family index 0 radial, 1 tangential, 2 axial) of its modes with Im lambda > 0, and
+    the k that sufficed (the start ``k`` of the next rate of a sweep).
+
+    Below SPARSE_MIN_DOFS coordinates all eigenvalues (dense); above, the k nearest 0 by
+    shift-invert Arnoldi, k doubled until every family has its n_modes (all of a
+    family's modes below the k-th |lambda| are among them, so these are its lowest).
+    """
+    n = lin.K.shape[0]
+    k = 2 * n_modes * int(np.count_nonzero(fr.present)) + 4 if k is None else k
+    while True:
+        dense = n < SPARSE_MIN_DOFS or 2 * k >= n
+        eig = eigenvalues(lin, vectors=True) if dense else eigenvalues(lin, vectors=True, n_modes=k)
+        up = eig.values.imag > 0
+        lam, V = eig.values[up], eig.vectors[:, up]
+        kind = np.argmax(fr.classify(V), axis=0)
+        if dense or np.all(np.bincount(kind, minlength=3)[fr.present] >= n_modes):
+            return eig, lam, V, kind, k
+        k *= 2
+
+
+def _modes(fr, M, C, K, state, n_modes, k=None):
+    """Frequencies sorted into transverse, longitudinal and out-of-plane families, the
+    growth rate, the transverse shapes and the k of :func:`_family_eigen`."""
     lin = Linearization(sp.csc_matrix(M), sp.csc_matrix(C), sp.csc_matrix(K), 0.0,
                         State.from_core(state, fr.model))
-    eig = eigenvalues(lin, vectors=True)
-    up = eig.values.imag > 0
-    lam, V = eig.values[up], eig.vectors[:, up]
-    share = fr.classify(V)
-    kind = np.argmax(share, axis=0)
+    eig, lam, V, kind, k = _family_eigen(fr, lin, n_modes, k)
     out = []
     for k in (1, 0, 2):  # tangential (transverse), radial (longitudinal), axial
         w = np.sort(lam[kind == k].imag)[:n_modes]
@@ -294,11 +336,12 @@ def _modes(fr, M, C, K, state, n_modes):
         big = np.argmax(np.abs(ut))
         ph = np.conj(ut[big]) / abs(ut[big])  # rotate the complex mode to a real tip/peak
         shapes[j, :, 0], shapes[j, :, 1] = (ph * ur).real / abs(ut[big]), (ph * ut).real / abs(ut[big])
-    # growth above the round-off bound of each eigenvalue (0: stable)
+    # growth above the round-off bound of each eigenvalue (0: stable); on the sparse path
+    # of the eigenvalues computed (the lowest: where centrifugal softening acts)
     real = eig.values.real
     grows = real > np.maximum(GROWTH_TOL * np.abs(eig.values), eig.noise)
     growth = float(np.max(real[grows])) if np.any(grows) else 0.0
-    return out, growth, shapes
+    return out, growth, shapes, k
 
 
 @small_problems_single_threaded
@@ -352,18 +395,20 @@ def rotating_frequencies(model, *, gamma, linearization: str = "small_deformatio
         G = _unit_prestress(model, fr, s0, u1)
         MA, MB, CA = Tr.T @ Mf @ fr.A @ Tr, Tr.T @ Mf @ fr.B @ Tr, Tr.T @ C0f @ fr.A @ Tr
         C0 = Tr.T @ C0f @ Tr
+        k = None
         for i in order:
             w = g[i] * w0
-            fam, growth[i], shapes[i] = _modes(fr, M, C0 + 2 * w * MA, K0 + w * CA + w**2 * (G + MB), s0, n_modes)
+            fam, growth[i], shapes[i], k = _modes(fr, M, C0 + 2 * w * MA, K0 + w * CA + w**2 * (G + MB), s0,
+                                                  n_modes, k)
             res[i] = fam
             strain[i] = w**2 * e1
     else:
-        st, w_prev = None, 0.0
+        st, w_prev, k = None, 0.0, None
         for i in order:
             w = g[i] * w0
             st = rotating_state(model, w, continuation_steps=4) if st is None else _continue(model, st, w_prev, w)
             w_prev = w
-            fam, growth[i], shapes[i] = _modes(fr, *fr.matrices(st, w), st, n_modes)
+            fam, growth[i], shapes[i], k = _modes(fr, *fr.matrices(st, w), st, n_modes, k)
             res[i] = fam
             strain[i] = _axial_strains(model, st)
             _check_strain(g[i], strain[i], "")
@@ -387,7 +432,7 @@ def _unit_strain(model, fr, s0, K0):
     fr.rigid_rotation(s, 1.0)
     s.v = np.zeros_like(np.asarray(s.v))  # only the centripetal acceleration loads
     f, _ = residual_and_tangent(model, s, model.load_state(), load_factor=0.0, matrix=False)
-    u = np.linalg.solve(K0, -f)
+    u = spla.splu(sp.csc_matrix(K0)).solve(-np.asarray(f, dtype=float))
     probe = s0.copy()
     _core.add_increment(model.core, probe, u * 1e-6, "q")
     return u, _axial_strains(model, probe) * 1e6
@@ -397,7 +442,7 @@ def _unit_prestress(model, fr, s0, u):
     """Prestress stiffness per unit Omega^2 of the first-order displacement u
     (:func:`_unit_strain`)."""
     rows, cols, vals = _core.assemble_geometric(model.core, s0, fr.T @ u)
-    return sp.csc_matrix((vals, (rows, cols)), shape=(len(u), len(u))).toarray()
+    return sp.csc_matrix((vals, (rows, cols)), shape=(len(u), len(u)))
 
 
 def _check_strain(gamma, strain, kind):
