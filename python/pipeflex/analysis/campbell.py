@@ -36,8 +36,8 @@ from ..results import Result
 from ..state import State
 from .eigen import GROWTH_TOL, SPARSE_MIN_DOFS, eigenvalues
 from .linearize import Linearization
-from .rotating import (LINEARIZATIONS, _axial_strains, _check_strain, _continue, _Frame, _matrices, _unit_prestress,
-                       _unit_strain, rotating_state)
+from .rotating import (LINEARIZATIONS, _axial_strains, _check_strain, _continue, _Frame, _matrices, _steady_state,
+                       _unit_prestress, _unit_strain)
 
 #: Family labels, by the main direction of a mode's nodal displacements: radial,
 #: tangential (in the plane of rotation), along the hub axis.
@@ -216,7 +216,7 @@ def _serial(model, fr, speeds, linearization, count=None):
     else:
         st, w_prev = None, 0.0
         for w in speeds:
-            st = rotating_state(model, w, continuation_steps=4) if st is None else _continue(model, st, w_prev, w)
+            st = _steady_state(fr, w, model.initial_state(), n_steps=4) if st is None else _continue(fr, st, w_prev, w)
             w_prev = w
             _check(model, st, w)
             yield _eigen(fr, *fr.matrices(st, w), st, count)
@@ -230,7 +230,7 @@ def _check(model, state, w):
 def _small_deformation_parts(model, fr, s0, w_max):
     """The Omega-independent matrices of Berzeri & Shabana's Section 5 linearisation (as in
     :func:`pipeflex.rotating_frequencies`); the first-order strain at ``w_max`` checked."""
-    K0f, C0f, Mf = _matrices(fr.free, s0)
+    K0f, C0f, Mf = _matrices(fr.free, s0, fr.dense)
     Tr = fr.T_rel
     K0, M = Tr.T @ K0f @ Tr, Tr.T @ Mf @ Tr
     u1, e1 = _unit_strain(model, fr, s0, K0)
@@ -267,7 +267,7 @@ def rotating_modes(model, *, omega: float, linearization: Optional[str] = None,
         lam, V, g = _eigen(fr, *_small_deformation_matrices(_small_deformation_parts(model, fr, s0, abs(omega)), omega),
                            s0, count)
     else:
-        st = rotating_state(model, omega, continuation_steps=4)
+        st = _steady_state(fr, omega, model.initial_state(), n_steps=4)
         _check(model, st, omega)
         lam, V, g = _eigen(fr, *fr.matrices(st, omega), st, count)
     return {"eigenvalue": lam, "shapes": V, "share": fr.classify(V).T, "growth": g}

@@ -591,7 +591,7 @@ def _rayleigh_on_axis(lam, X, MX, CX, KX):
     return np.where(ok, 1j * w, lam)
 
 
-def _velocity_scale(op, v0, k, steps=None) -> float:
+def _velocity_scale(op, v0, k) -> float:
     """|mu_k| = |lambda_k - sigma| of the k-th eigenvalue nearest sigma, from the Ritz
     values of a short Arnoldi run (k + 2 steps) of ``op`` (which reads its scale tau as
     set when called: here 1); an overestimate by a few times, which is harmless.
@@ -606,7 +606,7 @@ def _velocity_scale(op, v0, k, steps=None) -> float:
     beam. tau ~ |mu_k| keeps every unwanted block below |nu_k| (0.1 to 100 times it
     converge alike, measured), so the wanted ones converge in about 3 k applications.
     """
-    steps = min(k + 2, len(v0) - 1) if steps is None else steps
+    steps = min(k + 2, len(v0) - 1)
     Q = np.zeros((len(v0), steps + 1), dtype=v0.dtype)
     H = np.zeros((steps + 1, steps), dtype=v0.dtype)
     Q[:, 0] = v0 / np.linalg.norm(v0)
@@ -622,8 +622,8 @@ def _velocity_scale(op, v0, k, steps=None) -> float:
             break
         Q[:, j + 1] = w / H[j + 1, j]
     ritz = np.sort(np.abs(np.linalg.eigvals(H[:steps, :steps])))[::-1]
-    nu_k = ritz[min(k, steps) - 1]
-    return 1.0 / nu_k if nu_k > 1e-300 * ritz[0] and nu_k > 0 else 1.0
+    ritz = ritz[ritz > 1e-10 * ritz[0]]  # nu = 0: infinite lambda (massless coordinates), never wanted
+    return 1.0 / ritz[min(k, len(ritz)) - 1] if len(ritz) else 1.0
 
 
 class QuadraticPencil:
