@@ -508,8 +508,8 @@ def sparse_block_eigenvalues(b: Block, k: int, sigma: complex, *, vectors: bool 
     tau = 1.0
 
     def op(v):
-        # (A_s - sigma B)^-1 B on the state [x; mu x / tau]: [f; g] -> [y; f / tau] with
-        # T(sigma) y = -(T'(sigma) f + tau M g)
+        # shift-invert of the first-order form on the state [x; mu x / tau]: [f; g] -> [y; f / tau]
+        # with T(sigma) y = -(T'(sigma) f + tau M g)
         v = np.asarray(v).ravel()
         f, g = v[:n], v[n:]
         y = -lu.solve(np.asarray(Cs @ f + tau * (Mr @ g), dtype=dtype))

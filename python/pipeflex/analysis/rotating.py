@@ -358,8 +358,8 @@ def _modes(fr, M, C, K, state, n_modes, k=None):
                         State.from_core(state, fr.model))
     eig, lam, V, kind, k = _family_eigen(fr, lin, n_modes, k)
     out = []
-    for k in (1, 0, 2):  # tangential (transverse), radial (longitudinal), axial
-        w = np.sort(lam[kind == k].imag)[:n_modes]
+    for family in (1, 0, 2):  # tangential (transverse), radial (longitudinal), axial
+        w = np.sort(lam[kind == family].imag)[:n_modes]
         out.append(np.concatenate([w, np.full(n_modes - len(w), np.nan)]))
     sel = np.flatnonzero(kind == 1)
     sel = sel[np.argsort(lam[sel].imag)][:n_modes]
