@@ -247,7 +247,13 @@ def test_sparse_path_equals_dense(monkeypatch, formulation, linearization):
     beam = scenes.rotating_cantilever(n_elements=n, formulation=formulation, tip_mass_ratio=1, hub_radius_ratio=1)
     assert beam.n_dofs >= rotating.SPARSE_MIN_DOFS
     g = [0.0, 4.0, 10.0] if linearization == "small_deformation" else [0.0, 3.0]
+    calls = []
+    eigenvalues = rotating.eigenvalues
+    monkeypatch.setattr(rotating, "eigenvalues",
+                        lambda *a, **kw: calls.append(kw.get("n_modes")) or eigenvalues(*a, **kw))
     sparse = pf.rotating_frequencies(beam, gamma=g, n_modes=4, linearization=linearization)
+    # k doubles at the first rate only; the next rates start from the k that sufficed
+    assert None not in calls and len(calls) <= len(g) + 3, calls
     monkeypatch.setattr(rotating, "SPARSE_MIN_DOFS", 10**9)
     dense = pf.rotating_frequencies(beam, gamma=g, n_modes=4, linearization=linearization)
     for family in ("transverse", "longitudinal", "out_of_plane"):
