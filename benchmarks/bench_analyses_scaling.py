@@ -10,10 +10,17 @@ Wall times are the best of --repeat runs; slopes between successive sizes.
 Then the floating-frame chain (pf.scenes.ffrf_cantilever_pipe, 4 elements per body, 1.5 N
 tip force) with B bodies (--bodies): static equilibrium without flow, and a generalised-
 alpha step at 30 kg/s (h = 1 ms; the difference of 50- and 100-step runs over 50).
+Then the rotating ANCF cantilever of seed 002 (pf.scenes.rotating_cantilever, Model A)
+with N elements (--ancf): rotating_frequencies at gamma = 0 and 5 with 4 modes per family
+(the 4th longitudinal mode lies above ~30 bending ones: ~40 eigenvalues near 0), a
+Campbell diagram (gamma 0..8, 9 speeds, 4 branches), and eigenvalues(n_modes=40) of the
+beam at rest. An analysis that took more than --budget seconds is skipped at larger N
+(the dense path before: ~N^3).
 Run: .venv/bin/python benchmarks/bench_analyses_scaling.py [--sizes 8 32 128 512 2048 8192]
-     [--bodies 4 16 64 128] [--only linearize "IDA start"] [--repeat 5] [--cpu]
-(--only: these rows of the element table, no chain table; the static equilibrium is
-solved anyway, as the state to linearise about.)
+     [--bodies 4 16 64 128] [--ancf 10 20 40 80 160 320 640 1280] [--parts pipe chain rotating]
+     [--only linearize "IDA start"] [--repeat 5] [--cpu]
+(--only: these rows of the element table; the static equilibrium is solved anyway, as the
+state to linearise about.)
 """
 import argparse
 import math
@@ -54,6 +61,10 @@ def main():
     ap.add_argument("--max-critical", type=int, default=2048)
     ap.add_argument("--repeat", type=int, default=2)
     ap.add_argument("--bodies", type=int, nargs="+", default=[4, 16, 64, 128])
+    ap.add_argument("--ancf", type=int, nargs="+", default=[10, 20, 40, 80, 160, 320, 640, 1280])
+    ap.add_argument("--budget", type=float, default=60.0)
+    ap.add_argument("--parts", nargs="+", default=["pipe", "chain", "rotating"],
+                    choices=["pipe", "chain", "rotating"])
     ap.add_argument("--only", nargs="+", default=None, help="rows of the element table to run")
     ap.add_argument("--cpu", action="store_true",
                     help="CPU time of the process instead of wall time (with one BLAS thread, on a shared machine)")
@@ -63,6 +74,15 @@ def main():
         CLOCK = time.process_time
     print(f"load average {os.getloadavg()[0]:.2f}; OPENBLAS_NUM_THREADS={os.environ.get('OPENBLAS_NUM_THREADS', 'unset')}; "
           f"{'CPU' if args.cpu else 'wall'} time")
+    if "pipe" in args.parts:
+        pipe(args, ap)
+    if "chain" in args.parts:
+        ffrf_chain(args)
+    if "rotating" in args.parts:
+        rotating(args)
+
+
+def pipe(args, ap):
     names = ("build", "static", "linearize", "6 eigenvalues", "critical flow", "gen-alpha step", "IDA start")
     unknown = set(args.only or ()) - set(names)
     if unknown:
@@ -103,8 +123,9 @@ def main():
         rows[n] = r
         print(f"{n:6d} elements: " + ", ".join(f"{k} {v:.3g} s" for k, v in r.items()), flush=True)
     table(rows, [k for k in names if want(k)] + (["IDA / Newton it"] if want("IDA start") else []))
-    if args.only is not None:
-        return
+
+
+def ffrf_chain(args):
     chain = {}
     for nb in args.bodies:
         s = pf.scenes.ffrf_cantilever_pipe(n_bodies=nb, elements_per_body=4, tip_force=1.5)
@@ -120,6 +141,33 @@ def main():
         print(f"{nb:6d} bodies ({s.n_coordinates} coordinates): " + ", ".join(f"{k} {v:.3g} s" for k, v in r.items()),
               flush=True)
     table(chain, ("FFRF static", "FFRF step"), unit="bodies")
+
+
+def rotating(args):
+    names = ("rotating 2 rates", "campbell 9 speeds", "40 eigenvalues")
+    rows, over = {}, set()
+    for n in args.ancf:
+        beam = pf.scenes.rotating_cantilever(n_elements=n)
+        lin = pf.linearize(beam, beam.initial_state())
+        runs = {
+            "rotating 2 rates": lambda: pf.rotating_frequencies(beam, gamma=[0.0, 5.0], n_modes=4),
+            "campbell 9 speeds": lambda: pf.campbell(beam, gamma=np.linspace(0.0, 8.0, 9), n_modes=4),
+            "40 eigenvalues": lambda: pf.eigenvalues(lin, n_modes=40),
+        }
+        r = {}
+        for name, f in runs.items():
+            if name in over:
+                continue
+            r[name], out = best(f, args.repeat)
+            if r[name] > args.budget:
+                over.add(name)
+            if name == "rotating 2 rates":  # a wrong but fast run shows here
+                r["w_T1, w_L4 at gamma 5"] = (out.transverse[1, 0], out.longitudinal[1, 3])
+        rows[n] = r
+        print(f"{n:6d} elements ({beam.n_dofs} coordinates): " + ", ".join(
+            f"{k} {v:.4g} s" if not isinstance(v, tuple) else f"{k} {v[0]:.6f}, {v[1]:.4f}" for k, v in r.items()),
+            flush=True)
+    table(rows, names)
 
 
 def table(rows, names, unit="elements"):

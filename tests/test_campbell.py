@@ -1,4 +1,5 @@
 """Campbell diagrams: branches followed by mode shape (MAC), crossings with omega = k Omega."""
+import importlib
 from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
@@ -131,3 +132,24 @@ def test_bad_input():
         pf.campbell(pf.scenes.rotating_cantilever(formulation="pipe"), gamma=[0, 1], linearization="small_deformation")
     with pytest.raises(ValueError, match="rotating hub"):
         pf.campbell(pf.scenes.cantilever_pipe(n_elements=2), omega=[0, 1])
+
+
+def test_sparse_path_equals_dense(monkeypatch):
+    """From SPARSE_MIN_DOFS coordinates on each speed offers the 2 n_modes + 4 lowest modes
+    (shift-invert Arnoldi) to the tracking: the same branches, MAC and crossings as with
+    all modes (dense), serial and through the sweep (rotating_modes with n_modes)."""
+    cb = importlib.import_module("pipeflex.analysis.campbell")  # pipeflex.analysis.campbell is the function
+    beam = pf.scenes.rotating_cantilever(n_elements=64, tip_mass_ratio=4, hub_radius_ratio=5)
+    assert beam.n_dofs >= cb.SPARSE_MIN_DOFS
+    g = np.linspace(4.0, 8.0, 5)
+    sparse = pf.campbell(beam, gamma=g, n_modes=4)
+    with ThreadPoolExecutor(2) as ex:
+        swept = pf.campbell(beam, gamma=g, n_modes=4, executor=ex)
+    monkeypatch.setattr(cb, "SPARSE_MIN_DOFS", 10**9)
+    dense = pf.campbell(beam, gamma=g, n_modes=4)
+    for c in (sparse, swept):
+        assert np.allclose(c.frequencies, dense.frequencies, rtol=1e-9, atol=0.0)
+        assert np.allclose(c.mac, dense.mac, rtol=0.0, atol=1e-9)
+        assert list(c.family) == list(dense.family)
+        assert np.allclose(c.crossing_speed, dense.crossing_speed, rtol=1e-9, atol=0.0)
+    assert len(rotating_modes(beam, omega=3.0, n_modes=5)["eigenvalue"]) == 5

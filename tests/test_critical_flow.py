@@ -95,12 +95,15 @@ def test_table2_cantilever_128_elements_converges_with_order_four():
 def test_sparse_tracking_at_256_elements_agrees_with_128():
     """The crossing eigenpair followed by Newton on the sparse blocks (no Arnoldi per
     step): 256 elements give 128's flow to within the round-off of the crossing
-    eigenvalue at 256 (~1e-8 relative, docs/performance.md); the discretisation error
-    between them is ~2e-9 relative (order 4)."""
+    eigenvalue at 256 (docs/performance.md); the discretisation error between them is
+    ~2e-9 relative (order 4). Brent stops where |Re lambda| is below its round-off bound
+    (~1e-6 1/s here, d Re / d mdot ~0.7 s^-1 per kg/s): a band of +-6e-8 relative; the
+    Arnoldi start vector alone moves the result within it (seeds 0-3 of v0: -3.4e-8 to
+    +4.5e-9 of the 128-element flow, with the scaled operator or the former one)."""
     r128 = pf.critical_mass_flow(pf.scenes.cantilever_pipe(n_elements=128))
     r256 = pf.critical_mass_flow(pf.scenes.cantilever_pipe(n_elements=256))
     assert r256.kind == "flutter"
-    assert r256.mass_flow == pytest.approx(r128.mass_flow, rel=2e-8)
+    assert r256.mass_flow == pytest.approx(r128.mass_flow, rel=6e-8)
     assert r256.frequency == pytest.approx(r128.frequency, rel=1e-8)
 
 

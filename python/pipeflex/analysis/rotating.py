@@ -27,6 +27,7 @@ from typing import Sequence
 
 import numpy as np
 import scipy.sparse as sp
+import scipy.sparse.linalg as spla
 
 from .. import _checks, _core
 from .._options import renamed
@@ -34,7 +35,7 @@ from ..errors import ConvergenceError
 from ..results import Result
 from ..state import State, as_core
 from ._assembly import require_model, residual_and_tangent
-from .eigen import GROWTH_TOL, eigenvalues
+from .eigen import GROWTH_TOL, SPARSE_MIN_DOFS, eigenvalues
 from .linearize import Linearization
 from ..rotation import skew
 from .._blas import small_problems_single_threaded
@@ -83,7 +84,11 @@ class RotatingFrequencies(Result):
 class _Frame:
     """The rotating-frame operators A, B (per unit Omega) of a model, on the coordinates of
     its unconstrained variant: the supports hold in the rotating frame, so the reduced
-    matrices are T^T (K + Omega C A + Omega^2 M B) T with the full M, C, K."""
+    matrices are T^T (K + Omega C A + Omega^2 M B) T with the full M, C, K. Sparse (A, B
+    are nodal 3 x 3 blocks; the bases select coordinates): memory and work linear in the
+    number of nodes; dense arrays below SPARSE_MIN_DOFS reduced coordinates (``dense``),
+    where scipy.sparse's per-operation overhead made Berzeri & Shabana's 10-element Tables 2-5
+    1.3-2.7 times slower."""
 
     def __init__(self, model):
         require_model(model)
@@ -94,31 +99,41 @@ class _Frame:
         self.axis = model.hub.axis
         self.center = model.hub.center
         S = skew(self.axis)
+        S2 = S @ S
         n = model.n_nodes
-        A = np.zeros((6 * n, 6 * n))
-        B = np.zeros((6 * n, 6 * n))
-        ancf = set(model.ancf_nodes)
-        for i in range(n):
-            p, r = slice(6 * i, 6 * i + 3), slice(6 * i + 3, 6 * i + 6)
-            A[p, p], B[p, p] = S, S @ S
-            if i in ancf:
-                A[r, r], B[r, r] = S, S @ S
-            else:
-                A[r, r], B[r, r] = 0.5 * S, S @ S / 6.0
-        Tf = self.free.basis.toarray()
-        T = model.basis.toarray()
-        Tfp = np.linalg.pinv(Tf)
+        # per node a position and a slope/rotation 3 x 3 block; rotation vectors: S/2, S^2/6
+        rot = np.ones(n)
+        rot[np.setdiff1d(np.arange(n), np.asarray(model.ancf_nodes, dtype=int))] = 0.0
+        a_scale = np.column_stack([np.ones(n), rot + 0.5 * (1.0 - rot)]).ravel()
+        b_scale = np.column_stack([np.ones(n), rot + (1.0 - rot) / 6.0]).ravel()
+        self.dense = model.n_dofs < SPARSE_MIN_DOFS
+        form = (lambda X: X.toarray() if sp.issparse(X) else X) if self.dense else sp.csr_matrix
+        A = form(_block_diagonal(a_scale[:, None, None] * S))
+        B = form(_block_diagonal(b_scale[:, None, None] * S2))
+        Tf = form(sp.csr_matrix(self.free.basis))
+        T = form(sp.csr_matrix(model.basis))
+        # pinv(Tf) = (Tf^T Tf)^-1 Tf^T: a basis has full column rank; Tf^T Tf is diagonal
+        # when the basis selects coordinates (spsolve's sparse right-hand side is slow)
+        G = form(Tf.T @ Tf)
+        d = G.diagonal()
+        if _max_abs(G - form(sp.diags(d))) == 0.0:
+            Tfp = form(sp.diags(1.0 / d)) @ Tf.T
+        elif self.dense:
+            Tfp = np.linalg.solve(G, Tf.T)
+        else:
+            Tfp = sp.csr_matrix(spla.spsolve(sp.csc_matrix(G), sp.csc_matrix(Tf.T)))
         self.T = T
-        self.T_rel = Tfp @ T
-        self.A = Tfp @ A @ Tf
-        self.B = Tfp @ B @ Tf
-        if np.abs(Tf @ self.A - A @ Tf).max() > 1e-12 or np.abs(Tf @ self.T_rel - T).max() > 1e-12:
+        self.T_rel, self.A, self.B = (X if self.dense else sp.csc_matrix(X) for X in (Tfp @ T, Tfp @ A @ Tf,
+                                                                                      Tfp @ B @ Tf))
+        if _max_abs(Tf @ self.A - A @ Tf) > 1e-12 or _max_abs(Tf @ self.T_rel - T) > 1e-12:
             raise ValueError("planar ANCF nodes can only turn about the z axis")
         self.radial, self.tangential = self._directions()
+        self.present = self.families()
 
     def matrices(self, state, omega):
-        """Reduced M, C, K of the rotating-frame equations at rate omega [rad/s]."""
-        K, C, M = _matrices(self.free, state)
+        """Reduced M, C, K of the rotating-frame equations at rate omega [rad/s] (sparse,
+        or dense arrays if ``self.dense``)."""
+        K, C, M = _matrices(self.free, state, self.dense)
         Tr = self.T_rel
         return (Tr.T @ M @ Tr, Tr.T @ (C + 2 * omega * M @ self.A) @ Tr,
                 Tr.T @ (K + omega * C @ self.A + omega**2 * M @ self.B) @ Tr)
@@ -155,6 +170,17 @@ class _Frame:
         state.v = v
         state.a = a
 
+    def families(self):
+        """Which of the directions radial, tangential, axial the structure can move in
+        (a planar model has no axial, i.e. out-of-plane, family)."""
+        T = sp.coo_matrix(self.T)
+        pos = T.row % 6 < 3  # the nodes' position rows
+        row, col, val = T.row[pos], T.col[pos], T.data[pos]
+        _, entry = np.unique((row // 6) * T.shape[1] + col, return_inverse=True)  # (node, coordinate)
+        tol = 1e-12 * (np.abs(val).max() if len(val) else 0.0)
+        return np.array([np.any(np.abs(np.bincount(entry, weights=d[row % 6] * val)) > tol)
+                         for d in (self.radial, self.tangential, self.axis)])
+
     def classify(self, vectors):
         """Share of each mode's nodal displacement along radial, tangential, axial."""
         full = self.T @ vectors
@@ -166,12 +192,39 @@ class _Frame:
         return parts / np.maximum(parts.sum(axis=0), 1e-300)
 
 
-def _matrices(model, state):
+def _block_diagonal(blocks):
+    """CSR matrix of the (m, 3, 3) blocks along its diagonal."""
+    m = len(blocks)
+    base = 3 * np.arange(m)[:, None, None]
+    rows = np.broadcast_to(base + np.arange(3)[None, :, None], blocks.shape)
+    cols = np.broadcast_to(base + np.arange(3)[None, None, :], blocks.shape)
+    return sp.csr_matrix((blocks.ravel(), (rows.ravel(), cols.ravel())), shape=(3 * m, 3 * m))
+
+
+def _max_abs(X) -> float:
+    """Largest |entry| of a sparse or dense matrix (0 if it has none)."""
+    n = X.nnz if sp.issparse(X) else X.size
+    return float(abs(X).max()) if n else 0.0
+
+
+def _matrices(model, state, dense=False):
+    """K, C, M of ``model`` at ``state``: sparse CSC, or dense arrays."""
     load = model.load_state()
     _, K = residual_and_tangent(model, state, load, wK=1.0)
     _, C = residual_and_tangent(model, state, load, load_factor=0.0, wK=0.0, wC=1.0)
     _, M = residual_and_tangent(model, state, load, load_factor=0.0, wK=0.0, wM=1.0)
-    return K.toarray(), C.toarray(), M.toarray()
+    if dense:
+        return K.toarray(), C.toarray(), M.toarray()
+    return sp.csc_matrix(K), sp.csc_matrix(C), sp.csc_matrix(M)
+
+
+def _solve(A, b):
+    """A^-1 b for a dense or sparse A; None if A is singular."""
+    b = np.asarray(b, dtype=float)
+    try:
+        return spla.splu(sp.csc_matrix(A)).solve(b) if sp.issparse(A) else np.linalg.solve(A, b)
+    except (RuntimeError, np.linalg.LinAlgError):
+        return None
 
 
 def _axial_strains(model, state) -> float:
@@ -213,14 +266,19 @@ def rotating_state(model, omega: float, *, state=None, state_omega: float = 0.0,
             steps failed (a fold: the continuation would creep towards it).
     """
     fr = _Frame(model)
-    omega = _checks.finite("omega", omega)
-    tol = _checks.positive("tol", tol)
-    max_iterations = _checks.positive_int("max_iterations", max_iterations)
-    st = as_core(model, state)
+    return _steady_state(fr, _checks.finite("omega", omega), as_core(model, state),
+                         _checks.finite("state_omega", state_omega),
+                         _checks.positive_int("continuation_steps", continuation_steps),
+                         _checks.positive("tol", tol), _checks.positive_int("max_iterations", max_iterations))
+
+
+def _steady_state(fr, omega, st, state_omega=0.0, n_steps=1, tol=1e-10, max_iterations=30):
+    """:func:`rotating_state` with the model's :class:`_Frame` (built once per analysis,
+    not per rate) and checked arguments; ``st`` a core state."""
+    model = fr.model
     st.rebase(0.0)
     size = max(float(np.ptp(model.positions, axis=0).max()), 1e-3)
-    w2_good = _checks.finite("state_omega", state_omega) ** 2
-    n_steps = _checks.positive_int("continuation_steps", continuation_steps)
+    w2_good = state_omega**2
     targets = list(np.linspace(w2_good, omega**2, n_steps + 1)[1:])
     load = model.load_state()
     scale = model.force_scale()
@@ -238,9 +296,8 @@ def rotating_state(model, omega: float, *, state=None, state_omega: float = 0.0,
             _, _, J = fr.matrices(trial, w)
             r, _ = residual_and_tangent(model, trial, load, matrix=False)
             rnorm = float(np.linalg.norm(r))
-            try:
-                dz = np.linalg.solve(J, -r)
-            except np.linalg.LinAlgError:
+            dz = _solve(J, -np.asarray(r))
+            if dz is None:  # singular J
                 break
             _core.add_increment(model.core, trial, dz, "q")
             if np.abs(dz).max() <= tol * size:
@@ -271,18 +328,38 @@ def rotating_state(model, omega: float, *, state=None, state_omega: float = 0.0,
     return last_good
 
 
-def _modes(fr, M, C, K, state, n_modes):
-    """Frequencies sorted into transverse, longitudinal and out-of-plane families."""
+def _family_eigen(fr, lin, n_modes, k=None):
+    """Eigenvalues with vectors holding the ``n_modes`` lowest modes (Im lambda > 0) of
+    each family the structure has (:meth:`_Frame.families`), and (lambda, vectors,
+    family index 0 radial, 1 tangential, 2 axial) of its modes with Im lambda > 0, and
+    the k that sufficed (the start ``k`` of the next rate of a sweep).
+
+    Below SPARSE_MIN_DOFS coordinates all eigenvalues (dense); above, the k nearest 0 by
+    shift-invert Arnoldi, k doubled until every family has its n_modes (all of a
+    family's modes below the k-th |lambda| are among them, so these are its lowest).
+    """
+    n = lin.K.shape[0]
+    k = 2 * n_modes * int(np.count_nonzero(fr.present)) + 4 if k is None else k
+    while True:
+        dense = n < SPARSE_MIN_DOFS or 2 * k >= n
+        eig = eigenvalues(lin, vectors=True) if dense else eigenvalues(lin, vectors=True, n_modes=k)
+        up = eig.values.imag > 0
+        lam, V = eig.values[up], eig.vectors[:, up]
+        kind = np.argmax(fr.classify(V), axis=0)
+        if dense or np.all(np.bincount(kind, minlength=3)[fr.present] >= n_modes):
+            return eig, lam, V, kind, k
+        k *= 2
+
+
+def _modes(fr, M, C, K, state, n_modes, k=None):
+    """Frequencies sorted into transverse, longitudinal and out-of-plane families, the
+    growth rate, the transverse shapes and the k of :func:`_family_eigen`."""
     lin = Linearization(sp.csc_matrix(M), sp.csc_matrix(C), sp.csc_matrix(K), 0.0,
                         State.from_core(state, fr.model))
-    eig = eigenvalues(lin, vectors=True)
-    up = eig.values.imag > 0
-    lam, V = eig.values[up], eig.vectors[:, up]
-    share = fr.classify(V)
-    kind = np.argmax(share, axis=0)
+    eig, lam, V, kind, k = _family_eigen(fr, lin, n_modes, k)
     out = []
-    for k in (1, 0, 2):  # tangential (transverse), radial (longitudinal), axial
-        w = np.sort(lam[kind == k].imag)[:n_modes]
+    for family in (1, 0, 2):  # tangential (transverse), radial (longitudinal), axial
+        w = np.sort(lam[kind == family].imag)[:n_modes]
         out.append(np.concatenate([w, np.full(n_modes - len(w), np.nan)]))
     sel = np.flatnonzero(kind == 1)
     sel = sel[np.argsort(lam[sel].imag)][:n_modes]
@@ -294,11 +371,12 @@ def _modes(fr, M, C, K, state, n_modes):
         big = np.argmax(np.abs(ut))
         ph = np.conj(ut[big]) / abs(ut[big])  # rotate the complex mode to a real tip/peak
         shapes[j, :, 0], shapes[j, :, 1] = (ph * ur).real / abs(ut[big]), (ph * ut).real / abs(ut[big])
-    # growth above the round-off bound of each eigenvalue (0: stable)
+    # growth above the round-off bound of each eigenvalue (0: stable); on the sparse path
+    # of the eigenvalues computed (the lowest: where centrifugal softening acts)
     real = eig.values.real
     grows = real > np.maximum(GROWTH_TOL * np.abs(eig.values), eig.noise)
     growth = float(np.max(real[grows])) if np.any(grows) else 0.0
-    return out, growth, shapes
+    return out, growth, shapes, k
 
 
 @small_problems_single_threaded
@@ -338,7 +416,7 @@ def rotating_frequencies(model, *, gamma, linearization: str = "small_deformatio
         raise ValueError("gamma must be a finite non-negative number or 1-D sequence")
     w0 = float(model.info["omega0"])
     s0 = model.initial_state()
-    K0f, C0f, Mf = _matrices(fr.free, s0)
+    K0f, C0f, Mf = _matrices(fr.free, s0, fr.dense)
     Tr = fr.T_rel
     K0, M = Tr.T @ K0f @ Tr, Tr.T @ Mf @ Tr
     u1, e1 = _unit_strain(model, fr, s0, K0)
@@ -352,18 +430,20 @@ def rotating_frequencies(model, *, gamma, linearization: str = "small_deformatio
         G = _unit_prestress(model, fr, s0, u1)
         MA, MB, CA = Tr.T @ Mf @ fr.A @ Tr, Tr.T @ Mf @ fr.B @ Tr, Tr.T @ C0f @ fr.A @ Tr
         C0 = Tr.T @ C0f @ Tr
+        k = None
         for i in order:
             w = g[i] * w0
-            fam, growth[i], shapes[i] = _modes(fr, M, C0 + 2 * w * MA, K0 + w * CA + w**2 * (G + MB), s0, n_modes)
+            fam, growth[i], shapes[i], k = _modes(fr, M, C0 + 2 * w * MA, K0 + w * CA + w**2 * (G + MB), s0,
+                                                  n_modes, k)
             res[i] = fam
             strain[i] = w**2 * e1
     else:
-        st, w_prev = None, 0.0
+        st, w_prev, k = None, 0.0, None
         for i in order:
             w = g[i] * w0
-            st = rotating_state(model, w, continuation_steps=4) if st is None else _continue(model, st, w_prev, w)
+            st = _steady_state(fr, w, model.initial_state(), n_steps=4) if st is None else _continue(fr, st, w_prev, w)
             w_prev = w
-            fam, growth[i], shapes[i] = _modes(fr, *fr.matrices(st, w), st, n_modes)
+            fam, growth[i], shapes[i], k = _modes(fr, *fr.matrices(st, w), st, n_modes, k)
             res[i] = fam
             strain[i] = _axial_strains(model, st)
             _check_strain(g[i], strain[i], "")
@@ -371,12 +451,12 @@ def rotating_frequencies(model, *, gamma, linearization: str = "small_deformatio
                                linearization, shapes)
 
 
-def _continue(model, state, state_omega, omega):
+def _continue(fr, state, state_omega, omega):
     """Steady state at omega continued from a nearby one (at most 4 Omega^2 steps)."""
     try:
-        return rotating_state(model, omega, state=state, state_omega=state_omega)
+        return _steady_state(fr, omega, state.copy(), state_omega)
     except ConvergenceError:
-        return rotating_state(model, omega, continuation_steps=8)
+        return _steady_state(fr, omega, fr.model.initial_state(), n_steps=8)
 
 
 def _unit_strain(model, fr, s0, K0):
@@ -387,7 +467,9 @@ def _unit_strain(model, fr, s0, K0):
     fr.rigid_rotation(s, 1.0)
     s.v = np.zeros_like(np.asarray(s.v))  # only the centripetal acceleration loads
     f, _ = residual_and_tangent(model, s, model.load_state(), load_factor=0.0, matrix=False)
-    u = np.linalg.solve(K0, -f)
+    u = _solve(K0, -np.asarray(f))
+    if u is None:
+        raise np.linalg.LinAlgError("the stiffness of the undeformed model is singular (a mechanism)")
     probe = s0.copy()
     _core.add_increment(model.core, probe, u * 1e-6, "q")
     return u, _axial_strains(model, probe) * 1e6
@@ -397,7 +479,8 @@ def _unit_prestress(model, fr, s0, u):
     """Prestress stiffness per unit Omega^2 of the first-order displacement u
     (:func:`_unit_strain`)."""
     rows, cols, vals = _core.assemble_geometric(model.core, s0, fr.T @ u)
-    return sp.csc_matrix((vals, (rows, cols)), shape=(len(u), len(u))).toarray()
+    G = sp.csc_matrix((vals, (rows, cols)), shape=(len(u), len(u)))
+    return G.toarray() if fr.dense else G
 
 
 def _check_strain(gamma, strain, kind):
