@@ -370,21 +370,6 @@ TransientOutput integrate_ida(const Model& model, State& state, const LoadState&
 
 // ------------------------------------------------------- generalised-alpha ------------
 
-namespace {
-
-
-// Sparse matrix of triplets (repeats summed).
-Eigen::SparseMatrix<double> sparse(int n, const Triplets& t) {
-    std::vector<Eigen::Triplet<double>> tr;
-    tr.reserve(t.values.size());
-    for (std::size_t k = 0; k < t.values.size(); ++k) tr.emplace_back(t.rows[k], t.cols[k], t.values[k]);
-    Eigen::SparseMatrix<double> A(n, n);
-    A.setFromTriplets(tr.begin(), tr.end());
-    return A;
-}
-
-}  // namespace
-
 TransientOutput integrate_generalized_alpha(const Model& model, State& state, const LoadState& load,
                                             const TimeFunctions& functions, const std::vector<double>& times,
                                             const TransientOptions& opt, const ProgressFn& progress) {
@@ -515,31 +500,41 @@ FlowMapOutput generalized_alpha_flow_map(const Model& model, State& state, const
     // The tangent-linear map: each step's linearisation at its converged state, kept for
     // FlowMapTangent::apply.
     std::shared_ptr<FlowMapTangent::Impl> tangent;
-    Triplets tK, tC, tS;
-    auto dense_of = [n](const Triplets& t) {
+    // K, C and the iteration matrix in one pass over the elements, on the model's pattern
+    const std::shared_ptr<const TangentPattern> pattern = sensitivity ? tangent_pattern(model) : nullptr;
+    std::vector<double> vK, vC, vS;
+    auto dense_of = [&](const std::vector<double>& values) {
         Eigen::MatrixXd A = Eigen::MatrixXd::Zero(n, n);
-        for (std::size_t k = 0; k < t.values.size(); ++k) A(t.rows[k], t.cols[k]) += t.values[k];
+        for (int c = 0; c < n; ++c)
+            for (int k = pattern->col_ptr[c]; k < pattern->col_ptr[c + 1]; ++k) A(pattern->row_index[k], c) = values[k];
         return A;
+    };
+    auto sparse_of = [&](const std::vector<double>& values) {
+        return Eigen::SparseMatrix<double>(Eigen::Map<const Eigen::SparseMatrix<double>>(
+            n, n, static_cast<Eigen::Index>(pattern->nnz()), pattern->col_ptr.data(), pattern->row_index.data(),
+            values.data()));
     };
     // K, C and the exact iteration matrix M + wC C + wK K at the state just set
     auto linearize = [&](double t, double wK, double wC) {
         const LoadState l = sys.load_at(t);
-        assemble(model, state, l, 1.0, 1.0, 0.0, 0.0, nullptr, &tK);
-        assemble(model, state, l, 1.0, 0.0, 1.0, 0.0, nullptr, &tC);
-        assemble(model, state, l, 1.0, wK, wC, 1.0, nullptr, &tS);
+        vK.resize(pattern->nnz());
+        vC.resize(pattern->nnz());
+        vS.resize(pattern->nnz());
+        double* values[3] = {vK.data(), vC.data(), vS.data()};
+        assemble_csc(model, state, l, 1.0, {{1.0, 0.0, 0.0}, {0.0, 1.0, 0.0}, {wK, wC, 1.0}}, nullptr, values);
         TangentStep s;
         bool ok;
         if (tangent->dense) {
-            s.Kd = dense_of(tK);
-            s.Cd = dense_of(tC);
-            s.dense_lu.compute(dense_of(tS));
+            s.Kd = dense_of(vK);
+            s.Cd = dense_of(vC);
+            s.dense_lu.compute(dense_of(vS));
             const auto d = s.dense_lu.matrixLU().diagonal();
             ok = d.allFinite() && (d.array() != 0.0).all();
         } else {
-            s.Ks = sparse(n, tK);
-            s.Cs = sparse(n, tC);
+            s.Ks = sparse_of(vK);
+            s.Cs = sparse_of(vC);
             s.sparse_lu = std::make_shared<Eigen::SparseLU<Eigen::SparseMatrix<double>, Eigen::COLAMDOrdering<int>>>();
-            Eigen::SparseMatrix<double> S = sparse(n, tS);
+            Eigen::SparseMatrix<double> S = sparse_of(vS);
             S.makeCompressed();
             s.sparse_lu->compute(S);
             ok = s.sparse_lu->info() == Eigen::Success;
