@@ -36,8 +36,8 @@ from ..results import Result
 from ..state import State
 from .eigen import GROWTH_TOL, eigenvalues
 from .linearize import Linearization
-from .rotating import (LINEARIZATIONS, _axial_strains, _check_strain, _continue, _Frame, _matrices, _steady_state,
-                       _unit_prestress, _unit_strain)
+from .rotating import (LINEARIZATIONS, _axial_strains, _check_strain, _continue, _Frame, _small_deformation_matrices,
+                       _small_deformation_parts, _steady_state)
 
 #: Reduced coordinates from which each speed's modes come from shift-invert Arnoldi
 #: (:func:`_candidates`): the break-even of the ANCF cantilever, 9 speeds, 4 branches
@@ -220,7 +220,7 @@ def _serial(model, fr, speeds, linearization, count=None):
     """(lambda, shapes, growth) at each speed, in this process (``count``: :func:`_eigen`)."""
     if linearization == "small_deformation":
         s0 = model.initial_state()
-        parts = _small_deformation_parts(model, fr, s0, speeds.max())
+        parts = _small_deformation_parts(model, fr, s0, speeds.max())[0]
         for w in speeds:
             yield _eigen(fr, *_small_deformation_matrices(parts, w), s0, count)
     else:
@@ -235,23 +235,6 @@ def _serial(model, fr, speeds, linearization, count=None):
 def _check(model, state, w):
     w0 = float(model.info.get("omega0", 1.0))
     _check_strain(w / w0, _axial_strains(model, state), "")
-
-
-def _small_deformation_parts(model, fr, s0, w_max):
-    """The Omega-independent matrices of Berzeri & Shabana's Section 5 linearisation (as in
-    :func:`pipeflex.rotating_frequencies`); the first-order strain at ``w_max`` checked."""
-    K0f, C0f, Mf = _matrices(fr.free, s0, fr.dense)
-    Tr = fr.T_rel
-    K0, M = Tr.T @ K0f @ Tr, Tr.T @ Mf @ Tr
-    u1, e1 = _unit_strain(model, fr, s0, K0)
-    _check_strain(w_max / float(model.info.get("omega0", 1.0)), w_max**2 * e1, "first-order ")
-    G = _unit_prestress(model, fr, s0, u1)
-    return (M, Tr.T @ C0f @ Tr, K0, G, Tr.T @ Mf @ fr.A @ Tr, Tr.T @ Mf @ fr.B @ Tr, Tr.T @ C0f @ fr.A @ Tr)
-
-
-def _small_deformation_matrices(parts, w):
-    M, C0, K0, G, MA, MB, CA = parts
-    return M, C0 + 2 * w * MA, K0 + w * CA + w**2 * (G + MB)
 
 
 def rotating_modes(model, *, omega: float, linearization: Optional[str] = None,
@@ -275,7 +258,7 @@ def rotating_modes(model, *, omega: float, linearization: Optional[str] = None,
         raise ValueError(f"linearization must be one of {LINEARIZATIONS}, got {linearization!r}")
     if linearization == "small_deformation":
         s0 = model.initial_state()
-        lam, V, g = _eigen(fr, *_small_deformation_matrices(_small_deformation_parts(model, fr, s0, abs(omega)), omega),
+        lam, V, g = _eigen(fr, *_small_deformation_matrices(_small_deformation_parts(model, fr, s0, abs(omega))[0], omega),
                            s0, count)
     else:
         st = _steady_state(fr, omega, model.initial_state(), n_steps=4)

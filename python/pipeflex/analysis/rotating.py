@@ -416,25 +416,19 @@ def rotating_frequencies(model, *, gamma, linearization: str = "small_deformatio
         raise ValueError("gamma must be a finite non-negative number or 1-D sequence")
     w0 = float(model.info["omega0"])
     s0 = model.initial_state()
-    K0f, C0f, Mf = _matrices(fr.free, s0, fr.dense)
-    Tr = fr.T_rel
-    K0, M = Tr.T @ K0f @ Tr, Tr.T @ Mf @ Tr
-    u1, e1 = _unit_strain(model, fr, s0, K0)
-    _check_strain(g.max(), (g.max() * w0) ** 2 * e1, "first-order ")
+    # the first-order strain check, before any solve, for both linearisations
+    parts, e1 = (_small_deformation_parts if linearization == "small_deformation" else _first_order)(
+        model, fr, s0, g.max() * w0)
     order = np.argsort(g)
     res = np.full((len(g), 3, n_modes), np.nan)
     shapes = np.full((len(g), n_modes, model.n_nodes, 2), np.nan)
     growth = np.zeros(len(g))
     strain = np.zeros(len(g))
     if linearization == "small_deformation":
-        G = _unit_prestress(model, fr, s0, u1)
-        MA, MB, CA = Tr.T @ Mf @ fr.A @ Tr, Tr.T @ Mf @ fr.B @ Tr, Tr.T @ C0f @ fr.A @ Tr
-        C0 = Tr.T @ C0f @ Tr
         k = None
         for i in order:
             w = g[i] * w0
-            fam, growth[i], shapes[i], k = _modes(fr, M, C0 + 2 * w * MA, K0 + w * CA + w**2 * (G + MB), s0,
-                                                  n_modes, k)
+            fam, growth[i], shapes[i], k = _modes(fr, *_small_deformation_matrices(parts, w), s0, n_modes, k)
             res[i] = fam
             strain[i] = w**2 * e1
     else:
@@ -449,6 +443,33 @@ def rotating_frequencies(model, *, gamma, linearization: str = "small_deformatio
             _check_strain(g[i], strain[i], "")
     return RotatingFrequencies(g, w0, res[:, 0] / w0, res[:, 1] / w0, res[:, 2] / w0, growth / w0, strain,
                                linearization, shapes)
+
+
+def _first_order(model, fr, s0, w_max):
+    """The undeformed state's reduced K0 and M with the full K0f, C0f, Mf, the axial
+    displacement per unit Omega^2 u1 and its strain e1; the strain at ``w_max`` [rad/s]
+    checked (before any solve)."""
+    K0f, C0f, Mf = _matrices(fr.free, s0, fr.dense)
+    Tr = fr.T_rel
+    K0, M = Tr.T @ K0f @ Tr, Tr.T @ Mf @ Tr
+    u1, e1 = _unit_strain(model, fr, s0, K0)
+    _check_strain(w_max / float(model.info.get("omega0", 1.0)), w_max**2 * e1, "first-order ")
+    return (K0f, C0f, Mf, K0, M, u1), e1
+
+
+def _small_deformation_parts(model, fr, s0, w_max):
+    """The Omega-independent matrices of Berzeri & Shabana's Section 5 linearisation
+    (reduced: M, C0, K0, G, MA, MB, CA) and e1 (:func:`_first_order`)."""
+    (_, C0f, Mf, K0, M, u1), e1 = _first_order(model, fr, s0, w_max)
+    Tr = fr.T_rel
+    G = _unit_prestress(model, fr, s0, u1)
+    return (M, Tr.T @ C0f @ Tr, K0, G, Tr.T @ Mf @ fr.A @ Tr, Tr.T @ Mf @ fr.B @ Tr, Tr.T @ C0f @ fr.A @ Tr), e1
+
+
+def _small_deformation_matrices(parts, w):
+    """(M, C, K) at Omega = w [rad/s] from :func:`_small_deformation_parts`."""
+    M, C0, K0, G, MA, MB, CA = parts
+    return M, C0 + 2 * w * MA, K0 + w * CA + w**2 * (G + MB)
 
 
 def _continue(fr, state, state_omega, omega):
