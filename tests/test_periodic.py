@@ -31,16 +31,21 @@ def settled(planar4):
     return r, amp, period
 
 
+def flow_map_start(m, *, newton_tol, seed, z_scale):
+    """Options (tight Newton), the static state and a random start (z0, v0) of a flow map."""
+    opt = _core.TransientOptions()
+    opt.newton_tol, opt.max_newton = newton_tol, 30
+    base = pf.static_equilibrium(m).state.to_core(m)
+    rng = np.random.default_rng(seed)
+    return opt, base, rng, z_scale * rng.standard_normal(m.n_dofs), 1e-2 * rng.standard_normal(m.n_dofs)
+
+
 def test_monodromy_equals_finite_differences(planar4):
     """The tangent-linear generalised-alpha map (exact iteration matrix per step) against
     central differences of the flow map; the differences' own error is ~1e-9 here."""
     m, _ = planar4
     n = m.n_dofs
-    opt = _core.TransientOptions()
-    opt.newton_tol, opt.max_newton = 1e-14, 30
-    base = pf.static_equilibrium(m).state.to_core(m)
-    rng = np.random.default_rng(3)
-    z0, v0 = 1e-4 * rng.standard_normal(n), 1e-2 * rng.standard_normal(n)
+    opt, base, rng, z0, v0 = flow_map_start(m, newton_tol=1e-14, seed=3, z_scale=1e-4)
 
     def flow(z, v, sens=False):
         return _core.generalized_alpha_flow_map(m.core, base.copy(), m.load_state(), z, v, 0.1, 100, sens, opt)
@@ -61,11 +66,7 @@ def test_stored_tangent_applies_the_monodromy(planar4):
     multipliers come from) applied to any directions equals the monodromy times them."""
     m, _ = planar4
     n = m.n_dofs
-    opt = _core.TransientOptions()
-    opt.newton_tol, opt.max_newton = 1e-12, 30
-    base = pf.static_equilibrium(m).state.to_core(m)
-    rng = np.random.default_rng(5)
-    z0, v0 = 1e-3 * rng.standard_normal(n), 1e-2 * rng.standard_normal(n)
+    opt, base, rng, z0, v0 = flow_map_start(m, newton_tol=1e-12, seed=5, z_scale=1e-3)
     out = _core.generalized_alpha_flow_map(m.core, base.copy(), m.load_state(), z0, v0, 0.2, 200, True, opt)
     D = rng.standard_normal((2 * n, 3))
     Phi = out["monodromy"]
