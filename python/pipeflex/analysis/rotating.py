@@ -34,6 +34,7 @@ from .._options import renamed
 from ..errors import ConvergenceError
 from ..results import Result
 from ..state import State, as_core
+from ._newton import converged
 from ._assembly import require_model, residual_and_tangent
 from .eigen import GROWTH_TOL, SPARSE_MIN_DOFS, eigenvalues
 from .linearize import Linearization
@@ -289,7 +290,7 @@ def _steady_state(fr, omega, st, state_omega=0.0, n_steps=1, tol=1e-10, max_iter
         w = np.sign(omega) * np.sqrt(w2)
         trial = last_good.copy()
         ok = False
-        rnorm = np.inf
+        rnorm, last = np.inf, np.inf
         for it in range(1, max_iterations + 1):
             trial.rebase(0.0)
             fr.rigid_rotation(trial, w)
@@ -300,9 +301,11 @@ def _steady_state(fr, omega, st, state_omega=0.0, n_steps=1, tol=1e-10, max_iter
             if dz is None:  # singular J
                 break
             _core.add_increment(model.core, trial, dz, "q")
-            if np.abs(dz).max() <= tol * size:
+            error = np.abs(dz).max() / size
+            if converged(error, last, tol):
                 ok = True
                 break
+            last = error
             if not np.all(np.isfinite(dz)) or np.abs(dz).max() > 0.5 * size:
                 break
         if ok:

@@ -22,6 +22,7 @@ from .. import _checks, _core
 from ..errors import ConvergenceError, SingularMatrixError
 from ..results import Result
 from ..state import State, as_core
+from ._newton import converged
 from ._assembly import KCM, require_model, residual_and_tangent, tangents
 from ..rotation import skew
 from .._blas import small_problems_single_threaded
@@ -30,9 +31,6 @@ from .._blas import small_problems_single_threaded
 # below this many coordinates the Newton systems are solved densely (cheaper than sparse
 # bookkeeping); above, sparsely (linear in the model size)
 DENSE_BELOW = 300
-# a Newton error (relative correction) within this many tolerances that no longer halves
-# is round-off: converged
-ROUNDOFF_STALL = 1e3
 
 
 @dataclass(frozen=True)
@@ -126,8 +124,8 @@ def steady_rotation(model, *, omega_guess: Optional[float] = None, mass_flow: Op
         state: starting deformation (default the reference configuration).
         continuation_steps: the flow is raised from mdot/steps to mdot in this many steps.
         tol: relative tolerance on the Newton correction (to the model size and to omega);
-            a correction within ``ROUNDOFF_STALL`` tolerances that stops halving is taken
-            as converged (round-off).
+            a correction within 1e3 tolerances that stops halving is taken as converged
+            (round-off; ``pipeflex.analysis._newton.converged``).
         max_iterations: Newton iterations per continuation step.
 
     Raises:
@@ -195,7 +193,7 @@ def steady_rotation(model, *, omega_guess: Optional[float] = None, mass_flow: Op
             error = max(np.abs(dz).max() / size, abs(domega) / max(abs(omega), 1.0))
             # converged, or stalled at round-off (fine meshes of stiff arms: omega's last
             # digits wander), the static solvers' rule
-            if scale == 1.0 and (error <= tol or (ROUNDOFF_STALL * tol >= error >= 0.5 * last)):
+            if scale == 1.0 and converged(error, last, tol):
                 ok = True
                 break
             last = error if scale == 1.0 else np.inf
