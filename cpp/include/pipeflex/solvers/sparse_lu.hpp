@@ -1,6 +1,7 @@
-// LU of an iteration matrix on a fixed pattern, refreshed many times: the storage, the
-// place of every triplet in it and (sparse) the COLAMD ordering and symbolic analysis are
-// set up once per pattern; each refresh scatters the values and factorises numerically.
+// LU of an iteration matrix on a fixed pattern, refreshed many times: the storage (and,
+// if sparse, the place of every triplet in it, the COLAMD ordering and the symbolic
+// analysis) is set up once per pattern; each refresh scatters the values and factorises
+// numerically.
 // Shared by the element generalised-alpha integrator (pattern from the assembler's
 // triplets), the multibody integrator (block pattern of bodies and joints) and statics.
 // Three storages, chosen from the pattern:
@@ -40,52 +41,57 @@ class FixedPatternLU {
     explicit FixedPatternLU(int dense_below = 0) : dense_below_(dense_below) {}
 
     // The pattern of the n x n matrix: the (rows[k], cols[k]) pairs (repeats merged).
-    // Chooses the storage, places every triplet in it and, if sparse, runs the symbolic
+    // Chooses the storage and, if sparse, places every triplet and runs the symbolic
     // analysis. False if an entry lies outside the matrix.
     bool analyze(int n, const std::vector<int>& rows, const std::vector<int>& cols) {
-        rows_ = rows;
-        cols_ = cols;
         n_ = n;
-        slot_.resize(rows.size());
-        for (std::size_t k = 0; k < rows.size(); ++k)
+        rows_.clear();
+        cols_.clear();
+        kl_ = ku_ = 0;
+        for (std::size_t k = 0; k < rows.size(); ++k) {
             if (rows[k] < 0 || rows[k] >= n || cols[k] < 0 || cols[k] >= n) return false;
+            kl_ = std::max(kl_, rows[k] - cols[k]);
+            ku_ = std::max(ku_, cols[k] - rows[k]);
+        }
         ++analyses_;
         if (n < dense_below_) {
             storage_ = Storage::dense;
             dense_A_.resize(n, n);
-            for (std::size_t k = 0; k < rows.size(); ++k)
-                slot_[k] = static_cast<std::ptrdiff_t>(cols[k]) * n + rows[k];
             return true;
         }
+        ld_ = 2 * kl_ + ku_ + 1;  // kl rows above the band for the fill of row exchanges
+        if (std::max(kl_, ku_) <= kBandMaxHalfWidth) {
+            // distinct entries, marked in the band's shape
+            std::vector<char> mark(static_cast<std::size_t>(ld_) * n, 0);
+            std::size_t distinct = 0;
+            for (std::size_t k = 0; k < rows.size(); ++k) {
+                char& m = mark[band_index(rows[k], cols[k])];
+                distinct += m == 0;
+                m = 1;
+            }
+            if (static_cast<double>(ld_) * n <= static_cast<double>(kBandMaxFill) * distinct) {
+                storage_ = Storage::band;
+                band_.resize(static_cast<std::size_t>(ld_) * n);
+                pivots_.resize(n);
+                return true;
+            }
+        }
+        storage_ = Storage::sparse;
+        rows_ = rows;
+        cols_ = cols;
         std::vector<Eigen::Triplet<double>> t;
         t.reserve(rows.size());
         for (std::size_t k = 0; k < rows.size(); ++k) t.emplace_back(rows[k], cols[k], 0.0);
         A_.resize(n, n);
         A_.setFromTriplets(t.begin(), t.end());
         A_.makeCompressed();
-        kl_ = ku_ = 0;
-        for (std::size_t k = 0; k < rows.size(); ++k) {
-            kl_ = std::max(kl_, rows[k] - cols[k]);
-            ku_ = std::max(ku_, cols[k] - rows[k]);
-        }
-        ld_ = 2 * kl_ + ku_ + 1;  // kl rows above the band for the fill of row exchanges
-        const bool band = std::max(kl_, ku_) <= kBandMaxHalfWidth &&
-                          static_cast<double>(ld_) * n <= static_cast<double>(kBandMaxFill) * A_.nonZeros();
-        if (band) {
-            storage_ = Storage::band;
-            A_.resize(0, 0);
-            band_.resize(static_cast<std::size_t>(ld_) * n);
-            pivots_.resize(n);
-            for (std::size_t k = 0; k < rows.size(); ++k) slot_[k] = band_index(rows[k], cols[k]);
-            return true;
-        }
-        storage_ = Storage::sparse;
         const int* inner = A_.innerIndexPtr();
         const int* outer = A_.outerIndexPtr();
+        slot_.resize(rows.size());
         for (std::size_t k = 0; k < rows.size(); ++k) {
             const int* b = inner + outer[cols[k]];
             const int* e = inner + outer[cols[k] + 1];
-            slot_[k] = std::lower_bound(b, e, rows[k]) - inner;
+            slot_[k] = static_cast<int>(std::lower_bound(b, e, rows[k]) - inner);
         }
         lu_.analyzePattern(A_);
         return true;
@@ -95,22 +101,18 @@ class FixedPatternLU {
     long analyses() const { return analyses_; }
     Storage storage() const { return storage_; }
 
-    // Values from triplets (repeats summed); the pattern is analysed again only when the
-    // triplets' positions differ from the last analysed ones. False if the matrix is
-    // singular or an entry lies outside it.
+    // Values from triplets (repeats summed). The pattern is analysed again when an entry
+    // falls outside the storage (dense, band) or the triplets' positions differ from the
+    // last analysed ones (sparse). False if the matrix is singular or an entry lies
+    // outside it.
     bool factorize(int n, const std::vector<int>& rows, const std::vector<int>& cols,
                    const std::vector<double>& values) {
-        if (!analyzed() || n != n_ || rows != rows_ || cols != cols_) {
+        if (!analyzed() || n != n_) {
             if (!analyze(n, rows, cols)) return false;
         }
-        double* dst = storage_ == Storage::dense  ? dense_A_.data()
-                      : storage_ == Storage::band ? band_.data()
-                                                  : A_.valuePtr();
-        const std::size_t size = storage_ == Storage::dense  ? static_cast<std::size_t>(dense_A_.size())
-                                 : storage_ == Storage::band ? band_.size()
-                                                             : static_cast<std::size_t>(A_.nonZeros());
-        std::fill(dst, dst + size, 0.0);
-        for (std::size_t k = 0; k < values.size(); ++k) dst[slot_[k]] += values[k];
+        if (!scatter(rows, cols, values)) {
+            if (!analyze(n, rows, cols) || !scatter(rows, cols, values)) return false;
+        }
         return factorize();
     }
 
@@ -149,6 +151,41 @@ class FixedPatternLU {
     }
 
    private:
+    // The values into the storage; false if an entry does not fit it.
+    bool scatter(const std::vector<int>& rows, const std::vector<int>& cols, const std::vector<double>& values) {
+        const std::size_t m = values.size();
+        switch (storage_) {
+            case Storage::dense: {
+                dense_A_.setZero();
+                double* a = dense_A_.data();
+                for (std::size_t k = 0; k < m; ++k) {
+                    const int i = rows[k], j = cols[k];
+                    if (i < 0 || i >= n_ || j < 0 || j >= n_) return false;
+                    a[static_cast<std::ptrdiff_t>(j) * n_ + i] += values[k];
+                }
+                return true;
+            }
+            case Storage::band: {
+                std::fill(band_.begin(), band_.end(), 0.0);
+                double* a = band_.data();
+                for (std::size_t k = 0; k < m; ++k) {
+                    const int i = rows[k], j = cols[k];
+                    if (i - j > kl_ || j - i > ku_ || i < 0 || i >= n_ || j < 0 || j >= n_) return false;
+                    a[band_index(i, j)] += values[k];
+                }
+                return true;
+            }
+            case Storage::sparse: {
+                if (rows != rows_ || cols != cols_) return false;
+                double* a = A_.valuePtr();
+                std::fill(a, a + A_.nonZeros(), 0.0);
+                for (std::size_t k = 0; k < m; ++k) a[slot_[k]] += values[k];
+                return true;
+            }
+        }
+        return false;
+    }
+
     // Place of A(i, j) in the band: column-major, kl + ku + i - j in column j.
     std::ptrdiff_t band_index(int i, int j) const {
         return static_cast<std::ptrdiff_t>(j) * ld_ + (kl_ + ku_ + i - j);
@@ -213,8 +250,8 @@ class FixedPatternLU {
     int dense_below_;
     Storage storage_ = Storage::sparse;
     int n_ = -1, kl_ = 0, ku_ = 0, ld_ = 0;
-    std::vector<int> rows_, cols_;        // the pattern analysed, as triplets
-    std::vector<std::ptrdiff_t> slot_;    // where each triplet's value goes
+    std::vector<int> rows_, cols_;  // sparse: the pattern analysed, as triplets,
+    std::vector<int> slot_;         // and the place of each triplet's value
     Eigen::MatrixXd dense_A_;
     Eigen::PartialPivLU<Eigen::MatrixXd> dense_lu_;
     std::vector<double> band_;
