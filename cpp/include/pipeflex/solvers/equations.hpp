@@ -188,8 +188,9 @@ class GeneralizedAlpha {
     AlphaNewton newton_;
     AlphaStats stats_;
     // The predictor of the next step's acceleration an: whichever would have been
-    // closest to the last step's converged one if the system allows
-    // (Equations::adaptive_prediction), else the extrapolated one.
+    // closest to the last step's converged one (another than the extrapolated only if
+    // clearly closer) if the system allows (Equations::adaptive_prediction), else the
+    // extrapolated one.
     enum class Prediction {
         extrapolated,  // linear in time from the last two steps: O(h^2) on smooth motion
         constant,      // an = a
