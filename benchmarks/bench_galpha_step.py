@@ -54,7 +54,7 @@ def main():
         w10, c10, s10 = timed(m, sw, 10, args.repeat)
         its = (s10["newton_iterations"] - s5["newton_iterations"]) / 5
         jac = (s10["jacobians"] - s5["jacobians"]) / 5
-        print(f"{n:8d} {1e3 * (w10 - w5) / 5:15.1f} {1e3 * (c10 - c5) / 5:14.1f} {its:16.1f} {jac:14.1f}",
+        print(f"{n:8d} {1e3 * (w10 - w5) / 5:15.3g} {1e3 * (c10 - c5) / 5:14.3g} {its:16.1f} {jac:14.1f}",
               flush=True)
 
 
