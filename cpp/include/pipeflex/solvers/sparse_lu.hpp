@@ -1,7 +1,7 @@
 // LU of an iteration matrix on a fixed pattern, refreshed many times: the storage (and,
 // if sparse, the place of every triplet in it, the COLAMD ordering and the symbolic
-// analysis) is set up once per pattern; each refresh scatters the values and factorises
-// numerically.
+// analysis) is set up once per pattern; each refresh scatters the values (triplets, or
+// written into the compressed matrix()) and factorises numerically.
 // Shared by the element generalised-alpha integrator (pattern from the assembler's
 // triplets), the multibody integrator (block pattern of bodies and joints) and statics.
 // Three storages, chosen from the pattern:
@@ -40,9 +40,9 @@ class FixedPatternLU {
 
     explicit FixedPatternLU(int dense_below = 0) : dense_below_(dense_below) {}
 
-    // The pattern of the n x n matrix: the (rows[k], cols[k]) pairs (repeats merged).
-    // Chooses the storage and, if sparse, places every triplet and runs the symbolic
-    // analysis. False if an entry lies outside the matrix.
+    // The pattern of the n x n matrix: the (rows[k], cols[k]) pairs (repeats merged),
+    // all values zero. Chooses the storage and, if sparse, places every triplet and runs
+    // the symbolic analysis. False if an entry lies outside the matrix.
     bool analyze(int n, const std::vector<int>& rows, const std::vector<int>& cols) {
         n_ = n;
         rows_.clear();
@@ -54,37 +54,28 @@ class FixedPatternLU {
             ku_ = std::max(ku_, cols[k] - rows[k]);
         }
         ++analyses_;
-        if (n < dense_below_) {
-            storage_ = Storage::dense;
-            dense_A_.resize(n, n);
-            return true;
-        }
-        ld_ = 2 * kl_ + ku_ + 1;  // kl rows above the band for the fill of row exchanges
-        if (std::max(kl_, ku_) <= kBandMaxHalfWidth) {
-            // distinct entries, marked in the band's shape
-            std::vector<char> mark(static_cast<std::size_t>(ld_) * n, 0);
-            std::size_t distinct = 0;
-            for (std::size_t k = 0; k < rows.size(); ++k) {
-                char& m = mark[band_index(rows[k], cols[k])];
-                distinct += m == 0;
-                m = 1;
-            }
-            if (static_cast<double>(ld_) * n <= static_cast<double>(kBandMaxFill) * distinct) {
-                storage_ = Storage::band;
-                band_.resize(static_cast<std::size_t>(ld_) * n);
-                pivots_.resize(n);
-                return true;
-            }
-        }
-        storage_ = Storage::sparse;
-        rows_ = rows;
-        cols_ = cols;
         std::vector<Eigen::Triplet<double>> t;
         t.reserve(rows.size());
         for (std::size_t k = 0; k < rows.size(); ++k) t.emplace_back(rows[k], cols[k], 0.0);
         A_.resize(n, n);
         A_.setFromTriplets(t.begin(), t.end());
         A_.makeCompressed();
+        if (n < dense_below_) {
+            storage_ = Storage::dense;
+            dense_A_.resize(n, n);
+            return true;
+        }
+        ld_ = 2 * kl_ + ku_ + 1;  // kl rows above the band for the fill of row exchanges
+        if (std::max(kl_, ku_) <= kBandMaxHalfWidth &&
+            static_cast<double>(ld_) * n <= static_cast<double>(kBandMaxFill) * A_.nonZeros()) {
+            storage_ = Storage::band;
+            band_.resize(static_cast<std::size_t>(ld_) * n);
+            pivots_.resize(n);
+            return true;
+        }
+        storage_ = Storage::sparse;
+        rows_ = rows;
+        cols_ = cols;
         const int* inner = A_.innerIndexPtr();
         const int* outer = A_.outerIndexPtr();
         slot_.resize(rows.size());
@@ -101,6 +92,10 @@ class FixedPatternLU {
     long analyses() const { return analyses_; }
     Storage storage() const { return storage_; }
 
+    // The analysed pattern as a compressed sparse matrix, whose values (not pattern) may
+    // be written in place before factorize(). The triplet factorize() does not fill it.
+    Matrix& matrix() { return A_; }
+
     // Values from triplets (repeats summed). The pattern is analysed again when an entry
     // falls outside the storage (dense, band) or the triplets' positions differ from the
     // last analysed ones (sparse). False if the matrix is singular or an entry lies
@@ -113,24 +108,22 @@ class FixedPatternLU {
         if (!scatter(rows, cols, values)) {
             if (!analyze(n, rows, cols) || !scatter(rows, cols, values)) return false;
         }
-        return factorize();
+        return factorize_storage();
     }
 
-    // Numeric factorisation of the values scattered; false if the matrix is singular.
+    // Numeric factorisation of the values written into matrix(); false if singular.
     bool factorize() {
-        switch (storage_) {
-            case Storage::dense: {
-                dense_lu_.compute(dense_A_);
-                const auto d = dense_lu_.matrixLU().diagonal();
-                return d.allFinite() && (d.array() != 0.0).all();
-            }
-            case Storage::band:
-                return band_factorize();
-            case Storage::sparse:
-                lu_.factorize(A_);
-                return lu_.info() == Eigen::Success;
+        if (storage_ == Storage::dense) {
+            dense_A_ = A_;
+        } else if (storage_ == Storage::band) {
+            std::fill(band_.begin(), band_.end(), 0.0);
+            const int* inner = A_.innerIndexPtr();
+            const int* outer = A_.outerIndexPtr();
+            const double* val = A_.valuePtr();
+            for (int j = 0; j < n_; ++j)
+                for (int p = outer[j]; p < outer[j + 1]; ++p) band_[band_index(inner[p], j)] = val[p];
         }
-        return false;
+        return factorize_storage();
     }
 
     // x = A^-1 rhs (a vector or the columns of a matrix).
@@ -151,6 +144,23 @@ class FixedPatternLU {
     }
 
    private:
+    // Numeric factorisation of the values in the storage; false if singular.
+    bool factorize_storage() {
+        switch (storage_) {
+            case Storage::dense: {
+                dense_lu_.compute(dense_A_);
+                const auto d = dense_lu_.matrixLU().diagonal();
+                return d.allFinite() && (d.array() != 0.0).all();
+            }
+            case Storage::band:
+                return band_factorize();
+            case Storage::sparse:
+                lu_.factorize(A_);
+                return lu_.info() == Eigen::Success;
+        }
+        return false;
+    }
+
     // The values into the storage; false if an entry does not fit it.
     bool scatter(const std::vector<int>& rows, const std::vector<int>& cols, const std::vector<double>& values) {
         const std::size_t m = values.size();
