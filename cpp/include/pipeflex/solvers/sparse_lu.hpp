@@ -1,9 +1,19 @@
-// Sparse LU of an iteration matrix on a fixed pattern: the COLAMD ordering and the
-// symbolic analysis are done once per pattern, each refresh of the matrix is a numeric
-// factorisation only. Shared by the element generalised-alpha integrator (pattern from
-// the assembler's triplets, banded) and the multibody integrator (block pattern of
-// bodies and joints). Below `dense_below` unknowns the same matrix is factorised densely:
-// for a few dozen unknowns a dense LU is cheaper than the supernodal bookkeeping.
+// LU of an iteration matrix on a fixed pattern, refreshed many times: the storage (and,
+// if sparse, the place of every triplet in it, the COLAMD ordering and the symbolic
+// analysis) is set up once per pattern; each refresh scatters the values (triplets, or
+// written into the compressed matrix()) and factorises numerically.
+// Shared by the element generalised-alpha integrator (pattern from the assembler's
+// triplets), the multibody integrator (block pattern of bodies and joints) and statics.
+// Three storages, chosen from the pattern:
+//  - dense below `dense_below` unknowns (for a few dozen unknowns a dense LU is cheaper
+//    than the supernodal bookkeeping);
+//  - banded when every entry lies within a few dozen diagonals of the main one, and the
+//    band holds few more entries than the pattern: a chain of elements numbered along
+//    the chain (half-bandwidth 11 for 6 coordinates per node). Partial pivoting within the
+//    band (LAPACK's dgbtf2 scheme): no ordering, no symbolic work, and a few times faster
+//    than the sparse LU on such a pattern (docs/performance.md);
+//  - sparse (Eigen SparseLU, COLAMD) otherwise, e.g. constraint rows coupling distant
+//    coordinates.
 #pragma once
 
 #include <Eigen/Dense>
@@ -12,6 +22,7 @@
 #include <Eigen/SparseLU>
 
 #include <algorithm>
+#include <cmath>
 #include <cstddef>
 #include <vector>
 
@@ -20,84 +31,241 @@ namespace pipeflex {
 class FixedPatternLU {
    public:
     using Matrix = Eigen::SparseMatrix<double>;
+    enum class Storage { dense, band, sparse };
+
+    // The band is used when neither half-bandwidth exceeds this...
+    static constexpr int kBandMaxHalfWidth = 32;
+    // ...and the band stores at most this many times the pattern's entries.
+    static constexpr int kBandMaxFill = 8;
 
     explicit FixedPatternLU(int dense_below = 0) : dense_below_(dense_below) {}
 
-    // The pattern of the n x n matrix: the (rows[k], cols[k]) pairs (repeats merged);
-    // all values zero. Runs the symbolic analysis.
-    void analyze(int n, const std::vector<int>& rows, const std::vector<int>& cols) {
+    // The pattern of the n x n matrix: the (rows[k], cols[k]) pairs (repeats merged),
+    // all values zero. Chooses the storage and, if sparse, places every triplet and runs
+    // the symbolic analysis. False if an entry lies outside the matrix.
+    bool analyze(int n, const std::vector<int>& rows, const std::vector<int>& cols) {
+        n_ = n;
+        rows_.clear();
+        cols_.clear();
+        kl_ = ku_ = 0;
+        for (std::size_t k = 0; k < rows.size(); ++k) {
+            if (rows[k] < 0 || rows[k] >= n || cols[k] < 0 || cols[k] >= n) return false;
+            kl_ = std::max(kl_, rows[k] - cols[k]);
+            ku_ = std::max(ku_, cols[k] - rows[k]);
+        }
+        ++analyses_;
         std::vector<Eigen::Triplet<double>> t;
         t.reserve(rows.size());
         for (std::size_t k = 0; k < rows.size(); ++k) t.emplace_back(rows[k], cols[k], 0.0);
         A_.resize(n, n);
         A_.setFromTriplets(t.begin(), t.end());
         A_.makeCompressed();
-        if (!dense()) lu_.analyzePattern(A_);
-        ++analyses_;
+        if (n < dense_below_) {
+            storage_ = Storage::dense;
+            dense_A_.resize(n, n);
+            return true;
+        }
+        ld_ = 2 * kl_ + ku_ + 1;  // kl rows above the band for the fill of row exchanges
+        if (std::max(kl_, ku_) <= kBandMaxHalfWidth &&
+            static_cast<double>(ld_) * n <= static_cast<double>(kBandMaxFill) * A_.nonZeros()) {
+            storage_ = Storage::band;
+            band_.resize(static_cast<std::size_t>(ld_) * n);
+            pivots_.resize(n);
+            return true;
+        }
+        storage_ = Storage::sparse;
+        rows_ = rows;
+        cols_ = cols;
+        const int* inner = A_.innerIndexPtr();
+        const int* outer = A_.outerIndexPtr();
+        slot_.resize(rows.size());
+        for (std::size_t k = 0; k < rows.size(); ++k) {
+            const int* b = inner + outer[cols[k]];
+            const int* e = inner + outer[cols[k] + 1];
+            slot_[k] = static_cast<int>(std::lower_bound(b, e, rows[k]) - inner);
+        }
+        lu_.analyzePattern(A_);
+        return true;
     }
 
     bool analyzed() const { return analyses_ > 0; }
     long analyses() const { return analyses_; }
+    Storage storage() const { return storage_; }
 
-    // The matrix, whose values (not pattern) may be written in place before factorize().
+    // The analysed pattern as a compressed sparse matrix, whose values (not pattern) may
+    // be written in place before factorize(). The triplet factorize() does not fill it.
     Matrix& matrix() { return A_; }
 
-    // Values from triplets, repeats summed in order; false (values undefined) if an entry
-    // lies outside the pattern.
-    bool set_values(const std::vector<int>& rows, const std::vector<int>& cols, const std::vector<double>& values) {
-        double* val = A_.valuePtr();
-        const int* inner = A_.innerIndexPtr();
-        const int* outer = A_.outerIndexPtr();
-        std::fill(val, val + A_.nonZeros(), 0.0);
-        for (std::size_t k = 0; k < values.size(); ++k) {
-            const int c = cols[k];
-            if (c < 0 || c >= A_.cols()) return false;
-            const int* b = inner + outer[c];
-            const int* e = inner + outer[c + 1];
-            const int* p = std::lower_bound(b, e, rows[k]);
-            if (p == e || *p != rows[k]) return false;
-            val[p - inner] += values[k];
+    // Values from triplets (repeats summed). The pattern is analysed again when an entry
+    // falls outside the storage (dense, band) or the triplets' positions differ from the
+    // last analysed ones (sparse). False if the matrix is singular or an entry lies
+    // outside it.
+    bool factorize(int n, const std::vector<int>& rows, const std::vector<int>& cols,
+                   const std::vector<double>& values) {
+        if (!analyzed() || n != n_) {
+            if (!analyze(n, rows, cols)) return false;
+        }
+        if (!scatter(rows, cols, values)) {
+            if (!analyze(n, rows, cols) || !scatter(rows, cols, values)) return false;
+        }
+        return factorize_storage();
+    }
+
+    // Numeric factorisation of the values written into matrix(); false if singular.
+    bool factorize() {
+        if (storage_ == Storage::dense) {
+            dense_A_ = A_;
+        } else if (storage_ == Storage::band) {
+            std::fill(band_.begin(), band_.end(), 0.0);
+            const int* inner = A_.innerIndexPtr();
+            const int* outer = A_.outerIndexPtr();
+            const double* val = A_.valuePtr();
+            for (int j = 0; j < n_; ++j)
+                for (int p = outer[j]; p < outer[j + 1]; ++p) band_[band_index(inner[p], j)] = val[p];
+        }
+        return factorize_storage();
+    }
+
+    // x = A^-1 rhs (a vector or the columns of a matrix).
+    template <class Rhs, class X>
+    void solve(const Rhs& rhs, X& x) {
+        switch (storage_) {
+            case Storage::dense:
+                x = dense_lu_.solve(rhs);
+                return;
+            case Storage::band:
+                x = rhs;
+                for (Eigen::Index c = 0; c < x.cols(); ++c) band_solve(x.col(c).data());
+                return;
+            case Storage::sparse:
+                x = lu_.solve(rhs);
+                return;
+        }
+    }
+
+   private:
+    // Numeric factorisation of the values in the storage; false if singular.
+    bool factorize_storage() {
+        switch (storage_) {
+            case Storage::dense: {
+                dense_lu_.compute(dense_A_);
+                const auto d = dense_lu_.matrixLU().diagonal();
+                return d.allFinite() && (d.array() != 0.0).all();
+            }
+            case Storage::band:
+                return band_factorize();
+            case Storage::sparse:
+                lu_.factorize(A_);
+                return lu_.info() == Eigen::Success;
+        }
+        return false;
+    }
+
+    // The values into the storage; false if an entry does not fit it.
+    bool scatter(const std::vector<int>& rows, const std::vector<int>& cols, const std::vector<double>& values) {
+        const std::size_t m = values.size();
+        switch (storage_) {
+            case Storage::dense: {
+                dense_A_.setZero();
+                double* a = dense_A_.data();
+                for (std::size_t k = 0; k < m; ++k) {
+                    const int i = rows[k], j = cols[k];
+                    if (i < 0 || i >= n_ || j < 0 || j >= n_) return false;
+                    a[static_cast<std::ptrdiff_t>(j) * n_ + i] += values[k];
+                }
+                return true;
+            }
+            case Storage::band: {
+                std::fill(band_.begin(), band_.end(), 0.0);
+                double* a = band_.data();
+                for (std::size_t k = 0; k < m; ++k) {
+                    const int i = rows[k], j = cols[k];
+                    if (i - j > kl_ || j - i > ku_ || i < 0 || i >= n_ || j < 0 || j >= n_) return false;
+                    a[band_index(i, j)] += values[k];
+                }
+                return true;
+            }
+            case Storage::sparse: {
+                if (rows != rows_ || cols != cols_) return false;
+                double* a = A_.valuePtr();
+                std::fill(a, a + A_.nonZeros(), 0.0);
+                for (std::size_t k = 0; k < m; ++k) a[slot_[k]] += values[k];
+                return true;
+            }
+        }
+        return false;
+    }
+
+    // Place of A(i, j) in the band: column-major, kl + ku + i - j in column j.
+    std::ptrdiff_t band_index(int i, int j) const {
+        return static_cast<std::ptrdiff_t>(j) * ld_ + (kl_ + ku_ + i - j);
+    }
+
+    // LU with partial pivoting inside the band (LAPACK dgbtf2): row exchanges widen U to
+    // kl + ku diagonals, held in the kl rows above the band.
+    bool band_factorize() {
+        const int n = n_, kv = kl_ + ku_;
+        double* ab = band_.data();
+        int ju = 0;  // last column touched by the row exchanges so far
+        for (int j = 0; j < n; ++j) {
+            double* col = ab + static_cast<std::ptrdiff_t>(j) * ld_ + kv;  // col[i] = A(j + i, j)
+            const int km = std::min(kl_, n - 1 - j);
+            int jp = 0;
+            double big = std::abs(col[0]);
+            for (int i = 1; i <= km; ++i)
+                if (std::abs(col[i]) > big) {
+                    big = std::abs(col[i]);
+                    jp = i;
+                }
+            pivots_[j] = j + jp;
+            if (!(big > 0.0) || !std::isfinite(big)) return false;
+            ju = std::max(ju, std::min(j + ku_ + jp, n - 1));
+            if (jp != 0)
+                for (int c = j; c <= ju; ++c) std::swap(ab[band_index(j, c)], ab[band_index(j + jp, c)]);
+            if (km == 0) continue;
+            const double inv = 1.0 / col[0];
+            for (int i = 1; i <= km; ++i) col[i] *= inv;
+            for (int c = j + 1; c <= ju; ++c) {
+                double* cc = ab + band_index(j, c);  // cc[i] = A(j + i, c)
+                const double t = cc[0];
+                if (t == 0.0) continue;
+                for (int i = 1; i <= km; ++i) cc[i] -= t * col[i];
+            }
         }
         return true;
     }
 
-    // Values from triplets; the pattern (and symbolic analysis) is redone only when an
-    // entry falls outside the current one. False if the matrix is singular.
-    bool factorize(int n, const std::vector<int>& rows, const std::vector<int>& cols,
-                   const std::vector<double>& values) {
-        if (!analyzed() || A_.rows() != n || !set_values(rows, cols, values)) {
-            analyze(n, rows, cols);
-            set_values(rows, cols, values);
+    void band_solve(double* b) const {
+        const int n = n_, kv = kl_ + ku_;
+        const double* ab = band_.data();
+        for (int j = 0; j < n; ++j) {  // L y = P b
+            const int p = pivots_[j];
+            if (p != j) std::swap(b[j], b[p]);
+            const int km = std::min(kl_, n - 1 - j);
+            const double t = b[j];
+            if (t == 0.0) continue;
+            const double* col = ab + static_cast<std::ptrdiff_t>(j) * ld_ + kv;
+            for (int i = 1; i <= km; ++i) b[j + i] -= t * col[i];
         }
-        return factorize();
-    }
-
-    // Numeric factorisation of the current values; false if the matrix is singular.
-    bool factorize() {
-        if (dense()) {
-            dense_A_ = A_;
-            dense_lu_.compute(dense_A_);
-            const auto d = dense_lu_.matrixLU().diagonal();
-            return d.allFinite() && (d.array() != 0.0).all();
+        for (int j = n - 1; j >= 0; --j) {  // U x = y
+            const double* col = ab + static_cast<std::ptrdiff_t>(j) * ld_ + kv;  // col[i] = U(j + i, j)
+            b[j] /= col[0];
+            const double t = b[j];
+            if (t == 0.0) continue;
+            const int top = std::max(0, j - kv);
+            for (int i = top; i < j; ++i) b[i] -= t * col[i - j];
         }
-        lu_.factorize(A_);
-        return lu_.info() == Eigen::Success;
     }
-
-    template <class Rhs, class X>
-    void solve(const Rhs& rhs, X& x) {
-        if (dense())
-            x = dense_lu_.solve(rhs);
-        else
-            x = lu_.solve(rhs);
-    }
-
-   private:
-    bool dense() const { return A_.rows() < dense_below_; }
 
     int dense_below_;
+    Storage storage_ = Storage::sparse;
+    int n_ = -1, kl_ = 0, ku_ = 0, ld_ = 0;
+    std::vector<int> rows_, cols_;  // sparse: the pattern analysed, as triplets,
+    std::vector<int> slot_;         // and the place of each triplet's value
     Eigen::MatrixXd dense_A_;
     Eigen::PartialPivLU<Eigen::MatrixXd> dense_lu_;
+    std::vector<double> band_;
+    std::vector<int> pivots_;
     Matrix A_;
     Eigen::SparseLU<Matrix, Eigen::COLAMDOrdering<int>> lu_;
     long analyses_ = 0;
