@@ -62,6 +62,8 @@ CHECKS = {
         within("free_hub_deviation_ratio", 70.0, 140.0,
                "deviation from the prescribed spin-up falls like 1/J: J = 100 -> 1e4 (acceptance scene b)"),
         within("largest_momentum_error", 0.0, 2e-6, "angular momentum = torque impulse (acceptance scene b)"),
+        within("hub_eigenvalue_difference", 0.0, 1e-5,
+               "a cantilever on a stiff clamped hub body has the clamped cantilever's eigenvalues"),
     ],
     "campbell.ipynb": [
         near("campbell_resonance", 3.88, 5e-3,
