@@ -2,6 +2,8 @@
 wrong size and bad indices are refused at the C++ boundary (ValueError naming the
 parameter); singular or non-finite problems are named instead of answered; work is
 bounded (size and step limits, Ctrl-C)."""
+import json
+
 import numpy as np
 import pytest
 
@@ -411,3 +413,26 @@ def test_generalized_alpha_counts_failed_steps_against_max_steps():
     with pytest.raises(ValueError, match="max_steps = 30 steps"):
         pf.simulate(m, 0.25, state=st, integrator="generalized_alpha", step=0.01, max_newton=1,
                     newton_tol=1e-300, max_steps=30, n_outputs=2, progress=False)  # 25 planned; all fail
+
+
+# The fuzz run's case (make sanitize, 2026-11-23, session 4): a clamped line-arc-line pipe
+# with a point mass of no rotary inertia, near-massless rotations (rotary inertia 5e-7),
+# dead forces and moments, linearised at the reference configuration. No flow, no follower
+# load: conservative but for a skew part of 8e-12 |K| (the dead moments). The companion
+# form's round-off gave its high modes real parts up to 1.44 1/s, called flutter.
+FUZZ_CONSERVATIVE = json.loads('{"sections": [{"EI": 1.0, "pipe_mass": 1.0000000000000004, "fluid_mass": 0.0, "GJ": 1.0, "rotary_inertia": [0.019999539488283265, 0.009999769744141632, 0.009999769744141632]}, {"EI": 0.999999999999892, "pipe_mass": 0.049999999999999996, "fluid_mass": 0.0, "EIz": 0.9998594712340544, "GJ": 0.999999999999892, "rotary_inertia": [1e-06, 5e-07, 5e-07]}], "segments": [{"kind": "line", "direction": [0.0, 0.99999, -5.844284049919781e-191], "length": 0.9999997255105045, "n": 1}, {"kind": "arc", "normal": [-0.9283641952950237, -0.5883199776877347, 1.192092896e-07], "radial": [0.99999, 0.0, 0.2886654263760818], "radius": 1.0, "angle": -5.283185307179586, "n": 2}, {"kind": "line", "direction": [0.0, -1.1125369292536007e-308, 0.3333333333333333], "length": 1.0, "n": 3}], "support": "clamp", "loads": [{"node": 6, "force": [1.175494351e-38, 6.103515625e-05, -5.960464477539063e-08], "moment": [0.40823822427678713, -6.103515625e-05, -1.1125369292536007e-308], "follower": false, "level": 0.4641588833612779}, {"node": 10, "force": [-0.9319007138477817, 2.225073858507e-311, 0.99999], "moment": [1.0, 2.225073858507203e-309, -2.225073858507e-311], "follower": false, "level": 0.4641588833612779}], "gravity": null, "point_masses": [{"node": 6, "mass": 1.0, "inertia": [0.0, 1.401298464324817e-45, 1.401298464324817e-45]}], "flow": 0.0}')
+
+
+def test_a_nearly_conservative_undamped_model_is_not_called_flutter():
+    import sys
+    from pathlib import Path
+    sys.path.insert(0, str(Path(__file__).parent / "fuzz"))
+    import models
+
+    model, mdot = models.build_pipe(FUZZ_CONSERVATIVE)
+    lin = pf.linearize(model, mass_flow=mdot)
+    K = lin.K.toarray()
+    assert 0 < np.abs(K - K.T).max() <= 1e-9 * np.abs(K).max()  # the case still has its skew part
+    eig = pf.eigenvalues(lin)
+    assert pf.stability(eig) == "stable"
+    assert np.abs(eig.values.real).max() == 0.0  # on the axis: the symmetric part's eigenvalues

@@ -339,7 +339,10 @@ def _companion(K, C, M, vectors):
 
     Backward-stable eigensolvers perturb mu by about eps ||A||; mapped to lambda = 1/mu
     that is eps ||A|| |lambda|^2, large for the high modes when K is nearly singular.
+    An undamped block whose K is symmetric to round-off goes to :func:`_undamped`.
     """
+    if not np.any(C) and _nearly_symmetric(K) and _nearly_symmetric(M):
+        return _undamped(K, M, vectors)
     n = K.shape[0]
     scale_k = np.max(np.abs(K)) if np.any(K) else 1.0
     scale_m = np.max(np.abs(M))
@@ -363,6 +366,37 @@ def _companion(K, C, M, vectors):
     lam = sigma + 1.0 / mu[finite]
     noise = 1e3 * np.finfo(float).eps * np.linalg.norm(A, 1) * np.abs(lam - sigma) ** 2
     return lam, noise, (V[:n, finite] if vectors else None)
+
+
+def _nearly_symmetric(X, rtol: float = 1e-9) -> bool:
+    return bool(np.abs(X - X.T).max() <= rtol * np.abs(X).max())
+
+
+def _undamped(K, M, vectors):
+    """lambda^2 M x + K x = 0 with M positive definite and K symmetric but for a skew part
+    E of at most 1e-9 |K| (e.g. dead moments linearised at the reference): the symmetric
+    part's generalised eigenvalues w = omega^2 (eigh), lambda = +-i omega (w > 0) or
+    +-sqrt(-w) (w < 0: divergence). A skew E moves a simple eigenvalue only to second
+    order (x^T E x = 0 for the real vectors), so this is exact to O(|E|^2); the companion
+    form instead gives the high modes of an ill-conditioned mass round-off real parts
+    ~eps ||A|| |lambda|^2 that can pass for growth (a conservative model called
+    flutter, found by the fuzz run)."""
+    n = K.shape[0]
+    Ks, Ms = 0.5 * (K + K.T), 0.5 * (M + M.T)
+    w, X = sla.eigh(Ks, Ms, check_finite=False)
+    # the Rayleigh quotients: eigh's w carry eps ||M^-1 K|| absolute, too much for the low
+    # modes of a stiff structure; the quotient's error is quadratic in the vector's
+    w = np.sum(X * (Ks @ X), axis=0) / np.sum(X * (Ms @ X), axis=0)
+    root = np.sqrt(np.abs(w))
+    lam = np.concatenate([np.where(w >= 0, 1j * root, root), np.where(w >= 0, -1j * root, -root)])
+    # round-off of w: eps (|K| + |w| |M|) |x|^2 / x^T M x (x M-normalised by eigh)
+    nk, nm = np.linalg.norm(K, 1), np.linalg.norm(M, 1)
+    dw = np.finfo(float).eps * (nk + np.abs(w) * nm) * np.sum(X**2, axis=0) * np.sqrt(n)
+    dw = dw + np.abs(K - K.T).max() ** 2 / max(np.abs(K).max(), 1e-300)  # the skew part's second order
+    dlam = dw / np.maximum(2.0 * root, np.sqrt(dw))
+    noise = np.concatenate([dlam, dlam])
+    V = np.concatenate([X, X], axis=1).astype(complex) if vectors else None
+    return lam, noise, V
 
 
 def _generalized(K, C, M, vectors):
