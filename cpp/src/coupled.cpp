@@ -271,20 +271,13 @@ CoupledOutput integrate_coupled(const Model& model, State& state, const LoadStat
 }
 
 namespace {
-TimeTable constant(double value) {
-    TimeTable t;
-    t.t = {0.0};
-    t.value = {value};
-    return t;
-}
-
 // The coupled equations at a constant mass flow (the load's), loads at their full value
 // unless a static load factor is set: statics and linearisation.
 struct ConstantFlowSystem {
     ConstantFlowSystem(const Model& model, State& state, const LoadState& load, const MultibodySystemCore& bodies,
                        const MbState& body_state, const std::vector<Coupling>& couplings,
                        const TransientOptions& opt)
-        : functions{constant(load.mass_flow), constant(1.0)},
+        : functions{TimeTable::constant(load.mass_flow), TimeTable::constant(1.0)},
           el(model, state, load, functions, opt),
           mb(bodies, body_state, functions.mass_flow),
           eq(el, mb, bodies, couplings),
@@ -309,7 +302,7 @@ struct ConstantFlowSystem {
 LinearMatrices element_linear_matrices(const Model& model, State& state, const LoadState& load,
                                        const TransientOptions& opt, double differences_step) {
     check_state(model, state);
-    const TimeFunctions functions{constant(load.mass_flow), constant(1.0)};
+    const TimeFunctions functions{TimeTable::constant(load.mass_flow), TimeTable::constant(1.0)};
     ElementEquations el(model, state, load, functions, opt);
     VecX v = reduce(model, state.v), a = reduce(model, state.a);
     el.rebase(0.0, v, a);

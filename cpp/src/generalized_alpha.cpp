@@ -17,8 +17,6 @@ namespace pipeflex {
 
 namespace {
 
-// Below this many unknowns the iteration matrix is factorised densely (measured crossover).
-constexpr int kDenseBelow = 100;
 // Largest constrained system whose singular start is solved densely (minimum norm).
 constexpr int kDenseMinimumNormLimit = 4000;
 // How much closer (on the last step) a predictor must be than the extrapolation to replace it.
@@ -42,7 +40,7 @@ double scale_constraints(Triplets& J, int n, double s) {
 
 struct AlphaNewton::Impl {
     Impl(Equations& e, const AlphaMethod& m, const AlphaOptions& o)
-        : eq(e), method(m), opt(o), n(e.n_coordinates()), nc(e.n_constraints()), lu(kDenseBelow), r(n + nc),
+        : eq(e), method(m), opt(o), n(e.n_coordinates()), nc(e.n_constraints()), lu(kDenseLuBelow), r(n + nc),
           x(n + nc), dz(n), policy(e.refresh_policy()) {}
 
     // rate / (1 - rate) of the modified Newton iteration; pessimistic until measured
@@ -183,7 +181,7 @@ void initial_acceleration(Equations& eq, const Eigen::VectorXd& z, const Eigen::
     }
     const double size = scale_constraints(trip, n, 1.0), s = size > 0.0 ? size : 1.0;
     scale_constraints(trip, n, s);
-    FixedPatternLU lu(kDenseBelow);
+    FixedPatternLU lu(kDenseLuBelow);
     Eigen::VectorXd rhs = Eigen::VectorXd::Zero(n + nc), x;
     rhs.head(n) = -r.head(n);
     if (lu.factorize(n + nc, trip.rows, trip.cols, trip.values)) lu.solve(rhs, x);

@@ -402,9 +402,7 @@ double MultibodySystemCore::velocity_drift(const MbState& s, const MbEvaluation&
 LinearMatrices multibody_linear_matrices(const MultibodySystemCore& sys, const MbState& s, double mdot,
                                          double differences_step) {
     sys.check_state(s);
-    TimeTable flow;
-    flow.t = {0.0};
-    flow.value = {mdot};
+    const TimeTable flow = TimeTable::constant(mdot);
     MultibodyEquations eq(sys, s, flow);
     return linear_matrices(eq, s.v, s.a, s.lam, s.t, differences_step);
 }
@@ -412,9 +410,7 @@ LinearMatrices multibody_linear_matrices(const MultibodySystemCore& sys, const M
 StaticNewtonResult multibody_static(const MultibodySystemCore& sys, MbState& s, double mdot, double load_factor,
                                     double tol, int max_iterations) {
     sys.check_state(s);
-    TimeTable flow;
-    flow.t = {0.0};
-    flow.value = {mdot};
+    const TimeTable flow = TimeTable::constant(mdot);
     MultibodyEquations eq(sys, s, flow);
     eq.set_static_load_factor(load_factor);
     VecX lam = s.lam;

@@ -19,7 +19,7 @@ StaticNewtonResult static_newton(Equations& eq, double t, Eigen::VectorXd& lam, 
     const Eigen::VectorXd zero = Eigen::VectorXd::Zero(n);
     Eigen::VectorXd r, rhs(n + nc), x, v = zero, a = zero;
     Triplets J;
-    FixedPatternLU lu(100);
+    FixedPatternLU lu(kDenseLuBelow);
     StaticNewtonResult out;
     double last = std::numeric_limits<double>::infinity();
     for (int it = 1; it <= max_iterations; ++it) {

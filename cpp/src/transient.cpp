@@ -225,8 +225,6 @@ struct Handle {
 void free_ida(void* p) { IDAFree(&p); }
 void free_ctx(SUNContext c) { SUNContext_Free(&c); }
 
-// Below this many unknowns the iteration matrix is factorised densely (measured crossover).
-constexpr int kDenseBelow = 100;
 
 }  // namespace
 
@@ -247,7 +245,7 @@ TransientOutput integrate_ida(const Model& model, State& state, const LoadState&
     const int N = 2 * n;
     std::unique_ptr<_generic_N_Vector, void (*)(N_Vector)> yy(N_VNew_Serial(N, ctx), N_VDestroy);
     std::unique_ptr<_generic_N_Vector, void (*)(N_Vector)> yp(N_VNew_Serial(N, ctx), N_VDestroy);
-    NewtonMatrix newton(model, kDenseBelow);
+    NewtonMatrix newton(model, kDenseLuBelow);
     std::unique_ptr<_generic_SUNMatrix, void (*)(SUNMatrix)> A(SUNMatNewEmpty(ctx), SUNMatFreeEmpty);
     std::unique_ptr<_generic_SUNLinearSolver, void (*)(SUNLinearSolver)> LS(SUNLinSolNewEmpty(ctx),
                                                                            SUNLinSolFreeEmpty);
@@ -392,7 +390,7 @@ TransientOutput integrate_generalized_alpha(const Model& model, State& state, co
 }
 
 // The linearisation of one step of the flow map (or of its start): K and C at the
-// converged state, dense below kDenseBelow unknowns (where the products with the
+// converged state, dense below kDenseLuBelow unknowns (where the products with the
 // directions are dense anyway), and the step's iteration matrix factorised.
 struct TangentStep {
     Eigen::MatrixXd Kd, Cd;
@@ -476,12 +474,7 @@ FlowMapOutput generalized_alpha_flow_map(const Model& model, State& state, const
     if (!model.hub.nodes.empty())
         throw std::invalid_argument("flow map: a model with a hub drive is not autonomous");
     // Autonomous: constant flow and loads (load factor 1).
-    TimeTable flow, loads;
-    flow.t = {0.0};
-    flow.value = {load.mass_flow};
-    loads.t = {0.0};
-    loads.value = {1.0};
-    TimeFunctions functions{flow, loads};
+    const TimeFunctions functions{TimeTable::constant(load.mass_flow), TimeTable::constant(1.0)};
     ElementEquations sys(model, state, load, functions, opt);
     const AlphaOptions aopt = alpha_options(opt);
     const AlphaMethod m(aopt.rho_inf);
@@ -548,7 +541,7 @@ FlowMapOutput generalized_alpha_flow_map(const Model& model, State& state, const
         tangent->n = n;
         tangent->m = m;
         tangent->h = h;
-        tangent->dense = n < kDenseBelow;
+        tangent->dense = n < kDenseLuBelow;
         tangent->steps.reserve(static_cast<std::size_t>(n_steps) + 1);
         sys.set(z, v, a, 0.0);
         linearize(0.0, 0.0, 0.0);  // M da0 = -(K dz0 + C dv0)

@@ -27,7 +27,6 @@ from dataclasses import dataclass, field
 from typing import List, Optional, Sequence, Tuple
 
 import numpy as np
-import scipy.sparse as sp
 
 from . import _checks, _core
 from .analysis import constrained

@@ -179,7 +179,7 @@ def _options(model, newton_tol, rho_inf):
 
 
 def _finish(shooter, z0, v0, period, mass_flow, out, iterations, residual) -> PeriodicOrbit:
-    model, n = shooter.model, shooter.n
+    model = shooter.model
     if "monodromy" in out:
         mu = np.linalg.eigvals(out["monodromy"])
         mu = mu[np.argsort(-np.abs(mu), kind="stable")]

@@ -35,7 +35,7 @@ from ..errors import ConvergenceError
 from ..results import Result
 from ..state import State, as_core
 from ._newton import converged
-from ._assembly import require_model, residual_and_tangent
+from ._assembly import KCM, require_model, residual_and_tangent, tangents
 from .eigen import GROWTH_TOL, SPARSE_MIN_DOFS, eigenvalues
 from .linearize import Linearization
 from ..rotation import skew
@@ -210,10 +210,7 @@ def _max_abs(X) -> float:
 
 def _matrices(model, state, dense=False):
     """K, C, M of ``model`` at ``state``: sparse CSC, or dense arrays."""
-    load = model.load_state()
-    _, K = residual_and_tangent(model, state, load, wK=1.0)
-    _, C = residual_and_tangent(model, state, load, load_factor=0.0, wK=0.0, wC=1.0)
-    _, M = residual_and_tangent(model, state, load, load_factor=0.0, wK=0.0, wM=1.0)
+    K, C, M = tangents(model, state, model.load_state(), KCM)  # one assembly pass
     if dense:
         return K.toarray(), C.toarray(), M.toarray()
     return sp.csc_matrix(K), sp.csc_matrix(C), sp.csc_matrix(M)

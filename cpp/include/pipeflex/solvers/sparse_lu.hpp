@@ -28,6 +28,10 @@
 
 namespace pipeflex {
 
+// Below this many unknowns an iteration matrix is factorised densely (measured crossover
+// of the dense and the sparse LU): the integrators', IDA's and the static Newton's.
+constexpr int kDenseLuBelow = 100;
+
 class FixedPatternLU {
    public:
     using Matrix = Eigen::SparseMatrix<double>;

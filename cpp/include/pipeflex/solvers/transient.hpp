@@ -31,6 +31,12 @@ struct TimeTable {
     double phase = 0.0;  // carrier phase [rad]
     double at(double time) const;
     double rate(double time) const;  // derivative
+    static TimeTable constant(double value) {
+        TimeTable f;
+        f.t = {0.0};
+        f.value = {value};
+        return f;
+    }
 };
 
 struct TransientOptions {

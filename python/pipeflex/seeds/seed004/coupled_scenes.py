@@ -3,7 +3,7 @@ rotating cantilever joined to a hub body with inertia (:class:`pipeflex.CoupledS
 the acceptance scenes of the one engine."""
 from __future__ import annotations
 
-from typing import Optional, Tuple
+from typing import Tuple
 
 import numpy as np
 
