@@ -14,17 +14,18 @@ generalised-alpha, h = 5e-4 s.
   the first cycle after which every cycle's amplitude stays within it of the reference;
   its wall time is that time times the wall time per simulated second (the cheaper of
   the recorded run and the guess's, which records two outputs).
-- Shooting: a transient to t_g (``--guesses``; its wall time counted; with the step h,
-  or a multiple of it: a guess need not be accurate), then pf.periodic_orbit with the
-  step h, without multipliers, to defects 1e-1, 3e-2, 1e-2 ... 1e-8; for each accuracy the cheapest
-  (guess + shooting) that reaches it, with the defect tolerance that did.
+- Shooting: pf.orbit_guess, a transient with the step k h (``--coarse``; a guess need not
+  be accurate) that stops by itself when two successive cycles agree to 1e-3, its time
+  counted; then pf.periodic_orbit with the step h, without multipliers, to defects 1e-1,
+  3e-2, 1e-2 ... 1e-8; for each accuracy the cheapest (guess + shooting) that reaches it,
+  with the defect tolerance that did.
 Two flows: Fig. 3's 30 kg/s, whose cycle attracts strongly (in-plane multiplier 0.27 per
 period), and 25.5 kg/s near the Hopf point (planar model), where it attracts slowly: there
-the continuation from the Hopf point (no guess needed; multipliers on the branch) and the
-orbit at 25.5 kg/s (without multipliers).
+also the continuation from the Hopf point (no guess needed; multipliers on the branch) and
+the orbit at 25.5 kg/s (without multipliers).
 Times are CPU times [s] (single-threaded work; wall times beside them), the least of
 ``--repeat`` runs.
-Run: .venv/bin/python benchmarks/bench_periodic.py [--repeat 3] [--guess 2.0]
+Run: .venv/bin/python benchmarks/bench_periodic.py [--repeat 3] [--coarse 1 4 8]
 """
 import argparse
 import inspect
@@ -92,7 +93,7 @@ def orbit_amplitude(orbit, tip):
     return half_range(orbit.x[:-1, tip, 1])
 
 
-def compare(mdot, t_end, guesses, repeat):
+def compare(mdot, t_end, coarse, repeat):
     """Transient against guess + shooting at one mass flow: the table rows."""
     model, tip = limit_cycle_model(n_elements=8, EA=1e5, mass_flow=mdot)
     st = pf.static_equilibrium(model, mass_flow=0.0).state
@@ -109,44 +110,36 @@ def compare(mdot, t_end, guesses, repeat):
     print(f"\nmdot = {mdot} kg/s: orbit amplitude {amp:.9f} m, period {ref.period:.9f} s; largest multiplier "
           f"{others.max():.4f} (out of plane); transient {per_second * period:.4f} s of CPU time per period")
     shooting = {}
-    for t_guess, factor in guesses:
-        wall_guess, guess = best(lambda: pf.simulate(model, t_guess, state=st, step=factor * H, n_outputs=2,
-                                                     progress=False, integrator="generalized_alpha").final_state,
-                                 repeat)
-        print(f"guess: the transient to {t_guess} s with step {factor} h: {wall_guess:.3f} s (wall {WALL[-1]:.3f} s)")
+    for factor in coarse:
+        wall_guess, guess = best(lambda: pf.orbit_guess(model, node=tip, step=factor * H, state=st), repeat)
+        print(f"guess: pf.orbit_guess with step {factor:g} h (settled to 1e-3 per cycle at t = {guess.time:g} s): "
+              f"{wall_guess:.3f} s (wall {WALL[-1]:.3f} s), amplitude error {abs(guess.amplitude / amp - 1):.1e}")
         runs = []
         for tol in TOLERANCES:
-            wall, o = best(lambda: pf.periodic_orbit(model, period=period, state=guess, steps=steps, tol=tol, **LEAN),
-                           repeat)
+            wall, o = best(lambda: pf.periodic_orbit(model, period=guess.period, state=guess.state, steps=steps,
+                                                     tol=tol, **LEAN), repeat)
             err = abs(orbit_amplitude(o, tip) / amp - 1)
             runs.append((tol, wall_guess + wall, err))
             print(f"  shooting to a defect of {tol:.0e}: {wall:.3f} s (wall {WALL[-1]:.3f} s), {o.iterations} iterations, "
                   f"{o.stats['flow_maps']} flow maps, amplitude error {err:.1e}")
-        wall_mult, o = best(lambda: pf.periodic_orbit(model, period=period, state=guess, steps=steps), repeat)
-        print(f"  with the multipliers (defect 1e-8): {wall_mult:.3f} s, {o.stats['flow_maps']} flow maps")
-        shooting[t_guess, factor] = runs
-    wall_rough, rough = best(lambda: pf.periodic_orbit(model, period=period, state=pf.simulate(
-        model, 1.0, state=st, step=H, n_outputs=2, progress=False, integrator="generalized_alpha").final_state,
-        steps=steps), repeat)
-    print(f"from the rough guess at t = 1 s (its transient included), default tolerances and multipliers: "
-          f"{wall_rough:.3f} s (wall {WALL[-1]:.3f} s), {rough.iterations} iterations, {rough.stats['flow_maps']} flow maps")
-    head = "".join(f" {'guess ' + format(t, 'g') + ' s, ' + format(f, 'g') + ' h: tol, s':>24s} {'ratio':>6s}"
-                   for t, f in guesses)
+        shooting[factor] = runs
+    head = "".join(f" {'guess ' + format(f, 'g') + ' h: tol, s':>20s} {'ratio':>6s}" for f in coarse)
     print(f"{'accuracy':>9s} {'transient: t [s]':>17s} {'cpu [s]':>9s}{head}")
     for acc in ACCURACIES:
         settled = settled_time(cycles, amp, acc)
         wall_t = np.inf if settled is None else settled * per_second
         row = f"{acc:9.0e} {'> ' + str(t_end) if settled is None else format(settled, '.2f'):>17s} {wall_t:9.3f}"
-        for key in guesses:
+        for key in coarse:
             fits = [(w, tol) for tol, w, e in shooting[key] if e <= acc]
             w, tol = min(fits) if fits else (np.nan, np.nan)
-            row += f" {format(tol, '.0e') + ', ' + format(w, '.3f'):>24s} {wall_t / w:6.2f}"
+            row += f" {format(tol, '.0e') + ', ' + format(w, '.3f'):>20s} {wall_t / w:6.2f}"
         print(row)
 
 
-def near_hopf(mdot, t_end, repeat):
+def near_hopf(mdot, t_end, coarse, repeat):
     """Near the Hopf point the cycle attracts slowly: the transient against the
-    continuation from the Hopf point (which needs no guess), planar model."""
+    continuation from the Hopf point (which needs no guess) and against a coarse transient
+    (pf.orbit_guess) + shooting, planar model."""
     model, tip = limit_cycle_model(n_elements=8, EA=1e5, mass_flow=mdot, planar=True)
     st = pf.static_equilibrium(model, mass_flow=0.0).state
 
@@ -165,22 +158,37 @@ def near_hopf(mdot, t_end, repeat):
           f"{br.stats['flow_maps']} flow maps) and the orbit at {mdot} kg/s ({orbit.stats['flow_maps']} flow maps, "
           f"without multipliers): amplitude {amp:.9f} m; largest multiplier {br.max_multiplier[k]:.4f} at "
           f"{br.mass_flow[k]:.3f} kg/s on the branch")
-    print(f"{'accuracy':>9s} {'transient: t [s]':>17s} {'cpu [s]':>9s} {'shooting [s]':>13s} {'transient / shooting':>21s}")
+    steps = int(round(float(orbit.period) / H))
+    shooting = {}
+    for factor in coarse:
+        wall_guess, guess = best(lambda: pf.orbit_guess(model, node=tip, step=factor * H, state=st), repeat)
+        runs = []
+        for tol in TOLERANCES:
+            wall, o = best(lambda: pf.periodic_orbit(model, period=guess.period, state=guess.state, steps=steps,
+                                                     tol=tol, **LEAN), repeat)
+            runs.append((tol, wall_guess + wall, abs(orbit_amplitude(o, tip) / amp - 1)))
+        print(f"guess: pf.orbit_guess with step {factor:g} h (t = {guess.time:g} s): {wall_guess:.3f} s; then shooting: "
+              + ", ".join(f"{tol:.0e}: {w:.3f} s / {e:.0e}" for tol, w, e in runs))
+        shooting[factor] = runs
+    head = "".join(f" {'guess ' + format(f, 'g') + ' h: tol, s':>20s} {'ratio':>6s}" for f in coarse)
+    print(f"{'accuracy':>9s} {'transient: t [s]':>17s} {'cpu [s]':>9s} {'continuation [s]':>17s} {'ratio':>6s}{head}")
     for acc in ACCURACIES:
         settled = settled_time(cycles, amp, acc)
-        if settled is None:
-            print(f"{acc:9.0e} {'> ' + str(t_end):>17s} {'> ' + format(t_end * per_second, '.3f'):>9s} "
-                  f"{wall_orbit:13.3f} {'> ' + format(t_end * per_second / wall_orbit, '.2f'):>21s}")
-            continue
-        wall_t = settled * per_second
-        print(f"{acc:9.0e} {settled:17.2f} {wall_t:9.3f} {wall_orbit:13.3f} {wall_t / wall_orbit:21.2f}")
+        wall_t = np.inf if settled is None else settled * per_second
+        row = (f"{acc:9.0e} {'> ' + str(t_end) if settled is None else format(settled, '.2f'):>17s} {wall_t:9.3f} "
+               f"{wall_orbit:17.3f} {wall_t / wall_orbit:6.2f}")
+        for key in coarse:
+            fits = [(w, tol) for tol, w, e in shooting[key] if e <= acc]
+            w, tol = min(fits) if fits else (np.nan, np.nan)
+            row += f" {format(tol, '.0e') + ', ' + format(w, '.3f'):>20s} {wall_t / w:6.2f}"
+        print(row)
 
 
 def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--repeat", type=int, default=5, help="best of this many runs")
-    ap.add_argument("--guesses", nargs="+", default=["2.0:1", "2.5:1", "2.5:4"],
-                    help="the shooting's guesses, t:k = the transient to t [s] with the step k h")
+    ap.add_argument("--coarse", nargs="+", type=float, default=[1.0, 4.0, 8.0],
+                    help="the shooting's guesses: pf.orbit_guess with the step k h")
     ap.add_argument("--skip-hopf", action="store_true", help="only the 30 kg/s comparison")
     args = ap.parse_args()
     try:
@@ -190,10 +198,9 @@ def main():
         blas = "threadpoolctl missing"
     print(f"load average {os.getloadavg()[0]:.2f}; BLAS: {blas} (the analyses of models below 500 coordinates "
           f"use one)")
-    guesses = [tuple(float(x) for x in g.split(":")) for g in args.guesses]
-    compare(30.0, 12.0, guesses, args.repeat)   # Fig. 3: a strongly attracting cycle
+    compare(30.0, 12.0, args.coarse, args.repeat)   # Fig. 3: a strongly attracting cycle
     if not args.skip_hopf:
-        near_hopf(25.5, 60.0, args.repeat)          # near the Hopf point: the transient settles slowly
+        near_hopf(25.5, 60.0, args.coarse, args.repeat)          # near the Hopf point: the transient settles slowly
 
 
 if __name__ == "__main__":

@@ -5,7 +5,7 @@ import pytest
 
 import pipeflex as pf
 from pipeflex import _core
-from pipeflex.analysis.periodic import continue_orbits, periodic_orbit
+from pipeflex.analysis.periodic import continue_orbits, orbit_guess, periodic_orbit
 from pipeflex.seeds.seed000.limit_cycle import limit_cycle_model
 from pipeflex.signals import cycle_metrics
 
@@ -105,6 +105,42 @@ def test_orbit_equals_the_settled_transient(planar4, settled):
     # a stable cycle: the trivial multiplier is 1, all others inside the unit circle
     assert abs(o.multipliers[o.trivial] - 1.0) <= 1e-6
     assert o.stable and np.delete(np.abs(o.multipliers), o.trivial).max() < 1.0
+
+
+def test_coarse_transient_guess_leads_to_the_fine_orbit(planar4, settled):
+    """orbit_guess with 8 times the step stops by itself once two cycles agree to 1e-3;
+    its coarse cycle differs from the fine one by O(h^2) (here 1e-3 .. 1e-2), and shooting
+    from it with the fine step lands on the settled fine transient's cycle to 1e-3."""
+    m, tip = planar4
+    r, amp, period = settled
+    st = pf.static_equilibrium(m, mass_flow=0.0).state
+    g = orbit_guess(m, node=tip, step=8 * 5e-4, state=st)
+    assert g.settled and g.time < 10.0
+    assert g.amplitude == pytest.approx(amp, rel=3e-2)
+    assert g.period == pytest.approx(period, rel=3e-2)
+    assert g.amplitude != pytest.approx(amp, rel=1e-4)  # a coarse guess, not the fine cycle
+    o = periodic_orbit(m, period=g.period, state=g.state, steps=int(round(g.period / 5e-4)), multipliers=False)
+    assert o.residual <= 1e-8
+    assert o.amplitude[tip, 1] == pytest.approx(amp, rel=1e-3)
+    assert o.period == pytest.approx(period, rel=1e-3)
+
+
+def test_orbit_guess_without_oscillation_and_bad_input(planar4):
+    """A growing oscillation stopped by t_max is not settled; below the flutter flow the
+    start's oscillation dies out, and at rest in equilibrium there is none: errors."""
+    m, tip = planar4
+    st = pf.static_equilibrium(m, mass_flow=0.0).state
+    g = orbit_guess(m, node=tip, step=4e-3, state=st, t_max=1.5)
+    assert not g.settled and g.time == pytest.approx(1.5)
+    for mdot, start in ((10.0, st), (0.0, st)):
+        with pytest.raises(pf.ConvergenceError, match="fewer than two cycles"):
+            orbit_guess(m, node=tip, step=4e-3, state=start, mass_flow=mdot, t_max=3.0)
+    with pytest.raises(ValueError, match="node"):
+        orbit_guess(m, node=m.n_nodes, step=4e-3)
+    with pytest.raises(ValueError, match="component"):
+        orbit_guess(m, node=tip, step=4e-3, component=3)
+    with pytest.raises(ValueError, match="step"):
+        orbit_guess(m, node=tip, step=0.0)
 
 
 def test_planar_cycle_of_the_3d_pipe_is_unstable_out_of_plane():

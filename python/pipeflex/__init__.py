@@ -11,7 +11,8 @@ from .analysis import (CriticalFlow, EigenResult, Linearization, StaticResult, c
                        eigenvalues, linearize, simulate, stability, static_equilibrium,
                        TransientResult, SteadyRotation, steady_rotation,
                        RotatingFrequencies, resonance_speed, rotating_frequencies, rotating_state,
-                       OrbitBranch, PeriodicOrbit, continue_orbits, periodic_orbit, Campbell, campbell)
+                       OrbitBranch, OrbitGuess, PeriodicOrbit, continue_orbits, orbit_guess, periodic_orbit,
+                       Campbell, campbell)
 from .errors import ConvergenceError, LimitPointError, SingularMatrixError
 from .model import Model, ModelBuilder
 from .results import Result
@@ -47,6 +48,6 @@ __all__ = ["CriticalFlow", "EigenResult", "Linearization", "StaticResult",
            "critical_mass_flow", "eigenvalues", "linearize", "simulate", "stability", "static_equilibrium",
            "Sine", "TransientResult", "SteadyRotation", "steady_rotation",
            "RotatingFrequencies", "resonance_speed", "rotating_frequencies", "rotating_state",
-           "OrbitBranch", "PeriodicOrbit", "continue_orbits", "periodic_orbit",
+           "OrbitBranch", "OrbitGuess", "PeriodicOrbit", "continue_orbits", "orbit_guess", "periodic_orbit",
            "Campbell", "campbell",
            "ConvergenceError", "LimitPointError", "SingularMatrixError", "Model", "ModelBuilder", "PipeSection", "Result", "State", "CoupledSystem", "__version__"]

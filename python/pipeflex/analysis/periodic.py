@@ -130,6 +130,29 @@ class OrbitBranch(Result):
     stats: dict = field(default_factory=dict)
 
 
+@dataclass(frozen=True)
+class OrbitGuess(Result):
+    """A start for :func:`periodic_orbit` from a coarse transient (:func:`orbit_guess`).
+
+    Attributes:
+        state: the transient's final state, near the cycle.
+        period: T [s], the mean of the last two cycles (upward crossings of the watched
+            coordinate's mid-range, interpolated linearly).
+        amplitude: half the peak-to-peak range of the watched coordinate over the last
+            cycle [m].
+        time: motion integrated [s].
+        settled: the last two cycles' amplitudes agreed to ``settle``; False when
+            ``t_max`` came first (e.g. a cycle that attracts very slowly, or an oscillation
+            that dies out below the flutter flow).
+    """
+
+    state: State
+    period: float
+    amplitude: float
+    time: float
+    settled: bool
+
+
 def _state_at(base: State, basis, z, v) -> State:
     return State(base.q + basis @ z, basis @ v, np.zeros_like(base.a), base.frames.copy(), base.ancf.copy())
 
@@ -372,6 +395,75 @@ def periodic_orbit(model, *, period: float, state=None, base=None, mass_flow: Op
                                    coarse=not multipliers, monodromy=bool(multipliers))
     n = model.n_dofs
     return _finish(shooter, y[:n], y[n:2 * n], y[-1], mdot, out, it, res)
+
+
+def orbit_guess(model, *, node: int, step: float, component: int = 1, state=None,
+                mass_flow: Optional[float] = None, settle: float = 1e-3, chunk: float = 0.5,
+                t_max: float = 200.0) -> OrbitGuess:
+    """A state near the limit cycle and its period, for :func:`periodic_orbit`: a
+    generalised-alpha transient with a coarse ``step``, integrated ``chunk`` by ``chunk``
+    until two successive cycles of one coordinate have the same amplitude to ``settle``.
+
+    The step may be several times the shooting's (e.g. 4 to 16 times): the coarse cycle
+    differs from the fine one by O(h^2), which the shooting's Newton removes in a few
+    iterations, while the transient's cost falls with the step. This is where shooting
+    pays against the plain transient: the transient must contract the cycle's error to
+    the accuracy wanted at the fine step, the guess only to the coarse step's error
+    (docs/performance.md, "Periodic orbits from a coarse transient").
+
+    Args:
+        model: an autonomous model (constant flow and loads).
+        node: the node whose coordinate is watched [-].
+        step: h [s] of the transient.
+        component: 0, 1, 2 = x, y, z of the node's position.
+        state: the start (default the reference configuration at rest).
+        mass_flow: mdot [kg/s] (default the model's).
+        settle: relative change of the amplitude between the last two cycles at which
+            the transient stops [-].
+        chunk: motion integrated between checks [s].
+        t_max: most motion integrated [s].
+
+    Raises:
+        ConvergenceError: fewer than two cycles by ``t_max`` (no oscillation, or one that
+            died out).
+    """
+    from ..signals import zero_crossings
+    from .transient import simulate
+
+    node = _checks.non_negative_int("node", node)
+    if node >= model.n_nodes:
+        raise ValueError(f"node must be in [0, {model.n_nodes}), got {node}")
+    if component not in (0, 1, 2):
+        raise ValueError(f"component must be 0, 1 or 2 (x, y, z), got {component!r}")
+    h = _checks.positive("step", step)
+    settle = _checks.positive("settle", settle)
+    chunk = max(_checks.positive("chunk", chunk), 4.0 * h)
+    t_max = _checks.positive("t_max", t_max)
+    size = max(float(np.ptp(model.positions, axis=0).max()), 1e-3)
+    t, st = 0.0, state
+    ts, ys = [np.zeros(0)], [np.zeros(0)]
+    while True:
+        t_end = min(t + chunk, t_max)
+        run = simulate(model, t_end, t_start=t, state=st, step=h, n_outputs=max(2, int(round((t_end - t) / h)) + 1),
+                       mass_flow=mass_flow, progress=False, integrator="generalized_alpha")
+        ts.append(run.t[1:])
+        ys.append(run.x[1:, node, component])
+        t, st = t_end, run.final_state
+        time_, y = np.concatenate(ts), np.concatenate(ys)
+        recent = y[time_ >= t - chunk]
+        mid = 0.5 * (recent.max() + recent.min())
+        up = np.flatnonzero((y[:-1] < mid) & (y[1:] >= mid))
+        # an oscillation of round-off size about a rest state is not a cycle
+        if len(up) >= 3 and recent.max() - recent.min() > 1e-9 * size:
+            amps = [0.5 * (y[a:b + 1].max() - y[a:b + 1].min()) for a, b in zip(up[-3:-1], up[-2:])]
+            settled = abs(amps[1] - amps[0]) <= settle * max(amps[1], 1e-300)
+            if settled or t >= t_max:
+                period = float(np.diff(zero_crossings(time_, y - mid)[-3:]).mean())
+                return OrbitGuess(state=st, period=period, amplitude=float(amps[1]), time=float(t),
+                                  settled=bool(settled))
+        if t >= t_max:
+            raise ConvergenceError(f"orbit_guess: fewer than two cycles of node {node}'s coordinate {component} "
+                                   f"by t_max = {t_max:g} s (no oscillation to settle on)", mass_flow=mass_flow)
 
 
 def _reduced(basis, full, chart, start):
