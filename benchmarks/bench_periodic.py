@@ -93,6 +93,45 @@ def orbit_amplitude(orbit, tip):
     return half_range(orbit.x[:-1, tip, 1])
 
 
+def guess_and_shoot(model, tip, st, steps, amp, coarse, repeat):
+    """{k: [(defect tolerance, CPU time of guess + shooting [s], amplitude error)]} for
+    pf.orbit_guess with the step k h, then pf.periodic_orbit at each tolerance."""
+    shooting = {}
+    for factor in coarse:
+        wall_guess, guess = best(lambda: pf.orbit_guess(model, node=tip, step=factor * H, state=st), repeat)
+        print(f"guess: pf.orbit_guess with step {factor:g} h (settled to 1e-3 per cycle at t = {guess.time:g} s): "
+              f"{wall_guess:.3f} s (wall {WALL[-1]:.3f} s), amplitude error {abs(guess.amplitude / amp - 1):.1e}")
+        runs = []
+        for tol in TOLERANCES:
+            wall, o = best(lambda: pf.periodic_orbit(model, period=guess.period, state=guess.state, steps=steps,
+                                                     tol=tol, **LEAN), repeat)
+            err = abs(orbit_amplitude(o, tip) / amp - 1)
+            runs.append((tol, wall_guess + wall, err))
+            print(f"  shooting to a defect of {tol:.0e}: {wall:.3f} s (wall {WALL[-1]:.3f} s), {o.iterations} iterations, "
+                  f"{o.stats['flow_maps']} flow maps, amplitude error {err:.1e}")
+        shooting[factor] = runs
+    return shooting
+
+
+def table(cycles, amp, per_second, t_end, shooting, coarse, continuation=None):
+    """Per accuracy: the transient's motion and CPU time, then each method's time and
+    the ratio transient / method (the cheapest defect tolerance that reaches it)."""
+    head = f" {'continuation [s]':>17s} {'ratio':>6s}" if continuation is not None else ""
+    head += "".join(f" {'guess ' + format(f, 'g') + ' h: tol, s':>20s} {'ratio':>6s}" for f in coarse)
+    print(f"{'accuracy':>9s} {'transient: t [s]':>17s} {'cpu [s]':>9s}{head}")
+    for acc in ACCURACIES:
+        settled = settled_time(cycles, amp, acc)
+        wall_t = np.inf if settled is None else settled * per_second
+        row = f"{acc:9.0e} {'> ' + str(t_end) if settled is None else format(settled, '.2f'):>17s} {wall_t:9.3f}"
+        if continuation is not None:
+            row += f" {continuation:17.3f} {wall_t / continuation:6.2f}"
+        for key in coarse:
+            fits = [(w, tol) for tol, w, e in shooting[key] if e <= acc]
+            w, tol = min(fits) if fits else (np.nan, np.nan)
+            row += f" {format(tol, '.0e') + ', ' + format(w, '.3f'):>20s} {wall_t / w:6.2f}"
+        print(row)
+
+
 def compare(mdot, t_end, coarse, repeat):
     """Transient against guess + shooting at one mass flow: the table rows."""
     model, tip = limit_cycle_model(n_elements=8, EA=1e5, mass_flow=mdot)
@@ -109,31 +148,8 @@ def compare(mdot, t_end, coarse, repeat):
     per_second = min(per_second, wall_plain / 3.0)
     print(f"\nmdot = {mdot} kg/s: orbit amplitude {amp:.9f} m, period {ref.period:.9f} s; largest multiplier "
           f"{others.max():.4f} (out of plane); transient {per_second * period:.4f} s of CPU time per period")
-    shooting = {}
-    for factor in coarse:
-        wall_guess, guess = best(lambda: pf.orbit_guess(model, node=tip, step=factor * H, state=st), repeat)
-        print(f"guess: pf.orbit_guess with step {factor:g} h (settled to 1e-3 per cycle at t = {guess.time:g} s): "
-              f"{wall_guess:.3f} s (wall {WALL[-1]:.3f} s), amplitude error {abs(guess.amplitude / amp - 1):.1e}")
-        runs = []
-        for tol in TOLERANCES:
-            wall, o = best(lambda: pf.periodic_orbit(model, period=guess.period, state=guess.state, steps=steps,
-                                                     tol=tol, **LEAN), repeat)
-            err = abs(orbit_amplitude(o, tip) / amp - 1)
-            runs.append((tol, wall_guess + wall, err))
-            print(f"  shooting to a defect of {tol:.0e}: {wall:.3f} s (wall {WALL[-1]:.3f} s), {o.iterations} iterations, "
-                  f"{o.stats['flow_maps']} flow maps, amplitude error {err:.1e}")
-        shooting[factor] = runs
-    head = "".join(f" {'guess ' + format(f, 'g') + ' h: tol, s':>20s} {'ratio':>6s}" for f in coarse)
-    print(f"{'accuracy':>9s} {'transient: t [s]':>17s} {'cpu [s]':>9s}{head}")
-    for acc in ACCURACIES:
-        settled = settled_time(cycles, amp, acc)
-        wall_t = np.inf if settled is None else settled * per_second
-        row = f"{acc:9.0e} {'> ' + str(t_end) if settled is None else format(settled, '.2f'):>17s} {wall_t:9.3f}"
-        for key in coarse:
-            fits = [(w, tol) for tol, w, e in shooting[key] if e <= acc]
-            w, tol = min(fits) if fits else (np.nan, np.nan)
-            row += f" {format(tol, '.0e') + ', ' + format(w, '.3f'):>20s} {wall_t / w:6.2f}"
-        print(row)
+    shooting = guess_and_shoot(model, tip, st, steps, amp, coarse, repeat)
+    table(cycles, amp, per_second, t_end, shooting, coarse)
 
 
 def near_hopf(mdot, t_end, coarse, repeat):
@@ -159,29 +175,8 @@ def near_hopf(mdot, t_end, coarse, repeat):
           f"without multipliers): amplitude {amp:.9f} m; largest multiplier {br.max_multiplier[k]:.4f} at "
           f"{br.mass_flow[k]:.3f} kg/s on the branch")
     steps = int(round(float(orbit.period) / H))
-    shooting = {}
-    for factor in coarse:
-        wall_guess, guess = best(lambda: pf.orbit_guess(model, node=tip, step=factor * H, state=st), repeat)
-        runs = []
-        for tol in TOLERANCES:
-            wall, o = best(lambda: pf.periodic_orbit(model, period=guess.period, state=guess.state, steps=steps,
-                                                     tol=tol, **LEAN), repeat)
-            runs.append((tol, wall_guess + wall, abs(orbit_amplitude(o, tip) / amp - 1)))
-        print(f"guess: pf.orbit_guess with step {factor:g} h (t = {guess.time:g} s): {wall_guess:.3f} s; then shooting: "
-              + ", ".join(f"{tol:.0e}: {w:.3f} s / {e:.0e}" for tol, w, e in runs))
-        shooting[factor] = runs
-    head = "".join(f" {'guess ' + format(f, 'g') + ' h: tol, s':>20s} {'ratio':>6s}" for f in coarse)
-    print(f"{'accuracy':>9s} {'transient: t [s]':>17s} {'cpu [s]':>9s} {'continuation [s]':>17s} {'ratio':>6s}{head}")
-    for acc in ACCURACIES:
-        settled = settled_time(cycles, amp, acc)
-        wall_t = np.inf if settled is None else settled * per_second
-        row = (f"{acc:9.0e} {'> ' + str(t_end) if settled is None else format(settled, '.2f'):>17s} {wall_t:9.3f} "
-               f"{wall_orbit:17.3f} {wall_t / wall_orbit:6.2f}")
-        for key in coarse:
-            fits = [(w, tol) for tol, w, e in shooting[key] if e <= acc]
-            w, tol = min(fits) if fits else (np.nan, np.nan)
-            row += f" {format(tol, '.0e') + ', ' + format(w, '.3f'):>20s} {wall_t / w:6.2f}"
-        print(row)
+    shooting = guess_and_shoot(model, tip, st, steps, amp, coarse, repeat)
+    table(cycles, amp, per_second, t_end, shooting, coarse, continuation=wall_orbit)
 
 
 def main():
