@@ -12,7 +12,6 @@ run, so CI is deterministic; the "ci" profile of conftest.py).
   masses); the energy balance holds without flow (generalised-alpha, rho_inf = 1, and
   the multibody integrator).
 """
-import dataclasses
 import math
 import re
 import sys

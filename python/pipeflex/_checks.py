@@ -5,8 +5,6 @@ import math
 
 import numpy as np
 
-from . import _core
-
 
 def finite(name: str, value) -> float:
     if isinstance(value, (str, bytes)):  # float("3") would accept text
