@@ -128,6 +128,10 @@ void bind_multibody(py::module_& m) {
             py::arg("body"), py::arg("node"), py::arg("force"), py::arg("moment"))
         .def("set_gravity", &MultibodySystemCore::set_gravity)
         .def("finalize", &MultibodySystemCore::finalize)
+        .def("set_length_scale", &MultibodySystemCore::set_length_scale, py::arg("length"),
+             "Set the model's size [m] for the Newton tests (at least the longest body).")
+        .def_property_readonly("length_scale", &MultibodySystemCore::length_scale,
+                               "The model's size [m] used by the Newton tests.")
         .def_property_readonly("n_coordinates", &MultibodySystemCore::n_coordinates)
         .def_property_readonly("n_constraints", &MultibodySystemCore::n_constraints)
         .def(
@@ -152,15 +156,28 @@ void bind_multibody(py::module_& m) {
             "evaluate",
             [](const MultibodySystemCore& sys, const Arr& r, const Arr& R, const VecX& eta, const VecX& v,
                const VecX& a, const VecX& lam, double t, double mdot, double mdot_rate, double load_factor,
-               double gravity_factor, double wK, double wC, double wM, bool tangent) {
+               double gravity_factor, double wK, double wC, double wM, bool tangent, bool jacobian) {
                 const MbState s = to_state(sys, r, R, eta, v, a, lam, t);
                 MbEvaluation ev;
                 sys.evaluate(s, mdot, mdot_rate, load_factor, gravity_factor, wK, wC, wM, tangent, ev);
-                return py::make_tuple(ev.F, ev.c, sys.constraint_jacobian(ev), tangent ? py::object(py::cast(sys.dense_tangent(ev))) : py::none());
+                return py::make_tuple(ev.F, ev.c,
+                                      jacobian ? py::object(py::cast(sys.constraint_jacobian(ev))) : py::none(),
+                                      tangent ? py::object(py::cast(sys.dense_tangent(ev))) : py::none());
             },
             py::arg("r"), py::arg("R"), py::arg("eta"), py::arg("v"), py::arg("a"), py::arg("lam"), py::arg("t"),
             py::arg("mass_flow"), py::arg("mass_flow_rate"), py::arg("load_factor"), py::arg("gravity_factor"),
-            py::arg("wK"), py::arg("wC"), py::arg("wM"), py::arg("tangent"))
+            py::arg("wK"), py::arg("wC"), py::arg("wM"), py::arg("tangent"), py::arg("jacobian") = true)
+        .def(
+            "constraints",
+            [](const MultibodySystemCore& sys, const Arr& r, const Arr& R, const VecX& eta, double t) {
+                const VecX zero = VecX::Zero(eta.size());
+                const MbState s = to_state(sys, r, R, eta, zero, zero, VecX::Zero(sys.n_constraints()), t);
+                MbEvaluation ev;
+                sys.evaluate(s, 0.0, 0.0, 1.0, 1.0, 1.0, 0.0, 0.0, false, ev);
+                return py::make_tuple(ev.c, sys.sparse_constraint_jacobian(ev));
+            },
+            "(c, C_q): the constraint equations [m, rad] and their Jacobian, sparse (CSC).",
+            py::arg("r"), py::arg("R"), py::arg("eta"), py::arg("t"))
         .def(
             "linear_matrices",
             [](const MultibodySystemCore& sys, const Arr& r, const Arr& R, const VecX& eta, const VecX& v,

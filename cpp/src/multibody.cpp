@@ -42,6 +42,13 @@ int MultibodySystemCore::add_body(MbBody body) {
     return n_bodies() - 1;
 }
 
+void MultibodySystemCore::set_length_scale(double L) {
+    if (!(std::isfinite(L) && L > 0.0))
+        throw std::invalid_argument("set_length_scale: the length scale must be positive and finite, got " +
+                                    std::to_string(L));
+    length_scale_ = std::max(L, length_scale_);
+}
+
 void MultibodySystemCore::add_joint(const MbJoint& j) {
     auto check = [&](int b, int nd) {
         if (b < 0 || b >= n_bodies() || nd < 0 || nd >= static_cast<int>(bodies_[b].s.size()))
@@ -376,15 +383,26 @@ void MultibodySystemCore::evaluate(const MbState& s, double mdot, double mdot_ra
     if (with_tangent && wK != 0.0) geometric_stiffness(s, mdot, load_factor, out.S, wK);
 }
 
-MatX MultibodySystemCore::constraint_jacobian(const MbEvaluation& ev) const {
-    MatX J = MatX::Zero(nc_, n_);
+Eigen::SparseMatrix<double> MultibodySystemCore::sparse_constraint_jacobian(const MbEvaluation& ev) const {
+    std::vector<Eigen::Triplet<double>> t;
+    auto put = [&](int r0, int c0, const MatX& B) {
+        for (Eigen::Index c = 0; c < B.cols(); ++c)
+            for (Eigen::Index i = 0; i < B.rows(); ++i)
+                if (B(i, c) != 0.0) t.emplace_back(r0 + static_cast<int>(i), c0 + static_cast<int>(c), B(i, c));
+    };
     for (size_t k = 0; k < joints_.size() && k < ev.joint_work.size(); ++k) {
         const MbJoint& j = joints_[k];
         const MbJointWork& w = ev.joint_work[k];
-        J.block(rows_[k], offsets_[j.body_a], w.Ja.rows(), w.Ja.cols()) += w.Ja;
-        if (j.body_b >= 0) J.block(rows_[k], offsets_[j.body_b], w.Jb.rows(), w.Jb.cols()) += w.Jb;
+        put(rows_[k], offsets_[j.body_a], w.Ja);
+        if (j.body_b >= 0) put(rows_[k], offsets_[j.body_b], w.Jb);
     }
+    Eigen::SparseMatrix<double> J(nc_, n_);
+    J.setFromTriplets(t.begin(), t.end());
     return J;
+}
+
+MatX MultibodySystemCore::constraint_jacobian(const MbEvaluation& ev) const {
+    return MatX(sparse_constraint_jacobian(ev));
 }
 
 double MultibodySystemCore::velocity_drift(const MbState& s, const MbEvaluation& ev) const {

@@ -131,7 +131,8 @@ def static_equilibrium(system: MultibodySystem, *, state: Optional[MultibodyStat
 
     Loads and gravity are applied in ``load_steps`` increments; Newton's method on the
     coordinates and the Lagrange multipliers, converged when the increment is below
-    ``tol`` times the largest body length (or stalls at round-off within 1e3 tol).
+    ``tol`` times the model's size (``system.length_scale``: the assembly's largest extent) (or
+    stalls at round-off within 1e3 tol).
     Neutral directions of a mechanism (a free hinge) keep their assembly value.
 
     Args:
@@ -139,7 +140,7 @@ def static_equilibrium(system: MultibodySystem, *, state: Optional[MultibodyStat
         mass_flow: mdot [kg/s] (default: the system's).
         t: time [s] at which the loads' time functions are evaluated.
         load_steps: increments of the loads and gravity.
-        tol: Newton tolerance on the increment, relative to the largest body length [-].
+        tol: Newton tolerance on the increment, relative to the model's size [-].
         max_iterations: Newton iterations per load step.
 
     Raises:
@@ -162,7 +163,7 @@ def static_equilibrium(system: MultibodySystem, *, state: Optional[MultibodyStat
     # the applied force level (loads, gravity, flow at the start, multipliers 0), to judge
     # the final residual
     start = replace(st, lam=np.zeros_like(st.lam))
-    applied = float(np.abs(system.evaluate(start, mass_flow=mdot, tangent=False)[0]).max(initial=0.0))
+    applied = float(np.abs(system.evaluate(start, mass_flow=mdot, tangent=False, jacobian=False)[0]).max(initial=0.0))
     elastic = np.zeros(system.n_coordinates, bool)
     for j in range(len(system.bodies)):
         sl = system.body_slice(j)
@@ -172,7 +173,7 @@ def static_equilibrium(system: MultibodySystem, *, state: Optional[MultibodyStat
     # sparse LU per iteration, the equations the integrator uses) instead of the null-space
     # step's dense SVDs (cubic in the number of bodies), which remain for mechanisms and as
     # the fallback.
-    sparse_path = not _has_mechanism(system.constraints(st)[1], elastic)
+    sparse_path = not _has_mechanism(system.constraints(st, sparse=True)[1], elastic)
     S = None
     for k in range(1, steps + 1):
         lf = k / steps
@@ -217,7 +218,7 @@ def static_equilibrium(system: MultibodySystem, *, state: Optional[MultibodyStat
                                    f"iterations (last increment {np.abs(dq).max():.3g}, constraint violation "
                                    f"{np.abs(c).max():.3g} m)", load_factor=lf, iteration=max_iterations,
                                    residual=float(np.abs(F).max()), mass_flow=mdot)
-    F, _, _, _ = system.evaluate(st, mass_flow=mdot, tangent=False)
+    F, _, _, _ = system.evaluate(st, mass_flow=mdot, tangent=False, jacobian=False)
     res = float(np.abs(F).max())
     if not res <= RESIDUAL_TOL * applied:
         # round-off of the stiffest forces: ~eps |S| L (nearly inextensible bodies: EA ~ 1e10 EI)
@@ -350,7 +351,7 @@ def simulate(system: MultibodySystem, t_end: float, *, step: float, state: Optio
             its supports are eliminated, there are no multipliers to damp.)
         newton_tol: Newton tolerance on the position error left after a step's iterations
             (estimated from the corrections' contraction, as in :func:`pipeflex.simulate`),
-            relative to the largest body length (an iteration that stalls within
+            relative to the model's size, system.length_scale (an iteration that stalls within
             10 newton_tol with an iteration matrix evaluated in the step is accepted:
             round-off). ``tol=`` is its deprecated name.
         max_newton: Newton iterations per step (``max_iterations=`` is its deprecated name);

@@ -15,6 +15,7 @@
 
 #include "pipeflex/elements/ffrf_body.hpp"
 #include "pipeflex/solvers/transient.hpp"
+#include <Eigen/SparseCore>
 
 #include <array>
 #include <functional>
@@ -122,7 +123,11 @@ class MultibodySystemCore {
     const std::vector<MbJoint>& joints() const { return joints_; }
     int n_bodies() const { return static_cast<int>(bodies_.size()); }
     int n_nodes(int body) const { return static_cast<int>(bodies_.at(body).s.size()); }
+    // The model's size [m], the scale of the Newton tests (converged increments, the
+    // divergence limit): at least the longest body; build() sets the extent of the
+    // assembly configuration (a chain of many short bodies is as large as the chain).
     double length_scale() const { return length_scale_; }
+    void set_length_scale(double L);
 
     // Throws std::invalid_argument unless the state's sizes fit the system (n_bodies
     // frames, n_coordinates eta, v, a, n_constraints lam) and its numbers are finite.
@@ -142,6 +147,8 @@ class MultibodySystemCore {
     MatX dense_tangent(const MbEvaluation& ev) const;
     // C_q (n_constraints x n_coordinates, dense) of the joints' blocks of an evaluation.
     MatX constraint_jacobian(const MbEvaluation& ev) const;
+    // The same, sparse (n_constraints x N): a joint's rows touch its two bodies only.
+    Eigen::SparseMatrix<double> sparse_constraint_jacobian(const MbEvaluation& ev) const;
     // max |C_q v| [m/s, rad/s] from an evaluation's joint blocks.
     double velocity_drift(const MbState& s, const MbEvaluation& ev) const;
     // Checks the state, the options and out_steps (increasing, within the run's steps)

@@ -106,7 +106,7 @@ class MultibodyEquations final : public Equations {
     }
 
    private:
-    // a frame farther than this many body lengths from its start: the motion diverged
+    // a frame farther than this many model sizes (length_scale) from its start: the motion diverged
     static constexpr double kDivergenceLimit = 1e3;
     static constexpr double kSlowRate = 1.5;
     static constexpr int kLongStep = 5;
