@@ -133,3 +133,77 @@ def test_coupled_static_warm_start_from_another_flow():
     assert again.iterations <= 1
     with pytest.raises(TypeError, match="CoupledStatic"):
         pf.static_equilibrium(cs, state=cold.state)
+
+
+def test_a_mixing_basis_gives_garbage_that_its_noise_covers():
+    """A basis that mixes a 1e20 N/m coordinate into the soft ones' columns (an orthonormal
+    basis rotated in the null space) leaves the soft eigenvalues garbage (+-20.7 and
+    +-18.2j against 0.89j and 1.49j: a spurious divergence), within their noise (~eps 1e20
+    / omega), so classify() counts no growth; the stiffness-metric basis gives the right
+    eigenvalues at round-off."""
+    import scipy.linalg as sla
+    import scipy.sparse as sp
+    from pipeflex.analysis.constrained import ConstrainedLinearization, null_space_basis, reduce
+    from pipeflex.analysis.eigen import classify
+
+    k = np.array([1e20, 1e20, 2.0, 1.0])
+    K = sp.csc_matrix(np.diag(k) + np.diag([0.0, -0.5, -0.5], 1) + np.diag([0.0, -0.5, -0.5], -1))
+    M, C = sp.identity(4, format="csc"), sp.csc_matrix((4, 4))
+    Cq = sp.csc_matrix(np.array([[1.0, -1.0, 0.0, 0.0]]))
+    Q = sla.qr(np.random.default_rng(1).standard_normal((3, 3)))[0]
+
+    def linearization(T):
+        return ConstrainedLinearization(*reduce(T, M, C, K), 0.0, None, T, (abs(M), abs(C), abs(K)))
+
+    mixed = linearization(sla.null_space(Cq.toarray()) @ Q)
+    eig = pf.eigenvalues(mixed, vectors=True)
+    i = int(np.argmax(eig.values.real))
+    assert 10.0 < eig.values[i].real < eig.noise[i]  # the spurious divergence, within its noise
+    assert mixed.reduction_noise(eig.values[i], eig.vectors[:, i])[0] > 1e2  # the reduction's bound sees it too
+    assert classify(eig) == "stable"
+    metric = pf.eigenvalues(linearization(null_space_basis(Cq, K)))
+    assert np.allclose(np.sort(np.abs(metric.values)), [0.89044552, 0.89044552, 1.48563346, 1.48563346])
+    assert np.all(metric.values.real == 0.0) and metric.noise.max() < 1e-12
+
+
+def test_reduction_noise_of_the_cantilever_on_a_stiff_hub(monkeypatch):
+    """The reduction's componentwise bound on the lowest eigenvalue (4.1 rad/s) of the
+    cantilever on a stiff hub at 10 kg/s: ~1e-4 1/s with a basis orthonormal in q (it
+    mixes the hub's 1e20 N/m into the arm's columns; the eigen-solver's own bound, 2e-11,
+    does not see that), ~5e-10 in the stiffness metric."""
+    import scipy.linalg as sla
+    from pipeflex.analysis import constrained
+
+    def lowest_bound():
+        lin = pf.linearize(on_stiff_hub(10.0))
+        eig = pf.eigenvalues(lin, vectors=True)
+        i = int(np.argmin(np.abs(eig.values)))
+        return lin.reduction_noise(eig.values[i], eig.vectors[:, i])[0], eig.noise[i]
+
+    metric, solver = lowest_bound()
+    assert metric < 1e-8 and solver < 1e-9
+    monkeypatch.setattr(constrained, "null_space_basis", lambda Cq, K=None: sla.null_space(Cq.toarray(), rcond=1e-10))
+    orthonormal, solver = lowest_bound()
+    assert orthonormal > 1e-6 > 1e3 * solver
+
+
+def test_the_reduction_bound_joins_the_noise_where_growth_is_judged():
+    """with_reduction_noise: an eigenvalue growing beyond the eigen-solver's bound but
+    within the reduction's (a 1e20 N/m coordinate in its basis column, 1e-5 of it) counts
+    as zero; an element model's linearisation (no magnitudes) is left alone."""
+    import scipy.sparse as sp
+    from pipeflex.analysis.constrained import ConstrainedLinearization
+    from pipeflex.analysis.eigen import EigenResult, classify, with_reduction_noise
+
+    one = sp.csc_matrix(np.ones((1, 1)))
+    T = np.array([[1.0], [1e-5]])
+    lin = ConstrainedLinearization(one, 0 * one, one, 0.0, None, T,
+                                   (sp.csc_matrix(np.eye(2)), sp.csc_matrix((2, 2)), sp.csc_matrix(np.diag([1.0, 1e20]))))
+    eig = EigenResult(np.array([1e-7 + 1j, 1e-7 - 1j]), np.array([1e-12, 1e-12]), np.ones((1, 2), complex),
+                      np.zeros(2, int))
+    assert classify(eig) == "flutter"
+    joined = with_reduction_noise(eig, lin, None)
+    bound = 2 * np.finfo(float).eps * (1 + 1e20 * 1e-10 + 1.0) / 2  # N eps y^T(|lam|^2|M| + |K|)y / |2 lam|
+    assert joined.noise == pytest.approx([bound, bound], rel=1e-12)
+    assert classify(joined) == "stable"
+    assert with_reduction_noise(eig, pf.linearize(pf.scenes.cantilever_pipe(n_elements=2)), None) is eig

@@ -38,7 +38,7 @@ from .._options import renamed
 from ..errors import ConvergenceError
 from .eigen import (SPARSE_MIN_DOFS, classify, eigen_from_blocks, free_coordinates, sparse_block_eigenvalues,
                     MECHANISM_CONDITIONING, QuadraticPencil, eigen_noise, sparse_eigen_from_blocks,
-                    split_blocks, stiffness_conditioning)
+                    split_blocks, stiffness_conditioning, with_reduction_noise)
 from ._assembly import require_model
 from .linearize import linearize
 from .static import static_equilibrium
@@ -120,14 +120,19 @@ class _Evaluator:
                           mass_flow=mdot, reached_mass_flow=e.reached_mass_flow, reached_state=e.reached_state)
             raise err from e
         lin = linearize(self.model, st, mass_flow=mdot)
-        return split_blocks(lin.K, lin.C, lin.M, sparse=self.sparse), st
+        return split_blocks(lin.K, lin.C, lin.M, sparse=self.sparse), st, lin
 
     def __call__(self, mdot, vectors=False):
         self.count += 1
-        blocks, st = self.blocks(mdot)
-        if self.sparse:
-            return sparse_eigen_from_blocks(blocks, self.model.n_dofs, SCAN_MODES, vectors=vectors), st
-        return eigen_from_blocks(blocks, self.model.n_dofs, vectors=vectors), st
+        blocks, st, lin = self.blocks(mdot)
+
+        def solve(want_vectors):
+            if self.sparse:
+                return sparse_eigen_from_blocks(blocks, self.model.n_dofs, SCAN_MODES, vectors=want_vectors)
+            return eigen_from_blocks(blocks, self.model.n_dofs, vectors=want_vectors)
+
+        eig = with_reduction_noise(solve(vectors), lin, lambda: solve(True))
+        return (eig if vectors else replace(eig, vectors=None)), st
 
 
 @small_problems_single_threaded
@@ -495,7 +500,7 @@ def _track_root(ev, lo, hi, eig_hi, xtol):
         if len(keys) == 2:
             k0, k1 = keys
             lam0 = lam0 + (seen[k1][0] - lam0) * (m - k0) / (k1 - k0)
-        blocks, _ = ev.blocks(m)
+        blocks, _, _ = ev.blocks(m)
         block = next((b for b in blocks if np.array_equal(b.dofs, dofs)), None)
         if block is None:
             raise ValueError("the block structure changed")
