@@ -389,9 +389,9 @@ def _moving_inlets(model) -> str:
     fluid to the inlet's velocity v (docs/theory.md), which does the work mdot |v|^2 on
     the pipe: a mode that moves the inlet gains energy at a rate proportional to the flow.
     A clamped inlet never moves; one held by a body that carries no fluid moves with the
-    body's modes, e.g. a stiff hub's at 9e4 rad/s grow at Re lambda = 3.1e-3 1/s per kg/s
-    (measured from 0.003 to 24 kg/s, the same for hubs 1e2 to 1e6 times stiffer): the
-    model is unstable from the first flow, not at round-off."""
+    body's modes, e.g. a stiff hub's (9e4 to 3e9 rad/s) grow at Re lambda = 2.6e-3 to
+    3.1e-3 1/s per kg/s (measured from 0.003 to 24 kg/s, the same for hubs 1e2 to 1e6
+    times stiffer): the model is unstable from the first flow, not at round-off."""
     joints = getattr(model, "joints", None)
     elements = getattr(getattr(model, "model", None), "elements", None)
     if not joints or elements is None:
