@@ -432,6 +432,7 @@ def orbit_guess(model, *, node: int, step: float, component: int = 1, state=None
     from ..signals import zero_crossings
     from .transient import simulate
 
+    require_model(model)
     node = _checks.non_negative_int("node", node)
     if node >= model.n_nodes:
         raise ValueError(f"node must be in [0, {model.n_nodes}), got {node}")
