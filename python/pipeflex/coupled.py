@@ -157,6 +157,25 @@ class CoupledSystem:
         return self.model.n_dofs + self.bodies.n_coordinates
 
     @property
+    def n_dofs(self) -> int:
+        """Independent coordinates: coordinates less constraints (the joints and couplings
+        are independent, else the static solve reports a motion locked twice)."""
+        return self.n_coordinates - self.n_constraints
+
+    def flow_scale(self) -> float:
+        """mdot_ref [kg/s], the natural unit of mass flow (:meth:`pipeflex.Model.flow_scale`):
+        the smaller of the element model's and the bodies' that carry fluid."""
+        scales = []
+        for part in (self.model, self.bodies):
+            try:
+                scales.append(part.flow_scale())
+            except ValueError:  # this part carries no fluid
+                pass
+        if not scales:
+            raise ValueError("the system has no element or body that carries fluid")
+        return min(scales)
+
+    @property
     def n_constraints(self) -> int:
         rows = {"rigid": 6, "hinge": 5, "spherical": 3}
         return self.bodies.n_constraints + sum(3 if self._ancf(c.node) else rows[c.kind] for c in self._joints)

@@ -10,12 +10,21 @@ from ..state import State
 
 
 def require_model(model, name: str = "model"):
-    """``model`` is a :class:`~pipeflex.Model`, else TypeError naming ``name`` (a
-    :class:`~pipeflex.multibody.MultibodySystem` is dispatched before this check)."""
+    """``model`` is a :class:`~pipeflex.Model`, else TypeError naming ``name`` (the
+    analyses that take a :class:`~pipeflex.multibody.MultibodySystem` or a
+    :class:`~pipeflex.CoupledSystem` dispatch them before this check; for the others the
+    message says that they take element models only)."""
     if not isinstance(model, Model):
-        hint = " (a tuple: pass the state as state=)" if isinstance(model, tuple) else ""
-        raise TypeError(f"{name} must be a pipeflex.Model (ModelBuilder.build() or a scene) or a "
-                        f"MultibodySystem, got {type(model).__name__}{hint}")
+        kind = type(model).__name__
+        if isinstance(model, tuple):
+            hint = " (a tuple: pass the state as state=)"
+        elif kind in ("MultibodySystem", "CoupledSystem"):
+            hint = (": this analysis takes element models only (docs/user_guide.md, 'Elements and bodies in one "
+                    "system', lists which analysis takes which system)")
+        else:
+            hint = (" (static_equilibrium, linearize, critical_mass_flow and simulate also take a MultibodySystem "
+                    "or a CoupledSystem)")
+        raise TypeError(f"{name} must be a pipeflex.Model (ModelBuilder.build() or a scene), got {kind}{hint}")
     return model
 
 

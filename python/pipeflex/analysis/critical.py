@@ -38,7 +38,7 @@ from .._options import renamed
 from ..errors import ConvergenceError
 from .eigen import (SPARSE_MIN_DOFS, classify, eigen_from_blocks, free_coordinates, sparse_block_eigenvalues,
                     MECHANISM_CONDITIONING, QuadraticPencil, eigen_noise, sparse_eigen_from_blocks,
-                    split_blocks, stiffness_conditioning)
+                    split_blocks, stiffness_conditioning, with_reduction_noise)
 from ._assembly import require_model
 from .linearize import linearize
 from .static import static_equilibrium
@@ -82,16 +82,24 @@ class _Evaluator:
     """Static solve + linearisation + eigen-analysis at a mass flow, warm-started."""
 
     def __init__(self, model, state):
+        from ..coupled import CoupledStatic, CoupledSystem
         from ..multibody import MultibodySystem
 
-        if not isinstance(model, MultibodySystem):
+        self.coupled = isinstance(model, CoupledSystem)
+        if self.coupled:
+            if state is not None and not isinstance(state, CoupledStatic):
+                raise TypeError(f"state must be a CoupledStatic (pipeflex.static_equilibrium(system)) for a "
+                                f"CoupledSystem, got {type(state).__name__}")
+        elif not isinstance(model, MultibodySystem):
             require_model(model)
         self.model = model
-        self.state = model.initial_state() if state is None else state
+        # a coupled system's static solve starts from its assembly configuration (None)
+        self.state = model.initial_state() if state is None and not self.coupled else state
         self.flow = None  # mdot of self.state once it is an equilibrium
         self.count = 0
         self.sparse = model.n_dofs >= SPARSE_MIN_DOFS
-        self.continuation = not isinstance(model, MultibodySystem)
+        # bodies and coupled systems: warm-started solves without the flow continuation
+        self.continuation = not (self.coupled or isinstance(model, MultibodySystem))
 
     def accept(self, mdot, state):
         """Warm-start the next static solves from this equilibrium at mdot."""
@@ -104,21 +112,27 @@ class _Evaluator:
         ramp = (dict(from_mass_flow=self.flow, max_bisections=FLOW_BISECTIONS)
                 if self.continuation and self.flow is not None else {})
         try:
-            st = static_equilibrium(self.model, state=self.state, mass_flow=mdot, **ramp).state
+            solved = static_equilibrium(self.model, state=self.state, mass_flow=mdot, **ramp)
+            st = solved if self.coupled else solved.state  # a CoupledStatic holds all parts and multipliers
         except ConvergenceError as e:
             err = type(e)(f"critical_mass_flow: the static solve failed at mdot = {mdot:.6g} kg/s: {e}",
                           load_factor=e.load_factor, iteration=e.iteration, residual=e.residual,
                           mass_flow=mdot, reached_mass_flow=e.reached_mass_flow, reached_state=e.reached_state)
             raise err from e
         lin = linearize(self.model, st, mass_flow=mdot)
-        return split_blocks(lin.K, lin.C, lin.M, sparse=self.sparse), st
+        return split_blocks(lin.K, lin.C, lin.M, sparse=self.sparse), st, lin
 
     def __call__(self, mdot, vectors=False):
         self.count += 1
-        blocks, st = self.blocks(mdot)
-        if self.sparse:
-            return sparse_eigen_from_blocks(blocks, self.model.n_dofs, SCAN_MODES, vectors=vectors), st
-        return eigen_from_blocks(blocks, self.model.n_dofs, vectors=vectors), st
+        blocks, st, lin = self.blocks(mdot)
+
+        def solve(want_vectors):
+            if self.sparse:
+                return sparse_eigen_from_blocks(blocks, self.model.n_dofs, SCAN_MODES, vectors=want_vectors)
+            return eigen_from_blocks(blocks, self.model.n_dofs, vectors=want_vectors)
+
+        eig = with_reduction_noise(solve(vectors), lin, lambda: solve(True))
+        return (eig if vectors else replace(eig, vectors=None)), st
 
 
 @small_problems_single_threaded
@@ -128,12 +142,17 @@ def critical_mass_flow(model, *, tol: float = 1e-10, mass_flow_max: Optional[flo
     """Lowest mass flow at which the static equilibrium becomes unstable.
 
     Args:
-        model: the model (its loads and gravity are applied; the flow is varied).
+        model: the model (its loads and gravity are applied; the flow is varied): an
+            element :class:`~pipeflex.Model`, a :class:`~pipeflex.multibody.MultibodySystem`
+            or a :class:`~pipeflex.CoupledSystem` (their linearisations in independent
+            coordinates, :mod:`pipeflex.analysis.constrained`; no flow continuation: each
+            static solve starts from the last equilibrium).
         tol: relative tolerance on the critical mass flow [-] (``rtol=`` is its
             deprecated name; ``tol`` as in the static solvers, ``rtol`` is IDA's).
         mass_flow_max: mdot [kg/s] up to which to search (default 20 flow units).
         steps_per_unit: scan points per flow unit (:meth:`Model.flow_scale`).
-        state: starting guess for the static solves.
+        state: starting guess for the static solves (of a CoupledSystem: a
+            :class:`~pipeflex.coupled.CoupledStatic`).
 
     A static equilibrium path that ends in a fold (a limit point: the stable equilibrium
     meets an unstable one and there is none beyond, e.g. a stiff U-tube whose free end
@@ -197,7 +216,7 @@ def critical_mass_flow(model, *, tol: float = 1e-10, mass_flow_max: Optional[flo
         # Track the crossing eigenvalue over the scan bracket; bisect only if that fails.
         try:
             mc = _track_root(ev, lo, hi, eig_hi, xtol)
-            _check_not_at_zero(mc, unit, hi, eig_hi)
+            _check_not_at_zero(mc, unit, hi, eig_hi, ev.model)
             return _result(ev, mc, "flutter")
         except (ValueError, ConvergenceError):
             pass  # tracking lost: fall back to bisection on full eigen-analyses
@@ -215,7 +234,7 @@ def critical_mass_flow(model, *, tol: float = 1e-10, mass_flow_max: Optional[flo
         try:
             mc = _track_root(ev, lo, hi, eig_hi, xtol)  # narrow bracket: tracking is safe
         except (ValueError, ConvergenceError):  # no sign change (Re(lambda) > 0 down to lo) or lost
-            _check_not_at_zero(lo, unit, hi, eig_hi)
+            _check_not_at_zero(lo, unit, hi, eig_hi, ev.model)
             iw = int(np.argmax(eig_hi.values.real))
             worst = eig_hi.values[iw]
             why = ("a weakly growing mode near the noise level (e.g. of a loaded floating-frame body, "
@@ -226,8 +245,8 @@ def critical_mass_flow(model, *, tol: float = 1e-10, mass_flow_max: Optional[flo
                         "stiffness of short elements; use fewer elements)")
             raise ConvergenceError(f"flutter between {lo:.6g} and {hi:.6g} kg/s (lambda = {worst.real:.3g} "
                                    f"{worst.imag:+.6g}j 1/s), but the crossing eigenvalue could not be followed "
-                                   f"through zero: {why}", mass_flow=hi) from None
-        _check_not_at_zero(mc, unit, hi, eig_hi)
+                                   f"through zero: {why}{_moving_inlets(ev.model)}", mass_flow=hi) from None
+        _check_not_at_zero(mc, unit, hi, eig_hi, ev.model)
     else:
         def kmin(m):
             e, _ = ev(m)
@@ -348,7 +367,7 @@ def _stiffness_eigenvalues_near_zero(K, k=3):
     return vals
 
 
-def _check_not_at_zero(mc, unit, hi, eig_hi):
+def _check_not_at_zero(mc, unit, hi, eig_hi, model):
     """A flutter crossing at mdot -> 0 is no critical flow: the equilibrium is only
     marginally stable without flow and the first flow destabilises it (e.g. a weakly
     growing mode of a loaded floating-frame body, docs/theory.md). Say so instead of
@@ -359,7 +378,34 @@ def _check_not_at_zero(mc, unit, hi, eig_hi):
         raise ConvergenceError(
             f"the equilibrium loses stability as soon as the flow starts (crossing at mdot = {mc:.3g} kg/s; at "
             f"{hi:.6g} kg/s lambda = {worst.real:.3g} {worst.imag:+.6g}j 1/s): it is only marginally stable "
-            "without flow, so there is no critical flow to report", mass_flow=mc)
+            f"without flow, so there is no critical flow to report{_moving_inlets(model)}", mass_flow=mc)
+
+
+def _moving_inlets(model) -> str:
+    """For a :class:`~pipeflex.CoupledSystem`: the element inlets joined to bodies, named
+    as a likely cause of a growth that starts with the flow ('' if none or another model).
+
+    Why: the unsplit element's inlet end term is the force that accelerates the incoming
+    fluid to the inlet's velocity v (docs/theory.md), which does the work mdot |v|^2 on
+    the pipe: a mode that moves the inlet gains energy at a rate proportional to the flow.
+    A clamped inlet never moves; one held by a body that carries no fluid moves with the
+    body's modes, e.g. a stiff hub's (9e4 to 3e9 rad/s) grow at Re lambda = 2.6e-3 to
+    3.1e-3 1/s per kg/s (measured from 0.003 to 24 kg/s, the same for hubs 1e2 to 1e6
+    times stiffer): the model is unstable from the first flow, not at round-off."""
+    joints = getattr(model, "joints", None)
+    elements = getattr(getattr(model, "model", None), "elements", None)
+    if not joints or elements is None:
+        return ""
+    ends = [e.nodes if e.flow_factor > 0 else e.nodes[::-1] for e in elements
+            if e.kind == "pipe" and e.flow_factor != 0 and e.section.fluid_mass > 0]
+    outlets = {q for _, q in ends}
+    inlets = sorted({j.node for j in joints if any(p == j.node for p, _ in ends) and j.node not in outlets})
+    if not inlets:
+        return ""
+    return (f"; element node(s) {', '.join(map(str, inlets))}, an inlet of the flow, move(s) with a body: the "
+            "inlet end term (the force accelerating the incoming fluid to the inlet's velocity) feeds every mode "
+            "that moves the inlet, at a rate proportional to the flow. Where the fluid comes from a still "
+            "reservoir, mark the inlet with ModelBuilder.reservoir_inlet(node) (docs/theory.md)")
 
 
 def refine_eigenpair(block, lam, x=None, *, tol=1e-10, max_iterations=20):
@@ -454,7 +500,7 @@ def _track_root(ev, lo, hi, eig_hi, xtol):
         if len(keys) == 2:
             k0, k1 = keys
             lam0 = lam0 + (seen[k1][0] - lam0) * (m - k0) / (k1 - k0)
-        blocks, _ = ev.blocks(m)
+        blocks, _, _ = ev.blocks(m)
         block = next((b for b in blocks if np.array_equal(b.dofs, dofs)), None)
         if block is None:
             raise ValueError("the block structure changed")

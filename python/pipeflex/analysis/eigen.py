@@ -438,7 +438,9 @@ def eigenvalues(lin, *, vectors: bool = False, n_modes: Optional[int] = None,
     The sparse method's ``static_negative`` counts negative stiffness eigenvalues of the
     massless blocks by the inertia of a symmetric sparse LU; its ``noise`` is the larger
     of the round-off bound of each eigenvalue (:func:`eigen_noise`, ~N^4 eps for a beam
-    of N elements) and its first-order error estimate from the residual.
+    of N elements) and its first-order error estimate from the residual. A constrained
+    linearisation (bodies, coupled systems) adds the round-off of its reduction to the
+    null space (:func:`with_reduction_noise`).
     """
     if not all(hasattr(lin, name) for name in ("K", "C", "M")):
         raise TypeError(f"lin must be a Linearization (pipeflex.linearize(model, state)), got {type(lin).__name__}")
@@ -450,15 +452,45 @@ def eigenvalues(lin, *, vectors: bool = False, n_modes: Optional[int] = None,
         raise ValueError("sigma and method='sparse' need n_modes (the number of eigenvalues near sigma)")
     n = lin.K.shape[0]
     labels = getattr(lin, "dof_labels", None)
-    if method == "sparse" or (method == "auto" and n_modes is not None and n >= SPARSE_MIN_DOFS):
-        blocks = split_blocks(lin.K, lin.C, lin.M, sparse=True)
-        eig = sparse_eigen_from_blocks(blocks, n, n_modes, sigma=sigma, vectors=vectors)
-    else:
+
+    def solve(want_vectors):
+        if method == "sparse" or (method == "auto" and n_modes is not None and n >= SPARSE_MIN_DOFS):
+            blocks = split_blocks(lin.K, lin.C, lin.M, sparse=True)
+            return sparse_eigen_from_blocks(blocks, n, n_modes, sigma=sigma, vectors=want_vectors)
         blocks = split_blocks(lin.K, lin.C, lin.M)
-        eig = eigen_from_blocks(blocks, n, vectors=vectors)
+        eig = eigen_from_blocks(blocks, n, vectors=want_vectors)
         if n_modes is not None:
             eig = _select(eig, n_modes, 0.0 if sigma is None else complex(sigma))
-    return replace(eig, dof_labels=labels)
+        return eig
+
+    eig = with_reduction_noise(solve(vectors), lin, lambda: solve(True))
+    return replace(eig, dof_labels=labels, vectors=eig.vectors if vectors else None)
+
+
+def with_reduction_noise(eig: EigenResult, lin, solve_with_vectors) -> EigenResult:
+    """``eig`` with the round-off that a constrained linearisation's reduction adds
+    (:func:`pipeflex.analysis.constrained.reduction_noise`) joined to its ``noise`` (the
+    larger of the two), so that :func:`classify` (:func:`stability`,
+    :func:`~pipeflex.critical_mass_flow`) counts a growth below it as zero: one bound,
+    one test. It is joined where it can change that decision, to the eigenvalues that
+    grow beyond the eigen-solver's own bound (:func:`_growing`); it needs their vectors,
+    so without them ``solve_with_vectors()`` computes ``eig`` again with vectors (only
+    then: at a stable point of a critical-flow scan nothing is recomputed). An element
+    model's linearisation leaves ``eig`` unchanged."""
+    if getattr(lin, "magnitudes", None) is None:
+        return eig
+    suspects = _growing(eig)
+    if not suspects.any():
+        return eig
+    if eig.vectors is None:
+        eig = solve_with_vectors()
+        suspects = _growing(eig)
+        if not suspects.any():
+            return eig
+    noise = eig.noise.copy()
+    noise[suspects] = np.maximum(noise[suspects],
+                                 lin.reduction_noise(eig.values[suspects], eig.vectors[:, suspects]))
+    return replace(eig, noise=noise)
 
 
 def _select(eig: EigenResult, k: int, sigma: complex) -> EigenResult:
@@ -789,11 +821,18 @@ def classify(eig: EigenResult) -> str:
     """:func:`stability` without its checks (for analyses that pass a stiffness that is
     singular at a stability boundary, such as the critical-flow search)."""
     lam = eig.values
-    growing = lam[lam.real > np.maximum(GROWTH_TOL * np.abs(lam), eig.noise)]
+    growing = lam[_growing(eig)]
     if len(growing) == 0:
         return "divergence" if eig.static_negative else "stable"
     worst = growing[np.argmax(growing.real)]
     return "divergence" if abs(worst.imag) <= 1e-6 * abs(worst) else "flutter"
+
+
+def _growing(eig: EigenResult) -> np.ndarray:
+    """Mask of the eigenvalues that grow: Re(lambda) above GROWTH_TOL |lambda| and above
+    their round-off bound ``noise``."""
+    lam = eig.values
+    return lam.real > np.maximum(GROWTH_TOL * np.abs(lam), eig.noise)
 
 
 def _jacobi_scaled(K):

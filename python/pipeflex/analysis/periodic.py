@@ -39,6 +39,7 @@ from ..errors import ConvergenceError
 from ..results import Result
 from ..state import State, as_core
 from .._blas import small_problems_single_threaded
+from ._assembly import require_model
 
 #: steps of the integrator per period unless given
 STEPS_PER_PERIOD = 512
@@ -375,6 +376,7 @@ def periodic_orbit(model, *, period: float, state=None, base=None, mass_flow: Op
     Raises:
         ConvergenceError: the shooting did not converge (``iteration``, ``residual``).
     """
+    require_model(model)
     T = _checks.positive("period", period)
     steps = _checks.positive_int("steps", steps)
     tol = _checks.positive("tol", tol)
@@ -430,6 +432,7 @@ def orbit_guess(model, *, node: int, step: float, component: int = 1, state=None
     from ..signals import zero_crossings
     from .transient import simulate
 
+    require_model(model)
     node = _checks.non_negative_int("node", node)
     if node >= model.n_nodes:
         raise ValueError(f"node must be in [0, {model.n_nodes}), got {node}")
@@ -503,6 +506,7 @@ def continue_orbits(model, *, start, mass_flow_end: float, amplitude: float = 1e
     """
     from .static import static_equilibrium
 
+    require_model(model)
     if getattr(start, "kind", None) != "flutter":
         raise ValueError("start must be a CriticalFlow of kind 'flutter' (a Hopf point); got "
                          f"{getattr(start, 'kind', type(start).__name__)!r}")
