@@ -191,7 +191,7 @@ def test_reduction_noise_of_the_cantilever_on_a_stiff_hub(monkeypatch):
 def test_the_reduction_bound_joins_the_noise_where_growth_is_judged():
     """with_reduction_noise: an eigenvalue growing beyond the eigen-solver's bound but
     within the reduction's (a 1e20 N/m coordinate in its basis column, 1e-5 of it) counts
-    as zero; an element model's linearisation (no magnitudes) is left alone."""
+    as zero; an element model's linearisation (no unreduced matrices) is left alone."""
     import scipy.sparse as sp
     from pipeflex.analysis.constrained import ConstrainedLinearization
     from pipeflex.analysis.eigen import EigenResult, classify, with_reduction_noise

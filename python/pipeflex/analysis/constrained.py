@@ -37,9 +37,9 @@ class ConstrainedLinearization(Result):
     q = q0 (+) T z with C_q T = 0 (``basis`` T, N x n_dofs, orthonormal in the metric of
     K's diagonal: :func:`null_space_basis`), about ``state``,
     at ``mass_flow`` mdot [kg/s]. Same use as :class:`pipeflex.Linearization`
-    (:func:`pipeflex.eigenvalues`, :func:`pipeflex.stability`). ``magnitudes``:
-    (|M|, |C|, |K|) in the system's coordinates q (CSC), which bound the reduction's
-    round-off (:func:`reduction_noise`)."""
+    (:func:`pipeflex.eigenvalues`, :func:`pipeflex.stability`). ``unreduced``:
+    (M, C, K) in the system's coordinates q (CSC), whose absolute values bound the
+    reduction's round-off (:func:`reduction_noise`; taken only where it is needed)."""
 
     M: sp.csc_matrix
     C: sp.csc_matrix
@@ -47,7 +47,7 @@ class ConstrainedLinearization(Result):
     mass_flow: float
     state: Any
     basis: np.ndarray
-    magnitudes: Optional[Tuple[sp.csc_matrix, sp.csc_matrix, sp.csc_matrix]] = None
+    unreduced: Optional[Tuple[sp.csc_matrix, sp.csc_matrix, sp.csc_matrix]] = None
 
     @property
     def n_dofs(self) -> int:
@@ -57,8 +57,8 @@ class ConstrainedLinearization(Result):
     def reduction_noise(self, lam, X) -> np.ndarray:
         """Round-off bound [1/s] that the reduction T^T X T adds to eigenvalues ``lam``
         with right vectors ``X`` (columns, coordinates z): see :func:`reduction_noise`
-        (zeros without ``magnitudes``)."""
-        if self.magnitudes is None:
+        (zeros without ``unreduced``)."""
+        if self.unreduced is None:
             return np.zeros(len(np.atleast_1d(lam)))
         return reduction_noise(self, lam, X)
 
@@ -105,11 +105,11 @@ def reduce(T: np.ndarray, *matrices):
 def linearization(cls, out: dict, mass_flow: float, state):
     """A ``cls`` (a :class:`ConstrainedLinearization`) from the core's ``linear_matrices``
     about ``state``: the matrices reduced to the constraints' null space, with the
-    magnitudes that bound the reduction's round-off."""
+    unreduced ones, whose absolute values bound the reduction's round-off."""
     K, C, M, Cq = from_core(out)
     T = null_space_basis(Cq, K)
     Mr, Cr, Kr = reduce(T, M, C, K)
-    return cls(Mr, Cr, Kr, mass_flow, state, T, (abs(M).tocsc(), abs(C).tocsc(), abs(K).tocsc()))
+    return cls(Mr, Cr, Kr, mass_flow, state, T, (M, C, K))
 
 
 def reduction_noise(lin: ConstrainedLinearization, lam, X) -> np.ndarray:
@@ -119,14 +119,14 @@ def reduction_noise(lin: ConstrainedLinearization, lam, X) -> np.ndarray:
         N eps |x|^T (|lam|^2 |M|_T + |lam| |C|_T + |K|_T) |x| / |x^H T'(lam) x|,
     |X|_T = |T|^T |X| |T| (x stands in for the left vector, as in
     :func:`~pipeflex.analysis.eigen.eigen_noise`), computed as y^T |X| y with y = |T| |x|
-    from ``lin.magnitudes`` |X| (the full matrices: sparse, no second reduction). A
+    from the unreduced |X| (``lin.unreduced``: sparse, no second reduction). A
     worst case (signs aligned), so a
     bound: where the basis mixes a stiff coordinate into the columns of a soft one this
     is large (an orthonormal basis for the cantilever on a stiff hub: 1.4e-4 1/s on its
     4 rad/s mode, 6e6 times the eigen-solver's own bound); in the metric of
     :func:`null_space_basis` it is 5e-10 1/s there (44 times the solver's bound at most,
     below GROWTH_TOL |lambda|)."""
-    Ma, Ca, Ka = lin.magnitudes
+    Ma, Ca, Ka = (abs(X) for X in lin.unreduced)
     lam = np.atleast_1d(np.asarray(lam, complex))
     X = np.asarray(X, complex).reshape(lin.basis.shape[1], -1)
     y, al = np.abs(lin.basis) @ np.abs(X), np.abs(lam)

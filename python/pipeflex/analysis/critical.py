@@ -98,6 +98,7 @@ class _Evaluator:
         self.flow = None  # mdot of self.state once it is an equilibrium
         self.count = 0
         self.sparse = model.n_dofs >= SPARSE_MIN_DOFS
+        self._kept = {}  # mdot -> (blocks, equilibrium, linearisation), the last few
         # bodies and coupled systems: warm-started solves without the flow continuation
         self.continuation = not (self.coupled or isinstance(model, MultibodySystem))
 
@@ -106,6 +107,16 @@ class _Evaluator:
         self.state, self.flow = state, mdot
 
     def blocks(self, mdot):
+        # The scan's bracket ends and the converged crossing are asked for again (by the
+        # tracking and the final check): the same equilibrium, kept, not solved again.
+        key = float(mdot)
+        if key not in self._kept:
+            if len(self._kept) >= 8:
+                self._kept.pop(next(iter(self._kept)))
+            self._kept[key] = self._solve(key)
+        return self._kept[key]
+
+    def _solve(self, mdot):
         # From the last accepted equilibrium the flow is continued to mdot, the step
         # halved (at most FLOW_BISECTIONS times) where Newton fails; the first try is the
         # full step, as a plain warm-started solve.

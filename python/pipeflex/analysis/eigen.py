@@ -477,7 +477,7 @@ def with_reduction_noise(eig: EigenResult, lin, solve_with_vectors) -> EigenResu
     so without them ``solve_with_vectors()`` computes ``eig`` again with vectors (only
     then: at a stable point of a critical-flow scan nothing is recomputed). An element
     model's linearisation leaves ``eig`` unchanged."""
-    if getattr(lin, "magnitudes", None) is None:
+    if getattr(lin, "unreduced", None) is None:
         return eig
     suspects = _growing(eig)
     if not suspects.any():
