@@ -391,12 +391,12 @@ TransientOutput integrate_generalized_alpha(const Model& model, State& state, co
 
 // The linearisation of one step of the flow map (or of its start): K and C at the
 // converged state, dense below kDenseLuBelow unknowns (where the products with the
-// directions are dense anyway), and the step's iteration matrix factorised.
+// directions are dense anyway), and the step's iteration matrix factorised by the
+// integrators' FixedPatternLU (dense, banded for a chain of elements, or sparse).
 struct TangentStep {
     Eigen::MatrixXd Kd, Cd;
     Eigen::SparseMatrix<double> Ks, Cs;
-    Eigen::PartialPivLU<Eigen::MatrixXd> dense_lu;
-    std::shared_ptr<Eigen::SparseLU<Eigen::SparseMatrix<double>, Eigen::COLAMDOrdering<int>>> sparse_lu;
+    std::shared_ptr<FixedPatternLU> lu;
 };
 
 struct FlowMapTangent::Impl {
@@ -412,9 +412,9 @@ int FlowMapTangent::dimension() const { return 2 * impl_->n; }
 std::size_t FlowMapTangent::bytes() const {
     std::size_t b = 0;
     for (const auto& s : impl_->steps) {
-        b += sizeof(double) * static_cast<std::size_t>(s.Kd.size() + s.Cd.size() + s.dense_lu.matrixLU().size());
+        b += sizeof(double) * static_cast<std::size_t>(s.Kd.size() + s.Cd.size());
         b += (sizeof(double) + sizeof(int)) * static_cast<std::size_t>(s.Ks.nonZeros() + s.Cs.nonZeros());
-        if (s.sparse_lu) b += (sizeof(double) + sizeof(int)) * static_cast<std::size_t>(s.sparse_lu->nnzL() + s.sparse_lu->nnzU());
+        if (s.lu) b += s.lu->bytes();
     }
     return b;
 }
@@ -434,11 +434,10 @@ Eigen::MatrixXd FlowMapTangent::apply(const Eigen::MatrixXd& directions) const {
         if (T.dense) {
             rhs.noalias() = -s.Kd * X;
             rhs.noalias() -= s.Cd * Y;
-            out = s.dense_lu.solve(rhs);
         } else {
             rhs = -(s.Ks * X + s.Cs * Y);
-            out = s.sparse_lu->solve(rhs);
         }
+        s.lu->solve(rhs, out);
     };
     solve(T.steps.front(), Sz, Sv, Sa);  // M da0 = -(K dz0 + C dv0)
     Spa = Sa;
@@ -493,6 +492,7 @@ FlowMapOutput generalized_alpha_flow_map(const Model& model, State& state, const
     // The tangent-linear map: each step's linearisation at its converged state, kept for
     // FlowMapTangent::apply.
     std::shared_ptr<FlowMapTangent::Impl> tangent;
+    std::shared_ptr<FixedPatternLU> analysed;  // sparse models: the iteration matrix's analysed pattern
     // K, C and the iteration matrix in one pass over the elements, on the model's pattern
     const std::shared_ptr<const TangentPattern> pattern = sensitivity ? tangent_pattern(model) : nullptr;
     std::vector<double> vK, vC, vS;
@@ -520,17 +520,17 @@ FlowMapOutput generalized_alpha_flow_map(const Model& model, State& state, const
         if (tangent->dense) {
             s.Kd = dense_of(vK);
             s.Cd = dense_of(vC);
-            s.dense_lu.compute(dense_of(vS));
-            const auto d = s.dense_lu.matrixLU().diagonal();
-            ok = d.allFinite() && (d.array() != 0.0).all();
+            s.lu = std::make_shared<FixedPatternLU>(kDenseLuBelow);
+            ok = s.lu->factorize_dense(dense_of(vS));
         } else {
             s.Ks = sparse_of(vK);
             s.Cs = sparse_of(vC);
-            s.sparse_lu = std::make_shared<Eigen::SparseLU<Eigen::SparseMatrix<double>, Eigen::COLAMDOrdering<int>>>();
-            Eigen::SparseMatrix<double> S = sparse_of(vS);
-            S.makeCompressed();
-            s.sparse_lu->compute(S);
-            ok = s.sparse_lu->info() == Eigen::Success;
+            // each step's factorisation is kept: a copy of the LU analysed on the model's
+            // pattern (banded for a chain of elements) takes the step's values
+            s.lu = std::make_shared<FixedPatternLU>(*analysed);
+            std::copy(vS.begin(), vS.end(), s.lu->matrix().valuePtr());
+            ok = s.lu->factorize();
+            s.lu->keep_factors_only();
         }
         if (!ok) throw SingularMatrixError("flow map: singular tangent at t = " + fmt(t) + " s", ConvergenceError::Where{});
         ++out.jacobians;
@@ -542,6 +542,18 @@ FlowMapOutput generalized_alpha_flow_map(const Model& model, State& state, const
         tangent->m = m;
         tangent->h = h;
         tangent->dense = n < kDenseLuBelow;
+        if (!tangent->dense) {  // the iteration matrix's pattern, analysed once
+            std::vector<int> rows, cols;
+            rows.reserve(pattern->nnz());
+            cols.reserve(pattern->nnz());
+            for (int c = 0; c < n; ++c)
+                for (int k = pattern->col_ptr[c]; k < pattern->col_ptr[c + 1]; ++k) {
+                    rows.push_back(pattern->row_index[k]);
+                    cols.push_back(c);
+                }
+            analysed = std::make_shared<FixedPatternLU>(kDenseLuBelow);
+            analysed->analyze(n, rows, cols);
+        }
         tangent->steps.reserve(static_cast<std::size_t>(n_steps) + 1);
         sys.set(z, v, a, 0.0);
         linearize(0.0, 0.0, 0.0);  // M da0 = -(K dz0 + C dv0)

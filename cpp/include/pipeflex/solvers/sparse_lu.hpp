@@ -43,6 +43,15 @@ class FixedPatternLU {
     static constexpr int kBandMaxFill = 8;
 
     explicit FixedPatternLU(int dense_below = 0) : dense_below_(dense_below) {}
+    // A copy holds the same analysed pattern (e.g. one LU per step on one pattern); Eigen's
+    // SparseLU cannot be copied, so a sparse copy runs its symbolic analysis again.
+    FixedPatternLU(const FixedPatternLU& o)
+        : dense_below_(o.dense_below_), storage_(o.storage_), n_(o.n_), kl_(o.kl_), ku_(o.ku_), ld_(o.ld_),
+          rows_(o.rows_), cols_(o.cols_), slot_(o.slot_), dense_A_(o.dense_A_), dense_lu_(o.dense_lu_),
+          band_(o.band_), pivots_(o.pivots_), A_(o.A_), analyses_(o.analyses_) {
+        if (storage_ == Storage::sparse && analyzed()) lu_.analyzePattern(A_);
+    }
+    FixedPatternLU& operator=(const FixedPatternLU&) = delete;
 
     // The pattern of the n x n matrix: the (rows[k], cols[k]) pairs (repeats merged),
     // all values zero. Chooses the storage and, if sparse, places every triplet and runs
@@ -93,6 +102,30 @@ class FixedPatternLU {
     }
 
     bool analyzed() const { return analyses_ > 0; }
+    // Frees the matrix (its values and dense copy), keeping the factors: solve() still
+    // works, factorize() needs analyze() again. For factorisations kept by the thousand
+    // (the flow map's tangent-linear steps).
+    void keep_factors_only() {
+        A_ = Matrix();
+        dense_A_ = Eigen::MatrixXd();
+        rows_.clear();
+        cols_.clear();
+        slot_.clear();
+        analyses_ = 0;
+    }
+
+    // Memory held by the storage and the factors [bytes].
+    std::size_t bytes() const {
+        const std::size_t d = sizeof(double), i = sizeof(int);
+        std::size_t b = (d + i) * static_cast<std::size_t>(A_.nonZeros());
+        switch (storage_) {
+            case Storage::dense: return b + 2 * d * static_cast<std::size_t>(dense_A_.size());
+            case Storage::band: return b + d * band_.size() + i * pivots_.size();
+            case Storage::sparse:
+                return b + (d + i) * static_cast<std::size_t>(lu_.nnzL() + lu_.nnzU());
+        }
+        return b;
+    }
     long analyses() const { return analyses_; }
     Storage storage() const { return storage_; }
 
@@ -113,6 +146,15 @@ class FixedPatternLU {
             if (!analyze(n, rows, cols) || !scatter(rows, cols, values)) return false;
         }
         return factorize_storage();
+    }
+
+    // A dense matrix factorised as it is (no pattern: dense storage); false if singular.
+    bool factorize_dense(const Eigen::MatrixXd& A) {
+        storage_ = Storage::dense;
+        n_ = static_cast<int>(A.rows());
+        dense_lu_.compute(A);
+        const auto d = dense_lu_.matrixLU().diagonal();
+        return d.allFinite() && (d.array() != 0.0).all();
     }
 
     // Numeric factorisation of the values written into matrix(); false if singular.
@@ -151,11 +193,8 @@ class FixedPatternLU {
     // Numeric factorisation of the values in the storage; false if singular.
     bool factorize_storage() {
         switch (storage_) {
-            case Storage::dense: {
-                dense_lu_.compute(dense_A_);
-                const auto d = dense_lu_.matrixLU().diagonal();
-                return d.allFinite() && (d.array() != 0.0).all();
-            }
+            case Storage::dense:
+                return factorize_dense(dense_A_);
             case Storage::band:
                 return band_factorize();
             case Storage::sparse:
