@@ -10,7 +10,6 @@ from __future__ import annotations
 import importlib
 import sys
 import types
-from typing import Dict
 
 
 class _Package(types.ModuleType):
@@ -27,7 +26,7 @@ class _Package(types.ModuleType):
         super().__setattr__(name, value)
 
 
-def attach(package: str, table: Dict[str, str]):
+def attach(package: str, table: dict):
     """``__getattr__`` and ``__dir__`` for the package ``package`` (its ``__name__``):
     ``table`` maps each lazy public name to ``"module"`` or ``"module:attribute"``
     (absolute module names). A name is imported once, then is an ordinary attribute."""
