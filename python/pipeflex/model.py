@@ -632,7 +632,10 @@ class Model:
                     rows.append(6 * n + i)
                     cols.append(f + j)
                     vals.append(T[i, j])
-        self._basis = (vals, (rows, cols))
+        # the triplets of `basis` (CSR on first use), kept as arrays: 24 bytes an entry where the
+        # lists of numpy scalars and ints take about 110
+        self._basis_matrix = (np.array(vals, dtype=float),
+                              (np.array(rows, dtype=np.int64), np.array(cols, dtype=np.int64)))
         #: (node, component) of each reduced coordinate
         self.dof_labels = tuple(labels)
 
@@ -640,11 +643,11 @@ class Model:
     def basis(self):
         """Sparse (CSR, 6 n_nodes x n_dofs) map from reduced increments to nodal
         coordinates; made on first use (scipy.sparse is not imported to build a model)."""
-        if isinstance(self._basis, tuple):
+        if isinstance(self._basis_matrix, tuple):
             import scipy.sparse as sp
 
-            self._basis = sp.csr_matrix(self._basis, shape=(6 * self.n_nodes, self.n_dofs))
-        return self._basis
+            self._basis_matrix = sp.csr_matrix(self._basis_matrix, shape=(6 * self.n_nodes, self.n_dofs))
+        return self._basis_matrix
 
     def free_model(self) -> "Model":
         """The same structure without supports or hub (ANCF nodes stay planar): its
