@@ -5,14 +5,8 @@ library (models, sections, elements, bodies and joints, analyses, plotting) is
 importable without the seed studies; ``pf.scenes`` (the seeds' test problems) and
 :mod:`pipeflex.seeds` (their published numbers, studies and figures) load on first use.
 """
-import importlib
-
-from .analysis import (CriticalFlow, EigenResult, Linearization, StaticResult, critical_mass_flow,
-                       eigenvalues, linearize, simulate, stability, static_equilibrium,
-                       TransientResult, SteadyRotation, steady_rotation,
-                       RotatingFrequencies, resonance_speed, rotating_frequencies, rotating_state,
-                       OrbitBranch, OrbitGuess, PeriodicOrbit, continue_orbits, orbit_guess, periodic_orbit,
-                       Campbell, campbell)
+from . import analysis
+from . import _lazy
 from .errors import ConvergenceError, LimitPointError, SingularMatrixError
 from .model import Model, ModelBuilder
 from .results import Result
@@ -22,26 +16,17 @@ from .time_functions import Sine
 
 __version__ = "0.1.0"
 
-# Attributes that load a module on first access (PEP 562), so that `import pipeflex`
-# does not import the seed studies.
+# Attributes that load a module on first access (PEP 562, pipeflex._lazy), so that
+# `import pipeflex` imports neither the seed studies nor scipy, matplotlib or threadpoolctl:
+# "module" for a module, "module:attribute" for a module's attribute.
 _LAZY = {"scenes": "pipeflex.scenes", "seeds": "pipeflex.seeds", "work_precision": "pipeflex.work_precision",
          "plotting": "pipeflex.plotting", "plot": "pipeflex.plot", "multibody": "pipeflex.multibody",
          "coriolis": "pipeflex.seeds.seed000.coriolis", "limit_cycle": "pipeflex.seeds.seed000.limit_cycle",
          "sweep": "pipeflex.sweeps:sweep", "coupled": "pipeflex.coupled",
          "CoupledSystem": "pipeflex.coupled:CoupledSystem",
-         "stability_map": "pipeflex.analysis.stability_map:stability_map"}  # "module:attribute" for a module's attribute
-
-
-def __getattr__(name):
-    if name in _LAZY:
-        module, _, attribute = _LAZY[name].partition(":")
-        module = importlib.import_module(module)
-        return getattr(module, attribute) if attribute else module
-    raise AttributeError(f"module 'pipeflex' has no attribute {name!r}")
-
-
-def __dir__():
-    return sorted(list(globals()) + list(_LAZY))
+         "stability_map": "pipeflex.analysis.stability_map:stability_map",
+         **{name: f"pipeflex.analysis:{name}" for name in analysis.__all__ if name != "Sine"}}
+__getattr__, __dir__ = _lazy.attach(__name__, _LAZY)
 
 
 __all__ = ["CriticalFlow", "EigenResult", "Linearization", "StaticResult",

@@ -16,8 +16,6 @@ from dataclasses import dataclass
 from typing import Iterable, List, Optional, Sequence, Tuple
 
 import numpy as np
-import scipy.sparse as sp
-from scipy.sparse.csgraph import connected_components
 
 from . import _checks, _core
 from .rotation import skew
@@ -487,9 +485,7 @@ class ModelBuilder:
         """Every connected part of the structure needs a support, as the whole model does:
         an unsupported part drifts (a mechanism whose round-off eigenvalues would decide
         a stability answer)."""
-        n = len(self._positions)
-        graph = sp.coo_matrix((np.ones(len(els)), ([e["p"] for e in els], [e["q"] for e in els])), shape=(n, n))
-        count, part = connected_components(graph, directed=False)
+        count, part = _parts(len(self._positions), [(e["p"], e["q"]) for e in els])
         supported = {part[i] for i in self._constraints}
         for k in range(count):
             if k not in supported:
@@ -559,6 +555,28 @@ class ModelBuilder:
         return d
 
 
+def _parts(n: int, edges) -> Tuple[int, np.ndarray]:
+    """The connected parts of an undirected graph of ``n`` nodes: their count and each
+    node's part, numbered in the order of the parts' first nodes (as scipy's
+    connected_components). A union-find, linear in the edges: building a model needs no
+    scipy (its sparse package imports in about 30 ms)."""
+    root = list(range(n))
+
+    def find(i):
+        while root[i] != i:
+            root[i] = root[root[i]]  # path halving
+            i = root[i]
+        return i
+
+    for p, q in edges:
+        a, b = find(p), find(q)
+        if a != b:
+            root[max(a, b)] = min(a, b)
+    labels: dict = {}
+    part = np.array([labels.setdefault(find(i), len(labels)) for i in range(n)], dtype=np.int64)
+    return len(labels), part
+
+
 def _rebuild_model(description: dict, mass_flow: float, free: bool) -> "Model":
     """A model built again from :meth:`Model.__reduce__`'s description."""
     b = ModelBuilder()
@@ -614,10 +632,22 @@ class Model:
                     rows.append(6 * n + i)
                     cols.append(f + j)
                     vals.append(T[i, j])
-        #: sparse (6 n_nodes x n_dofs) map from reduced increments to nodal coordinates
-        self.basis = sp.csr_matrix((vals, (rows, cols)), shape=(6 * self.n_nodes, self.n_dofs))
+        # the triplets of `basis` (CSR on first use), kept as arrays: 24 bytes an entry where the
+        # lists of numpy scalars and ints take about 110
+        self._basis_matrix = (np.array(vals, dtype=float),
+                              (np.array(rows, dtype=np.int64), np.array(cols, dtype=np.int64)))
         #: (node, component) of each reduced coordinate
         self.dof_labels = tuple(labels)
+
+    @property
+    def basis(self):
+        """Sparse (CSR, 6 n_nodes x n_dofs) map from reduced increments to nodal
+        coordinates; made on first use (scipy.sparse is not imported to build a model)."""
+        if isinstance(self._basis_matrix, tuple):
+            import scipy.sparse as sp
+
+            self._basis_matrix = sp.csr_matrix(self._basis_matrix, shape=(6 * self.n_nodes, self.n_dofs))
+        return self._basis_matrix
 
     def free_model(self) -> "Model":
         """The same structure without supports or hub (ANCF nodes stay planar): its

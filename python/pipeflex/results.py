@@ -21,14 +21,10 @@ from pathlib import Path
 from typing import Any, Dict, Union
 
 import numpy as np
-import scipy.sparse as sp
 
 FORMAT = 1
 _META = "__result__"
-_SPARSE = {cls.__name__: cls for cls in (sp.csc_matrix, sp.csr_matrix, sp.coo_matrix)}
-for _name in ("csc_array", "csr_array", "coo_array"):
-    if hasattr(sp, _name):
-        _SPARSE[_name] = getattr(sp, _name)
+_SPARSE_FORMATS = ("csc_matrix", "csr_matrix", "coo_matrix", "csc_array", "csr_array", "coo_array")
 _REGISTRY: Dict[str, type] = {}
 
 
@@ -122,9 +118,11 @@ def _encode(x: Any, arrays: dict, where: str):
         return {"__array__": _store(arrays, x, where)}
     if isinstance(x, np.generic):
         return {"__scalar__": _store(arrays, np.asarray(x), where)}
+    import scipy.sparse as sp
+
     if sp.issparse(x):
         name = type(x).__name__
-        if name not in _SPARSE:
+        if name not in _SPARSE_FORMATS:
             raise TypeError(f"{where}: sparse format {name} is not supported (use CSC, CSR or COO)")
         parts = ("row", "col", "data") if x.format == "coo" else ("data", "indices", "indptr")
         return {"__sparse__": name, "shape": list(x.shape),
@@ -169,7 +167,9 @@ def _decode(x, f):
     if "__dict__" in x:
         return {_decode(k, f): _decode(v, f) for k, v in x["__dict__"]}
     if "__sparse__" in x:
-        cls = _SPARSE[x["__sparse__"]]
+        import scipy.sparse as sp
+
+        cls = {name: getattr(sp, name) for name in _SPARSE_FORMATS if hasattr(sp, name)}[x["__sparse__"]]
         shape = tuple(x["shape"])
         if "row" in x:
             row, col, data = (f[x[p]] for p in ("row", "col", "data"))

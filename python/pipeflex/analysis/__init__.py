@@ -1,13 +1,23 @@
-"""Analyses as free functions of a model and a state."""
-from .campbell import Campbell, campbell
-from .critical import CriticalFlow, critical_mass_flow
-from .eigen import EigenResult, eigenvalues, stability
-from .linearize import Linearization, linearize
-from .periodic import OrbitBranch, OrbitGuess, PeriodicOrbit, continue_orbits, orbit_guess, periodic_orbit
-from .rotating import RotatingFrequencies, resonance_speed, rotating_frequencies, rotating_state
-from .static import StaticResult, static_equilibrium
-from .steady import SteadyRotation, steady_rotation
-from .transient import Sine, TransientResult, simulate
+"""Analyses as free functions of a model and a state.
+
+Each name imports its module on first use (:mod:`pipeflex._lazy`): the transient and
+static analyses need neither scipy nor the eigen-analysis modules.
+"""
+from .. import _lazy
+
+#: the public names of each analysis module
+_MODULES = {"campbell": ["Campbell", "campbell"],
+            "critical": ["CriticalFlow", "critical_mass_flow"],
+            "eigen": ["EigenResult", "eigenvalues", "stability"],
+            "linearize": ["Linearization", "linearize"],
+            "periodic": ["OrbitBranch", "OrbitGuess", "PeriodicOrbit", "continue_orbits", "orbit_guess",
+                         "periodic_orbit"],
+            "rotating": ["RotatingFrequencies", "resonance_speed", "rotating_frequencies", "rotating_state"],
+            "static": ["StaticResult", "static_equilibrium"],
+            "steady": ["SteadyRotation", "steady_rotation"],
+            "transient": ["Sine", "TransientResult", "simulate"]}
+_LAZY = {name: f"{__name__}.{module}:{name}" for module, names in _MODULES.items() for name in names}
+__getattr__, __dir__ = _lazy.attach(__name__, _LAZY)
 
 __all__ = ["CriticalFlow", "critical_mass_flow", "EigenResult", "eigenvalues", "stability",
            "Linearization", "linearize", "OrbitBranch", "OrbitGuess", "PeriodicOrbit", "continue_orbits", "orbit_guess", "periodic_orbit",

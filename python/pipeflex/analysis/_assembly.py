@@ -2,7 +2,6 @@
 from __future__ import annotations
 
 import numpy as np
-import scipy.sparse as sp
 
 from .. import _core
 from ..model import Model
@@ -29,6 +28,8 @@ def require_model(model, name: str = "model"):
 
 
 def _csc(data, indices, indptr, n):
+    import scipy.sparse as sp
+
     A = sp.csc_matrix((data, indices, indptr), shape=(n, n), copy=False)
     A.has_sorted_indices = True  # the core's pattern: rows ascending, no repeats
     A.has_canonical_format = True

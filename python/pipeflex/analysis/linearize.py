@@ -7,6 +7,7 @@ from typing import Optional
 import scipy.sparse as sp
 
 from .. import _checks
+from .._lazy import loaded_instance
 from ..results import Result
 from ..state import State, as_core
 from ._assembly import KCM, require_model, tangents
@@ -51,9 +52,9 @@ def linearize(model, state=None, *, mass_flow: Optional[float] = None) -> Linear
     :func:`pipeflex.coupled.linearize` (one constrained linearisation,
     :mod:`pipeflex.analysis.constrained`).
     """
-    from ..multibody import MultibodySystem, linearize as multibody_linearize
+    if loaded_instance(model, "pipeflex.multibody.system", "MultibodySystem"):
+        from ..multibody import linearize as multibody_linearize
 
-    if isinstance(model, MultibodySystem):
         return multibody_linearize(model, state, mass_flow=mass_flow)
     own = getattr(model, "_linearize", None)  # a system with its own (pipeflex.CoupledSystem)
     if own is not None:

@@ -5,15 +5,13 @@ from dataclasses import dataclass
 from typing import Optional
 
 import numpy as np
-import scipy.sparse.linalg as spla
 
 from .. import _checks, _core
+from .._lazy import loaded_instance
 from ..errors import ConvergenceError, LimitPointError, SingularMatrixError
 from ..results import Result
 from ..state import State, as_core
 from ._assembly import require_model, residual_and_tangent
-from . import arclength
-from .eigen import describe_coordinates, null_coordinates
 from .._blas import small_problems_single_threaded
 
 
@@ -100,7 +98,6 @@ def static_equilibrium(model, *, state=None, mass_flow: Optional[float] = None, 
     A :class:`~pipeflex.multibody.MultibodySystem` is solved by
     :func:`pipeflex.multibody.static_equilibrium` (same options).
     """
-    from ..multibody import MultibodySystem, static_equilibrium as multibody_static
     own = getattr(model, "_static", None)  # a system with its own solver (pipeflex.CoupledSystem)
     if own is not None:
         if path != "auto" or from_mass_flow is not None:
@@ -109,7 +106,9 @@ def static_equilibrium(model, *, state=None, mass_flow: Optional[float] = None, 
 
     if path not in ("auto", "load", "arclength"):
         raise ValueError(f"path must be 'auto', 'load' or 'arclength', got {path!r}")
-    if isinstance(model, MultibodySystem):
+    if loaded_instance(model, "pipeflex.multibody.system", "MultibodySystem"):
+        from ..multibody import static_equilibrium as multibody_static
+
         if path == "arclength":
             raise NotImplementedError("path='arclength' for a MultibodySystem")
         if from_mass_flow is not None:
@@ -189,6 +188,8 @@ def _continue(model, state, t0, along, solve, arc_steps, dt0, total_iter, mdot, 
     """Arc-length continuation from the converged ``state`` at t0 to t = 1; ``failure``
     the load stepping's error (re-raised, with the continuation's reason, if the
     continuation fails too) or None."""
+    from . import arclength
+
     def newton(trial, arc):
         return _newton(model, trial, 0.0, 0.0, solve["tol"], solve["size"], solve["max_iterations"], arc=arc)
 
@@ -228,6 +229,8 @@ def _newton(model, state, mdot, load_factor, tol, size, max_iterations, arc=None
     arc-length constraint, the path parameter ``arc.t`` (which sets mdot and the load
     factor) being an unknown too. Returns (converged, iterations, residual norm [N],
     reason, singular)."""
+    import scipy.sparse.linalg as spla
+
     if arc is not None:
         mdot, load_factor = arc.at(arc.t)
     load = model.load_state(mass_flow=mdot, gravity_factor=load_factor)
@@ -260,6 +263,8 @@ def _newton(model, state, mdot, load_factor, tol, size, max_iterations, arc=None
                     raise
                 dz, dt = arc.solve(model, state, J, None, r)  # the bordered matrix is regular at a limit point
             except RuntimeError:
+                from .eigen import describe_coordinates, null_coordinates
+
                 free = null_coordinates(J)
                 named = f"; {describe_coordinates(free, model.dof_labels)}" if len(free) else ""
                 return False, it, rnorm, (f"the tangent is singular (a mechanism: missing supports, or a "

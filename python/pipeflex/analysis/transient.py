@@ -15,6 +15,7 @@ from typing import Optional, Sequence, Tuple, Union
 import numpy as np
 
 from .. import _checks, _core
+from .._lazy import loaded_instance
 from ..results import Result
 from ..state import State, as_core
 from ..time_functions import Sine, time_function
@@ -217,9 +218,7 @@ def simulate(model, t_end: float, *, integrator: str = "auto", state=None, t_sta
         ConvergenceError: a failed step or a diverging motion; ``time`` [s] (and for
             generalised-alpha ``iteration`` and ``residual``) say where.
     """
-    from ..multibody import MultibodySystem
-
-    if isinstance(model, MultibodySystem):
+    if loaded_instance(model, "pipeflex.multibody.system", "MultibodySystem"):
         from ..multibody import simulate as multibody_simulate
 
         if integrator not in ("auto", "generalized_alpha") or times is not None or t_start != 0.0 \
