@@ -40,6 +40,7 @@ from .eigen import (SPARSE_MIN_DOFS, classify, eigen_from_blocks, free_coordinat
                     MECHANISM_CONDITIONING, QuadraticPencil, eigen_noise, sparse_eigen_from_blocks,
                     split_blocks, stiffness_conditioning, with_reduction_noise)
 from ._assembly import require_model
+from .._lazy import loaded_instance
 from .linearize import linearize
 from .static import static_equilibrium
 from .._blas import small_problems_single_threaded
@@ -82,15 +83,14 @@ class _Evaluator:
     """Static solve + linearisation + eigen-analysis at a mass flow, warm-started."""
 
     def __init__(self, model, state):
-        from ..coupled import CoupledStatic, CoupledSystem
-        from ..multibody import MultibodySystem
-
-        self.coupled = isinstance(model, CoupledSystem)
+        # (without importing coupled or multibody for an element model)
+        self.coupled = loaded_instance(model, "pipeflex.coupled", "CoupledSystem")
+        bodies = loaded_instance(model, "pipeflex.multibody.system", "MultibodySystem")
         if self.coupled:
-            if state is not None and not isinstance(state, CoupledStatic):
+            if state is not None and not loaded_instance(state, "pipeflex.coupled", "CoupledStatic"):
                 raise TypeError(f"state must be a CoupledStatic (pipeflex.static_equilibrium(system)) for a "
                                 f"CoupledSystem, got {type(state).__name__}")
-        elif not isinstance(model, MultibodySystem):
+        elif not bodies:
             require_model(model)
         self.model = model
         # a coupled system's static solve starts from its assembly configuration (None)
@@ -100,7 +100,7 @@ class _Evaluator:
         self.sparse = model.n_dofs >= SPARSE_MIN_DOFS
         self._kept = {}  # mdot -> (blocks, equilibrium, linearisation), the last few
         # bodies and coupled systems: warm-started solves without the flow continuation
-        self.continuation = not (self.coupled or isinstance(model, MultibodySystem))
+        self.continuation = not (self.coupled or bodies)
 
     def accept(self, mdot, state):
         """Warm-start the next static solves from this equilibrium at mdot."""
