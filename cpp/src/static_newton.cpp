@@ -2,33 +2,79 @@
 #include "pipeflex/solvers/equations.hpp"
 #include "pipeflex/solvers/sparse_lu.hpp"
 
+#include <Eigen/SparseCholesky>
+#include <Eigen/SparseCore>
+
 #include <algorithm>
 #include <cmath>
 #include <limits>
 
 namespace pipeflex {
 
-namespace {
-// a correction this many model sizes long means the tangent is (nearly) singular
-constexpr double kDivergence = 10.0;
-}  // namespace
+int negative_eigenvalues(const Triplets& J, int n) {
+    std::vector<Eigen::Triplet<double>> entries;
+    entries.reserve(J.values.size());
+    for (size_t k = 0; k < J.values.size(); ++k)
+        if (J.rows[k] < n && J.cols[k] < n) entries.emplace_back(J.rows[k], J.cols[k], J.values[k]);
+    Eigen::SparseMatrix<double> A(n, n);
+    A.setFromTriplets(entries.begin(), entries.end());
+    // a non-symmetric tangent (the flow's follower forces) has complex eigenvalues in
+    // general, and its symmetric part's inertia says nothing about them
+    const Eigen::SparseMatrix<double> At = A.transpose();
+    if ((A - At).norm() > 1e-10 * A.norm()) return -1;
+    // a symmetric (AMD) permutation and L D L^T: a congruence, so D has the inertia of A
+    Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>, Eigen::Lower> ldlt(A);
+    if (ldlt.info() != Eigen::Success) return -1;
+    const Eigen::VectorXd d = ldlt.vectorD();
+    if (!d.allFinite() || (d.array() == 0.0).any()) return -1;
+    return static_cast<int>((d.array() < 0.0).count());
+}
 
-StaticNewtonResult static_newton(Equations& eq, double t, Eigen::VectorXd& lam, double tol, int max_iterations) {
+StaticNewtonResult static_newton(Equations& eq, double t, Eigen::VectorXd& lam, const StaticNewtonOptions& opt) {
     const int n = eq.n_coordinates(), nc = eq.n_constraints();
-    const double L = eq.length_scale();
+    const double L = eq.length_scale(), tol = opt.tol;
     const Eigen::VectorXd zero = Eigen::VectorXd::Zero(n);
     Eigen::VectorXd r, rhs(n + nc), x, v = zero, a = zero;
     Triplets J;
     FixedPatternLU lu(kDenseLuBelow);
     StaticNewtonResult out;
-    double last = std::numeric_limits<double>::infinity();
-    for (int it = 1; it <= max_iterations; ++it) {
-        poll_interrupt();
+    const bool by_force = opt.force_scale > 0.0;
+    double fscale = opt.force_scale;
+    // the residual at the state set (its base configuration); false if not finite
+    const auto residual_here = [&](Triplets* tangent) {
         eq.set(zero, zero, zero, lam, t);
-        eq.evaluate(1.0, 0.0, 0.0, r, &J);
-        out.iterations = it;
+        eq.evaluate(1.0, 0.0, 0.0, r, tangent);
         out.residual = r.head(n).norm();
-        if (!r.allFinite()) return out;
+        // a norm that overflows is not finite either: inf <= tol * inf must not pass for convergence
+        out.nonfinite = !r.allFinite() || !std::isfinite(out.residual);
+        return !out.nonfinite;
+    };
+    const auto satisfied = [&]() { return nc == 0 || r.tail(nc).lpNorm<Eigen::Infinity>() <= 1e-6 * L; };
+    if (by_force) {  // a warm start: converged already at the model's own force level
+        if (!residual_here(nullptr)) return out;
+        if (out.residual <= tol * fscale && satisfied()) {
+            out.converged = true;
+            return out;
+        }
+    }
+    // converged after the correction x was applied: the residual reported is the end state's
+    const auto converged_applied = [&]() {
+        out.converged = true;
+        if (opt.inertia && nc == 0) {
+            if (residual_here(&J)) out.negative_end = negative_eigenvalues(J, n);
+        } else if (opt.apply_converged_correction) {
+            residual_here(nullptr);
+        }
+        return out;
+    };
+    double last = std::numeric_limits<double>::infinity();
+    for (int it = 1; it <= opt.max_iterations; ++it) {
+        poll_interrupt();
+        out.iterations = it;
+        if (!residual_here(&J)) return out;
+        const double rnorm = out.residual;
+        fscale = std::max(fscale, rnorm);
+        if (it == 1 && opt.inertia && nc == 0) out.negative_start = negative_eigenvalues(J, n);
         // constraint rows and columns scaled by the stiffness block's size (as the integrator's)
         double s = scale_constraints(J, n, 1.0);
         s = s > 0.0 ? s : 1.0;
@@ -45,26 +91,26 @@ StaticNewtonResult static_newton(Equations& eq, double t, Eigen::VectorXd& lam, 
             return out;
         }
         const double size = x.head(n).lpNorm<Eigen::Infinity>();
-        const double violation = nc > 0 ? r.tail(nc).lpNorm<Eigen::Infinity>() : 0.0;
+        const bool held = satisfied();
         out.correction = size;
         lam += s * x.tail(nc);
-        const bool satisfied = violation <= 1e-6 * L;
-        // converged: the correction (round-off here) is not applied, so that an exact state,
-        // such as a straight pipe under flow, keeps its exact symmetry
-        if (satisfied && size <= tol * L) {
+        const bool small = held && size <= tol * L;
+        const bool balanced = by_force && held && (rnorm <= 1e-3 * tol * fscale || rnorm == 0.0);
+        // converged: unless asked, the correction (round-off here) is not applied, so that an
+        // exact state, such as a straight pipe under flow, keeps its exact symmetry
+        if ((small || balanced) && !opt.apply_converged_correction) {
             out.converged = true;
             return out;
         }
-        if (size > kDivergence * L) {  // a correction beyond the model: a (nearly) singular tangent
-            out.diverged = true;
+        if (!small && !balanced && opt.divergence > 0.0 && size > opt.divergence * L) {
+            out.diverged = true;  // a correction beyond the model: a (nearly) singular tangent
             return out;
         }
         eq.set(x.head(n), zero, zero, lam, t);
         eq.rebase(v, a);
-        if (satisfied && size >= 0.5 * last && size <= 1e3 * tol * L) {  // stalled at round-off
-            out.converged = true;
-            return out;
-        }
+        if (small || balanced) return converged_applied();
+        if (held && size >= 0.5 * last && size <= 1e3 * tol * L)  // stalled at round-off
+            return converged_applied();
         last = size;
     }
     return out;

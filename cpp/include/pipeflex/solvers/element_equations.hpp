@@ -36,6 +36,12 @@ class ElementEquations final : public Equations {
     Eigen::VectorXd base_q;
     double t_set = 0.0;
     double static_factor = -1.0;  // >= 0: statics' load factor (loads and gravity)
+    // Statics (element_static): no hub motion (the static analyses take the state's
+    // configuration as it is), and frames re-based only past pi, so that the rotation
+    // vectors of the result stay what the Python analyses report (relative to the
+    // state's frames) and the Newton iterates are those of a fixed chart.
+    bool statics = false;
+    double rebase_angle = 0.0;  // [rad] frames with |phi| beyond it are re-based by rebase()
     double fluid_work = 0.0, load_work = 0.0, last_power_t = 0.0, last_fluid_power = 0.0,
            last_load_power = 0.0;
 
@@ -43,7 +49,7 @@ class ElementEquations final : public Equations {
         LoadState l = base_load;
         l.mass_flow = flow.at(t);
         l.mass_flow_rate = flow.rate(t);
-        apply_hub_frame(model, l, t);
+        if (!statics) apply_hub_frame(model, l, t);
         return l;
     }
 
@@ -61,7 +67,7 @@ class ElementEquations final : public Equations {
         add_increment(model, state.v, v);
         state.a.setZero();
         add_increment(model, state.a, a);
-        apply_hub(model, state, t);
+        if (!statics) apply_hub(model, state, t);
         t_set = t;
     }
 
@@ -100,7 +106,7 @@ class ElementEquations final : public Equations {
         assemble(model, state, l, lf, wK, wC, wM, &r, J);
     }
     void set_static_load_factor(double f) override { static_factor = f; }
-    int rebase(Eigen::VectorXd& v, Eigen::VectorXd& a) override { return rebase(0.0, v, a); }
+    int rebase(Eigen::VectorXd& v, Eigen::VectorXd& a) override { return rebase(rebase_angle, v, a); }
     // a fine mesh started off balance rings in its stiff modes (bench_galpha_step.py)
     bool adaptive_prediction() const override { return true; }
     void accept(double t, double h) override {
@@ -190,6 +196,23 @@ class ElementEquations final : public Equations {
         out.load_work.push_back(lw);
     }
 };
+
+// Static equilibrium of an element model under `load` (its mass flow [kg/s] and gravity
+// factor) and the external loads times load_factor, by the one static_newton from
+// `state` (updated to the last iterate; frames re-based past pi). length_scale [m]: the
+// model size of the correction test. The model must have free coordinates.
+inline StaticNewtonResult element_static(const Model& model, State& state, const LoadState& load,
+                                         double load_factor, double length_scale, const StaticNewtonOptions& opt) {
+    check_state(model, state);
+    const TimeFunctions f{TimeTable::constant(load.mass_flow), TimeTable::constant(load_factor)};
+    TransientOptions o;
+    o.length_scale = length_scale;
+    ElementEquations eq(model, state, load, f, o);
+    eq.statics = true;
+    eq.rebase_angle = M_PI;
+    Eigen::VectorXd lam;  // no constraints: supports are eliminated
+    return static_newton(eq, 0.0, lam, opt);
+}
 
 // The generalised-alpha options of a run's transient options.
 inline AlphaOptions alpha_options(const TransientOptions& opt) {
