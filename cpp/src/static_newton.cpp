@@ -30,13 +30,29 @@ int negative_eigenvalues(const Triplets& J, int n) {
     return static_cast<int>((d.array() < 0.0).count());
 }
 
+namespace {
+
+// The bordered matrix [K, rt; c^T, d] ((n + 1) x (n + 1), rt and c stored whole so that
+// the pattern does not depend on the state) from K's triplets.
+void bordered(const Triplets& K, int n, const Eigen::VectorXd& rt, const Eigen::VectorXd& c, double d, Triplets& A) {
+    A = K;
+    for (int i = 0; i < n; ++i) {
+        A.add(i, n, rt[i]);
+        A.add(n, i, c[i]);
+    }
+    A.add(n, n, d);
+}
+
+}  // namespace
+
 StaticNewtonResult static_newton(Equations& eq, double t, Eigen::VectorXd& lam, const StaticNewtonOptions& opt) {
     const int n = eq.n_coordinates(), nc = eq.n_constraints();
     const double L = eq.length_scale(), tol = opt.tol;
+    StaticBorder* border = nc == 0 ? opt.border : nullptr;
     const Eigen::VectorXd zero = Eigen::VectorXd::Zero(n);
-    Eigen::VectorXd r, rhs(n + nc), x, v = zero, a = zero;
-    Triplets J;
-    FixedPatternLU lu(kDenseLuBelow);
+    Eigen::VectorXd r, rhs(n + nc), x, v = zero, a = zero, rt, rp, c, b;
+    Triplets J, Jb;
+    FixedPatternLU lu(kDenseLuBelow), lub(kDenseLuBelow);
     StaticNewtonResult out;
     const bool by_force = opt.force_scale > 0.0;
     double fscale = opt.force_scale;
@@ -49,7 +65,10 @@ StaticNewtonResult static_newton(Equations& eq, double t, Eigen::VectorXd& lam, 
         out.nonfinite = !r.allFinite() || !std::isfinite(out.residual);
         return !out.nonfinite;
     };
-    const auto satisfied = [&]() { return nc == 0 || r.tail(nc).lpNorm<Eigen::Infinity>() <= 1e-6 * L; };
+    const auto satisfied = [&]() {
+        if (border != nullptr) return std::abs(border->constraint(nullptr, nullptr)) <= tol;
+        return nc == 0 || r.tail(nc).lpNorm<Eigen::Infinity>() <= 1e-6 * L;
+    };
     if (by_force) {  // a warm start: converged already at the model's own force level
         if (!residual_here(nullptr)) return out;
         if (out.residual <= tol * fscale && satisfied()) {
@@ -62,7 +81,7 @@ StaticNewtonResult static_newton(Equations& eq, double t, Eigen::VectorXd& lam, 
         out.converged = true;
         if (opt.inertia && nc == 0) {
             if (residual_here(&J)) out.negative_end = negative_eigenvalues(J, n);
-        } else if (opt.apply_converged_correction) {
+        } else if (opt.apply_converged_correction || border != nullptr) {
             residual_here(nullptr);
         }
         return out;
@@ -75,6 +94,52 @@ StaticNewtonResult static_newton(Equations& eq, double t, Eigen::VectorXd& lam, 
         const double rnorm = out.residual;
         fscale = std::max(fscale, rnorm);
         if (it == 1 && opt.inertia && nc == 0) out.negative_start = negative_eigenvalues(J, n);
+        if (border != nullptr) {  // Newton on the bordered system: x = (dz, dtau)
+            const double tau = border->parameter(), h = border->difference_step();
+            border->set_parameter(tau + h);
+            eq.evaluate(1.0, 0.0, 0.0, rp, nullptr);
+            border->set_parameter(tau - h);
+            eq.evaluate(1.0, 0.0, 0.0, rt, nullptr);
+            border->set_parameter(tau);
+            rt = (rp - rt) / (2.0 * h);
+            double d = 0.0;
+            const double g = border->constraint(&c, &d);
+            double dtau = std::numeric_limits<double>::quiet_NaN();
+            if (lu.factorize(n, J.rows, J.cols, J.values)) {
+                const Eigen::VectorXd mr = -r, mrt = -rt;
+                lu.solve(mr, x);
+                lu.solve(mrt, b);
+                const double den = c.dot(b) + d;
+                if (den != 0.0 && std::isfinite(den)) {
+                    dtau = -(g + c.dot(x)) / den;
+                    x += dtau * b;
+                }
+            }
+            if (!std::isfinite(dtau)) {  // K singular: the bordered matrix is regular at a simple limit point
+                bordered(J, n, rt, c, d, Jb);
+                Eigen::VectorXd rb(n + 1), xb;
+                rb.head(n) = -r;
+                rb[n] = -g;
+                if (!lub.factorize(n + 1, Jb.rows, Jb.cols, Jb.values)) {
+                    out.singular = true;
+                    return out;
+                }
+                lub.solve(rb, xb);
+                x = xb.head(n);
+                dtau = xb[n];
+            }
+            if (!x.allFinite() || !std::isfinite(dtau)) {
+                out.singular = true;
+                return out;
+            }
+            out.correction = x.lpNorm<Eigen::Infinity>();
+            eq.set(x, zero, zero, lam, t);
+            eq.rebase(v, a);
+            border->accumulate(x, dtau);
+            const bool small = out.correction <= tol * L && std::abs(dtau) <= tol * std::max(1.0, std::abs(border->parameter()));
+            if (small || (rnorm <= 1e-3 * tol * std::max(fscale, 1e-300) && satisfied())) return converged_applied();
+            continue;
+        }
         // constraint rows and columns scaled by the stiffness block's size (as the integrator's)
         double s = scale_constraints(J, n, 1.0);
         s = s > 0.0 ? s : 1.0;

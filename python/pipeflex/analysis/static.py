@@ -273,47 +273,24 @@ def _singular_reason(model, state, load, load_factor):
 
 def _arc_newton(model, state, arc, tol, size, max_iterations):
     """Newton's method on the bordered system of R(q, t) = 0 and the arc-length constraint
-    ``arc`` (an :class:`~pipeflex.analysis.arclength.Arc`): the path parameter ``arc.t``
-    (which sets mdot and the load factor) is an unknown too. Returns (converged,
-    iterations, residual norm [N], reason, singular)."""
-    import scipy.sparse.linalg as spla
-
+    ``arc`` (an :class:`~pipeflex.analysis.arclength.Arc`; its ``t``, ``dq`` and ``dt``
+    updated): the path parameter ``arc.t`` (which sets mdot and the load factor, affine in
+    t) is an unknown too. The core's static_newton with the constraint as its border.
+    Returns (converged, iterations, residual norm [N], reason, singular)."""
+    (m0, l0), (m1, l1) = arc.at(0.0), arc.at(1.0)
+    path = (m0, m1 - m0, l0, l1 - l0)
     mdot, load_factor = arc.at(arc.t)
     load = model.load_state(mass_flow=mdot, gravity_factor=load_factor)
-    # Converged already (a warm start)? Compare with the model's own force level.
-    r, _ = residual_and_tangent(model, state, load, load_factor=load_factor, matrix=False)
-    rnorm = float(np.linalg.norm(r))
-    fscale = model.force_scale(mass_flow=mdot)
-    if not np.isfinite(rnorm):  # inf <= tol * inf must not pass for convergence
-        return False, 0, rnorm, "the residual is not finite", False
-    if (rnorm <= tol * fscale or model.n_dofs == 0) and abs(arc.g()) <= tol:
-        return True, 0, rnorm, "", False
-    for it in range(1, max_iterations + 1):
+    out = _core.static_arc_newton(model.core, state, load, path, arc.w2, arc.psi2, arc.ds, arc.t, arc.dq, arc.dt,
+                                  tol, size, model.force_scale(mass_flow=mdot), max_iterations)
+    arc.t, arc.dq, arc.dt = out["t"], np.asarray(out["dq"]), out["dt"]
+    it, rnorm = out["iterations"], out["residual"]
+    if out["converged"]:
+        return True, it, rnorm, "", False
+    if out["nonfinite"]:
+        return False, it, rnorm, "the residual is not finite", False
+    if out["singular"]:
         mdot, load_factor = arc.at(arc.t)
         load = model.load_state(mass_flow=mdot, gravity_factor=load_factor)
-        r, J = residual_and_tangent(model, state, load, load_factor=load_factor)
-        rnorm = float(np.linalg.norm(r))
-        if not np.isfinite(rnorm):
-            return False, it, rnorm, "the residual is not finite", False
-        fscale = max(fscale, rnorm)
-        try:
-            try:
-                lu = spla.splu(J)
-            except RuntimeError:
-                lu = None  # the bordered matrix is regular at a limit point
-            dz, dt = arc.solve(model, state, J, lu, r)
-        except RuntimeError:
-            return False, it, rnorm, _singular_reason(model, state, load, load_factor), True
-        if not np.all(np.isfinite(dz)) or not np.isfinite(dt):
-            return False, it, rnorm, "the tangent is singular or ill-conditioned", True
-        _core.add_increment(model.core, state, dz, "q")
-        state.rebase(np.pi)
-        arc.apply(dz, dt)
-        mdot, load_factor = arc.at(arc.t)
-        load = model.load_state(mass_flow=mdot, gravity_factor=load_factor)
-        small = np.linalg.norm(dz, np.inf) <= tol * size and abs(dt) <= tol * max(1.0, abs(arc.t))
-        if not (small or (rnorm <= 1e-3 * tol * max(fscale, 1e-300) and abs(arc.g()) <= tol)):
-            continue
-        r2, _ = residual_and_tangent(model, state, load, load_factor=load_factor, matrix=False)
-        return True, it, float(np.linalg.norm(r2)), "", False
-    return False, max_iterations, rnorm, f"no convergence in {max_iterations} iterations (residual {rnorm:.3e} N)", False
+        return False, it, rnorm, _singular_reason(model, state, load, load_factor), True
+    return False, it, rnorm, f"no convergence in {max_iterations} iterations (residual {rnorm:.3e} N)", False

@@ -156,6 +156,23 @@ void initial_acceleration(Equations& eq, const Eigen::VectorXd& z, const Eigen::
 // 1e-3 tol times the force level. The configuration is re-based after every iteration.
 // The one Newton of the static analyses: multibody systems, coupled systems and element
 // models (static_equilibrium's load stepping calls it once per load step).
+// An optional border of static_newton's system (arc-length continuation): one more
+// unknown, a path parameter tau that sets the equations' loads, with its column dR/dtau
+// (central differences of step difference_step: exact for a residual at most quadratic
+// in tau), and one more equation g = 0 on the increment accumulated from the step's start
+// and tau, with its gradient (c, d).
+class StaticBorder {
+   public:
+    virtual ~StaticBorder() = default;
+    virtual double parameter() const = 0;
+    virtual void set_parameter(double tau) = 0;  // the equations' loads at tau
+    virtual double difference_step() const { return 0.5; }
+    // g at the increment accumulated so far and, if c is not null, its gradient c (n), d
+    virtual double constraint(Eigen::VectorXd* c, double* d) const = 0;
+    // a Newton correction: the increment accumulates dz, tau moves by dtau
+    virtual void accumulate(const Eigen::VectorXd& dz, double dtau) = 0;
+};
+
 struct StaticNewtonOptions {
     double tol = 1e-10;      // correction / length_scale
     int max_iterations = 25;
@@ -179,6 +196,12 @@ struct StaticNewtonOptions {
     // critical point. Systems without constraints only; a non-symmetric tangent (flow
     // forces) is not counted.
     bool inertia = false;
+    // A border (systems without constraints): Newton on [K, dR/dtau; c^T, d] by block
+    // elimination (two solves with K's LU), the whole bordered matrix where K is singular
+    // (it is regular at a simple limit point). Converged when the correction is below tol
+    // model sizes and that of tau below tol max(1, |tau|), or the residual below 1e-3 tol
+    // times the force level and |g| <= tol (a warm start: |R| <= tol F and |g| <= tol).
+    StaticBorder* border = nullptr;
 };
 struct StaticNewtonResult {
     bool converged = false, singular = false;
