@@ -80,7 +80,8 @@ def test_load_stepping_fails_at_the_limit_point_and_arclength_passes_it(limit_lo
     with pytest.raises(pf.ConvergenceError) as info:
         pf.static_equilibrium(model, path="load", load_steps=100)
     assert not isinstance(info.value, pf.LimitPointError)
-    assert info.value.load_factor * P == pytest.approx(limit_load, rel=2e-3)  # fails just past it
+    # fails just past it: a step onto the unstable branch changes the tangent's inertia (rejected)
+    assert info.value.load_factor * P == pytest.approx(limit_load, rel=2e-3)
 
     res = pf.static_equilibrium(model, load_steps=100)  # path="auto"
     # both limit points passed; the first is the limit load
@@ -183,3 +184,54 @@ def test_bad_path_option():
         pf.static_equilibrium(model, path="riks")
     with pytest.raises(ValueError):
         pf.static_equilibrium(model, arc_steps=0)
+
+
+def test_a_load_step_that_changes_the_tangents_inertia_is_rejected():
+    """Just past the limit point (lambda P = 0.9232 N > P_lim) Newton from the stable
+    equilibrium at lambda = 0.30765625 converges, after 20-odd wandering iterations, onto
+    an equilibrium of the unstable branch (negative tangent eigenvalues). Load stepping
+    rejects that step: along a regular path the number of negative eigenvalues of the
+    (symmetric) tangent is constant, so the step crossed a critical point."""
+    from pipeflex.analysis.static import _newton
+
+    model, crown = arch(P)
+    size = 2 * 5.0 * np.sin(0.2)  # the span [m]: static_equilibrium's model size
+    lam0, lam1 = 0.30765625, 0.307734375
+    st = pf.static_equilibrium(arch(P * lam0)[0], path="load", load_steps=40).state.to_core(model)
+    assert tangent_eigenvalues(model, st, lam0)[0] > 0
+    plain = st.copy()
+    ok, it, _, _, _ = _newton(model, plain, 0.0, lam1, 1e-10, size, 25)
+    assert ok and it > 10
+    assert tangent_eigenvalues(model, plain, lam1)[0] < 0  # an unstable equilibrium
+    stepped = st.copy()
+    ok, _, _, why, singular = _newton(model, stepped, 0.0, lam1, 1e-10, size, 25, step=True)
+    assert not ok and not singular
+    assert "crossed a critical point (the tangent's negative eigenvalues went from 0 to" in why
+
+
+def test_the_core_corrector_lands_on_the_path_and_the_sphere():
+    """One arc-length corrector (the core's static_newton with the spherical constraint as
+    its border) from a point off the path: it ends where R(q, t) = 0 and
+    |W dq|^2 + psi^2 dt^2 = ds^2, with dq, dt the increment from the step's start."""
+    from pipeflex import _core
+    from pipeflex.analysis import arclength
+    from pipeflex.analysis.static import _arc_newton, _newton
+
+    model, _ = cantilever()
+    size = 1.0
+    half = model.initial_state()
+    assert _newton(model, half, 0.0, 0.5, 1e-10, size, 25)[0]  # the equilibrium at t = 0.5
+    w2 = arclength.weights(model, size)
+    dq0 = np.full(model.n_dofs, 1e-3)  # a predictor off the path and off the sphere
+    arc = arclength.Arc(lambda t: (0.0, t), w2, 1.0, 0.2, 0.6, dq0.copy(), 0.1)
+    trial = half.copy()
+    _core.add_increment(model.core, trial, dq0, "q")
+    ok, it, rnorm, why, singular = _arc_newton(model, trial, arc, 1e-10, size, 25)
+    assert ok and not singular and it >= 2, why
+    assert abs(arc.g()) <= 1e-9
+    assert arc.t == pytest.approx(0.5 + arc.dt, abs=1e-12)
+    r, _ = residual_and_tangent(model, trial, model.load_state(gravity_factor=arc.t), load_factor=arc.t,
+                                matrix=False)
+    # the residual's round-off floor: EA = 1e9 N times the coordinates' eps
+    assert np.linalg.norm(r) == pytest.approx(rnorm, abs=1e-12) and rnorm <= 1e-7 * model.force_scale()
+    assert 0.5 < arc.t < 0.7  # moved along the path, forward

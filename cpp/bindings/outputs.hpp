@@ -27,9 +27,12 @@ inline pybind11::dict static_dict(const StaticNewtonResult& r) {
     d["converged"] = r.converged;
     d["singular"] = r.singular;
     d["diverged"] = r.diverged;
+    d["nonfinite"] = r.nonfinite;
     d["iterations"] = r.iterations;
     d["residual"] = r.residual;
     d["correction"] = r.correction;
+    d["negative_start"] = r.negative_start;
+    d["negative_end"] = r.negative_end;
     return d;
 }
 

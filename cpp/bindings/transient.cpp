@@ -2,6 +2,7 @@
 #include "outputs.hpp"
 #include "pipeflex/core/format.hpp"
 #include "pipeflex/solvers/coupled.hpp"
+#include "pipeflex/solvers/element_equations.hpp"
 #include "pipeflex/solvers/transient.hpp"
 
 #include <pybind11/eigen.h>
@@ -267,6 +268,61 @@ void bind_transient(py::module_& m) {
         py::arg("model"), py::arg("state"), py::arg("load"), py::arg("z0"), py::arg("v0"), py::arg("duration"),
         py::arg("n_steps"), py::arg("sensitivity"), py::arg("options"), py::arg("monodromy") = true);
     m.attr("MAX_OUTPUT_BYTES") = kMaxOutputBytes;  // pipeflex._checks.output_count checks it before allocating
+    m.def(
+        "static_newton",
+        [](const Model& md, State& s, const LoadState& load, double load_factor, double tol, double length_scale,
+           double force_scale, int max_iterations, bool inertia) {
+            StaticNewtonOptions opt;
+            opt.tol = tol;
+            opt.max_iterations = max_iterations;
+            opt.force_scale = force_scale;
+            opt.apply_converged_correction = true;
+            opt.divergence = 0.0;
+            opt.inertia = inertia;
+            StaticNewtonResult res;
+            {
+                py::gil_scoped_release release;
+                res = element_static(md, s, load, load_factor, length_scale, opt);
+            }
+            return static_dict(res);
+        },
+        "Static equilibrium of an element model by Newton's method (the core's static_newton) from the state "
+        "(updated in place), under the load state and load factor; tol on the correction / length_scale [m] or "
+        "the residual / force_scale [N]. A dict: converged, singular, diverged, nonfinite, iterations, "
+        "residual [N], correction; with inertia the tangent's negative eigenvalues at the start "
+        "and the converged end, negative_start and negative_end (-1: not counted).",
+        py::arg("model"), py::arg("state"), py::arg("load"), py::arg("load_factor"), py::arg("tol"),
+        py::arg("length_scale"), py::arg("force_scale"), py::arg("max_iterations"), py::arg("inertia") = false);
+    m.def(
+        "static_arc_newton",
+        [](const Model& md, State& s, const LoadState& load, const std::tuple<double, double, double, double>& path,
+           const Eigen::VectorXd& w2, double psi2, double ds, double tau, Eigen::VectorXd dq, double dtau,
+           double tol, double length_scale, double force_scale, int max_iterations) {
+            StaticNewtonOptions opt;
+            opt.tol = tol;
+            opt.max_iterations = max_iterations;
+            opt.force_scale = force_scale;
+            opt.apply_converged_correction = true;
+            opt.divergence = 0.0;
+            StaticNewtonResult res;
+            {
+                py::gil_scoped_release release;
+                res = element_arc_static(md, s, load, length_scale, opt, std::get<0>(path), std::get<1>(path),
+                                         std::get<2>(path), std::get<3>(path), w2, psi2, ds, tau, dq, dtau);
+            }
+            py::dict d = static_dict(res);
+            d["t"] = tau;
+            d["dq"] = dq;
+            d["dt"] = dtau;
+            return d;
+        },
+        "One arc-length step's Newton corrector (the core's static_newton with the spherical constraint as "
+        "border) from the state (updated in place): path (m0, m1, l0, l1) gives mdot = m0 + m1 t [kg/s] and the "
+        "load factor l0 + l1 t; the constraint |W dq|^2 + psi2 dt^2 = ds^2 (w2 = W^2) on the increment (dq, dt) "
+        "from the step's start, t the current path parameter. static_newton's dict with t, dq, dt updated.",
+        py::arg("model"), py::arg("state"), py::arg("load"), py::arg("path"), py::arg("w2"), py::arg("psi2"),
+        py::arg("ds"), py::arg("t"), py::arg("dq"), py::arg("dt"), py::arg("tol"), py::arg("length_scale"),
+        py::arg("force_scale"), py::arg("max_iterations"));
     m.def("gravity_potential", [](const Model& md, const State& s, const LoadState& l) {
         check_state(md, s);
         return gravity_potential(md, s, l);

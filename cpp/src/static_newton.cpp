@@ -2,33 +2,144 @@
 #include "pipeflex/solvers/equations.hpp"
 #include "pipeflex/solvers/sparse_lu.hpp"
 
+#include <Eigen/SparseCholesky>
+#include <Eigen/SparseCore>
+
 #include <algorithm>
 #include <cmath>
 #include <limits>
 
 namespace pipeflex {
 
+int negative_eigenvalues(const Triplets& J, int n) {
+    std::vector<Eigen::Triplet<double>> entries;
+    entries.reserve(J.values.size());
+    for (size_t k = 0; k < J.values.size(); ++k)
+        if (J.rows[k] < n && J.cols[k] < n) entries.emplace_back(J.rows[k], J.cols[k], J.values[k]);
+    Eigen::SparseMatrix<double> A(n, n);
+    A.setFromTriplets(entries.begin(), entries.end());
+    // a non-symmetric tangent (the flow's follower forces) has complex eigenvalues in
+    // general, and its symmetric part's inertia says nothing about them
+    const Eigen::SparseMatrix<double> At = A.transpose();
+    if ((A - At).norm() > 1e-10 * A.norm()) return -1;
+    // a symmetric (AMD) permutation and L D L^T: a congruence, so D has the inertia of A
+    Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>, Eigen::Lower> ldlt(A);
+    if (ldlt.info() != Eigen::Success) return -1;
+    const Eigen::VectorXd d = ldlt.vectorD();
+    if (!d.allFinite() || (d.array() == 0.0).any()) return -1;
+    return static_cast<int>((d.array() < 0.0).count());
+}
+
 namespace {
-// a correction this many model sizes long means the tangent is (nearly) singular
-constexpr double kDivergence = 10.0;
+
+// The bordered matrix [K, rt; c^T, d] ((n + 1) x (n + 1), rt and c stored whole so that
+// the pattern does not depend on the state) from K's triplets.
+void bordered(const Triplets& K, int n, const Eigen::VectorXd& rt, const Eigen::VectorXd& c, double d, Triplets& A) {
+    A = K;
+    for (int i = 0; i < n; ++i) {
+        A.add(i, n, rt[i]);
+        A.add(n, i, c[i]);
+    }
+    A.add(n, n, d);
+}
+
 }  // namespace
 
-StaticNewtonResult static_newton(Equations& eq, double t, Eigen::VectorXd& lam, double tol, int max_iterations) {
+StaticNewtonResult static_newton(Equations& eq, double t, Eigen::VectorXd& lam, const StaticNewtonOptions& opt) {
     const int n = eq.n_coordinates(), nc = eq.n_constraints();
-    const double L = eq.length_scale();
+    const double L = eq.length_scale(), tol = opt.tol;
+    StaticBorder* border = nc == 0 ? opt.border : nullptr;
     const Eigen::VectorXd zero = Eigen::VectorXd::Zero(n);
-    Eigen::VectorXd r, rhs(n + nc), x, v = zero, a = zero;
-    Triplets J;
-    FixedPatternLU lu(kDenseLuBelow);
+    Eigen::VectorXd r, rhs(n + nc), x, v = zero, a = zero, rt, rp, c, b;
+    Triplets J, Jb;
+    FixedPatternLU lu(kDenseLuBelow), lub(kDenseLuBelow);
     StaticNewtonResult out;
-    double last = std::numeric_limits<double>::infinity();
-    for (int it = 1; it <= max_iterations; ++it) {
-        poll_interrupt();
+    const bool by_force = opt.force_scale > 0.0;
+    double fscale = opt.force_scale;
+    // the residual at the state set (its base configuration); false if not finite
+    const auto residual_here = [&](Triplets* tangent) {
         eq.set(zero, zero, zero, lam, t);
-        eq.evaluate(1.0, 0.0, 0.0, r, &J);
-        out.iterations = it;
+        eq.evaluate(1.0, 0.0, 0.0, r, tangent);
         out.residual = r.head(n).norm();
-        if (!r.allFinite()) return out;
+        // a norm that overflows is not finite either: inf <= tol * inf must not pass for convergence
+        out.nonfinite = !r.allFinite() || !std::isfinite(out.residual);
+        return !out.nonfinite;
+    };
+    const auto satisfied = [&]() {
+        if (border != nullptr) return std::abs(border->constraint(nullptr, nullptr)) <= tol;
+        return nc == 0 || r.tail(nc).lpNorm<Eigen::Infinity>() <= 1e-6 * L;
+    };
+    if (by_force) {  // a warm start: converged already at the model's own force level
+        if (!residual_here(nullptr)) return out;
+        if (out.residual <= tol * fscale && satisfied()) {
+            out.converged = true;
+            return out;
+        }
+    }
+    // converged after the correction x was applied: the residual reported is the end state's
+    const auto converged_applied = [&]() {
+        out.converged = true;
+        if (opt.inertia && nc == 0) {
+            if (residual_here(&J)) out.negative_end = negative_eigenvalues(J, n);
+        } else if (opt.apply_converged_correction || border != nullptr) {
+            residual_here(nullptr);
+        }
+        return out;
+    };
+    double last = std::numeric_limits<double>::infinity();
+    for (int it = 1; it <= opt.max_iterations; ++it) {
+        poll_interrupt();
+        out.iterations = it;
+        if (!residual_here(&J)) return out;
+        const double rnorm = out.residual;
+        fscale = std::max(fscale, rnorm);
+        if (it == 1 && opt.inertia && nc == 0) out.negative_start = negative_eigenvalues(J, n);
+        if (border != nullptr) {  // Newton on the bordered system: x = (dz, dtau)
+            const double tau = border->parameter(), h = border->difference_step();
+            border->set_parameter(tau + h);
+            eq.evaluate(1.0, 0.0, 0.0, rp, nullptr);
+            border->set_parameter(tau - h);
+            eq.evaluate(1.0, 0.0, 0.0, rt, nullptr);
+            border->set_parameter(tau);
+            rt = (rp - rt) / (2.0 * h);
+            double d = 0.0;
+            const double g = border->constraint(&c, &d);
+            double dtau = std::numeric_limits<double>::quiet_NaN();
+            if (lu.factorize(n, J.rows, J.cols, J.values)) {
+                const Eigen::VectorXd mr = -r, mrt = -rt;
+                lu.solve(mr, x);
+                lu.solve(mrt, b);
+                const double den = c.dot(b) + d;
+                if (den != 0.0 && std::isfinite(den)) {
+                    dtau = -(g + c.dot(x)) / den;
+                    x += dtau * b;
+                }
+            }
+            if (!std::isfinite(dtau)) {  // K singular: the bordered matrix is regular at a simple limit point
+                bordered(J, n, rt, c, d, Jb);
+                Eigen::VectorXd rb(n + 1), xb;
+                rb.head(n) = -r;
+                rb[n] = -g;
+                if (!lub.factorize(n + 1, Jb.rows, Jb.cols, Jb.values)) {
+                    out.singular = true;
+                    return out;
+                }
+                lub.solve(rb, xb);
+                x = xb.head(n);
+                dtau = xb[n];
+            }
+            if (!x.allFinite() || !std::isfinite(dtau)) {
+                out.singular = true;
+                return out;
+            }
+            out.correction = x.lpNorm<Eigen::Infinity>();
+            eq.set(x, zero, zero, lam, t);
+            eq.rebase(v, a);
+            border->accumulate(x, dtau);
+            const bool small = out.correction <= tol * L && std::abs(dtau) <= tol * std::max(1.0, std::abs(border->parameter()));
+            if (small || (rnorm <= 1e-3 * tol * std::max(fscale, 1e-300) && satisfied())) return converged_applied();
+            continue;
+        }
         // constraint rows and columns scaled by the stiffness block's size (as the integrator's)
         double s = scale_constraints(J, n, 1.0);
         s = s > 0.0 ? s : 1.0;
@@ -45,26 +156,26 @@ StaticNewtonResult static_newton(Equations& eq, double t, Eigen::VectorXd& lam, 
             return out;
         }
         const double size = x.head(n).lpNorm<Eigen::Infinity>();
-        const double violation = nc > 0 ? r.tail(nc).lpNorm<Eigen::Infinity>() : 0.0;
+        const bool held = satisfied();
         out.correction = size;
         lam += s * x.tail(nc);
-        const bool satisfied = violation <= 1e-6 * L;
-        // converged: the correction (round-off here) is not applied, so that an exact state,
-        // such as a straight pipe under flow, keeps its exact symmetry
-        if (satisfied && size <= tol * L) {
+        const bool small = held && size <= tol * L;
+        const bool balanced = by_force && held && (rnorm <= 1e-3 * tol * fscale || rnorm == 0.0);
+        // converged: unless asked, the correction (round-off here) is not applied, so that an
+        // exact state, such as a straight pipe under flow, keeps its exact symmetry
+        if ((small || balanced) && !opt.apply_converged_correction) {
             out.converged = true;
             return out;
         }
-        if (size > kDivergence * L) {  // a correction beyond the model: a (nearly) singular tangent
-            out.diverged = true;
+        if (!small && !balanced && opt.divergence > 0.0 && size > opt.divergence * L) {
+            out.diverged = true;  // a correction beyond the model: a (nearly) singular tangent
             return out;
         }
         eq.set(x.head(n), zero, zero, lam, t);
         eq.rebase(v, a);
-        if (satisfied && size >= 0.5 * last && size <= 1e3 * tol * L) {  // stalled at round-off
-            out.converged = true;
-            return out;
-        }
+        if (small || balanced) return converged_applied();
+        if (held && size >= 0.5 * last && size <= 1e3 * tol * L)  // stalled at round-off
+            return converged_applied();
         last = size;
     }
     return out;

@@ -16,8 +16,8 @@ point instead of reversing) and a Newton corrector on the bordered system
     [c^T  d] [dt] = - [g]
 
 solved by block elimination with one sparse LU of the tangent K (two solves), or the
-full bordered matrix when K is exactly singular. The Newton iteration itself is the
-static solver's (passed in as ``newton``); this module adds the constraint.
+full bordered matrix when K is exactly singular: the core's static Newton with the
+constraint as its border (passed in as ``newton``); this module keeps the step control.
 
 A limit point is where the t component of the tangent changes sign; it is located by
 the Illinois method on the arc length of the step.
@@ -51,12 +51,13 @@ def dR_dt(model, state, at, t):
 
 @dataclass
 class Arc:
-    """The spherical constraint of one continuation step and the bordered solve.
+    """The spherical constraint of one continuation step (the core's static_newton solves
+    the bordered system with it: ``pipeflex.analysis.static._arc_newton``).
 
     ``t`` is the current path parameter, ``dq``/``dt`` the increment accumulated from
-    the step's start (updated by :meth:`apply`)."""
+    the step's start (updated by the corrector)."""
 
-    at: Callable  # t -> (mdot [kg/s], load factor [-])
+    at: Callable  # t -> (mdot [kg/s], load factor [-]), affine in t
     w2: np.ndarray  # squared weights of the coordinates
     psi2: float
     ds: float
@@ -67,30 +68,6 @@ class Arc:
     def g(self) -> float:
         """Constraint residual |W dq|^2 + psi^2 dt^2 - ds^2, relative to ds^2."""
         return (float(np.dot(self.w2 * self.dq, self.dq)) + self.psi2 * self.dt**2 - self.ds**2) / self.ds**2
-
-    def solve(self, model, state, J, lu, r):
-        """Newton increment (dz, dtau) of the bordered system; ``lu`` the LU of J or None
-        (J exactly singular: the bordered matrix is factorised instead)."""
-        rt = dR_dt(model, state, self.at, self.t)
-        c = 2 * self.w2 * self.dq / self.ds**2
-        d = 2 * self.psi2 * self.dt / self.ds**2
-        g = self.g()
-        if lu is not None:
-            a = lu.solve(-r)
-            b = lu.solve(-rt)
-            den = float(c @ b) + d
-            if den != 0.0 and np.isfinite(den):
-                tau = -(g + float(c @ a)) / den
-                return a + tau * b, tau
-        A = sp.bmat([[J, sp.csc_matrix(rt[:, None])], [sp.csc_matrix(c[None, :]), sp.csc_matrix([[d]])]],
-                    format="csc")
-        z = spla.splu(A).solve(-np.concatenate([r, [g]]))  # RuntimeError if singular too
-        return z[:-1], float(z[-1])
-
-    def apply(self, dz, tau):
-        self.dq = self.dq + dz
-        self.dt += tau
-        self.t += tau
 
 
 def tangent(model, state, at, t, w2, psi2, previous):

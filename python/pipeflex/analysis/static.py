@@ -155,7 +155,7 @@ def static_equilibrium(model, *, state=None, mass_flow: Optional[float] = None, 
         target = min(1.0, lf + dlf)
         m_t, lf_t = at(target)
         trial = state.copy()
-        ok, it, rnorm, why, singular = _newton(model, trial, m_t, lf_t, tol, size, max_iterations)
+        ok, it, rnorm, why, singular = _newton(model, trial, m_t, lf_t, tol, size, max_iterations, step=True)
         total_iter += it
         if ok:
             state, lf = trial, target
@@ -191,7 +191,7 @@ def _continue(model, state, t0, along, solve, arc_steps, dt0, total_iter, mdot, 
     from . import arclength
 
     def newton(trial, arc):
-        return _newton(model, trial, 0.0, 0.0, solve["tol"], solve["size"], solve["max_iterations"], arc=arc)
+        return _arc_newton(model, trial, arc, solve["tol"], solve["size"], solve["max_iterations"])
 
     way = arclength.follow(model, state, t0, at=along, newton=newton, size=solve["size"], tol=solve["tol"],
                            max_iterations=solve["max_iterations"], max_steps=arc_steps, dt0=dt0,
@@ -223,66 +223,74 @@ def _continue(model, state, t0, along, solve, arc_steps, dt0, total_iter, mdot, 
     raise failure
 
 
-def _newton(model, state, mdot, load_factor, tol, size, max_iterations, arc=None):
-    """Newton's method on R(q) = 0 at (mdot, load_factor); with ``arc`` (an
-    :class:`~pipeflex.analysis.arclength.Arc`) on the bordered system of R = 0 and the
-    arc-length constraint, the path parameter ``arc.t`` (which sets mdot and the load
-    factor) being an unknown too. Returns (converged, iterations, residual norm [N],
-    reason, singular)."""
-    import scipy.sparse.linalg as spla
+def _newton(model, state, mdot, load_factor, tol, size, max_iterations, step=False):
+    """Newton's method on R(q) = 0 at (mdot, load_factor) from ``state`` (updated in place):
+    the core's one static Newton (``static_newton``). Converged when the increment is below
+    ``tol`` model sizes ``size`` [m] or the residual below 1e-3 ``tol`` times the force
+    level; a start within ``tol`` of the model's force level is converged already (a warm
+    start, no iteration). Returns (converged, iterations, residual norm [N], reason,
+    singular).
 
-    if arc is not None:
-        mdot, load_factor = arc.at(arc.t)
-    load = model.load_state(mass_flow=mdot, gravity_factor=load_factor)
-    # Converged already (a warm start)? Compare with the model's own force level.
-    r, _ = residual_and_tangent(model, state, load, load_factor=load_factor, matrix=False)
-    rnorm = float(np.linalg.norm(r))
+    ``step``: the solve is a load step from the equilibrium ``state``, accepted only if the
+    tangent's inertia (its count of negative eigenvalues) at the end is the start's. Along
+    a regular equilibrium path the count is constant; it changes only where an eigenvalue
+    crosses zero, at a limit or bifurcation point. A step across one is not a step along
+    the path: past a limit point the load has no nearby equilibrium and Newton, started
+    from a nearly singular tangent, lands (if at all) on whatever equilibrium its
+    wandering iterates reach (an arch under a load just past its limit converged in 23
+    iterations onto the unstable branch). Such a step fails like a non-converged one: the
+    increment is halved, and past the bisections the arc-length continuation takes over.
+    Only a symmetric tangent (conservative loads: no flow) is tested: the flow's follower
+    forces make it non-symmetric, with complex eigenvalues in general."""
+    if model.n_dofs == 0:
+        return True, 0, 0.0, "", False
     fscale = model.force_scale(mass_flow=mdot)
-    if not np.isfinite(rnorm):  # inf <= tol * inf must not pass for convergence
-        return False, 0, rnorm, "the residual is not finite", False
-    if (rnorm <= tol * fscale or model.n_dofs == 0) and (arc is None or abs(arc.g()) <= tol):
-        return True, 0, rnorm, "", False
-    for it in range(1, max_iterations + 1):
-        if arc is not None:
-            mdot, load_factor = arc.at(arc.t)
-            load = model.load_state(mass_flow=mdot, gravity_factor=load_factor)
-        r, J = residual_and_tangent(model, state, load, load_factor=load_factor)
-        rnorm = float(np.linalg.norm(r))
-        if not np.isfinite(rnorm):
-            return False, it, rnorm, "the residual is not finite", False
-        fscale = max(fscale, rnorm)
-        dt = 0.0
-        try:
-            lu = spla.splu(J)
-            dz = lu.solve(-r)
-            if arc is not None:
-                dz, dt = arc.solve(model, state, J, lu, r)
-        except RuntimeError:
-            try:
-                if arc is None:
-                    raise
-                dz, dt = arc.solve(model, state, J, None, r)  # the bordered matrix is regular at a limit point
-            except RuntimeError:
-                from .eigen import describe_coordinates, null_coordinates
+    load = model.load_state(mass_flow=mdot, gravity_factor=load_factor)
+    out = _core.static_newton(model.core, state, load, load_factor, tol, size, fscale, max_iterations, step)
+    it, rnorm = out["iterations"], out["residual"]
+    before, after = out["negative_start"], out["negative_end"]
+    if out["converged"] and before >= 0 and after >= 0 and before != after:
+        return False, it, rnorm, (f"the step crossed a critical point (the tangent's negative eigenvalues "
+                                  f"went from {before} to {after})"), False
+    if out["converged"]:
+        return True, it, rnorm, "", False
+    if out["nonfinite"]:
+        return False, it, rnorm, "the residual is not finite", False
+    if out["singular"]:
+        return False, it, rnorm, _singular_reason(model, state, load, load_factor), True
+    return False, it, rnorm, f"no convergence in {max_iterations} iterations (residual {rnorm:.3e} N)", False
 
-                free = null_coordinates(J)
-                named = f"; {describe_coordinates(free, model.dof_labels)}" if len(free) else ""
-                return False, it, rnorm, (f"the tangent is singular (a mechanism: missing supports, or a "
-                                          f"bifurcation point{named})"), True
-        if not np.all(np.isfinite(dz)) or not np.isfinite(dt):
-            return False, it, rnorm, "the tangent is singular or ill-conditioned", True
-        _core.add_increment(model.core, state, dz, "q")
-        state.rebase(np.pi)
-        if arc is not None:
-            arc.apply(dz, dt)
-            mdot, load_factor = arc.at(arc.t)
-            load = model.load_state(mass_flow=mdot, gravity_factor=load_factor)
-            small = np.linalg.norm(dz, np.inf) <= tol * size and abs(dt) <= tol * max(1.0, abs(arc.t))
-            if not (small or (rnorm <= 1e-3 * tol * max(fscale, 1e-300) and abs(arc.g()) <= tol)):
-                continue
-            r2, _ = residual_and_tangent(model, state, load, load_factor=load_factor, matrix=False)
-            return True, it, float(np.linalg.norm(r2)), "", False
-        if np.linalg.norm(dz, np.inf) <= tol * size or rnorm <= 1e-3 * tol * max(fscale, 1e-300) or rnorm == 0.0:
-            r2, _ = residual_and_tangent(model, state, load, load_factor=load_factor, matrix=False)
-            return True, it, float(np.linalg.norm(r2)), "", False
-    return False, max_iterations, rnorm, f"no convergence in {max_iterations} iterations (residual {rnorm:.3e} N)", False
+
+def _singular_reason(model, state, load, load_factor):
+    """Why the tangent at ``state`` is singular, naming its free coordinates."""
+    from .eigen import describe_coordinates, null_coordinates
+
+    _, J = residual_and_tangent(model, state, load, load_factor=load_factor)
+    free = null_coordinates(J)
+    named = f"; {describe_coordinates(free, model.dof_labels)}" if len(free) else ""
+    return f"the tangent is singular (a mechanism: missing supports, or a bifurcation point{named})"
+
+
+def _arc_newton(model, state, arc, tol, size, max_iterations):
+    """Newton's method on the bordered system of R(q, t) = 0 and the arc-length constraint
+    ``arc`` (an :class:`~pipeflex.analysis.arclength.Arc`; its ``t``, ``dq`` and ``dt``
+    updated): the path parameter ``arc.t`` (which sets mdot and the load factor, affine in
+    t) is an unknown too. The core's static_newton with the constraint as its border.
+    Returns (converged, iterations, residual norm [N], reason, singular)."""
+    (m0, l0), (m1, l1) = arc.at(0.0), arc.at(1.0)
+    path = (m0, m1 - m0, l0, l1 - l0)
+    mdot, load_factor = arc.at(arc.t)
+    load = model.load_state(mass_flow=mdot, gravity_factor=load_factor)
+    out = _core.static_arc_newton(model.core, state, load, path, arc.w2, arc.psi2, arc.ds, arc.t, arc.dq, arc.dt,
+                                  tol, size, model.force_scale(mass_flow=mdot), max_iterations)
+    arc.t, arc.dq, arc.dt = out["t"], np.asarray(out["dq"]), out["dt"]
+    it, rnorm = out["iterations"], out["residual"]
+    if out["converged"]:
+        return True, it, rnorm, "", False
+    if out["nonfinite"]:
+        return False, it, rnorm, "the residual is not finite", False
+    if out["singular"]:
+        mdot, load_factor = arc.at(arc.t)
+        load = model.load_state(mass_flow=mdot, gravity_factor=load_factor)
+        return False, it, rnorm, _singular_reason(model, state, load, load_factor), True
+    return False, it, rnorm, f"no convergence in {max_iterations} iterations (residual {rnorm:.3e} N)", False

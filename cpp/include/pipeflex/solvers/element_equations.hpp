@@ -36,6 +36,13 @@ class ElementEquations final : public Equations {
     Eigen::VectorXd base_q;
     double t_set = 0.0;
     double static_factor = -1.0;  // >= 0: statics' load factor (loads and gravity)
+    // Statics (element_static): no hub motion (the static analyses take the state's
+    // configuration as it is), and frames re-based only past pi, so that the rotation
+    // vectors of the result stay what the Python analyses report (relative to the
+    // state's frames) and the Newton iterates are those of a fixed chart.
+    bool statics = false;
+    double static_mdot = 0.0, static_lf = 1.0;  // statics: mdot [kg/s], load factor [-] (and gravity's)
+    double rebase_angle = 0.0;  // [rad] frames with |phi| beyond it are re-based by rebase()
     double fluid_work = 0.0, load_work = 0.0, last_power_t = 0.0, last_fluid_power = 0.0,
            last_load_power = 0.0;
 
@@ -43,7 +50,7 @@ class ElementEquations final : public Equations {
         LoadState l = base_load;
         l.mass_flow = flow.at(t);
         l.mass_flow_rate = flow.rate(t);
-        apply_hub_frame(model, l, t);
+        if (!statics) apply_hub_frame(model, l, t);
         return l;
     }
 
@@ -61,7 +68,7 @@ class ElementEquations final : public Equations {
         add_increment(model, state.v, v);
         state.a.setZero();
         add_increment(model, state.a, a);
-        apply_hub(model, state, t);
+        if (!statics) apply_hub(model, state, t);
         t_set = t;
     }
 
@@ -93,6 +100,11 @@ class ElementEquations final : public Equations {
     void evaluate(double wK, double wC, double wM, Eigen::VectorXd& r, Triplets* J) override {
         LoadState l = load_at(t_set);
         double lf = load_factor(t_set);
+        if (statics) {
+            l.mass_flow = static_mdot;
+            l.mass_flow_rate = 0.0;
+            l.gravity_factor = lf = static_lf;
+        }
         if (static_factor >= 0.0) {  // statics: loads and gravity stepped together
             l.gravity_factor *= static_factor;
             lf = static_factor;
@@ -100,7 +112,7 @@ class ElementEquations final : public Equations {
         assemble(model, state, l, lf, wK, wC, wM, &r, J);
     }
     void set_static_load_factor(double f) override { static_factor = f; }
-    int rebase(Eigen::VectorXd& v, Eigen::VectorXd& a) override { return rebase(0.0, v, a); }
+    int rebase(Eigen::VectorXd& v, Eigen::VectorXd& a) override { return rebase(rebase_angle, v, a); }
     // a fine mesh started off balance rings in its stiff modes (bench_galpha_step.py)
     bool adaptive_prediction() const override { return true; }
     void accept(double t, double h) override {
@@ -190,6 +202,86 @@ class ElementEquations final : public Equations {
         out.load_work.push_back(lw);
     }
 };
+
+// Static equilibrium of an element model under `load` (its mass flow [kg/s] and gravity
+// factor) and the external loads times load_factor, by the one static_newton from
+// `state` (updated to the last iterate; frames re-based past pi). length_scale [m]: the
+// model size of the correction test. The model must have free coordinates.
+inline StaticNewtonResult element_static(const Model& model, State& state, const LoadState& load,
+                                         double load_factor, double length_scale, const StaticNewtonOptions& opt) {
+    check_state(model, state);
+    const TimeFunctions f{TimeTable::constant(load.mass_flow), TimeTable::constant(load_factor)};
+    TransientOptions o;
+    o.length_scale = length_scale;
+    ElementEquations eq(model, state, load, f, o);
+    eq.statics = true;
+    eq.static_mdot = load.mass_flow;
+    eq.static_lf = load_factor;
+    eq.rebase_angle = M_PI;
+    Eigen::VectorXd lam;  // no constraints: supports are eliminated
+    return static_newton(eq, 0.0, lam, opt);
+}
+
+// The spherical arc-length constraint of one continuation step (pipeflex.analysis.arclength)
+// as static_newton's border: the path parameter tau sets mdot = m0 + m1 tau [kg/s] and the
+// load factor l0 + l1 tau; g = (|W dq|^2 + psi2 dtau^2 - ds^2) / ds^2 on the increment
+// (dq, dtau) from the step's start (w2: the squared weights W^2).
+struct ArcBorder final : StaticBorder {
+    ElementEquations& eq;
+    double m0, m1, l0, l1;
+    Eigen::VectorXd w2, dq;
+    double psi2, ds, tau, dtau;
+    ArcBorder(ElementEquations& e, double m0_, double m1_, double l0_, double l1_, Eigen::VectorXd w2_,
+              Eigen::VectorXd dq_, double psi2_, double ds_, double tau_, double dtau_)
+        : eq(e), m0(m0_), m1(m1_), l0(l0_), l1(l1_), w2(std::move(w2_)), dq(std::move(dq_)), psi2(psi2_), ds(ds_),
+          tau(tau_), dtau(dtau_) {
+        set_parameter(tau);
+    }
+    double parameter() const override { return tau; }
+    void set_parameter(double t) override {
+        eq.static_mdot = m0 + m1 * t;
+        eq.static_lf = l0 + l1 * t;
+    }
+    double constraint(Eigen::VectorXd* c, double* d) const override {
+        const double ds2 = ds * ds;
+        if (c != nullptr) {
+            *c = (2.0 / ds2) * w2.cwiseProduct(dq);
+            *d = 2.0 * psi2 * dtau / ds2;
+        }
+        return (w2.cwiseProduct(dq).dot(dq) + psi2 * dtau * dtau - ds2) / ds2;
+    }
+    void accumulate(const Eigen::VectorXd& dz, double dt) override {
+        dq += dz;
+        dtau += dt;
+        tau += dt;
+        set_parameter(tau);
+    }
+};
+
+// Newton on the bordered system of one arc-length step from `state` (updated): the path
+// parameter tau, the step's increment dq and dtau updated (see ArcBorder for the rest).
+inline StaticNewtonResult element_arc_static(const Model& model, State& state, const LoadState& load,
+                                             double length_scale, StaticNewtonOptions opt, double m0, double m1,
+                                             double l0, double l1, const Eigen::VectorXd& w2, double psi2, double ds,
+                                             double& tau, Eigen::VectorXd& dq, double& dtau) {
+    check_state(model, state);
+    if (w2.size() != model.n_dofs || dq.size() != model.n_dofs)
+        throw std::invalid_argument("the arc's weights and increment must have n_dofs entries");
+    const TimeFunctions f{TimeTable::constant(load.mass_flow), TimeTable::constant(1.0)};
+    TransientOptions o;
+    o.length_scale = length_scale;
+    ElementEquations eq(model, state, load, f, o);
+    eq.statics = true;
+    eq.rebase_angle = M_PI;
+    ArcBorder arc(eq, m0, m1, l0, l1, w2, dq, psi2, ds, tau, dtau);
+    opt.border = &arc;
+    Eigen::VectorXd lam;
+    const StaticNewtonResult res = static_newton(eq, 0.0, lam, opt);
+    tau = arc.tau;
+    dq = arc.dq;
+    dtau = arc.dtau;
+    return res;
+}
 
 // The generalised-alpha options of a run's transient options.
 inline AlphaOptions alpha_options(const TransientOptions& opt) {

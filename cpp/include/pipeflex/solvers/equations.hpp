@@ -152,15 +152,80 @@ void initial_acceleration(Equations& eq, const Eigen::VectorXd& z, const Eigen::
 // on the scaled KKT matrix [K, s C_q^T; s C_q, 0] (sparse LU): from the state's base
 // configuration and the multipliers lam (updated). Converged when the correction is
 // below tol model sizes and the constraints below 1e-6 model sizes (or stalls at
-// round-off within 1e3 tol). The configuration is re-based after every iteration.
+// round-off within 1e3 tol), or (force_scale > 0) when the residual is below
+// 1e-3 tol times the force level. The configuration is re-based after every iteration.
+// The one Newton of the static analyses: multibody systems, coupled systems and element
+// models (static_equilibrium's load stepping calls it once per load step).
+// An optional border of static_newton's system (arc-length continuation): one more
+// unknown, a path parameter tau that sets the equations' loads, with its column dR/dtau
+// (central differences of step difference_step: exact for a residual at most quadratic
+// in tau), and one more equation g = 0 on the increment accumulated from the step's start
+// and tau, with its gradient (c, d).
+class StaticBorder {
+   public:
+    virtual ~StaticBorder() = default;
+    virtual double parameter() const = 0;
+    virtual void set_parameter(double tau) = 0;  // the equations' loads at tau
+    virtual double difference_step() const { return 0.5; }
+    // g at the increment accumulated so far and, if c is not null, its gradient c (n), d
+    virtual double constraint(Eigen::VectorXd* c, double* d) const = 0;
+    // a Newton correction: the increment accumulates dz, tau moves by dtau
+    virtual void accumulate(const Eigen::VectorXd& dz, double dtau) = 0;
+};
+
+struct StaticNewtonOptions {
+    double tol = 1e-10;      // correction / length_scale
+    int max_iterations = 25;
+    // [N] > 0: the model's force level F. A start with |R| <= tol F is converged (a warm
+    // start: no iteration); an iteration whose residual is below 1e-3 tol max(F, the
+    // largest |R| seen) converges (the correction applied) even if the correction is not
+    // small: a stiff model's corrections stall above tol at round-off of the residual.
+    double force_scale = 0.0;
+    // Apply the converged correction (element models: the result is the Newton iterate
+    // after it, and its residual is evaluated there). Off for the multibody systems: an
+    // exact state, such as a straight pipe under flow, keeps its exact symmetry.
+    bool apply_converged_correction = false;
+    // A correction longer than this many model sizes is divergence (a nearly singular
+    // tangent); <= 0: none (element models: a large first correction onto a far branch of
+    // the path is the load stepping's to judge).
+    double divergence = 10.0;
+    // Count the negative eigenvalues of a symmetric tangent (the negative pivots of its
+    // LDL^T, Sylvester's law of inertia) at the start and at the converged end (one more
+    // tangent and factorisation), for the load stepping's acceptance test: along a
+    // regular equilibrium path the count is constant; a step that changes it crossed a
+    // critical point. Systems without constraints only; a non-symmetric tangent (flow
+    // forces) is not counted.
+    bool inertia = false;
+    // A border (systems without constraints): Newton on [K, dR/dtau; c^T, d] by block
+    // elimination (two solves with K's LU), the whole bordered matrix where K is singular
+    // (it is regular at a simple limit point). Converged when the correction is below tol
+    // model sizes and that of tau below tol max(1, |tau|), or the residual below 1e-3 tol
+    // times the force level and |g| <= tol (a warm start: |R| <= tol F and |g| <= tol).
+    StaticBorder* border = nullptr;
+};
 struct StaticNewtonResult {
     bool converged = false, singular = false;
-    bool diverged = false;  // a correction longer than 10 model sizes (a nearly singular tangent)
+    bool diverged = false;   // a correction longer than options.divergence model sizes
+    bool nonfinite = false;  // the residual is not finite (the state left the model's domain)
     int iterations = 0;
     double residual = 0.0;    // |R + C_q^T lambda| at the end [N]
     double correction = 0.0;  // last |dz| [m, rad]
+    // with options.inertia: the negative eigenvalues of the tangent at the start and at the
+    // converged end (-1: not counted: no iteration, or a zero pivot)
+    int negative_start = -1, negative_end = -1;
 };
-StaticNewtonResult static_newton(Equations& eq, double t, Eigen::VectorXd& lam, double tol, int max_iterations);
+StaticNewtonResult static_newton(Equations& eq, double t, Eigen::VectorXd& lam, const StaticNewtonOptions& opt);
+// The number of negative eigenvalues of a symmetric n x n matrix given by triplets
+// (repeats summed), from a sparse LDL^T; -1 if a pivot is zero (singular) or the matrix
+// is not symmetric (to 1e-10 of its norm).
+int negative_eigenvalues(const Triplets& J, int n);
+inline StaticNewtonResult static_newton(Equations& eq, double t, Eigen::VectorXd& lam, double tol,
+                                        int max_iterations) {
+    StaticNewtonOptions opt;
+    opt.tol = tol;
+    opt.max_iterations = max_iterations;
+    return static_newton(eq, t, lam, opt);
+}
 
 // The Lie-group generalised-alpha integrator (Arnold & Bruls 2007) of any system: equal
 // steps within each interval between output times, halved after a failed Newton
