@@ -13,6 +13,20 @@
 #include <string>
 
 namespace py = pybind11;
+
+namespace {
+// The element statics' Newton options (the Python loop's tests): converged on the
+// correction or the force level, the converged correction applied, no divergence cap.
+pipeflex::StaticNewtonOptions element_static_options(double tol, double force_scale, int max_iterations) {
+    pipeflex::StaticNewtonOptions opt;
+    opt.tol = tol;
+    opt.max_iterations = max_iterations;
+    opt.force_scale = force_scale;
+    opt.apply_converged_correction = true;
+    opt.divergence = 0.0;
+    return opt;
+}
+}  // namespace
 using namespace pipeflex;
 
 namespace {
@@ -272,12 +286,7 @@ void bind_transient(py::module_& m) {
         "static_newton",
         [](const Model& md, State& s, const LoadState& load, double load_factor, double tol, double length_scale,
            double force_scale, int max_iterations, bool inertia) {
-            StaticNewtonOptions opt;
-            opt.tol = tol;
-            opt.max_iterations = max_iterations;
-            opt.force_scale = force_scale;
-            opt.apply_converged_correction = true;
-            opt.divergence = 0.0;
+            StaticNewtonOptions opt = element_static_options(tol, force_scale, max_iterations);
             opt.inertia = inertia;
             StaticNewtonResult res;
             {
@@ -298,12 +307,7 @@ void bind_transient(py::module_& m) {
         [](const Model& md, State& s, const LoadState& load, const std::tuple<double, double, double, double>& path,
            const Eigen::VectorXd& w2, double psi2, double ds, double tau, Eigen::VectorXd dq, double dtau,
            double tol, double length_scale, double force_scale, int max_iterations) {
-            StaticNewtonOptions opt;
-            opt.tol = tol;
-            opt.max_iterations = max_iterations;
-            opt.force_scale = force_scale;
-            opt.apply_converged_correction = true;
-            opt.divergence = 0.0;
+            const StaticNewtonOptions opt = element_static_options(tol, force_scale, max_iterations);
             StaticNewtonResult res;
             {
                 py::gil_scoped_release release;

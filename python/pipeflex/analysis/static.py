@@ -135,8 +135,9 @@ def static_equilibrium(model, *, state=None, mass_flow: Optional[float] = None, 
         def at(t):  # flow continuation (the loads ramped with it only from the reference configuration)
             return (mdot if t >= 1.0 else mdot0 + t * (mdot - mdot0)), (t if cold else 1.0)
 
-        def along(t):  # the same, extended past t = 1 (for the continuation)
+        def extended(t):  # the same, extended past t = 1 (for the continuation)
             return mdot0 + t * (mdot - mdot0), (t if cold else 1.0)
+        along = extended
     size = max(float(np.ptp(model.positions, axis=0).max()), model.total_length / max(1, len(model.elements)))
     solve = dict(tol=tol, size=size, max_iterations=max_iterations)
     total_iter = 0
