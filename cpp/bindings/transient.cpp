@@ -16,14 +16,15 @@ namespace py = pybind11;
 
 namespace {
 // The element statics' Newton options (the Python loop's tests): converged on the
-// correction or the force level, the converged correction applied, no divergence cap.
+// correction or the force level, the converged correction applied, divergence judged
+// from the second correction on.
 pipeflex::StaticNewtonOptions element_static_options(double tol, double force_scale, int max_iterations) {
     pipeflex::StaticNewtonOptions opt;
     opt.tol = tol;
     opt.max_iterations = max_iterations;
     opt.force_scale = force_scale;
     opt.apply_converged_correction = true;
-    opt.divergence = 0.0;
+    opt.divergence_from = 2;
     return opt;
 }
 }  // namespace

@@ -167,7 +167,7 @@ StaticNewtonResult static_newton(Equations& eq, double t, Eigen::VectorXd& lam, 
             out.converged = true;
             return out;
         }
-        if (!small && !balanced && opt.divergence > 0.0 && size > opt.divergence * L) {
+        if (!small && !balanced && opt.divergence > 0.0 && it >= opt.divergence_from && size > opt.divergence * L) {
             out.diverged = true;  // a correction beyond the model: a (nearly) singular tangent
             return out;
         }

@@ -259,6 +259,9 @@ def _newton(model, state, mdot, load_factor, tol, size, max_iterations, step=Fal
         return False, it, rnorm, "the residual is not finite", False
     if out["singular"]:
         return False, it, rnorm, _singular_reason(model, state, load, load_factor), True
+    if out["diverged"]:
+        return False, it, rnorm, (f"Newton diverged at iteration {it} (a correction of {out['correction']:.3g} m "
+                                  f"or rad, beyond 10 model sizes; residual {rnorm:.3e} N)"), False
     return False, it, rnorm, f"no convergence in {max_iterations} iterations (residual {rnorm:.3e} N)", False
 
 

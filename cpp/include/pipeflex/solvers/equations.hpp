@@ -189,6 +189,10 @@ struct StaticNewtonOptions {
     // tangent); <= 0: none (element models: a large first correction onto a far branch of
     // the path is the load stepping's to judge).
     double divergence = 10.0;
+    // ...applied from this iteration on (element models: 2; the first correction from the
+    // start may be long, a later one that long is Newton diverging, and failing at once
+    // lets the load stepping halve the step without 25 wasted iterations)
+    int divergence_from = 1;
     // Count the negative eigenvalues of a symmetric tangent (the negative pivots of its
     // LDL^T, Sylvester's law of inertia) at the start and at the converged end (one more
     // tangent and factorisation), for the load stepping's acceptance test: along a
