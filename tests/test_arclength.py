@@ -235,3 +235,24 @@ def test_the_core_corrector_lands_on_the_path_and_the_sphere():
     # the residual's round-off floor: EA = 1e9 N times the coordinates' eps
     assert np.linalg.norm(r) == pytest.approx(rnorm, abs=1e-12) and rnorm <= 1e-7 * model.force_scale()
     assert 0.5 < arc.t < 0.7  # moved along the path, forward
+
+
+def test_a_diverging_load_step_fails_at_once_and_is_halved():
+    """A fine cantilever (2048 elements, EA = 1e5 N) under its full 1.5 N tip force in one
+    step: Newton's later corrections run beyond 10 model sizes, which is divergence, not a
+    far branch, so the step fails at once (well before max_iterations) and the load
+    stepping halves it; the halved steps converge onto the same equilibrium as four
+    explicit load steps."""
+    b = pf.ModelBuilder()
+    n0 = b.add_node((0.0, 0.0, 0.0))
+    nodes = b.add_line(n0, (1.0, 0.0, 0.0), 2048, pf.PipeSection(EI=10.0, pipe_mass=8.0, fluid_mass=2.0, EA=1e5))
+    b.clamp(n0)
+    b.add_load(nodes[-1], force=(0.0, 1.5, 0.0))
+    model = b.build()
+    with pytest.raises(pf.ConvergenceError, match="Newton diverged at iteration") as info:
+        pf.static_equilibrium(model, path="load", max_bisections=0)
+    assert info.value.iteration < 25
+    halved = pf.static_equilibrium(model)
+    stepped = pf.static_equilibrium(model, load_steps=4)
+    assert np.allclose(halved.state.q, stepped.state.q, rtol=0, atol=1e-9)
+    assert halved.iterations < 60
