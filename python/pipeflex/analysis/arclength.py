@@ -65,10 +65,6 @@ class Arc:
     dq: np.ndarray
     dt: float = 0.0
 
-    def g(self) -> float:
-        """Constraint residual |W dq|^2 + psi^2 dt^2 - ds^2, relative to ds^2."""
-        return (float(np.dot(self.w2 * self.dq, self.dq)) + self.psi2 * self.dt**2 - self.ds**2) / self.ds**2
-
 
 def tangent(model, state, at, t, w2, psi2, previous):
     """Unit tangent (dq/ds, dt/ds) of the path at a converged point, oriented along

@@ -248,17 +248,23 @@ def _newton(model, state, mdot, load_factor, tol, size, max_iterations, step=Fal
     fscale = model.force_scale(mass_flow=mdot)
     load = model.load_state(mass_flow=mdot, gravity_factor=load_factor)
     out = _core.static_newton(model.core, state, load, load_factor, tol, size, fscale, max_iterations, step)
-    it, rnorm = out["iterations"], out["residual"]
     before, after = out["negative_start"], out["negative_end"]
     if out["converged"] and before >= 0 and after >= 0 and before != after:
-        return False, it, rnorm, (f"the step crossed a critical point (the tangent's negative eigenvalues "
-                                  f"went from {before} to {after})"), False
+        return False, out["iterations"], out["residual"], (
+            f"the step crossed a critical point (the tangent's negative eigenvalues went from {before} to {after})"), False
+    return _outcome(out, max_iterations, lambda: _singular_reason(model, state, load, load_factor))
+
+
+def _outcome(out, max_iterations, singular_reason):
+    """(converged, iterations, residual norm [N], reason, singular) of the core's static
+    Newton result ``out``; ``singular_reason()`` names the free coordinates."""
+    it, rnorm = out["iterations"], out["residual"]
     if out["converged"]:
         return True, it, rnorm, "", False
     if out["nonfinite"]:
         return False, it, rnorm, "the residual is not finite", False
     if out["singular"]:
-        return False, it, rnorm, _singular_reason(model, state, load, load_factor), True
+        return False, it, rnorm, singular_reason(), True
     if out["diverged"]:
         return False, it, rnorm, (f"Newton diverged at iteration {it} (a correction of {out['correction']:.3g} m "
                                   f"or rad, beyond 10 model sizes; residual {rnorm:.3e} N)"), False
@@ -288,13 +294,9 @@ def _arc_newton(model, state, arc, tol, size, max_iterations):
     out = _core.static_arc_newton(model.core, state, load, path, arc.w2, arc.psi2, arc.ds, arc.t, arc.dq, arc.dt,
                                   tol, size, model.force_scale(mass_flow=mdot), max_iterations)
     arc.t, arc.dq, arc.dt = out["t"], np.asarray(out["dq"]), out["dt"]
-    it, rnorm = out["iterations"], out["residual"]
-    if out["converged"]:
-        return True, it, rnorm, "", False
-    if out["nonfinite"]:
-        return False, it, rnorm, "the residual is not finite", False
-    if out["singular"]:
+
+    def singular_reason():
         mdot, load_factor = arc.at(arc.t)
-        load = model.load_state(mass_flow=mdot, gravity_factor=load_factor)
-        return False, it, rnorm, _singular_reason(model, state, load, load_factor), True
-    return False, it, rnorm, f"no convergence in {max_iterations} iterations (residual {rnorm:.3e} N)", False
+        return _singular_reason(model, state, model.load_state(mass_flow=mdot, gravity_factor=load_factor),
+                                load_factor)
+    return _outcome(out, max_iterations, singular_reason)
