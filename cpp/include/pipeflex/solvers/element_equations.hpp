@@ -8,6 +8,7 @@
 #include "pipeflex/solvers/transient.hpp"
 
 #include <cmath>
+#include <limits>
 #include <sstream>
 #include <stdexcept>
 #include <string>
@@ -35,13 +36,15 @@ class ElementEquations final : public Equations {
     int n;
     Eigen::VectorXd base_q;
     double t_set = 0.0;
-    double static_factor = -1.0;  // >= 0: statics' load factor (loads and gravity)
+    // statics' load factor (loads and gravity) if set; any real value: the arc-length
+    // border differences it, beyond the loads' range
+    double static_factor = std::numeric_limits<double>::quiet_NaN();
     // Statics (element_static): no hub motion (the static analyses take the state's
     // configuration as it is), and frames re-based only past pi, so that the rotation
     // vectors of the result stay what the Python analyses report (relative to the
     // state's frames) and the Newton iterates are those of a fixed chart.
     bool statics = false;
-    double static_mdot = 0.0, static_lf = 1.0;  // statics: mdot [kg/s], load factor [-] (and gravity's)
+    double static_mdot = 0.0;  // statics: mdot [kg/s] (the load factor: set_static_load_factor)
     double rebase_angle = 0.0;  // [rad] frames with |phi| beyond it are re-based by rebase()
     double fluid_work = 0.0, load_work = 0.0, last_power_t = 0.0, last_fluid_power = 0.0,
            last_load_power = 0.0;
@@ -103,9 +106,8 @@ class ElementEquations final : public Equations {
         if (statics) {
             l.mass_flow = static_mdot;
             l.mass_flow_rate = 0.0;
-            l.gravity_factor = lf = static_lf;
         }
-        if (static_factor >= 0.0) {  // statics: loads and gravity stepped together
+        if (!std::isnan(static_factor)) {  // statics: loads and gravity stepped together
             l.gravity_factor *= static_factor;
             lf = static_factor;
         }
@@ -203,21 +205,24 @@ class ElementEquations final : public Equations {
     }
 };
 
-// Static equilibrium of an element model under `load` (its mass flow [kg/s] and gravity
-// factor) and the external loads times load_factor, by the one static_newton from
+// Static equilibrium of an element model under `load`'s mass flow [kg/s], with the
+// external loads and gravity times load_factor (`load`'s own gravity factor is not
+// used), by the one static_newton from
 // `state` (updated to the last iterate; frames re-based past pi). length_scale [m]: the
 // model size of the correction test. The model must have free coordinates.
 inline StaticNewtonResult element_static(const Model& model, State& state, const LoadState& load,
                                          double load_factor, double length_scale, const StaticNewtonOptions& opt) {
     check_state(model, state);
-    const TimeFunctions f{TimeTable::constant(load.mass_flow), TimeTable::constant(load_factor)};
+    LoadState base = load;
+    base.gravity_factor = 1.0;  // gravity, as the loads, times the static load factor
+    const TimeFunctions f{TimeTable::constant(load.mass_flow), TimeTable::constant(1.0)};
     TransientOptions o;
     o.length_scale = length_scale;
-    ElementEquations eq(model, state, load, f, o);
+    ElementEquations eq(model, state, base, f, o);
     eq.statics = true;
-    eq.static_mdot = load.mass_flow;
-    eq.static_lf = load_factor;
     eq.rebase_angle = M_PI;
+    eq.static_mdot = load.mass_flow;
+    eq.set_static_load_factor(load_factor);
     Eigen::VectorXd lam;  // no constraints: supports are eliminated
     return static_newton(eq, 0.0, lam, opt);
 }
@@ -240,7 +245,7 @@ struct ArcBorder final : StaticBorder {
     double parameter() const override { return tau; }
     void set_parameter(double t) override {
         eq.static_mdot = m0 + m1 * t;
-        eq.static_lf = l0 + l1 * t;
+        eq.set_static_load_factor(l0 + l1 * t);
     }
     double constraint(Eigen::VectorXd* c, double* d) const override {
         const double ds2 = ds * ds;
@@ -267,10 +272,12 @@ inline StaticNewtonResult element_arc_static(const Model& model, State& state, c
     check_state(model, state);
     if (w2.size() != model.n_dofs || dq.size() != model.n_dofs)
         throw std::invalid_argument("the arc's weights and increment must have n_dofs entries");
+    LoadState base = load;
+    base.gravity_factor = 1.0;  // gravity, as the loads, times the static load factor (the border's)
     const TimeFunctions f{TimeTable::constant(load.mass_flow), TimeTable::constant(1.0)};
     TransientOptions o;
     o.length_scale = length_scale;
-    ElementEquations eq(model, state, load, f, o);
+    ElementEquations eq(model, state, base, f, o);
     eq.statics = true;
     eq.rebase_angle = M_PI;
     ArcBorder arc(eq, m0, m1, l0, l1, w2, dq, psi2, ds, tau, dtau);
