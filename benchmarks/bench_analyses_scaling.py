@@ -50,7 +50,7 @@ def best(f, repeat):
 
 def tip_loaded(n, force=1.5):
     """The peer scene's cantilever (bench_limit_cycle.scene) with n elements, its 1.5 N tip
-    force deflecting it 0.3 m: a static solve with real Newton iterations (the straight
+    force deflecting it 0.05 m (4.3 degrees at the tip): a static solve with real Newton iterations (the straight
     pipe under flow alone is an equilibrium already, solved in 0 iterations)."""
     sec = pf.PipeSection(EI=10.0, pipe_mass=8.0, fluid_mass=2.0, EA=1e5, rotary_inertia=(1e-3, 0.0, 0.0))
     b = pf.ModelBuilder()

@@ -179,6 +179,34 @@ def test_pf_simulate_takes_a_multibody_system():
         pf.simulate(s, 0.02, integrator="ida")
 
 
+def test_coupled_statics_take_the_mixed_newton():
+    """The coupled system's Newton passes its corrections to the element part, whose
+    tangent then takes the extrapolated stresses (the statics' mixed Newton): a
+    512-element cantilever clamped to a clamped hub body solves its 1.5 N tip force in one
+    load step and as few iterations as 64 elements (4; with the state's own stresses in
+    the tangent the count grows with the mesh: docs/performance.md)."""
+    sec = pf.PipeSection(EI=10.0, pipe_mass=8.0, fluid_mass=2.0, EA=1e5, rotary_inertia=(1e-3, 0.0, 0.0))
+    counts, tips = [], []
+    for n in (64, 512):
+        b = pf.ModelBuilder()
+        n0 = b.add_node((0.0, 0.0, 0.0))
+        nodes = b.add_line(n0, (1.0, 0.0, 0.0), n, sec)
+        b.add_load(nodes[-1], force=(0.0, 1.5, 0.0))
+        mb = MultibodyBuilder()
+        mu = 3 * 10.0 / 0.2**3
+        j = mb.add_body(flexible_body(length=0.2, n_elements=2, section=pf.PipeSection(EI=1e4 * mu, pipe_mass=mu,
+                                                                                        rotary_inertia=(1.0, 0, 0))),
+                        position=(-0.1, 0.0, 0.0))
+        mb.fix(j, "start")
+        cs = pf.CoupledSystem(b.build(floating=True), mb.build())
+        cs.rigid(n0, j, "end")
+        st = pf.static_equilibrium(cs, max_bisections=0)
+        counts.append(st.iterations)
+        tips.append(st.state.q[6 * nodes[-1] + 1])
+    assert counts[1] <= counts[0] + 1 <= 6, counts
+    assert tips[1] == pytest.approx(tips[0], rel=1e-5)  # 0.0499 m: P L^3 / 3 EI = 0.05 m
+
+
 def test_static_cantilever_on_a_clamped_hub_equals_the_clamped_elements():
     """pf.static_equilibrium of a coupled system (the core's Newton on the KKT matrix of
     element and body equations): a cantilever of 8 pipe elements clamped to a hub body that

@@ -121,12 +121,14 @@ def test_static_flow_continuation_equals_hand_steps():
         st = pf.static_equilibrium(m, state=st, mass_flow=mdot).state
     assert np.abs(np.asarray(r.state.q) - np.asarray(st.q)).max() < 1e-9
     # from a converged state the loads stay applied and only the flow moves (a plain
-    # warm-started solve fails on this step)
+    # warm-started solve fails on the step to 440 kg/s)
     with pytest.raises(pf.ConvergenceError):
-        pf.static_equilibrium(m, state=st, mass_flow=400.0)
+        pf.static_equilibrium(m, state=st, mass_flow=440.0)
     r2 = pf.static_equilibrium(m, state=st, mass_flow=400.0, from_mass_flow=375.0)
+    plain = pf.static_equilibrium(m, state=st, mass_flow=400.0).state
     st = pf.static_equilibrium(m, mass_flow=400.0, from_mass_flow=0.0).state
     assert np.abs(np.asarray(r2.state.q) - np.asarray(st.q)).max() < 1e-9
+    assert np.abs(np.asarray(plain.q) - np.asarray(st.q)).max() < 1e-9
     # beyond the fold the ramp fails, naming the flow and the last equilibrium it reached
     with pytest.raises(pf.ConvergenceError, match="mdot = 46") as e:
         pf.static_equilibrium(m, state=r2.state, mass_flow=500.0, from_mass_flow=400.0, max_bisections=6)

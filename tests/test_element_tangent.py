@@ -94,3 +94,56 @@ def test_fluid_forces_are_the_flow_part_of_the_residual(kind, end_terms, frames,
     assert np.abs(f).max() > 1.0
     assert np.abs(f - (r1 - r0)).max() <= 1e-12 * np.abs(r1).max()
     assert np.array_equal(_core.pipe_fluid_forces(data, fp, fq, without, q, v), np.zeros(12))
+
+
+def stresses_of(data, fp, fq, q):
+    """The generalised stresses (6) at q [N, N m]: pipe_predicted_stresses along no increment."""
+    return _core.pipe_predicted_stresses(data, fp, fq, q, np.zeros(12))
+
+
+@pytest.mark.parametrize("kind,shear,frames", itertools.product(["straight", "curved"], [False, True], FRAMES))
+def test_predicted_stresses_are_the_linearised_stresses(kind, shear, frames, rng):
+    """pipe_predicted_stresses(q, dq) = sigma(q) + d sigma/dq dq: against central
+    differences of the stresses along dq (error O(h^2))."""
+    data, q0 = element(kind, shear=shear)
+    q, _, _ = state(q0, rng, "large", False)
+    dq = 0.1 * rng.standard_normal(12)
+    fp, fq = FRAMES[frames]
+    h = 1e-5
+    fd = (stresses_of(data, fp, fq, q + h * dq) - stresses_of(data, fp, fq, q - h * dq)) / (2 * h)
+    expected = stresses_of(data, fp, fq, q) + fd
+    assert_close(_core.pipe_predicted_stresses(data, fp, fq, q, dq), expected, 1e-7)
+    # zero at the stress-free reference
+    assert np.abs(stresses_of(data, *FRAMES["identity"], q0)).max() < 1e-9
+
+
+@pytest.mark.parametrize("kind,shear,phi,frames", itertools.product(["straight", "curved"], [False, True],
+                                                                   ["zero", "large"], FRAMES))
+def test_geometric_stresses_change_only_the_geometric_tangent(kind, shear, phi, frames, rng):
+    """The tangent with given geometric stresses sigma_g differs from the state's own by
+    the Hessian of c . eps(q) with c = sigma_g - sigma(q) held fixed (the strains'
+    second derivatives weighted by the stress change), against second central
+    differences of pipe_strains; the residual is unchanged, and sigma_g = sigma(q) gives
+    the tangent itself."""
+    data, q0 = element(kind, shear=shear)
+    q, v, a = state(q0, rng, phi, True)
+    fp, fq = FRAMES[frames]
+    ld = load(mass_flow=2.5, gravity=(0.3, -9.81, 1.0))
+    own = stresses_of(data, fp, fq, q)
+    c = 50.0 * rng.standard_normal(6)
+    r0, J0 = _core.pipe_tangent(data, fp, fq, ld, q, v, a, 1.0, 0.4, 0.2)
+    r1, J1 = _core.pipe_tangent(data, fp, fq, ld, q, v, a, 1.0, 0.4, 0.2, sigma_geometric=own + c)
+    rs, Js = _core.pipe_tangent(data, fp, fq, ld, q, v, a, 1.0, 0.4, 0.2, sigma_geometric=own)
+    assert_close(r1, r0, 1e-15)
+    assert_close(Js, J0, 1e-12)
+
+    # strains (pipe_strains: eps - eps0; the same Hessian) times the stress change
+    def s(x):
+        return c @ _core.pipe_strains(data, fp, fq, x)
+    h = 1e-4
+    H = np.zeros((12, 12))
+    E = np.eye(12) * h
+    for i in range(12):
+        for j in range(12):
+            H[i, j] = (s(q + E[i] + E[j]) - s(q + E[i] - E[j]) - s(q - E[i] + E[j]) + s(q - E[i] - E[j])) / (4 * h * h)
+    assert_close(J1 - J0, H, 1e-6)

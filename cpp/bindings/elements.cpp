@@ -5,6 +5,7 @@
 #include "pipeflex/elements/pipe_beam3d.hpp"
 
 #include <chrono>
+#include <optional>
 #include <stdexcept>
 #include <string>
 
@@ -59,15 +60,34 @@ void bind_elements(py::module_& m) {
     m.def(
         "pipe_tangent",
         [](const PipeElementData& d, const RowMat3& fp, const RowMat3& fq, const LoadState& load,
-           const Vec12& q, const Vec12& v, const Vec12& a, double wK, double wC, double wM) {
+           const Vec12& q, const Vec12& v, const Vec12& a, double wK, double wC, double wM,
+           std::optional<Eigen::Matrix<double, 6, 1>> sigma_geometric) {
             Vec12 r;
             Mat12 J;
-            pipe_tangent(d, frames(fp, fq), load, q.data(), v.data(), a.data(), wK, wC, wM, r.data(), J.data());
+            if (sigma_geometric) {
+                const double w[3] = {wK, wC, wM};
+                double* Jp = J.data();
+                pipe_tangents(d, frames(fp, fq), load, q.data(), v.data(), a.data(), 1, w, r.data(), &Jp,
+                              sigma_geometric->data());
+            } else {
+                pipe_tangent(d, frames(fp, fq), load, q.data(), v.data(), a.data(), wK, wC, wM, r.data(), J.data());
+            }
             return py::make_tuple(r, J);
         },
         py::arg("data"), py::arg("frame_p"), py::arg("frame_q"), py::arg("load"), py::arg("q"),
         py::arg("v"), py::arg("a"), py::arg("wK"), py::arg("wC"), py::arg("wM"),
-        "Element residual r (12) and weighted tangent wK dr/dq + wC dr/dv + wM M (12x12).");
+        py::arg("sigma_geometric") = py::none(),
+        "Element residual r (12) and weighted tangent wK dr/dq + wC dr/dv + wM M (12x12); with "
+        "sigma_geometric (6) the geometric part of dr/dq takes those stresses (the mixed Newton).");
+    m.def(
+        "pipe_predicted_stresses",
+        [](const PipeElementData& d, const RowMat3& fp, const RowMat3& fq, const Vec12& q, const Vec12& dq) {
+            Eigen::Matrix<double, 6, 1> s;
+            pipe_predicted_stresses(d, frames(fp, fq), q.data(), dq.data(), s.data());
+            return s;
+        },
+        py::arg("data"), py::arg("frame_p"), py::arg("frame_q"), py::arg("q"), py::arg("dq"),
+        "Generalised stresses (6) of the strains linearised at q, extrapolated along dq (12).");
     m.def(
         "pipe_tangent_ad",
         [](const PipeElementData& d, const RowMat3& fp, const RowMat3& fq, const LoadState& load,

@@ -436,7 +436,8 @@ namespace {
 // the pattern's.
 template <class Sink>
 void assemble_into(const Model& model, const State& state, const LoadState& load, double load_factor,
-                   const TangentWeights* w, Sink* sinks, int nw, Eigen::VectorXd* residual) {
+                   const TangentWeights* w, Sink* sinks, int nw, Eigen::VectorXd* residual,
+                   const double* geometric_stresses = nullptr) {
     check_state(model, state);
     if (residual != nullptr) residual->setZero(model.n_dofs);
     double qe[12], ve[12], ae[12], re[12], Je[144];
@@ -452,14 +453,17 @@ void assemble_into(const Model& model, const State& state, const LoadState& load
         Jptr[i] = nw > 1 ? Jmany.data() + 144 * i : Je;
         derivatives = derivatives || w[i].wK != 0.0 || w[i].wC != 0.0;
     }
-    const bool at_once = nw > 1 && derivatives;
-    for (const auto& el : model.pipes) {
+    const bool at_once = (nw > 1 || geometric_stresses != nullptr) && derivatives;
+    for (std::size_t k = 0; k < model.pipes.size(); ++k) {
+        const auto& el = model.pipes[k];
         gather(state.q, el.p, el.q, qe);
         gather(state.v, el.p, el.q, ve);
         gather(state.a, el.p, el.q, ae);
         double* r = residual != nullptr ? re : nullptr;
         if (nw == 0) pipe_tangent(el.data, frames_of(state, el), load, qe, ve, ae, 0.0, 0.0, 0.0, re, nullptr);
-        if (at_once) pipe_tangents(el.data, frames_of(state, el), load, qe, ve, ae, nw, wflat.data(), r, Jptr.data());
+        if (at_once)
+            pipe_tangents(el.data, frames_of(state, el), load, qe, ve, ae, nw, wflat.data(), r, Jptr.data(),
+                          geometric_stresses != nullptr ? geometric_stresses + 6 * k : nullptr);
         for (int i = 0; i < nw; ++i) {
             if (!at_once)
                 pipe_tangent(el.data, frames_of(state, el), load, qe, ve, ae, w[i].wK, w[i].wC, w[i].wM,
@@ -608,11 +612,28 @@ std::shared_ptr<const TangentPattern> build_pattern(const Model& model) {
 }  // namespace
 
 void assemble(const Model& model, const State& state, const LoadState& load, double load_factor,
-              double wK, double wC, double wM, Eigen::VectorXd* residual, Triplets* J) {
+              double wK, double wC, double wM, Eigen::VectorXd* residual, Triplets* J,
+              const double* geometric_stresses) {
     if (J != nullptr) J->clear();
     const TangentWeights w{wK, wC, wM};
     TripletSink sink{J};
-    assemble_into(model, state, load, load_factor, &w, &sink, J != nullptr ? 1 : 0, residual);
+    assemble_into(model, state, load, load_factor, &w, &sink, J != nullptr ? 1 : 0, residual, geometric_stresses);
+}
+
+void predicted_stresses(const Model& model, const State& state, const Eigen::VectorXd& dq,
+                        std::vector<double>& sigma) {
+    check_state(model, state);
+    if (dq.size() != state.q.size())
+        throw std::invalid_argument("predicted_stresses: dq must have " + std::to_string(state.q.size()) +
+                                    " entries, got " + std::to_string(dq.size()));
+    sigma.resize(6 * model.pipes.size());
+    double qe[12], de[12];
+    for (std::size_t k = 0; k < model.pipes.size(); ++k) {
+        const auto& el = model.pipes[k];
+        gather(state.q, el.p, el.q, qe);
+        gather(dq, el.p, el.q, de);
+        pipe_predicted_stresses(el.data, frames_of(state, el), qe, de, sigma.data() + 6 * k);
+    }
 }
 
 std::shared_ptr<const TangentPattern> tangent_pattern(const Model& model) {

@@ -107,6 +107,11 @@ class CoupledEquations final : public Equations {
         el_.set_static_load_factor(f);
         mb_.set_static_load_factor(f);
     }
+    void predict_stresses(const VecX* dz) override {
+        if (dz == nullptr) return el_.predict_stresses(nullptr);
+        const VecX head = dz->head(n1_);
+        el_.predict_stresses(&head);
+    }
     RefreshPolicy refresh_policy() const override { return mb_.refresh_policy(); }
     std::string singular_mass_hint() const override {
         return el_.singular_mass_hint() + " Or: " + mb_.singular_mass_hint() +

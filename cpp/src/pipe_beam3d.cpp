@@ -343,13 +343,22 @@ enum Col { cX = 0, cTH = 1, cVX = 4, cW = 5, cAX = 8, cAL = 9, n_col = 12 };
 // Elastic forces D^T sigma (added to f) and their derivatives: D^T C D plus the geometric
 // part sum sigma_i d^2 eps_i, the latter as d^2 eps/d eps_bar^2 and the barred strains'
 // second derivatives weighted by the barred stresses sigma_bar = (d eps/d eps_bar)^T sigma.
+// With sig_geo (not null) the geometric part takes those stresses instead of the state's,
+// and fg receives D^T (sig_geo - sigma) for the rotation map's own derivative (the mixed
+// Newton: see pipe_tangents).
 void elastic(const PipeElementData& e, const V3& xp, const V3& xq, const M3& Ep, const M3& Eq,
-             double* f, M3 (*df)[n_col]) {
+             const double* sig_geo, double* f, double* fg, M3 (*df)[n_col]) {
     const double l0 = e.l0;
     const Strains<double> st = strains(l0, xp, xq, Ep, Eq);
-    const std::array<double, 6> sig = stresses(e, strain_deviation(e, st.eps));
+    std::array<double, 6> sig = stresses(e, strain_deviation(e, st.eps));
     for (int i = 0; i < 6; ++i)
         for (int j = 0; j < 12; ++j) f[j] += sig[i] * st.grad[i][j];
+    if (sig_geo != nullptr) {
+        for (int i = 0; i < 6; ++i) {
+            for (int j = 0; j < 12; ++j) fg[j] += (sig_geo[i] - sig[i]) * st.grad[i][j];
+            sig[i] = sig_geo[i];
+        }
+    }
 
     const auto& Jb = st.jac;
     double sb[6];
@@ -468,16 +477,16 @@ void pipe_tangent(const PipeElementData& e, const NodeFrames& ref, const LoadSta
 
 void pipe_tangents(const PipeElementData& e, const NodeFrames& ref, const LoadState& load,
                    const double* q, const double* v, const double* acc, int nw, const double* weights,
-                   double* r, double* const* Js) {
+                   double* r, double* const* Js, const double* sigma_geometric) {
     const double l0 = e.l0;
     const V3 xp = vec(q), xq = vec(q + 6), vxp = vec(v), vxq = vec(v + 6);
     const NodeRotation nd[2] = {node_rotation(vec(q + 3), vec(v + 3), vec(acc + 3), ref.p, e.offset_p),
                                 node_rotation(vec(q + 9), vec(v + 9), vec(acc + 9), ref.q, e.offset_q)};
 
     // f in virtual-displacement space (as in pipe_residual) and df its derivatives.
-    double f[12] = {};
+    double f[12] = {}, fg[12] = {};
     M3 df[4][n_col] = {};
-    elastic(e, xp, xq, nd[0].E, nd[1].E, f, df);
+    elastic(e, xp, xq, nd[0].E, nd[1].E, sigma_geometric, f, fg, df);
 
     // Centre-line inertia and fluid on a = [x^p, l0 e^p_x, x^q, l0 e^q_x]: the Hermite
     // forces F_i and their derivatives dF (then mapped like f: l0 e x F at the slopes).
@@ -609,7 +618,7 @@ void pipe_tangents(const PipeElementData& e, const NodeFrames& ref, const LoadSt
                     bx = tmul(T, bx);
                     bp = tmul(T, bp);
                     if (rb / 2 == n && wK != 0.0) {
-                        const V3 m = vec(f + 3 * rb);
+                        const V3 m = vec(f + 3 * rb) + vec(fg + 3 * rb);
                         for (int k = 0; k < 3; ++k) {
                             const V3 col = tmul(nd[n].dT[k], m);
                             for (int i = 0; i < 3; ++i) bp(i, k) += wK * col[i];
@@ -692,6 +701,23 @@ void pipe_mass_matrix(const PipeElementData& e, const NodeFrames& ref, const dou
     };
     rotary(Ep, Tp, 3);
     rotary(Eq, Tq, 9);
+}
+
+void pipe_predicted_stresses(const PipeElementData& e, const NodeFrames& ref, const double* q, const double* dq,
+                             double* sigma) {
+    using D = Dual<double, 1>;
+    D qd[12];
+    for (int i = 0; i < 12; ++i) {
+        qd[i] = D(q[i]);
+        qd[i].d[0] = dq[i];
+    }
+    const Mat3<D> Ep = end_triad(vec(qd + 3), ref.p, e.offset_p);
+    const Mat3<D> Eq = end_triad(vec(qd + 9), ref.q, e.offset_q);
+    const auto de = strain_deviation(e, strains(e.l0, vec(qd), vec(qd + 6), Ep, Eq).eps);
+    std::array<double, 6> lin;
+    for (int i = 0; i < 6; ++i) lin[i] = de[i].v + de[i].d[0];
+    const auto s = stresses(e, lin);
+    for (int i = 0; i < 6; ++i) sigma[i] = s[i];
 }
 
 void pipe_strains(const PipeElementData& e, const NodeFrames& ref, const double* q, double* strain) {

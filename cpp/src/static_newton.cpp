@@ -54,6 +54,13 @@ StaticNewtonResult static_newton(Equations& eq, double t, Eigen::VectorXd& lam, 
     Triplets J, Jb;
     FixedPatternLU lu(kDenseLuBelow), lub(kDenseLuBelow);
     StaticNewtonResult out;
+    // the first tangent is the state's own; no prediction outlives the solve (the
+    // equations may serve an integrator next)
+    struct Forget {
+        Equations& eq;
+        ~Forget() { eq.predict_stresses(nullptr); }
+    } forget{eq};
+    eq.predict_stresses(nullptr);
     const bool by_force = opt.force_scale > 0.0;
     double fscale = opt.force_scale;
     // the residual at the state set (its base configuration); false if not finite
@@ -133,6 +140,7 @@ StaticNewtonResult static_newton(Equations& eq, double t, Eigen::VectorXd& lam, 
                 return out;
             }
             out.correction = x.lpNorm<Eigen::Infinity>();
+            eq.predict_stresses(&x);
             eq.set(x, zero, zero, lam, t);
             eq.rebase(v, a);
             border->accumulate(x, dtau);
@@ -171,6 +179,7 @@ StaticNewtonResult static_newton(Equations& eq, double t, Eigen::VectorXd& lam, 
             out.diverged = true;  // a correction beyond the model: a (nearly) singular tangent
             return out;
         }
+        eq.predict_stresses(&x);
         eq.set(x.head(n), zero, zero, lam, t);
         eq.rebase(v, a);
         if (small || balanced) return converged_applied();

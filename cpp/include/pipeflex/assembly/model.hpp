@@ -130,8 +130,16 @@ struct Triplets {
 };
 
 // Reduced residual (size n_dofs) and, if J is not null, the weighted tangent.
+// geometric_stresses (6 per pipe element, model.pipes' order; may be null): the stresses
+// of the pipe elements' geometric stiffness (pipe_tangents' sigma_geometric).
 void assemble(const Model& model, const State& state, const LoadState& load, double load_factor,
-              double wK, double wC, double wM, Eigen::VectorXd* residual, Triplets* J);
+              double wK, double wC, double wM, Eigen::VectorXd* residual, Triplets* J,
+              const double* geometric_stresses = nullptr);
+
+// The pipe elements' stresses extrapolated from the state along the full-coordinate
+// increment dq (6 per element, model.pipes' order): pipe_predicted_stresses.
+void predicted_stresses(const Model& model, const State& state, const Eigen::VectorXd& dq,
+                        std::vector<double>& sigma);
 
 // Sparsity of the reduced tangent wK K + wC C + wM M for any weights (the assembler
 // emits the same entries in the same order whatever the weights, state and loads):

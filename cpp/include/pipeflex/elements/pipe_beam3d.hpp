@@ -76,9 +76,21 @@ void pipe_tangent(const PipeElementData& e, const NodeFrames& ref, const LoadSta
 // The tangents for nw weight sets at once, J[k] for weights[3k..3k+2] = (wK, wC, wM):
 // the derivatives are computed once and only their weighted sums nw times (K, C and M
 // of a linearisation for the cost of about one tangent). r may be null.
+// sigma_geometric (6, may be null): generalised stresses for the geometric part of dr/dq
+// (sum_i sigma_i d^2 eps_i/dq^2) in place of the state's own; the residual is unchanged.
+// The mixed Newton of the statics passes pipe_predicted_stresses here.
 void pipe_tangents(const PipeElementData& e, const NodeFrames& ref, const LoadState& load,
                    const double* q, const double* v, const double* acc, int nw, const double* weights,
-                   double* r, double* const* J);
+                   double* r, double* const* J, const double* sigma_geometric = nullptr);
+
+// The generalised stresses (6) [N, N m] of the strains linearised at q and extrapolated
+// along the increment dq (12): sigma(eps(q) + d eps/dq dq - eps^0). The mixed Newton
+// (the stresses an independent field, eliminated per element: Magisano, Leonetti & Garcea
+// 2017, "MIP Newton") takes them as the next tangent's geometric stresses: a large first
+// increment stretches the chords by O(theta^2) and the state's axial force, EA times that,
+// would otherwise stiffen the next tangent against the bending it has to correct.
+void pipe_predicted_stresses(const PipeElementData& e, const NodeFrames& ref, const double* q, const double* dq,
+                             double* sigma);
 
 // The same by forward AD of pipe_residual (12 directions): the reference for tests.
 void pipe_tangent_ad(const PipeElementData& e, const NodeFrames& ref, const LoadState& load,

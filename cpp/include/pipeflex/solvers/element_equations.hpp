@@ -45,6 +45,8 @@ class ElementEquations final : public Equations {
     // state's frames) and the Newton iterates are those of a fixed chart.
     bool statics = false;
     double static_mdot = 0.0;  // statics: mdot [kg/s] (the load factor: set_static_load_factor)
+    bool predicted = false;    // geometric_stresses hold the static Newton's prediction
+    std::vector<double> geometric_stresses;
     double rebase_angle = 0.0;  // [rad] frames with |phi| beyond it are re-based by rebase()
     double fluid_work = 0.0, load_work = 0.0, last_power_t = 0.0, last_fluid_power = 0.0,
            last_load_power = 0.0;
@@ -111,9 +113,18 @@ class ElementEquations final : public Equations {
             l.gravity_factor *= static_factor;
             lf = static_factor;
         }
-        assemble(model, state, l, lf, wK, wC, wM, &r, J);
+        const bool mixed = predicted && J != nullptr;
+        assemble(model, state, l, lf, wK, wC, wM, &r, J, mixed ? geometric_stresses.data() : nullptr);
     }
     void set_static_load_factor(double f) override { static_factor = f; }
+    // The static Newton on pipe elements is the mixed Newton (Equations::predict_stresses).
+    // Only the tangent changes, so the equilibrium is the same; a large first correction
+    // from the straight state no longer leaves the next tangent stiffened by a spurious
+    // axial force, whose size grows with the mesh (bench_analyses_scaling: static (tip load)).
+    void predict_stresses(const Eigen::VectorXd* dz) override {
+        predicted = dz != nullptr && !model.pipes.empty();
+        if (predicted) predicted_stresses(model, state, full(dz->head(n)), geometric_stresses);
+    }
     int rebase(Eigen::VectorXd& v, Eigen::VectorXd& a) override { return rebase(rebase_angle, v, a); }
     // a fine mesh started off balance rings in its stiff modes (bench_galpha_step.py)
     bool adaptive_prediction() const override { return true; }

@@ -64,6 +64,11 @@ class Equations {
     virtual bool adaptive_prediction() const { return false; }
     // Statics: scale the applied loads and gravity by f (< 0: the run's own load factor).
     virtual void set_static_load_factor(double f) { (void)f; }
+    // Statics: the Newton correction dz (its first n entries; reduced coordinates) about to
+    // be added to the state set. A system may extrapolate its stresses along it and take
+    // them for the next tangent's geometric part (the mixed Newton: pipe_predicted_stresses);
+    // nullptr: forget any (a new solve starts from the state's own stresses).
+    virtual void predict_stresses(const Eigen::VectorXd* dz) { (void)dz; }
     // Mass flow at t [kg/s], for error reports.
     virtual double mass_flow(double t) const { (void)t; return 0.0; }
     // Why a singular mass matrix or iteration matrix is singular, in the system's terms.
