@@ -64,3 +64,20 @@ def u_tube():
     b.clamp(inlet)
     b.add_load(arc[6], force=(0.0, 0.0, 10.0))
     return b.build(mass_flow=1.5)
+
+
+def on_clamped_hub(arm, root, *, stiffness_ratio, rotary_inertia=(1.0, 0.0, 0.0)):
+    """The floating element model `arm` clamped (rigid joint) at node `root` to the end of a
+    short hub body (0.2 m, 2 elements, EI = stiffness_ratio * 3 EI_arm / (0.2 m)^3 per
+    unit mass, EI_arm = 10 N m^2) whose start is clamped to the ground."""
+    from pipeflex.multibody import MultibodyBuilder, flexible_body
+    mb = MultibodyBuilder()
+    mu = 3 * 10.0 / 0.2**3
+    hub = mb.add_body(flexible_body(length=0.2, n_elements=2,
+                                    section=pf.PipeSection(EI=stiffness_ratio * mu, pipe_mass=mu,
+                                                           rotary_inertia=rotary_inertia)),
+                      position=(-0.1, 0.0, 0.0))
+    mb.fix(hub, "start")
+    system = pf.CoupledSystem(arm, mb.build())
+    system.rigid(root, hub, "end")
+    return system

@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 import pipeflex as pf
-from pipeflex.multibody import MultibodyBuilder, flexible_body
+from helpers import on_clamped_hub
 
 SEC = pf.PipeSection(EI=10.0, pipe_mass=8.0, fluid_mass=2.0, EA=1e5, rotary_inertia=(1e-3, 1e-3, 1e-3))
 
@@ -26,15 +26,7 @@ def on_stiff_hub(*, mass_flow=0.0, reservoir=True, section=SEC):
     """The cantilever rigidly joined to a short body 1e6 times stiffer than one as compliant
     as the arm, clamped to the ground (notebooks/coupled_systems.ipynb, section 3)."""
     arm, root = cantilever(clamped=False, mass_flow=mass_flow, reservoir=reservoir, section=section)
-    mb = MultibodyBuilder()
-    mu = 3 * 10.0 / 0.2**3
-    hub = mb.add_body(flexible_body(length=0.2, n_elements=2,
-                                    section=pf.PipeSection(EI=1e6 * mu, pipe_mass=mu, rotary_inertia=(1.0, 1.0, 1.0))),
-                      position=(-0.1, 0.0, 0.0))
-    mb.fix(hub, "start")
-    system = pf.CoupledSystem(arm, mb.build())
-    system.rigid(root, hub, "end")
-    return system
+    return on_clamped_hub(arm, root, stiffness_ratio=1e6, rotary_inertia=(1.0, 1.0, 1.0))
 
 
 def test_coupled_critical_flow_is_the_clamped_cantilevers():

@@ -4,6 +4,7 @@ import numpy as np
 import pytest
 
 import pipeflex as pf
+from helpers import on_clamped_hub
 from pipeflex import scenes
 from pipeflex.coupled import CoupledSystem, simulate
 from pipeflex.multibody import MultibodyBuilder, flexible_body
@@ -179,30 +180,33 @@ def test_pf_simulate_takes_a_multibody_system():
         pf.simulate(s, 0.02, integrator="ida")
 
 
+TIP_SECTION = pf.PipeSection(EI=10.0, pipe_mass=8.0, fluid_mass=2.0, EA=1e5, rotary_inertia=(1e-3, 0.0, 0.0))
+
+
+def tip_loaded_arm(n, *, clamped, mass_flow=0.0):
+    """Seed 000's Fig. 3 cantilever (L = 1 m, EI = 10 N m^2, EA = 1e5 N) of n elements under
+    a 1.5 N tip force: (model, root node, tip node)."""
+    b = pf.ModelBuilder()
+    n0 = b.add_node((0.0, 0.0, 0.0))
+    nodes = b.add_line(n0, (1.0, 0.0, 0.0), n, TIP_SECTION)
+    b.add_load(nodes[-1], force=(0.0, 1.5, 0.0))
+    if clamped:
+        b.clamp(n0)
+    return b.build(mass_flow=mass_flow, floating=not clamped), n0, nodes[-1]
+
+
 def test_coupled_statics_take_the_mixed_newton():
     """The coupled system's Newton passes its corrections to the element part, whose
     tangent then takes the extrapolated stresses (the statics' mixed Newton): a
     512-element cantilever clamped to a clamped hub body solves its 1.5 N tip force in one
     load step and as few iterations as 64 elements (4; with the state's own stresses in
-    the tangent the count grows with the mesh: docs/performance.md)."""
-    sec = pf.PipeSection(EI=10.0, pipe_mass=8.0, fluid_mass=2.0, EA=1e5, rotary_inertia=(1e-3, 0.0, 0.0))
+    the tangent the count grows with the mesh: docs/statics.md)."""
     counts, tips = [], []
     for n in (64, 512):
-        b = pf.ModelBuilder()
-        n0 = b.add_node((0.0, 0.0, 0.0))
-        nodes = b.add_line(n0, (1.0, 0.0, 0.0), n, sec)
-        b.add_load(nodes[-1], force=(0.0, 1.5, 0.0))
-        mb = MultibodyBuilder()
-        mu = 3 * 10.0 / 0.2**3
-        j = mb.add_body(flexible_body(length=0.2, n_elements=2, section=pf.PipeSection(EI=1e4 * mu, pipe_mass=mu,
-                                                                                        rotary_inertia=(1.0, 0, 0))),
-                        position=(-0.1, 0.0, 0.0))
-        mb.fix(j, "start")
-        cs = pf.CoupledSystem(b.build(floating=True), mb.build())
-        cs.rigid(n0, j, "end")
-        st = pf.static_equilibrium(cs, max_bisections=0)
+        arm, root, tip = tip_loaded_arm(n, clamped=False)
+        st = pf.static_equilibrium(on_clamped_hub(arm, root, stiffness_ratio=1e4), max_bisections=0)
         counts.append(st.iterations)
-        tips.append(st.state.q[6 * nodes[-1] + 1])
+        tips.append(st.state.q[6 * tip + 1])
     assert counts[1] <= counts[0] + 1 <= 6, counts
     assert tips[1] == pytest.approx(tips[0], rel=1e-5)  # 0.0499 m: P L^3 / 3 EI = 0.05 m
 
@@ -213,28 +217,10 @@ def test_static_cantilever_on_a_clamped_hub_equals_the_clamped_elements():
     is clamped to the ground deflects under a 1.5 N tip force and 10 kg/s as the same
     cantilever clamped to the ground (seed 000's Fig. 3 beam: 0.029 m; the stiff hub adds
     its compliance: 1e-4 relative). Without flow its multipliers balance the load."""
-    sec = pf.PipeSection(EI=10.0, pipe_mass=8.0, fluid_mass=2.0, EA=1e5, rotary_inertia=(1e-3, 0.0, 0.0))
-
-    def arm(clamped):
-        b = pf.ModelBuilder()
-        n0 = b.add_node((0.0, 0.0, 0.0))
-        nodes = b.add_line(n0, (1.0, 0.0, 0.0), 8, sec)
-        b.add_load(nodes[-1], force=(0.0, 1.5, 0.0))
-        if clamped:
-            b.clamp(n0)
-        return b.build(mass_flow=10.0, floating=not clamped), n0, nodes[-1]
-
-    alone, _, tip = arm(True)
+    alone, _, tip = tip_loaded_arm(8, clamped=True, mass_flow=10.0)
     expected = pf.static_equilibrium(alone).state.q[6 * tip + 1]
-    floating, n0, tip = arm(False)
-    mb = MultibodyBuilder()
-    mu = 3 * 10.0 / 0.2**3
-    j = mb.add_body(flexible_body(length=0.2, n_elements=2, section=pf.PipeSection(EI=1e4 * mu, pipe_mass=mu,
-                                                                                    rotary_inertia=(1.0, 0, 0))),
-                    position=(-0.1, 0.0, 0.0))
-    mb.fix(j, "start")
-    cs = pf.CoupledSystem(floating, mb.build())
-    cs.rigid(n0, j, "end")
+    floating, n0, tip = tip_loaded_arm(8, clamped=False, mass_flow=10.0)
+    cs = on_clamped_hub(floating, n0, stiffness_ratio=1e4)
     st = pf.static_equilibrium(cs, load_steps=2)
     assert st.state.q[6 * tip + 1] == pytest.approx(expected, rel=1e-4)
     assert 0.02 < expected < 0.06  # 0.029 m

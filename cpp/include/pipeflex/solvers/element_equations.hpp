@@ -216,6 +216,40 @@ class ElementEquations final : public Equations {
     }
 };
 
+// The element model's equations for statics, with the flow and options they refer to:
+// mdot constant at load.mass_flow [kg/s], loads and gravity times the static load factor
+// (set_static_load_factor), frames re-based past pi only, length_scale [m] the model
+// size of the correction test. Checks the state; the model must have free coordinates.
+struct ElementStatics {
+    TimeFunctions functions;
+    TransientOptions options;
+    ElementEquations eq;
+    ElementStatics(const Model& model, State& state, const LoadState& load, double length_scale)
+        : functions{TimeTable::constant(load.mass_flow), TimeTable::constant(1.0)},
+          options(scaled(length_scale)),
+          eq(checked(model, state), state, unit_gravity(load), functions, options) {
+        eq.statics = true;
+        eq.rebase_angle = M_PI;
+        eq.static_mdot = load.mass_flow;
+    }
+
+   private:
+    static const Model& checked(const Model& model, const State& state) {
+        check_state(model, state);
+        return model;
+    }
+    static TransientOptions scaled(double length_scale) {
+        TransientOptions o;
+        o.length_scale = length_scale;
+        return o;
+    }
+    static LoadState unit_gravity(const LoadState& load) {
+        LoadState base = load;
+        base.gravity_factor = 1.0;  // gravity, as the loads, times the static load factor
+        return base;
+    }
+};
+
 // Static equilibrium of an element model under `load`'s mass flow [kg/s], with the
 // external loads and gravity times load_factor (`load`'s own gravity factor is not
 // used), by the one static_newton from
@@ -223,19 +257,10 @@ class ElementEquations final : public Equations {
 // model size of the correction test. The model must have free coordinates.
 inline StaticNewtonResult element_static(const Model& model, State& state, const LoadState& load,
                                          double load_factor, double length_scale, const StaticNewtonOptions& opt) {
-    check_state(model, state);
-    LoadState base = load;
-    base.gravity_factor = 1.0;  // gravity, as the loads, times the static load factor
-    const TimeFunctions f{TimeTable::constant(load.mass_flow), TimeTable::constant(1.0)};
-    TransientOptions o;
-    o.length_scale = length_scale;
-    ElementEquations eq(model, state, base, f, o);
-    eq.statics = true;
-    eq.rebase_angle = M_PI;
-    eq.static_mdot = load.mass_flow;
-    eq.set_static_load_factor(load_factor);
+    ElementStatics statics(model, state, load, length_scale);
+    statics.eq.set_static_load_factor(load_factor);
     Eigen::VectorXd lam;  // no constraints: supports are eliminated
-    return static_newton(eq, 0.0, lam, opt);
+    return static_newton(statics.eq, 0.0, lam, opt);
 }
 
 // The spherical arc-length constraint of one continuation step (pipeflex.analysis.arclength)
@@ -280,17 +305,10 @@ inline StaticNewtonResult element_arc_static(const Model& model, State& state, c
                                              double length_scale, StaticNewtonOptions opt, double m0, double m1,
                                              double l0, double l1, const Eigen::VectorXd& w2, double psi2, double ds,
                                              double& tau, Eigen::VectorXd& dq, double& dtau) {
-    check_state(model, state);
     if (w2.size() != model.n_dofs || dq.size() != model.n_dofs)
         throw std::invalid_argument("the arc's weights and increment must have n_dofs entries");
-    LoadState base = load;
-    base.gravity_factor = 1.0;  // gravity, as the loads, times the static load factor (the border's)
-    const TimeFunctions f{TimeTable::constant(load.mass_flow), TimeTable::constant(1.0)};
-    TransientOptions o;
-    o.length_scale = length_scale;
-    ElementEquations eq(model, state, base, f, o);
-    eq.statics = true;
-    eq.rebase_angle = M_PI;
+    ElementStatics statics(model, state, load, length_scale);
+    ElementEquations& eq = statics.eq;
     ArcBorder arc(eq, m0, m1, l0, l1, w2, dq, psi2, ds, tau, dtau);
     opt.border = &arc;
     Eigen::VectorXd lam;
