@@ -26,7 +26,8 @@ def main(paths):
             nb = nbformat.read(p, as_version=4)
             NotebookClient(nb, timeout=3600, kernel_name="python3",
                            resources={"metadata": {"path": str(p.parent)}}).execute()
-            nb.metadata["kernelspec"] = {"name": "python3", "display_name": "Python 3", "language": "python"}
+            # the kernel `make notebooks` registers, which the notebooks ask for by name
+            nb.metadata["kernelspec"] = {"name": "pipeflex", "display_name": "Python (pipeflex)", "language": "python"}
             nbformat.write(nb, p)
             print("executed", p)
 

@@ -137,6 +137,19 @@ def one_thread():
     return controller.limit(limits=1, user_api="blas")
 
 
+def pin_one_thread() -> None:
+    """BLAS on one thread in this process from now on (a sweep's worker: one per core), by
+    OpenBLAS's own call where it can, else threadpoolctl; nothing without either."""
+    functions = _openblas_functions()
+    if functions:
+        for _, put in functions:
+            put(1)
+        return
+    controller = _get_controller()
+    if controller:
+        controller.limit(limits=1, user_api="blas")
+
+
 def small_problems_single_threaded(func):
     """Decorator of a public analysis whose first argument is a model (or a result with
     ``K``): one BLAS thread below SMALL_MODEL coordinates."""

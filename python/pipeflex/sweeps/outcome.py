@@ -2,7 +2,6 @@
 named numpy arrays, an exception into its text."""
 from __future__ import annotations
 
-import contextlib
 import numbers
 import os
 import signal
@@ -10,6 +9,7 @@ from typing import Any, Callable, Dict, Mapping, Tuple
 
 import numpy as np
 
+from .. import _blas
 from ..results import Result
 
 #: (error, fields): error "" if the point succeeded (else "ExceptionType: message", and
@@ -21,28 +21,21 @@ _pinned_pid = None
 
 
 def limit_blas_threads() -> None:
-    """Pin the BLAS/OpenMP thread pools of this process to one thread (threadpoolctl), so
-    that one worker per core does not oversubscribe the cores. A no-op without
-    threadpoolctl. Usable as the ``initializer`` of a user's ProcessPoolExecutor."""
+    """Pin this process's BLAS to one thread (pipeflex._blas.pin_one_thread), so that one
+    worker per core does not oversubscribe the cores. A no-op without OpenBLAS's own call
+    and without threadpoolctl. Usable as the ``initializer`` of a user's
+    ProcessPoolExecutor."""
     global _pinned_pid
     if _pinned_pid == os.getpid():
         return
-    try:
-        from threadpoolctl import threadpool_limits
-    except ImportError:
-        return
-    threadpool_limits(limits=1)
+    _blas.pin_one_thread()
     _pinned_pid = os.getpid()
 
 
 def one_blas_thread():
     """A context in which this process's BLAS runs one thread (restored after; threads of
-    a ThreadPoolExecutor and the serial executor run in it), or a no-op without threadpoolctl."""
-    try:
-        from threadpoolctl import threadpool_limits
-    except ImportError:
-        return contextlib.nullcontext()
-    return threadpool_limits(limits=1)
+    a ThreadPoolExecutor and the serial executor run in it): pipeflex._blas.one_thread."""
+    return _blas.one_thread()
 
 
 def init_pool_worker() -> None:
