@@ -469,7 +469,8 @@ class ModelBuilder:
         for e in self._elements:
             if mdot != 0.0 and e["flow_factor"] != 0.0 and e["section"].fluid_mass <= 0.0:
                 raise ValueError(f"element {e['p']}->{e['q']} carries a mass flow but its fluid_mass is 0")
-        bases = [self._basis(i) for i in range(len(self._positions))]
+        known = {}  # nodes with the same constraint rows share one basis (e.g. all planar ANCF nodes)
+        bases = [self._basis(i, known) for i in range(len(self._positions))]
         core, infos = self._make_core(bases, self._hub)
         # the same model without supports (planar ANCF nodes keep z, z' fixed), for
         # analyses that need the unconstrained matrices (rotating frame)
@@ -521,11 +522,18 @@ class ModelBuilder:
         core.finalize()
         return core, infos
 
-    def _basis(self, node: int) -> np.ndarray:
+    def _basis(self, node: int, known: dict) -> np.ndarray:
         rows = self._constraints.get(node, [])
         if not rows:
             return np.eye(6)
-        C = np.array(rows)
+        key = tuple(tuple(float(c) for c in r) for r in rows)
+        if key not in known:
+            known[key] = self._constrained_basis(np.array(rows))
+        return known[key]
+
+    @staticmethod
+    def _constrained_basis(C: np.ndarray) -> np.ndarray:
+        """An orthonormal basis (6 x k) of the increments allowed by the rows of C."""
         unit = np.all(np.isclose(np.abs(C), 0) | np.isclose(np.abs(C), 1), axis=1) & (np.count_nonzero(C, axis=1) == 1)
         if np.all(unit):  # plain fixed components: keep the coordinate axes as the basis
             fixed = set(np.argmax(np.abs(C), axis=1))
@@ -622,11 +630,12 @@ class Model:
         rows, cols, vals = [], [], []
         labels = []
         first_dof = list(core.first_dof)  # one conversion: each attribute access copies the vector
+        ancf = set(ancf_nodes)  # a tuple's `in` would make the build quadratic in the nodes
         for n, T in enumerate(bases):
             f = first_dof[n]
+            names = ANCF_COMPONENTS if n in ancf else COMPONENTS
             for j in range(T.shape[1]):
                 nz = np.nonzero(T[:, j])[0]
-                names = ANCF_COMPONENTS if n in ancf_nodes else COMPONENTS
                 labels.append((n, names[nz[0]] if len(nz) == 1 else "combined"))
                 for i in nz:
                     rows.append(6 * n + i)
