@@ -60,7 +60,11 @@ def test_csc_tangents_equal_the_summed_triplets(name):
         load.frame_rate, load.frame_acceleration = 3.0, 0.5
     r, mats = tangents(model, s, load, WEIGHTS + ((0.7, -0.3, 0.2),), load_factor=0.8, residual=True)
     r_ref, _ = _core.assemble(model.core, s, load, 0.8, 0.0, 0.0, 0.0, False)
-    assert np.array_equal(r, np.asarray(r_ref))
+    # Two kernels (the residual-only one and the hand tangent's) in the same order of
+    # operations: equal to round-off, not always bitwise, since the geometry's last bits
+    # come from libm's sin/cos, whose variant (and rounding) glibc picks by CPU.
+    r_ref = np.asarray(r_ref)
+    assert np.abs(r - r_ref).max() <= 4 * np.finfo(float).eps * np.abs(r_ref).max(), name
     n = model.n_dofs
     refs = []
     for X, w in zip(mats, WEIGHTS + ((0.7, -0.3, 0.2),)):
