@@ -145,16 +145,23 @@ def test_bodies_with_a_driving_torque_and_a_nodal_moment(to):
     assert bodies_error(system, 0.0) < TOL_JOINTS
 
 
-def coupled_error(cs, mass_flow):
+def coupled_error(cs, mass_flow, move=None):
+    """The error at the static equilibrium, or at it with its element coordinates moved by
+    move(q) (a state where the couplings' equations are not satisfied)."""
     st = pf.static_equilibrium(cs, mass_flow=mass_flow)
     model, bodies, b = cs.model, cs.bodies, st.body_state
+    state = as_core(model, st.state)
+    if move is not None:
+        q = np.array(state.q)
+        move(q)
+        state.q = q
     opt = _core.TransientOptions()
     opt.length_scale = 1.0
     lam = np.asarray(st.coupling_forces, float)
     assert np.abs(lam).max() > 0.0
 
     def matrices(scale):
-        return _core.coupled_linear_matrices(model.core, as_core(model, st.state),
+        return _core.coupled_linear_matrices(model.core, state,
                                              model.load_state(mass_flow=mass_flow), bodies.core, b.r, b.R, b.eta,
                                              b.v, b.a, scale * b.lam, cs.core_couplings(), scale * lam, opt, H)
     out = matrices(1.0)
@@ -211,3 +218,9 @@ def test_ancf_beam_clamped_to_a_hub_body():
     cs = pf.CoupledSystem(model, mb.build())
     cs.rigid(nodes[0], hub, "end")
     assert coupled_error(cs, 0.0) < TOL_JOINTS
+
+    def turn_root_slope(q):
+        # the slope out of the clamp's direction: its moment row's change with the hub's
+        # rotation (lam2 (e x r') . d alpha, zero where the clamp holds) enters
+        q[6 * nodes[0] + 3:6 * nodes[0] + 5] = (np.cos(0.1), np.sin(0.1))
+    assert coupled_error(cs, 0.0, turn_root_slope) < TOL_JOINTS
