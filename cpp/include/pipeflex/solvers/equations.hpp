@@ -52,7 +52,7 @@ class Equations {
     // the integrator calls its prediction rough). The floating-frame bodies keep theirs
     // longer: their Newton contracts well on an old matrix, and even with the joints'
     // tangent analytic the default policy took seed 004's curved pipe 1.8x the time and
-    // left the FFRF chain 4x the Newton error.
+    // left the FFRF chain 3-4x the Newton error.
     struct RefreshPolicy {
         double slow_rate = 0.25;
         int long_step = 3;
