@@ -139,18 +139,17 @@ class CoupledEquations final : public Equations {
         }
         const Vec3<double> phi{{st.q[6 * i + 3], st.q[6 * i + 4], st.q[6 * i + 5]}};
         const Vec3d pa(st.q[6 * i], st.q[6 * i + 1], st.q[6 * i + 2]);
-        const Mat3d Aa = from_mat3(st.rotation(i));
+        Aa_ = from_mat3(st.rotation(i));
         // dp = dx, spatial rotation d alpha = T(phi) d phi; through the node's support basis
         Jpa_ = T.topRows(3);
         Jaa_ = from_mat3(rotation_jacobian(phi)) * T.bottomRows(3);
         Vec3d pb;
-        Mat3d Ab;
-        core_.node(mb_.state(), cp.joint.body_b, cp.joint.node_b, pb, Ab, &Jpb_, &Jab_);
+        core_.node(mb_.state(), cp.joint.body_b, cp.joint.node_b, pb, Ab_, &Jpb_, &Jab_);
         const int nr = cp.joint.rows();
         c.resize(nr);
         Ja.resize(nr, T.cols());
         Jb.resize(nr, Jpb_.cols());
-        joint_rows(cp.joint, pa, Aa, Jpa_, Jaa_, pb, Ab, &Jpb_, &Jab_, c, Ja, Jb);
+        joint_rows(cp.joint, pa, Aa_, Jpa_, Jaa_, pb, Ab_, &Jpb_, &Jab_, c, Ja, Jb);
     }
 
     // ANCF node [r, r'] clamped to a body node in the x-y plane: c = [r - p (x, y);
@@ -161,11 +160,10 @@ class CoupledEquations final : public Equations {
         const int i = cp.element_node;
         const State& st = el_.state;
         Vec3d pb;
-        Mat3d Ab;
-        core_.node(mb_.state(), cp.joint.body_b, cp.joint.node_b, pb, Ab, &Jpb_, &Jab_);
+        core_.node(mb_.state(), cp.joint.body_b, cp.joint.node_b, pb, Ab_, &Jpb_, &Jab_);
         const Vec3d r(st.q[6 * i], st.q[6 * i + 1], st.q[6 * i + 2]);
         const Vec3d rs(st.q[6 * i + 3], st.q[6 * i + 4], st.q[6 * i + 5]);
-        const Vec3d e = Ab * cp.joint.axis_b;
+        const Vec3d e = Ab_ * cp.joint.axis_b;
         c.resize(3);
         c << r[0] - pb[0], r[1] - pb[1], rs[0] * e[1] - rs[1] * e[0];
         Ja.resize(3, T.cols());
@@ -178,53 +176,59 @@ class CoupledEquations final : public Equations {
         Jb.row(2) = rs.dot(e) * Jab_.row(2);
     }
 
-    // wK d(C^T lambda)/dq of coupling k at fixed lambda, by central differences over the
-    // element node's and the body's coordinates (as the bodies' own joints).
+    // wK d(C^T lambda)/dq of coupling k at fixed lambda over the element node's reduced
+    // coordinates and the body's, from the node maps and orientations of the equations(k)
+    // just evaluated.
     void geometric_stiffness(std::size_t k, double wK, Triplets& J) {
-        const int nr = rows(cp_[k]);
-        const VecX lam = lam3_.segment(rows_[k], nr);
+        const Coupling& cp = cp_[k];
+        const int nr = rows(cp);
+        const auto lam = lam3_.segment(rows_[k], nr);
         if (lam.isZero(0.0)) return;
-        const int i = cp_[k].element_node, body = cp_[k].joint.body_b;
+        const int i = cp.element_node, body = cp.joint.body_b, nd = cp.joint.node_b;
         const int e0 = first_col(k), b0 = body_col(k);
+        const State& st = el_.state;
         const Eigen::MatrixXd& T = el_.model.bases[i];
-        const int ne = static_cast<int>(T.cols()), nb = core_.offset(body + 1) - core_.offset(body);
-        const double h = 1e-7;
-        auto column = [&](int col) {
-            VecX plus(ne + nb), minus(ne + nb);
-            for (double sign : {1.0, -1.0}) {
-                perturb(k, col, sign * h);
-                equations(k, c_, Ja_, Jb_);
-                VecX& f = sign > 0 ? plus : minus;
-                f.head(ne) = Ja_.transpose() * lam;
-                f.tail(nb) = Jb_.transpose() * lam;
-                perturb(k, col, -sign * h);
-            }
-            const VecX d = (wK / (2.0 * h)) * (plus - minus);
-            const int cc = col < ne ? e0 + col : b0 + (col - ne);
-            for (int rr = 0; rr < ne; ++rr) J.add(e0 + rr, cc, d[rr]);
-            for (int rr = 0; rr < nb; ++rr) J.add(b0 + rr, cc, d[ne + rr]);
-        };
-        for (int col = 0; col < ne + nb; ++col) column(col);
-    }
-
-    // Moves coordinate col of coupling k's variables (the element node's reduced
-    // coordinates, then the body's) by d; moving by -d restores it (up to round-off in R).
-    void perturb(std::size_t k, int col, double d) {
-        const int i = cp_[k].element_node;
-        const Eigen::MatrixXd& T = el_.model.bases[i];
-        const int ne = static_cast<int>(T.cols());
-        if (col < ne) {
-            el_.state.q.segment(6 * i, 6) += d * T.col(col);
-            return;
+        const int ne = static_cast<int>(T.cols()), nb = static_cast<int>(Jpb_.cols());
+        K_.setZero(ne + nb, ne + nb);
+        auto Kee = K_.topLeftCorner(ne, ne);
+        auto Keb = K_.topRightCorner(ne, nb);
+        auto Kbe = K_.bottomLeftCorner(nb, ne);
+        auto Kbb = K_.bottomRightCorner(nb, nb);
+        if (el_.model.kinds[i] == NodeKind::ancf) {
+            // body node: force -(lam0, lam1, 0), moment lam2 (r' . e) e_z, e turning with it;
+            // element rows lam2 (e_y T_3 - e_x T_4) turn with e (de = d alpha x e)
+            const Vec3d rs(st.q[6 * i + 3], st.q[6 * i + 4], st.q[6 * i + 5]);
+            const Vec3d e = Ab_ * cp.joint.axis_b;
+            const double wl = wK * lam(2);
+            core_.node_stiffness(mb_.state(), body, nd, Vec3d(-lam(0), -lam(1), 0.0),
+                                 Vec3d(0.0, 0.0, lam(2) * rs.dot(e)), wK, Kbb);
+            Kbb.noalias() += wl * Jab_.row(2).transpose() * (e.cross(rs).transpose() * Jab_);
+            Kbe.noalias() += wl * Jab_.row(2).transpose() * (e.transpose() * T.middleRows(3, 3));
+            const Mat3d E = skew(e);
+            Keb.noalias() += wl * (T.row(4).transpose() * E.row(0) - T.row(3).transpose() * E.row(1)) * Jab_;
+        } else {
+            JointNodeForces F;
+            F.clear();
+            joint_reactions(cp.joint, Aa_, Ab_, false, lam, F);
+            // the element node's rotation map T(phi) Tr turns with phi = Tr z (its position map is fixed)
+            const auto Tr = T.bottomRows(3);
+            Mat3<double> Tp, dT[3], Td, dTd[3];
+            rotation_jacobian_derivatives(Vec3<double>{{st.q[6 * i + 3], st.q[6 * i + 4], st.q[6 * i + 5]}},
+                                          Vec3<double>{}, Tp, dT, Td, dTd);
+            Mat3d G;
+            for (int c = 0; c < 3; ++c) G.col(c) = from_mat3(dT[c]).transpose() * F.m[0];
+            Kee.noalias() += wK * Tr.transpose() * (G * Tr);
+            core_.node_stiffness(mb_.state(), body, nd, F.f[1], F.m[1], wK, Kbb);
+            add_turning_stiffness(F, 0, 0, Jpa_, Jaa_, Jaa_, wK, Kee);
+            add_turning_stiffness(F, 0, 1, Jpa_, Jaa_, Jab_, wK, Keb);
+            add_turning_stiffness(F, 1, 0, Jpb_, Jab_, Jaa_, wK, Kbe);
+            add_turning_stiffness(F, 1, 1, Jpb_, Jab_, Jab_, wK, Kbb);
         }
-        MbState& s = mb_.mutable_state();
-        const int body = cp_[k].joint.body_b, o = core_.offset(body), c = col - ne;
-        if (c < 3)
-            s.r[body][c] += d;
-        else if (c < 6)
-            s.R[body] = rotation_exp(Vec3d(d * Vec3d::Unit(c - 3))) * s.R[body];
-        else
-            s.eta[o + c] += d;
+        for (int c = 0; c < ne + nb; ++c) {
+            const int cc = c < ne ? e0 + c : b0 + (c - ne);
+            for (int rr = 0; rr < ne; ++rr) J.add(e0 + rr, cc, K_(rr, c));
+            for (int rr = 0; rr < nb; ++rr) J.add(b0 + rr, cc, K_(ne + rr, c));
+        }
     }
 
     ElementEquations& el_;
@@ -234,7 +238,8 @@ class CoupledEquations final : public Equations {
     int n1_, n2_, nc2_, nc3_ = 0;
     std::vector<int> rows_;
     VecX lam3_, r1_, r2_, c_;
-    MatX Ja_, Jb_, Jpa_, Jaa_, Jpb_, Jab_;
+    MatX Ja_, Jb_, Jpa_, Jaa_, Jpb_, Jab_, K_;
+    Mat3d Aa_, Ab_;  // the node orientations of the last equations()
     Triplets J1_, J2_;
 };
 

@@ -8,7 +8,6 @@
 
 #include <algorithm>
 #include <cmath>
-#include <functional>
 #include <sstream>
 #include <stdexcept>
 
@@ -202,9 +201,107 @@ void joint_rows(const MbJoint& j, const Vec3d& pa, const Mat3d& Aa, const MatX& 
     }
 }
 
+void JointNodeForces::clear() {
+    for (int i = 0; i < 2; ++i) {
+        f[i].setZero();
+        m[i].setZero();
+        for (int k = 0; k < 2; ++k) {
+            df[i][k].setZero();
+            dm[i][k].setZero();
+        }
+    }
+}
+
+void joint_reactions(const MbJoint& j, const Mat3d& Aa, const Mat3d& Ab, bool ground,
+                     const Eigen::Ref<const VecX>& lam, JointNodeForces& F) {
+    if (j.kind == JointKind::roller) {
+        F.f[0] += lam(0) * j.direction;
+        return;
+    }
+    F.f[0] += lam.head<3>();
+    F.f[1] -= lam.head<3>();
+    if (j.kind == JointKind::rigid) {
+        // joint_rows' rotation rows -JD Ja_a, JD Ja_b with JD = M Aa^T, M e_k = vee_skew(e_k~ D):
+        // moments -Aa g on a and Aa g on b, g_k = lam . vee_skew(e_k~ D). D = Aa^T Ab C0^T moves by
+        // u~ D, u = Aa^T (d alpha_b - d alpha_a), so g by H u, H_kl = lam . vee_skew(e_k~ e_l~ D).
+        const Mat3d D = Aa.transpose() * Ab * j.C0.transpose();
+        const auto l = lam.segment<3>(3);
+        Vec3d g;
+        Mat3d H;
+        for (int k = 0; k < 3; ++k) {
+            const Mat3d Ek = skew(Vec3d::Unit(k));
+            g[k] = l.dot(vee_skew(Ek * D));
+            for (int n = 0; n < 3; ++n) H(k, n) = l.dot(vee_skew(Ek * skew(Vec3d::Unit(n)) * D));
+        }
+        const Vec3d mb = Aa * g;
+        const Mat3d Hs = Aa * H * Aa.transpose();
+        F.m[0] -= mb;
+        F.m[1] += mb;
+        F.dm[0][0] += skew(mb) + Hs;
+        F.dm[1][0] -= skew(mb) + Hs;
+        if (!ground) {
+            F.dm[0][1] -= Hs;
+            F.dm[1][1] += Hs;
+        }
+    } else if (j.kind == JointKind::hinge) {
+        // moments lam_k ea_k x axb on a, the opposite on b; d(ea x axb) = axb~ ea~ d alpha_a - ea~ axb~ d alpha_b
+        const Vec3d axb = Ab * j.axis_b;
+        const Mat3d X = skew(axb);
+        for (int k = 0; k < 2; ++k) {
+            const Vec3d ea = Aa * j.perp_a[k];
+            const Mat3d E = skew(ea);
+            const Vec3d mk = lam(3 + k) * ea.cross(axb);
+            F.m[0] += mk;
+            F.m[1] -= mk;
+            const Mat3d da = lam(3 + k) * (X * E);
+            F.dm[0][0] += da;
+            F.dm[1][0] -= da;
+            if (!ground) {
+                const Mat3d db = lam(3 + k) * (E * X);
+                F.dm[0][1] -= db;
+                F.dm[1][1] += db;
+            }
+        }
+    }
+}
+
+void add_turning_stiffness(const JointNodeForces& F, int i, int k, const MatX& Jpi, const MatX& Jai,
+                           const MatX& Jak, double w, Eigen::Ref<MatX> K) {
+    if (F.df[i][k].isZero(0.0) && F.dm[i][k].isZero(0.0)) return;
+    K.noalias() += w * (Jpi.transpose() * (F.df[i][k] * Jak) + Jai.transpose() * (F.dm[i][k] * Jak));
+}
+
 double MultibodySystemCore::junction_pressure(int body, double mdot) const {
     const MbBody& b = bodies_[body];
     return b.fluid_mass > 0.0 ? b.flow_factor * b.flow_factor * mdot * mdot / b.fluid_mass : 0.0;
+}
+
+void MultibodySystemCore::joint_loads(const MbState& s, const MbJoint& j, double mdot, double load_factor,
+                                      const Mat3d& Aa, const Mat3d& Ab, JointNodeForces& F) const {
+    const bool ground = j.body_b < 0;
+    if (j.actuated) {
+        // +T on a, -T on b, turning with the axis on b: dT = d alpha_b x T
+        const Vec3d T = load_factor * j.torque.at(s.t) * (Ab * j.axis_b);
+        F.m[0] -= T;
+        F.m[1] += T;
+        if (!ground) {
+            const Mat3d dT = skew(T);
+            F.dm[0][1] += dT;
+            F.dm[1][1] -= dT;
+        }
+    }
+    if (j.junction && !ground) {
+        // P t on each pipe end, t = A e_x along the flow turning with its node
+        auto along_flow = [&](int i, int body, const Mat3d& A, double sign) {
+            const double c = sign * j.upstream * junction_pressure(body, mdot) *
+                             (bodies_[body].flow_factor >= 0.0 ? 1.0 : -1.0);
+            const Vec3d t = A.col(0);
+            F.f[i] -= c * t;
+            F.df[i][i] += c * skew(t);
+        };
+        along_flow(0, j.body_a, Aa, 1.0);
+        along_flow(1, j.body_b, Ab, -1.0);
+    }
 }
 
 bool MultibodySystemCore::joint_forces(const MbState& s, const MbJoint& j, double mdot, double load_factor,
@@ -212,92 +309,80 @@ bool MultibodySystemCore::joint_forces(const MbState& s, const MbJoint& j, doubl
     if (!j.actuated && !j.junction) return false;
     Vec3d p;
     Mat3d Aa, Ab;
-    MatX &Jpa = w.Jpa, &Jaa = w.Jaa, &Jpb = w.Jpb, &Jab = w.Jab;
-    VecX &fa = w.fa, &fb = w.fb;
-    node(s, j.body_a, j.node_a, p, Aa, &Jpa, &Jaa);
+    node(s, j.body_a, j.node_a, p, Aa, &w.Jpa, &w.Jaa);
     const bool ground = j.body_b < 0;
-    if (!ground) node(s, j.body_b, j.node_b, p, Ab, &Jpb, &Jab);
+    if (!ground) node(s, j.body_b, j.node_b, p, Ab, &w.Jpb, &w.Jab);
     else Ab = j.A_ground;
-    fa.setZero(Jpa.cols());
-    fb.setZero(ground ? 0 : Jpb.cols());
-    if (j.actuated) {
-        const Vec3d T = load_factor * j.torque.at(s.t) * (Ab * j.axis_b);
-        fa += Jaa.transpose() * T;
-        if (!ground) fb -= Jab.transpose() * T;
-    }
-    if (j.junction && !ground) {
-        auto along_flow = [&](int body, const Mat3d& A) -> Vec3d {
-            return (bodies_[body].flow_factor >= 0.0 ? 1.0 : -1.0) * Vec3d(A.col(0));
-        };
-        fa += Jpa.transpose() * (j.upstream * junction_pressure(j.body_a, mdot) * along_flow(j.body_a, Aa));
-        fb -= Jpb.transpose() * (j.upstream * junction_pressure(j.body_b, mdot) * along_flow(j.body_b, Ab));
+    JointNodeForces F;
+    F.clear();
+    joint_loads(s, j, mdot, load_factor, Aa, Ab, F);
+    w.fa.noalias() = -w.Jpa.transpose() * F.f[0];
+    w.fa.noalias() -= w.Jaa.transpose() * F.m[0];
+    if (ground) {
+        w.fb.resize(0);
+    } else {
+        w.fb.noalias() = -w.Jpb.transpose() * F.f[1];
+        w.fb.noalias() -= w.Jab.transpose() * F.m[1];
     }
     return true;
 }
 
-void MultibodySystemCore::body_columns(MbState& st, int body,
-                                      const std::function<void(int col, double h, double sign)>& fn) const {
-    const int o = offsets_[body], n = offsets_[body + 1] - o;
-    // Generalised forces of joints, loads and torques do not depend on the frame
-    // position r (only on R and eta): start at the rotation columns.
-    for (int col = 3; col < n; ++col) {
-        const double h = 1e-7;
-        const Mat3d R0 = st.R[body];
-        const double e0 = st.eta(o + col);
-        for (double sign : {1.0, -1.0}) {
-            const double d = sign * h;
-            if (col < 6) st.R[body] = rotation_exp(d * Vec3d::Unit(col - 3)) * R0;
-            else st.eta(o + col) += d;
-            fn(col, h, sign);
-            st.R[body] = R0;
-            st.eta(o + col) = e0;
-        }
-    }
+void MultibodySystemCore::node_stiffness(const MbState& s, int body, int nd, const Vec3d& f, const Vec3d& mo,
+                                         double w, Eigen::Ref<MatX> K) const {
+    // Q = Jp^T f + Ja^T m = [f; y x f + m; Pu^T R^T f + Pt^T T(th)^T R^T m], y = R (s e_x + Pu eta),
+    // th = Pt eta; R <- exp(skew(d pi)) R moves y by d pi x y and R^T v by R^T (v x d pi).
+    const MbBody& b = bodies_[body];
+    const Eigen::Index m = b.basis.cols();
+    const auto eta = s.eta.segment(offsets_[body] + 6, m);
+    const auto Pu = b.basis.middleRows(6 * nd, 3);
+    const auto Pt = b.basis.middleRows(6 * nd + 3, 3);
+    const Mat3d& R = s.R[body];
+    const Vec3d y = R * (Vec3d(b.s[nd], 0.0, 0.0) + Pu * eta);
+    const Mat3d F = skew(f);
+    K.block<3, 3>(3, 3) += w * (F * skew(y));
+    if (m == 0) return;
+    const Vec3d mb = R.transpose() * mo;
+    Mat3<double> T, dT[3], Td, dTd[3];
+    rotation_jacobian_derivatives(to_vec3(Vec3d(Pt * eta)), Vec3<double>{}, T, dT, Td, dTd);
+    Mat3d G;  // d(T(th)^T mb)/dth
+    for (int k = 0; k < 3; ++k) G.col(k) = from_mat3(dT[k]).transpose() * mb;
+    K.block(3, 6, 3, m).noalias() -= w * (F * R) * Pu;
+    K.block(6, 3, m, 3).noalias() += w * Pu.transpose() * (R.transpose() * F);
+    K.block(6, 3, m, 3).noalias() += w * Pt.transpose() * (from_mat3(T).transpose() * R.transpose() * skew(mo));
+    K.block(6, 6, m, m).noalias() += w * Pt.transpose() * (G * Pt);
 }
 
 void MultibodySystemCore::geometric_stiffness(const MbState& s, double mdot, double load_factor, std::vector<MatX>& S,
                                               double w) const {
-    MbState st = s;
-    // joint reactions C_q^T lambda at fixed lambda
+    // joints: reactions C_q^T lambda at fixed lambda; driving torques turning with the hinge
+    // axis, junction forces with the pipes
+    MatX Jpa, Jaa, Jpb, Jab;
+    Vec3d pa, pb;
+    Mat3d Aa, Ab;
+    JointNodeForces F;
     for (size_t k = 0; k < joints_.size(); ++k) {
         const MbJoint& j = joints_[k];
-        const int nr = j.rows();
-        const VecX lam = s.lam.segment(rows_[k], nr);
-        if (lam.isZero(0.0)) continue;
-        const int na = offsets_[j.body_a + 1] - offsets_[j.body_a];
-        const int nb = j.body_b < 0 ? 0 : offsets_[j.body_b + 1] - offsets_[j.body_b];
-        VecX c(nr);
-        MatX Ja(nr, na), Jb(nr, nb);
-        MbJointWork jw;
-        for (int body : {j.body_a, j.body_b}) {
-            if (body < 0) continue;
-            body_columns(st, body, [&](int col, double h, double sign) {
-                joint_equations(st, j, c, Ja, Jb, jw);
-                const double f = sign * w / (2 * h);
-                S[tangent_block(j.body_a, body)].col(col) += f * (Ja.transpose() * lam);
-                if (nb) S[tangent_block(j.body_b, body)].col(col) += f * (Jb.transpose() * lam);
-            });
-        }
+        const auto lam = s.lam.segment(rows_[k], j.rows());
+        const bool reacts = !lam.isZero(0.0);
+        if (!reacts && !j.actuated && !j.junction) continue;
+        const bool ground = j.body_b < 0;
+        node(s, j.body_a, j.node_a, pa, Aa, &Jpa, &Jaa);
+        if (ground) Ab = j.A_ground;
+        else node(s, j.body_b, j.node_b, pb, Ab, &Jpb, &Jab);
+        F.clear();
+        if (reacts) joint_reactions(j, Aa, Ab, ground, lam, F);
+        joint_loads(s, j, mdot, load_factor, Aa, Ab, F);
+        const int aa = tangent_block(j.body_a, j.body_a);
+        node_stiffness(s, j.body_a, j.node_a, F.f[0], F.m[0], w, S[aa]);
+        add_turning_stiffness(F, 0, 0, Jpa, Jaa, Jaa, w, S[aa]);
+        if (ground) continue;
+        const int bb = tangent_block(j.body_b, j.body_b);
+        node_stiffness(s, j.body_b, j.node_b, F.f[1], F.m[1], w, S[bb]);
+        add_turning_stiffness(F, 1, 1, Jpb, Jab, Jab, w, S[bb]);
+        add_turning_stiffness(F, 0, 1, Jpa, Jaa, Jab, w, S[tangent_block(j.body_a, j.body_b)]);
+        add_turning_stiffness(F, 1, 0, Jpb, Jab, Jaa, w, S[tangent_block(j.body_b, j.body_a)]);
     }
-    // driving torques turn with the hinge axis, junction forces with the pipe
-    for (const MbJoint& j : joints_) {
-        if (!j.actuated && !j.junction) continue;
-        MbJointWork jw;
-        const VecX &fa = jw.fa, &fb = jw.fb;
-        for (int body : {j.body_a, j.body_b}) {
-            if (body < 0) continue;
-            body_columns(st, body, [&](int col, double h, double sign) {
-                joint_forces(st, j, mdot, load_factor, jw);
-                const double f = -sign * w / (2 * h);
-                S[tangent_block(j.body_a, body)].col(col) += f * fa;
-                if (fb.size()) S[tangent_block(j.body_b, body)].col(col) += f * fb;
-            });
-        }
-    }
-    // dead nodal loads: -(Jp^T f + Ja^T m) turns with the node
-    MatX Jp, Ja;
-    Vec3d p;
-    Mat3d A;
+    // dead nodal loads: -(Jp^T f + Ja^T m) with f, m fixed in space
     for (const MbLoad& l : loads_) {
         Vec3d fo, mo;
         for (int i = 0; i < 3; ++i) {
@@ -305,10 +390,7 @@ void MultibodySystemCore::geometric_stiffness(const MbState& s, double mdot, dou
             mo[i] = load_factor * l.moment[i].at(s.t);
         }
         if (fo.isZero(0.0) && mo.isZero(0.0)) continue;
-        body_columns(st, l.body, [&](int col, double h, double sign) {
-            node(st, l.body, l.node, p, A, &Jp, &Ja);
-            S[tangent_block(l.body, l.body)].col(col) -= sign * w / (2 * h) * (Jp.transpose() * fo + Ja.transpose() * mo);
-        });
+        node_stiffness(s, l.body, l.node, -fo, -mo, w, S[tangent_block(l.body, l.body)]);
     }
 }
 

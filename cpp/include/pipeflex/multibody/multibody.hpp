@@ -18,7 +18,6 @@
 #include <Eigen/SparseCore>
 
 #include <array>
-#include <functional>
 #include <map>
 #include <utility>
 #include <vector>
@@ -63,6 +62,28 @@ struct MbJoint {
 void joint_rows(const MbJoint& j, const Vec3d& pa, const Mat3d& Aa, const MatX& Jpa, const MatX& Jaa,
                 const Vec3d& pb, const Mat3d& Ab, const MatX* Jpb, const MatX* Jab, Eigen::Ref<VecX> c,
                 Eigen::Ref<MatX> Ja, Eigen::Ref<MatX> Jb);
+
+// Forces and moments [N, N m] on a joint's two nodes (global), in the residual's sense:
+// they add Jpa^T f[0] + Jaa^T m[0] + Jpb^T f[1] + Jab^T m[1] to it; and their derivatives
+// in the nodes' spatial rotation variations (A_i <- exp(skew(d alpha_i)) A_i):
+// df[i][k] = d f[i] / d alpha_k, dm[i][k] = d m[i] / d alpha_k. They depend on the nodes'
+// orientations only, so these derivatives and the nodes' own (node maps turning at fixed
+// forces) make the geometric stiffness.
+struct JointNodeForces {
+    Vec3d f[2], m[2];
+    Mat3d df[2][2], dm[2][2];
+    void clear();
+};
+
+// Adds joint j's reactions C_q^T lam (lam: its j.rows() multipliers) as the forces on its
+// nodes of orientations Aa, Ab (Ab unused for the ground): the same rows as joint_rows.
+void joint_reactions(const MbJoint& j, const Mat3d& Aa, const Mat3d& Ab, bool ground,
+                     const Eigen::Ref<const VecX>& lam, JointNodeForces& F);
+
+// K += w (Jp_i^T df[i][k] + Ja_i^T dm[i][k]) Ja_k: node i's generalised forces' change
+// with node k's orientation (Jp_i, Ja_i: 3 x n_i, Ja_k: 3 x n_k node maps; K n_i x n_k).
+void add_turning_stiffness(const JointNodeForces& F, int i, int k, const MatX& Jpi, const MatX& Jai,
+                           const MatX& Jak, double w, Eigen::Ref<MatX> K);
 
 struct MbLoad {
     int body = 0, node = 0;
@@ -135,6 +156,11 @@ class MultibodySystemCore {
     // Node position, orientation and 3 x n_j variation maps (indices checked).
     void node(const MbState& s, int body, int node, Vec3d& p, Mat3d& A, MatX* Jp, MatX* Ja) const;
     void increment(MbState& s, const VecX& dq) const;  // dq: n_coordinates entries (checked)
+    // K += w d(Jp^T f + Ja^T m)/dq of a node at fixed global force f and moment m (K: the
+    // body's coordinates square): the node maps' change with the frame's rotation (spatial
+    // increments, as increment()) and the modal coordinates.
+    void node_stiffness(const MbState& s, int body, int node, const Vec3d& f, const Vec3d& m, double w,
+                        Eigen::Ref<MatX> K) const;
     // Full evaluation; the tangent only if with_tangent (wK also adds the joint
     // reactions' geometric stiffness at the state's multipliers).
     void evaluate(const MbState& s, double mdot, double mdot_rate, double load_factor, double gravity_factor,
@@ -163,10 +189,14 @@ class MultibodySystemCore {
     // ground): a hinge's driving torque (times load_factor) and the flow junction force.
     // False if none.
     bool joint_forces(const MbState& s, const MbJoint& j, double mdot, double load_factor, MbJointWork& w) const;
+    // The same forces on the joint's nodes (orientations Aa, Ab), added to F with the
+    // residual's sign (-), and their derivatives.
+    void joint_loads(const MbState& s, const MbJoint& j, double mdot, double load_factor, const Mat3d& Aa,
+                     const Mat3d& Ab, JointNodeForces& F) const;
     double junction_pressure(int body, double mdot) const;  // P = mu_f sdot^2 [N]
-    // w d(C_q^T lambda - Q_loads)/dq by central differences, body by body.
+    // w d(C_q^T lambda - Q_loads)/dq at fixed lambda, analytic: the joints' reactions and
+    // applied forces (turning with their nodes) and the nodal loads (dead, global).
     void geometric_stiffness(const MbState& s, double mdot, double load_factor, std::vector<MatX>& S, double w) const;
-    void body_columns(MbState& st, int body, const std::function<void(int col, double h, double sign)>& fn) const;
 
     std::vector<MbBody> bodies_;
     std::vector<MbJoint> joints_;

@@ -26,7 +26,6 @@ class MultibodyEquations final : public Equations {
           start_r_(s.r) {}
 
     const MbState& state() const { return cur_; }
-    MbState& mutable_state() { return cur_; }  // for differencing; restore what you change
     MbEvaluation& evaluation() { return ev_; }
 
     int n_coordinates() const override { return n_; }
