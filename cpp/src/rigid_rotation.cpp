@@ -16,23 +16,6 @@ Eigen::Matrix3d skew(const Vec3<double>& a) {
     return S;
 }
 
-// T^T B T over the nodes (B the same 6 x 6 block on every node): block diagonal in the
-// reduced coordinates.
-Eigen::SparseMatrix<double> reduced_blocks(const Model& model, const Eigen::Matrix<double, 6, 6>& B) {
-    std::vector<Eigen::Triplet<double>> t;
-    for (int i = 0; i < model.n_nodes(); ++i) {
-        const Eigen::MatrixXd& T = model.bases[i];
-        if (T.cols() == 0) continue;
-        const Eigen::MatrixXd b = T.transpose() * B * T;
-        const int f = model.first_dof[i];
-        for (int c = 0; c < b.cols(); ++c)
-            for (int r = 0; r < b.rows(); ++r) t.emplace_back(f + r, f + c, b(r, c));
-    }
-    Eigen::SparseMatrix<double> A(model.n_dofs, model.n_dofs);
-    A.setFromTriplets(t.begin(), t.end());
-    return A;
-}
-
 }  // namespace
 
 RigidRotationEquations::RigidRotationEquations(const Model& model, State& state, const LoadState& load,
@@ -47,12 +30,53 @@ RigidRotationEquations::RigidRotationEquations(const Model& model, State& state,
     Bv.bottomRightCorner<3, 3>() = 0.5 * S;   // phi_dot = T(phi)^-1 omega a, T^-1 = I - skew(phi)/2 + ...
     Ba.topLeftCorner<3, 3>() = S2;
     Ba.bottomRightCorner<3, 3>() = S2 / 6.0;  // phi_ddot = -T^-1 d/dt[T] phi_dot to first order in phi
-    Av_ = reduced_blocks(model, Bv);
-    Aa_ = reduced_blocks(model, Ba);
+    const int n = model.n_dofs;
+    block_.assign(n, 0);
+    block_end_.assign(n, 0);
+    weight_.assign(n, 0);
+    for (int i = 0; i < model.n_nodes(); ++i) {  // T_n^T B T_n per node
+        const Eigen::MatrixXd& T = model.bases[i];
+        const int f = model.first_dof[i], k = static_cast<int>(T.cols());
+        const Eigen::MatrixXd bv = T.transpose() * Bv * T, ba = T.transpose() * Ba * T;
+        for (int c = 0; c < k; ++c) {
+            block_[f + c] = f;
+            block_end_[f + c] = f + k;
+            weight_[f + c] = static_cast<int>(av_.size());
+            for (int j = 0; j < k; ++j) {
+                av_.push_back(bv(j, c));
+                aa_.push_back(ba(j, c));
+            }
+        }
+    }
     pattern_ = tangent_pattern(model);
-    K_.resize(pattern_->nnz());
-    C_.resize(pattern_->nnz());
-    M_.resize(pattern_->nnz());
+    const TangentPattern& P = *pattern_;
+    K_.resize(P.nnz());
+    C_.resize(P.nnz());
+    M_.resize(P.nnz());
+    // the tangent's pattern: per column, the rows of its block's columns (K's among them)
+    std::vector<int> slot(n, -1), first(n + 1, 0);
+    for (int c = 0; c < n; ++c) {
+        first[c] = static_cast<int>(rows_.size());
+        for (int j = block_[c]; j < block_end_[c]; ++j)
+            for (int p = P.col_ptr[j]; p < P.col_ptr[j + 1]; ++p) {
+                const int r = P.row_index[p];
+                if (slot[r] >= 0) continue;
+                slot[r] = static_cast<int>(rows_.size());
+                rows_.push_back(r);
+                cols_.push_back(c);
+            }
+        for (int p = first[c]; p < static_cast<int>(rows_.size()); ++p) slot[rows_[p]] = -1;
+    }
+    first[n] = static_cast<int>(rows_.size());
+    const auto find = [&](int r, int c) {
+        return static_cast<int>(std::find(rows_.begin() + first[c], rows_.begin() + first[c + 1], r) - rows_.begin());
+    };
+    for (int c = 0; c < n; ++c)
+        for (int p = P.col_ptr[c]; p < P.col_ptr[c + 1]; ++p) target_.push_back(find(P.row_index[p], c));
+    for (int c = 0; c < n; ++c)
+        for (int j = block_[c]; j < block_end_[c]; ++j)
+            for (int p = P.col_ptr[j]; p < P.col_ptr[j + 1]; ++p) target_.push_back(find(P.row_index[p], c));
+    values_.resize(rows_.size());
 }
 
 void RigidRotationEquations::rigid_rates() {
@@ -97,16 +121,24 @@ void RigidRotationEquations::evaluate(double wK, double, double, Eigen::VectorXd
     double* values[3] = {K_.data(), C_.data(), M_.data()};
     assemble_csc(eq.model, eq.state, l, lf, {{1.0, 0.0, 0.0}, {0.0, 1.0, 0.0}, {0.0, 0.0, 1.0}}, &residual, values,
                  eq.predicted ? eq.geometric_stresses.data() : nullptr);
-    const int n = eq.n, nnz = static_cast<int>(pattern_->nnz());
-    using Map = Eigen::Map<const Sparse>;
-    const Map K(n, n, nnz, pattern_->col_ptr.data(), pattern_->row_index.data(), K_.data());
-    const Map C(n, n, nnz, pattern_->col_ptr.data(), pattern_->row_index.data(), C_.data());
-    const Map M(n, n, nnz, pattern_->col_ptr.data(), pattern_->row_index.data(), M_.data());
-    // sparse products and sums keep every structural entry: the pattern does not depend on the state
-    const Sparse J = wK * (Sparse(K) + omega_ * (C * Av_) + (omega_ * omega_) * (M * Aa_));
-    tangent->clear();
-    for (int c = 0; c < J.outerSize(); ++c)
-        for (Sparse::InnerIterator it(J, c); it; ++it) tangent->add(static_cast<int>(it.row()), c, it.value());
+    // K + omega C Av + omega^2 M Aa on the fixed pattern: Av and Aa are block diagonal
+    const TangentPattern& P = *pattern_;
+    const int n = eq.n;
+    std::fill(values_.begin(), values_.end(), 0.0);
+    const int* t = target_.data();
+    for (std::size_t p = 0; p < P.nnz(); ++p) values_[*t++] += K_[p];
+    const double w2 = omega_ * omega_;
+    for (int c = 0; c < n; ++c) {
+        const double *av = av_.data() + weight_[c], *aa = aa_.data() + weight_[c];
+        for (int j = block_[c]; j < block_end_[c]; ++j, ++av, ++aa) {
+            const double a = omega_ * *av, b = w2 * *aa;
+            for (int p = P.col_ptr[j]; p < P.col_ptr[j + 1]; ++p) values_[*t++] += a * C_[p] + b * M_[p];
+        }
+    }
+    tangent->rows = rows_;
+    tangent->cols = cols_;
+    tangent->values.resize(values_.size());
+    for (std::size_t k = 0; k < values_.size(); ++k) tangent->values[k] = wK * values_[k];
 }
 
 double RotationRateBorder::constraint(Eigen::VectorXd* c, double* d) const {

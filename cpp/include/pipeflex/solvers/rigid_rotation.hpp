@@ -16,8 +16,6 @@
 
 #include "pipeflex/solvers/element_equations.hpp"
 
-#include <Eigen/SparseCore>
-
 namespace pipeflex {
 
 // The element model's statics in rigid rotation at rate omega [rad/s] about `axis` (unit)
@@ -50,14 +48,19 @@ class RigidRotationEquations final : public Equations {
     double mass_flow(double) const override { return statics_.eq.static_mdot; }
 
    private:
-    using Sparse = Eigen::SparseMatrix<double>;
     ElementStatics statics_;
     int hinge_node_;
     Vec3<double> axis_;
     double omega_ = 0.0;
-    Sparse Av_, Aa_;  // reduced dv/dq / omega and da/dq / omega^2 at phi = 0
     std::shared_ptr<const TangentPattern> pattern_;
     std::vector<double> K_, C_, M_;
+    // Av and Aa (reduced dv/dq / omega and da/dq / omega^2 at phi = 0) are block diagonal
+    // (a node's coordinates), so column c of C Av sums the columns of C in c's block: per
+    // column c, its block's columns block_[c]..block_end_[c] and the weights Av(j, c),
+    // Aa(j, c) at av_[c]...; the tangent's pattern (rows_, cols_) and, per product term
+    // in that order, its entry (target_; K's entries first, in the pattern's order).
+    std::vector<int> block_, block_end_, weight_, rows_, cols_, target_;
+    std::vector<double> av_, aa_, values_;
     Eigen::VectorXd r_;
     void rigid_rates();  // state.v, state.a of the rotation at omega (state.q set, phi = 0)
 };
