@@ -36,3 +36,11 @@ def test_no_convergence_names_the_step():
         pf.steady_rotation(model, max_iterations=1)
     assert e.value.mass_flow == pytest.approx(model.mass_flow / 4)
     assert e.value.iteration == 1
+
+
+def test_a_guess_far_from_the_first_steps_rate_converges():
+    """omega_guess is the first flow step's start (a quarter of the flow: about 2.3 rad/s);
+    9 rad/s is four times that (the Python loop's damped Newton failed there)."""
+    model = pf.scenes.sprinkler(EI=100.0)
+    assert pf.steady_rotation(model, omega_guess=9.0).omega == pytest.approx(pf.steady_rotation(model).omega,
+                                                                             rel=1e-11)
