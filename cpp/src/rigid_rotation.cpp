@@ -175,6 +175,8 @@ SteadyRotationOutcome steady_rotation(const Model& model, State& state, const Lo
                                       double length_scale, const SteadyRotationOptions& opt) {
     if (hinge_node < 0 || hinge_node >= model.n_nodes() || hinge_dof < 0 || hinge_dof >= model.n_dofs)
         throw std::invalid_argument("steady_rotation: the hinge node or coordinate is out of range");
+    if (opt.continuation_steps < 1 || opt.max_iterations < 1)
+        throw std::invalid_argument("steady_rotation: continuation_steps and max_iterations must be positive");
     RigidRotationEquations eq(model, state, load, length_scale, hinge_node, axis);
     StaticNewtonOptions nopt;
     nopt.tol = opt.tol;
