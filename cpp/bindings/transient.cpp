@@ -3,6 +3,8 @@
 #include "pipeflex/core/format.hpp"
 #include "pipeflex/solvers/coupled.hpp"
 #include "pipeflex/solvers/element_equations.hpp"
+#include "pipeflex/solvers/rigid_rotation.hpp"
+#include "pipeflex/solvers/sparse_lu.hpp"
 #include "pipeflex/solvers/transient.hpp"
 
 #include <pybind11/eigen.h>
@@ -328,6 +330,43 @@ void bind_transient(py::module_& m) {
         py::arg("model"), py::arg("state"), py::arg("load"), py::arg("path"), py::arg("w2"), py::arg("psi2"),
         py::arg("ds"), py::arg("t"), py::arg("dq"), py::arg("dt"), py::arg("tol"), py::arg("length_scale"),
         py::arg("force_scale"), py::arg("max_iterations"));
+    m.def(
+        "steady_rotation",
+        [](const Model& md, State& s, const LoadState& load, int hinge_node, int hinge_dof,
+           const std::array<double, 3>& axis, double omega_guess, double length_scale, int continuation_steps,
+           double tol, int max_iterations, int dense_below) {
+            SteadyRotationOptions opt;
+            opt.continuation_steps = continuation_steps;
+            opt.tol = tol;
+            opt.max_iterations = max_iterations;
+            opt.dense_below = dense_below;
+            SteadyRotationOutcome out;
+            {
+                py::gil_scoped_release release;
+                out = steady_rotation(md, s, load, hinge_node, hinge_dof, Vec3<double>{{axis[0], axis[1], axis[2]}},
+                                      omega_guess, length_scale, opt);
+            }
+            py::dict d;
+            d["converged"] = out.converged;
+            d["singular"] = out.singular;
+            d["omega"] = out.omega;
+            d["iterations"] = out.iterations;
+            d["residual"] = out.residual;
+            d["step"] = out.step;
+            d["step_iterations"] = out.step_iterations;
+            d["mass_flow"] = out.mass_flow;
+            return d;
+        },
+        "Steady rotation of an element model about its hinge (hinge_node, its one reduced coordinate hinge_dof, "
+        "the unit axis) under the load's mass flow, by the core's static_newton with omega as border and "
+        "continuation in the mass flow from the state (updated in place: the last iterate with the rotation's "
+        "rates); omega_guess NaN: the rigid balance of the starting shape. A dict: converged, singular, omega "
+        "[rad/s], iterations (all steps), residual [N], step (the last, 1-based), step_iterations, mass_flow "
+        "[kg/s] of that step.",
+        py::arg("model"), py::arg("state"), py::arg("load"), py::arg("hinge_node"), py::arg("hinge_dof"),
+        py::arg("axis"), py::arg("omega_guess"), py::arg("length_scale"), py::arg("continuation_steps"),
+        py::arg("tol"), py::arg("max_iterations"), py::arg("dense_below"));
+    m.attr("DENSE_LU_BELOW") = kDenseLuBelow;
     m.def("gravity_potential", [](const Model& md, const State& s, const LoadState& l) {
         check_state(md, s);
         return gravity_potential(md, s, l);

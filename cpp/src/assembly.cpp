@@ -648,7 +648,8 @@ std::shared_ptr<const TangentPattern> tangent_pattern(const Model& model) {
 }
 
 void assemble_csc(const Model& model, const State& state, const LoadState& load, double load_factor,
-                  const std::vector<TangentWeights>& w, Eigen::VectorXd* residual, double* const* values) {
+                  const std::vector<TangentWeights>& w, Eigen::VectorXd* residual, double* const* values,
+                  const double* geometric_stresses) {
     check_state(model, state);
     const auto pattern = tangent_pattern(model);
     std::vector<SlotSink> sinks;
@@ -657,7 +658,8 @@ void assemble_csc(const Model& model, const State& state, const LoadState& load,
         std::fill(values[i], values[i] + pattern->nnz(), 0.0);
         sinks.push_back(SlotSink{pattern->slot.data(), values[i]});
     }
-    assemble_into(model, state, load, load_factor, w.data(), sinks.data(), static_cast<int>(w.size()), residual);
+    assemble_into(model, state, load, load_factor, w.data(), sinks.data(), static_cast<int>(w.size()), residual,
+                  geometric_stresses);
     for (const auto& s : sinks)
         if (s.k != pattern->slot.size())
             throw std::logic_error("assemble_csc: the assembler emitted " + std::to_string(s.k) +

@@ -52,7 +52,8 @@ StaticNewtonResult static_newton(Equations& eq, double t, Eigen::VectorXd& lam, 
     const Eigen::VectorXd zero = Eigen::VectorXd::Zero(n);
     Eigen::VectorXd r, rhs(n + nc), x, v = zero, a = zero, rt, rp, c, b;
     Triplets J, Jb;
-    FixedPatternLU lu(kDenseLuBelow), lub(kDenseLuBelow);
+    const int dense_below = opt.dense_below < 0 ? kDenseLuBelow : opt.dense_below;
+    FixedPatternLU lu(dense_below), lub(dense_below);
     StaticNewtonResult out;
     // the first tangent is the state's own; no prediction outlives the solve (the
     // equations may serve an integrator next)
@@ -112,7 +113,7 @@ StaticNewtonResult static_newton(Equations& eq, double t, Eigen::VectorXd& lam, 
             double d = 0.0;
             const double g = border->constraint(&c, &d);
             double dtau = std::numeric_limits<double>::quiet_NaN();
-            if (lu.factorize(n, J.rows, J.cols, J.values)) {
+            if (!border->bordered_only() && lu.factorize(n, J.rows, J.cols, J.values)) {
                 const Eigen::VectorXd mr = -r, mrt = -rt;
                 lu.solve(mr, x);
                 lu.solve(mrt, b);
@@ -122,7 +123,8 @@ StaticNewtonResult static_newton(Equations& eq, double t, Eigen::VectorXd& lam, 
                     x += dtau * b;
                 }
             }
-            if (!std::isfinite(dtau)) {  // K singular: the bordered matrix is regular at a simple limit point
+            // K singular (or singular by construction): the bordered matrix is regular at a simple limit point
+            if (!std::isfinite(dtau)) {
                 bordered(J, n, rt, c, d, Jb);
                 Eigen::VectorXd rb(n + 1), xb;
                 rb.head(n) = -r;
@@ -144,8 +146,11 @@ StaticNewtonResult static_newton(Equations& eq, double t, Eigen::VectorXd& lam, 
             eq.set(x, zero, zero, lam, t);
             eq.rebase(v, a);
             border->accumulate(x, dtau);
-            const bool small = out.correction <= tol * L && std::abs(dtau) <= tol * std::max(1.0, std::abs(border->parameter()));
-            if (small || (rnorm <= 1e-3 * tol * std::max(fscale, 1e-300) && satisfied())) return converged_applied();
+            const double size = std::max(out.correction / L, std::abs(dtau) / std::max(1.0, std::abs(border->parameter())));
+            if (size <= tol || (rnorm <= 1e-3 * tol * std::max(fscale, 1e-300) && satisfied())) return converged_applied();
+            if (size >= 0.5 * last && size <= 1e3 * tol && satisfied())  // stalled at round-off
+                return converged_applied();
+            last = size;
             continue;
         }
         // constraint rows and columns scaled by the stiffness block's size (as the integrator's)

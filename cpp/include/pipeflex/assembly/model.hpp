@@ -163,8 +163,10 @@ struct TangentWeights {
 // Reduced residual (if not null) and, in one pass over the elements, the tangent for
 // each weight set w[i] written to values[i] (pattern->nnz() entries each, overwritten)
 // on pattern = tangent_pattern(model): K, C and M at once without triplets.
+// geometric_stresses: as assemble's.
 void assemble_csc(const Model& model, const State& state, const LoadState& load, double load_factor,
-                  const std::vector<TangentWeights>& w, Eigen::VectorXd* residual, double* const* values);
+                  const std::vector<TangentWeights>& w, Eigen::VectorXd* residual, double* const* values,
+                  const double* geometric_stresses = nullptr);
 
 // Geometric stiffness (reduced triplets) of the prestress that the full-coordinate
 // displacement dq produces to first order about the state: ANCF Model A elements only.

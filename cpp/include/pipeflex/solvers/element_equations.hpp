@@ -102,17 +102,23 @@ class ElementEquations final : public Equations {
              double t) override {
         set(z, v, a, t);
     }
-    void evaluate(double wK, double wC, double wM, Eigen::VectorXd& r, Triplets* J) override {
+    // The loads of evaluate() at the state set, and their factor lf.
+    LoadState evaluated_load(double* lf) const {
         LoadState l = load_at(t_set);
-        double lf = load_factor(t_set);
+        *lf = load_factor(t_set);
         if (statics) {
             l.mass_flow = static_mdot;
             l.mass_flow_rate = 0.0;
         }
         if (!std::isnan(static_factor)) {  // statics: loads and gravity stepped together
             l.gravity_factor *= static_factor;
-            lf = static_factor;
+            *lf = static_factor;
         }
+        return l;
+    }
+    void evaluate(double wK, double wC, double wM, Eigen::VectorXd& r, Triplets* J) override {
+        double lf;
+        const LoadState l = evaluated_load(&lf);
         const bool mixed = predicted && J != nullptr;
         assemble(model, state, l, lf, wK, wC, wM, &r, J, mixed ? geometric_stresses.data() : nullptr);
     }

@@ -178,6 +178,10 @@ class StaticBorder {
     virtual double constraint(Eigen::VectorXd* c, double* d) const = 0;
     // a Newton correction: the increment accumulates dz, tau moves by dtau
     virtual void accumulate(const Eigen::VectorXd& dz, double dtau) = 0;
+    // Solve the whole bordered matrix, not by block elimination: the tangent is singular
+    // by construction (a zero mode that the border equation fixes), where an LU of it may
+    // or may not fail on round-off.
+    virtual bool bordered_only() const { return false; }
 };
 
 struct StaticNewtonOptions {
@@ -209,10 +213,15 @@ struct StaticNewtonOptions {
     bool inertia = false;
     // A border (systems without constraints): Newton on [K, dR/dtau; c^T, d] by block
     // elimination (two solves with K's LU), the whole bordered matrix where K is singular
-    // (it is regular at a simple limit point). Converged when the correction is below tol
-    // model sizes and that of tau below tol max(1, |tau|), or the residual below 1e-3 tol
-    // times the force level and |g| <= tol (a warm start: |R| <= tol F and |g| <= tol).
+    // (it is regular at a simple limit point) or the border says so (bordered_only).
+    // Converged when the correction is below tol model sizes and that of tau below
+    // tol max(1, |tau|) (or, with |g| <= tol, that relative correction stalls at round-off
+    // within 1e3 tol), or the residual below 1e-3 tol times the force level and |g| <= tol
+    // (a warm start: |R| <= tol F and |g| <= tol).
     StaticBorder* border = nullptr;
+    // Below this many unknowns the tangent is factorised densely (FixedPatternLU); < 0:
+    // kDenseLuBelow, the integrators' crossover.
+    int dense_below = -1;
 };
 struct StaticNewtonResult {
     bool converged = false, singular = false;

@@ -1,0 +1,46 @@
+"""steady_rotation through the core's static Newton (omega as its border)."""
+import numpy as np
+import pytest
+
+import pipeflex as pf
+from pipeflex.analysis._assembly import residual_and_tangent
+
+
+def test_omega_balances_the_hinge_and_does_not_depend_on_the_path():
+    """Independent checks of the core's omega: the hinge row of the residual (the balance
+    of moments about the axis), evaluated by the assembler at the returned rotating state,
+    is zero, and the continuation's steps change neither omega nor the shape."""
+    model = pf.scenes.sprinkler(EI=100.0)
+    s = pf.steady_rotation(model)
+    hinge = model.node_dofs(s.hinge_node)[0]
+    r, _ = residual_and_tangent(model, s.state, model.load_state(), matrix=False)
+    assert abs(r[hinge]) < 1e-9 * model.force_scale()
+    for steps in (1, 2, 8):
+        other = pf.steady_rotation(model, continuation_steps=steps)
+        assert other.omega == pytest.approx(s.omega, rel=1e-10)
+        assert np.allclose(other.state.q, s.state.q, rtol=0, atol=1e-10)
+
+
+def test_iterations_do_not_grow_with_the_mesh():
+    """Newton's iterations are the mesh's, not its size's: 8 and 64 elements of the arm
+    take as many (within one per continuation step)."""
+    coarse = pf.steady_rotation(pf.scenes.sprinkler(EI=100.0, n_elements=8))
+    fine = pf.steady_rotation(pf.scenes.sprinkler(EI=100.0, n_elements=64))
+    assert fine.iterations <= coarse.iterations + 4
+    assert fine.omega == pytest.approx(coarse.omega, rel=1e-2)  # the mesh changes omega by 0.3 %
+
+
+def test_no_convergence_names_the_step():
+    model = pf.scenes.sprinkler(EI=10.0)
+    with pytest.raises(pf.ConvergenceError, match=r"flow step 1/4 .*omega = ") as e:
+        pf.steady_rotation(model, max_iterations=1)
+    assert e.value.mass_flow == pytest.approx(model.mass_flow / 4)
+    assert e.value.iteration == 1
+
+
+def test_a_guess_far_from_the_first_steps_rate_converges():
+    """omega_guess is the first flow step's start (a quarter of the flow: about 2.3 rad/s);
+    9 rad/s is four times that (the Python loop's damped Newton failed there)."""
+    model = pf.scenes.sprinkler(EI=100.0)
+    assert pf.steady_rotation(model, omega_guess=9.0).omega == pytest.approx(pf.steady_rotation(model).omega,
+                                                                             rel=1e-11)
