@@ -97,6 +97,7 @@ def results():
         "eigen": pf.eigenvalues(lin, vectors=True),
         "critical": pf.critical_mass_flow(pf.scenes.cantilever_pipe(n_elements=4)),
         "steady": pf.steady_rotation(pf.scenes.sprinkler(EI=100.0)),
+        "coupled_steady": pf.steady_rotation(pf.scenes.sprinkler_on_hub()[0]),
         "rotating": pf.rotating_frequencies(pf.scenes.rotating_cantilever(n_elements=4), gamma=[0.0, 1.0, 2.0],
                                             n_modes=2),
         "transient": transient,
@@ -107,8 +108,8 @@ def results():
     }
 
 
-NAMES = ["state", "static", "linearization", "eigen", "critical", "steady", "rotating", "transient", "mb_static",
-         "mb_state", "mb_linearization", "mb_transient"]
+NAMES = ["state", "static", "linearization", "eigen", "critical", "steady", "coupled_steady", "rotating", "transient",
+         "mb_static", "mb_state", "mb_linearization", "mb_transient"]
 
 
 def _walk(x):

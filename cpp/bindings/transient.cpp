@@ -113,6 +113,36 @@ ProgressFn progress_callback(py::object progress) {
     };
 }
 
+// steady_rotation's options and outcome (the systems with bodies)
+SteadyRotationOptions steady_options(int continuation_steps, double tol, int max_iterations, int dense_below) {
+    SteadyRotationOptions opt;
+    opt.continuation_steps = continuation_steps;
+    opt.tol = tol;
+    opt.max_iterations = max_iterations;
+    opt.dense_below = dense_below;
+    return opt;
+}
+py::dict steady_dict(const SteadyRotationOutcome& out) {
+    py::dict d;
+    d["converged"] = out.converged;
+    d["singular"] = out.singular;
+    d["omega"] = out.omega;
+    d["iterations"] = out.iterations;
+    d["residual"] = out.residual;
+    d["step"] = out.step;
+    d["step_iterations"] = out.step_iterations;
+    d["mass_flow"] = out.mass_flow;
+    return d;
+}
+RotationHinge rotation_hinge(const Vec3d& point, const Vec3d& axis, int body, int element_dof) {
+    RotationHinge h;
+    h.point = point;
+    h.axis = axis;
+    h.body = body;
+    h.element_dof = element_dof;
+    return h;
+}
+
 py::dict run(Integrator f, const Model& model, State& state, const LoadState& load, const TimeTable& flow,
              const TimeTable& loads, const std::vector<double>& times, const TransientOptions& opt,
              py::object progress) {
@@ -366,6 +396,56 @@ void bind_transient(py::module_& m) {
         py::arg("model"), py::arg("state"), py::arg("load"), py::arg("hinge_node"), py::arg("hinge_dof"),
         py::arg("axis"), py::arg("omega_guess"), py::arg("length_scale"), py::arg("continuation_steps"),
         py::arg("tol"), py::arg("max_iterations"), py::arg("dense_below"));
+    m.def(
+        "coupled_steady_rotation",
+        [](const Model& md, State& s, const LoadState& load, const MultibodySystemCore& bodies, const Arr& r,
+           const Arr& R, const VecX& eta, const VecX& lam, const py::list& couplings, VecX coupling_lam,
+           const Vec3d& point, const Vec3d& axis, int hinge_body, int hinge_dof, double omega_guess,
+           double length_scale, int continuation_steps, double tol, int max_iterations, int dense_below) {
+            MbState bs = to_state(bodies, r, R, eta, VecX::Zero(eta.size()), VecX::Zero(eta.size()), lam, 0.0);
+            const std::vector<Coupling> cp = couplings_from(couplings);
+            const RotationHinge h = rotation_hinge(point, axis, hinge_body, hinge_dof);
+            const SteadyRotationOptions opt = steady_options(continuation_steps, tol, max_iterations, dense_below);
+            SteadyRotationOutcome out;
+            {
+                py::gil_scoped_release release;
+                out = coupled_steady_rotation(md, s, load, bodies, bs, cp, coupling_lam, h, omega_guess, length_scale,
+                                              opt);
+            }
+            py::dict d = steady_dict(out);
+            d["bodies"] = from_state(bs);
+            d["coupling_multipliers"] = coupling_lam;
+            return d;
+        },
+        "Steady rotation of a coupled system about the axis through point (a body's ground hinge: hinge_body, "
+        "else the element model's hinge coordinate hinge_dof) under the load's mass flow; the element state is "
+        "updated in place. As steady_rotation's dict, with bodies (the body state) and coupling_multipliers.",
+        py::arg("model"), py::arg("state"), py::arg("load"), py::arg("bodies"), py::arg("r"), py::arg("R"),
+        py::arg("eta"), py::arg("lam"), py::arg("couplings"), py::arg("coupling_lam"), py::arg("point"),
+        py::arg("axis"), py::arg("hinge_body"), py::arg("hinge_dof"), py::arg("omega_guess"), py::arg("length_scale"),
+        py::arg("continuation_steps"), py::arg("tol"), py::arg("max_iterations"), py::arg("dense_below"));
+    m.def(
+        "multibody_steady_rotation",
+        [](const MultibodySystemCore& bodies, const Arr& r, const Arr& R, const VecX& eta, const VecX& lam,
+           double mass_flow, const Vec3d& point, const Vec3d& axis, int hinge_body, double omega_guess,
+           int continuation_steps, double tol, int max_iterations, int dense_below) {
+            MbState bs = to_state(bodies, r, R, eta, VecX::Zero(eta.size()), VecX::Zero(eta.size()), lam, 0.0);
+            const RotationHinge h = rotation_hinge(point, axis, hinge_body, -1);
+            const SteadyRotationOptions opt = steady_options(continuation_steps, tol, max_iterations, dense_below);
+            SteadyRotationOutcome out;
+            {
+                py::gil_scoped_release release;
+                out = multibody_steady_rotation(bodies, bs, mass_flow, h, omega_guess, opt);
+            }
+            py::dict d = steady_dict(out);
+            d["bodies"] = from_state(bs);
+            return d;
+        },
+        "Steady rotation of bodies about body hinge_body's ground hinge (axis through point) under the mass flow: "
+        "as steady_rotation's dict, with bodies (the body state).",
+        py::arg("bodies"), py::arg("r"), py::arg("R"), py::arg("eta"), py::arg("lam"), py::arg("mass_flow"),
+        py::arg("point"), py::arg("axis"), py::arg("hinge_body"), py::arg("omega_guess"),
+        py::arg("continuation_steps"), py::arg("tol"), py::arg("max_iterations"), py::arg("dense_below"));
     m.attr("DENSE_LU_BELOW") = kDenseLuBelow;
     m.def("gravity_potential", [](const Model& md, const State& s, const LoadState& l) {
         check_state(md, s);

@@ -6,6 +6,7 @@
 #include "pipeflex/core/small_matrix_eigen.hpp"
 #include "pipeflex/multibody/multibody_equations.hpp"
 #include "pipeflex/solvers/element_equations.hpp"
+#include "pipeflex/solvers/rotating_systems.hpp"
 
 #include <algorithm>
 #include <stdexcept>
@@ -16,10 +17,13 @@ namespace {
 
 class CoupledEquations final : public Equations {
    public:
+    // The parts' equations are el and mb unless el_part, mb_part stand in for them (the
+    // parts in rigid rotation: rotating_systems.hpp); el and mb give the kinematics.
     CoupledEquations(ElementEquations& el, MultibodyEquations& mb, const MultibodySystemCore& core,
-                     const std::vector<Coupling>& couplings)
-        : el_(el), mb_(mb), core_(core), cp_(couplings), n1_(el.n_coordinates()), n2_(mb.n_coordinates()),
-          nc2_(mb.n_constraints()) {
+                     const std::vector<Coupling>& couplings, Equations* el_part = nullptr,
+                     Equations* mb_part = nullptr)
+        : el_(el), mb_(mb), el_eq_(el_part != nullptr ? *el_part : el), mb_eq_(mb_part != nullptr ? *mb_part : mb),
+          core_(core), cp_(couplings), n1_(el.n_coordinates()), n2_(mb.n_coordinates()), nc2_(mb.n_constraints()) {
         const Model& model = el.model;
         rows_.push_back(0);
         for (const Coupling& c : cp_) {
@@ -50,15 +54,15 @@ class CoupledEquations final : public Equations {
     double length_scale() const override { return std::max(el_.length_scale(), mb_.length_scale()); }
 
     void set(const VecX& z, const VecX& v, const VecX& a, const VecX& lam, double t) override {
-        el_.set(z.head(n1_), v.head(n1_), a.head(n1_), t);
-        mb_.set(z.tail(n2_), v.tail(n2_), a.tail(n2_), lam.head(nc2_), t);
+        el_eq_.set(z.head(n1_), v.head(n1_), a.head(n1_), VecX(), t);
+        mb_eq_.set(z.tail(n2_), v.tail(n2_), a.tail(n2_), lam.head(nc2_), t);
         lam3_ = lam.tail(nc3_);
     }
 
     void evaluate(double wK, double wC, double wM, VecX& r, Triplets* J) override {
         const int n = n1_ + n2_;
-        el_.evaluate(wK, wC, wM, r1_, J ? &J1_ : nullptr);
-        mb_.evaluate(wK, wC, wM, r2_, J ? &J2_ : nullptr);
+        el_eq_.evaluate(wK, wC, wM, r1_, J ? &J1_ : nullptr);
+        mb_eq_.evaluate(wK, wC, wM, r2_, J ? &J2_ : nullptr);
         r.resize(n + nc2_ + nc3_);
         r.head(n1_) = r1_;
         r.segment(n1_, n2_ + nc2_) = r2_;
@@ -92,25 +96,25 @@ class CoupledEquations final : public Equations {
 
     int rebase(VecX& v, VecX& a) override {
         VecX v1, a1, v2, a2;
-        const int k = el_.rebase(v1, a1) + mb_.rebase(v2, a2);
+        const int k = el_eq_.rebase(v1, a1) + mb_eq_.rebase(v2, a2);
         v.head(n1_) = v1;
         a.head(n1_) = a1;
         return k;
     }
 
     void accept(double t, double h) override {
-        el_.accept(t, h);
-        mb_.accept(t, h);
+        el_eq_.accept(t, h);
+        mb_eq_.accept(t, h);
     }
-    double mass_flow(double t) const override { return el_.mass_flow(t); }
+    double mass_flow(double t) const override { return el_eq_.mass_flow(t); }
     void set_static_load_factor(double f) override {
-        el_.set_static_load_factor(f);
-        mb_.set_static_load_factor(f);
+        el_eq_.set_static_load_factor(f);
+        mb_eq_.set_static_load_factor(f);
     }
     void predict_stresses(const VecX* dz) override {
-        if (dz == nullptr) return el_.predict_stresses(nullptr);
+        if (dz == nullptr) return el_eq_.predict_stresses(nullptr);
         const VecX head = dz->head(n1_);
-        el_.predict_stresses(&head);
+        el_eq_.predict_stresses(&head);
     }
     RefreshPolicy refresh_policy() const override { return mb_.refresh_policy(); }
     std::string singular_mass_hint() const override {
@@ -233,6 +237,8 @@ class CoupledEquations final : public Equations {
 
     ElementEquations& el_;
     MultibodyEquations& mb_;
+    Equations& el_eq_;
+    Equations& mb_eq_;
     const MultibodySystemCore& core_;
     const std::vector<Coupling>& cp_;
     int n1_, n2_, nc2_, nc3_ = 0;
@@ -357,6 +363,79 @@ StaticNewtonResult coupled_static(const Model& model, State& state, const LoadSt
     state.a.setZero();
     coupling_lam = lam.tail(eq.n_constraints() - bodies.n_constraints());
     return res;
+}
+
+namespace {
+
+// The coupled system in rigid rotation: the element model's RigidRotationEquations and the
+// bodies' RigidRotationBodies, joined by the couplings.
+class RotatingCoupled final : public RotatingSystem {
+   public:
+    RotatingCoupled(const Model& model, State& state, const LoadState& load, const MultibodySystemCore& bodies,
+                    const MbState& body_state, const std::vector<Coupling>& couplings, const RotationHinge& h,
+                    double length_scale)
+        : el_(model, state, load, length_scale, Vec3<double>{{h.point[0], h.point[1], h.point[2]}},
+              Vec3<double>{{h.axis[0], h.axis[1], h.axis[2]}}),
+          flow_(TimeTable::constant(load.mass_flow)),
+          mb_(bodies, body_state, flow_),
+          rb_(mb_, bodies, h.point, h.axis),
+          eq_(el_.element_equations(), mb_, bodies, couplings, &el_, &rb_) {}
+    Equations& equations() override { return eq_; }
+    double omega() const override { return rb_.omega(); }
+    void set_omega(double w) override {
+        el_.set_omega(w);
+        rb_.set_omega(w);
+    }
+    void set_mass_flow(double mdot) override {
+        el_.set_mass_flow(mdot);
+        flow_ = TimeTable::constant(mdot);
+    }
+    void rates(VecX& v) override {
+        const ElementEquations& el = el_.element_equations();
+        v.resize(el.n + mb_.n_coordinates());
+        v << reduce(el.model, el.state.v), mb_.state().v;
+    }
+    const MbState& body_state() const { return mb_.state(); }
+
+   private:
+    RigidRotationEquations el_;
+    TimeTable flow_;
+    MultibodyEquations mb_;
+    RigidRotationBodies rb_;
+    CoupledEquations eq_;
+};
+
+}  // namespace
+
+SteadyRotationOutcome coupled_steady_rotation(const Model& model, State& state, const LoadState& load,
+                                              const MultibodySystemCore& bodies, MbState& body_state,
+                                              const std::vector<Coupling>& couplings, Eigen::VectorXd& coupling_lam,
+                                              const RotationHinge& hinge, double omega_guess, double length_scale,
+                                              const SteadyRotationOptions& opt) {
+    check_state(model, state);
+    bodies.check_state(body_state);
+    for (int i = 0; i < model.n_nodes(); ++i)
+        if (model.kinds[i] == NodeKind::ancf)
+            throw std::invalid_argument("steady_rotation: ANCF node " + std::to_string(i) +
+                                        ": the rigid rotation's rates are those of frame nodes");
+    const int n1 = model.n_dofs;
+    if (hinge.body < 0 ? hinge.element_dof < 0 || hinge.element_dof >= n1 : hinge.body >= bodies.n_bodies())
+        throw std::invalid_argument("steady_rotation: the hinge's body or element coordinate is out of range");
+    RotatingCoupled rot(model, state, load, bodies, body_state, couplings, hinge, length_scale);
+    Equations& eq = rot.equations();
+    VecX pin = VecX::Zero(eq.n_coordinates());
+    if (hinge.body >= 0)
+        pin.segment<3>(n1 + bodies.offset(hinge.body) + 3) = hinge.axis;
+    else
+        pin[hinge.element_dof] = 1.0;
+    const int nc2 = bodies.n_constraints(), nc3 = eq.n_constraints() - nc2;
+    VecX lam(eq.n_constraints());
+    lam << body_state.lam, (coupling_lam.size() == nc3 ? coupling_lam : VecX::Zero(nc3));
+    const SteadyRotationOutcome out = steady_rotation(rot, pin, load.mass_flow, omega_guess, opt, lam);
+    body_state = rot.body_state();
+    body_state.lam = lam.head(nc2);
+    coupling_lam = lam.tail(nc3);
+    return out;
 }
 
 }  // namespace pipeflex

@@ -16,11 +16,24 @@ Eigen::Matrix3d skew(const Vec3<double>& a) {
     return S;
 }
 
+// the position of a node (zero if the state has no such node: the statics' check of the
+// state then throws)
+Vec3<double> node_position(const State& s, int node) {
+    if (node < 0 || 6 * node + 3 > s.q.size()) return {};
+    return {{s.q[6 * node], s.q[6 * node + 1], s.q[6 * node + 2]}};
+}
+
 }  // namespace
 
 RigidRotationEquations::RigidRotationEquations(const Model& model, State& state, const LoadState& load,
                                                double length_scale, int hinge_node, const Vec3<double>& axis)
-    : statics_(model, state, load, length_scale), hinge_node_(hinge_node), axis_(axis) {
+    : RigidRotationEquations(model, state, load, length_scale, node_position(state, hinge_node), axis) {}
+
+RigidRotationEquations::RigidRotationEquations(const Model& model, State& state, const LoadState& load,
+                                               double length_scale, const Vec3<double>& hinge_point,
+                                               const Vec3<double>& axis)
+    : statics_(model, state, load, length_scale), hinge_point_(hinge_point[0], hinge_point[1], hinge_point[2]),
+      axis_(axis) {
     // the rates below hold at phi = 0: every iterate is re-based
     Eigen::VectorXd v, a;
     statics_.eq.rebase(0.0, v, a);
@@ -82,7 +95,7 @@ RigidRotationEquations::RigidRotationEquations(const Model& model, State& state,
 void RigidRotationEquations::rigid_rates() {
     State& s = statics_.eq.state;
     const Eigen::Vector3d a(axis_[0], axis_[1], axis_[2]);
-    const Eigen::Vector3d xh = s.q.segment<3>(6 * hinge_node_);
+    const Eigen::Vector3d& xh = hinge_point_;
     for (int i = 0; i < statics_.eq.model.n_nodes(); ++i) {
         const Eigen::Vector3d r = s.q.segment<3>(6 * i) - xh;
         const Eigen::Vector3d w = omega_ * a.cross(r);

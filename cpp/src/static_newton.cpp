@@ -32,15 +32,16 @@ int negative_eigenvalues(const Triplets& J, int n) {
 
 namespace {
 
-// The bordered matrix [K, rt; c^T, d] ((n + 1) x (n + 1), rt and c stored whole so that
-// the pattern does not depend on the state) from K's triplets.
-void bordered(const Triplets& K, int n, const Eigen::VectorXd& rt, const Eigen::VectorXd& c, double d, Triplets& A) {
+// The bordered matrix [K, rt; c^T, d] ((m + 1) x (m + 1), rt and c stored whole so that
+// the pattern does not depend on the state) from K's triplets (m x m; with constraints
+// the scaled KKT matrix, and rt, c with its constraint rows).
+void bordered(const Triplets& K, int m, const Eigen::VectorXd& rt, const Eigen::VectorXd& c, double d, Triplets& A) {
     A = K;
-    for (int i = 0; i < n; ++i) {
-        A.add(i, n, rt[i]);
-        A.add(n, i, c[i]);
+    for (int i = 0; i < m; ++i) {
+        A.add(i, m, rt[i]);
+        A.add(m, i, c[i]);
     }
-    A.add(n, n, d);
+    A.add(m, m, d);
 }
 
 }  // namespace
@@ -48,7 +49,7 @@ void bordered(const Triplets& K, int n, const Eigen::VectorXd& rt, const Eigen::
 StaticNewtonResult static_newton(Equations& eq, double t, Eigen::VectorXd& lam, const StaticNewtonOptions& opt) {
     const int n = eq.n_coordinates(), nc = eq.n_constraints();
     const double L = eq.length_scale(), tol = opt.tol;
-    StaticBorder* border = nc == 0 ? opt.border : nullptr;
+    StaticBorder* border = opt.border;
     const Eigen::VectorXd zero = Eigen::VectorXd::Zero(n);
     Eigen::VectorXd r, rhs(n + nc), x, v = zero, a = zero, rt, rp, c, b;
     Triplets J, Jb;
@@ -74,8 +75,9 @@ StaticNewtonResult static_newton(Equations& eq, double t, Eigen::VectorXd& lam, 
         return !out.nonfinite;
     };
     const auto satisfied = [&]() {
-        if (border != nullptr) return std::abs(border->constraint(nullptr, nullptr)) <= tol;
-        return nc == 0 || r.tail(nc).lpNorm<Eigen::Infinity>() <= 1e-6 * L;
+        const bool held = nc == 0 || r.tail(nc).lpNorm<Eigen::Infinity>() <= 1e-6 * L;
+        if (border != nullptr) return held && std::abs(border->constraint(nullptr, nullptr)) <= tol;
+        return held;
     };
     if (by_force) {  // a warm start: converged already at the model's own force level
         if (!residual_here(nullptr)) return out;
@@ -102,7 +104,7 @@ StaticNewtonResult static_newton(Equations& eq, double t, Eigen::VectorXd& lam, 
         const double rnorm = out.residual;
         fscale = std::max(fscale, rnorm);
         if (it == 1 && opt.inertia && nc == 0) out.negative_start = negative_eigenvalues(J, n);
-        if (border != nullptr) {  // Newton on the bordered system: x = (dz, dtau)
+        if (border != nullptr) {  // Newton on the bordered system: x = (dz, dlambda / s, dtau)
             const double tau = border->parameter(), h = border->difference_step();
             border->set_parameter(tau + h);
             eq.evaluate(1.0, 0.0, 0.0, rp, nullptr);
@@ -112,8 +114,16 @@ StaticNewtonResult static_newton(Equations& eq, double t, Eigen::VectorXd& lam, 
             rt = (rp - rt) / (2.0 * h);
             double d = 0.0;
             const double g = border->constraint(&c, &d);
+            double s = 1.0;
+            if (nc > 0) {  // the constraint rows and columns scaled as the plain path's (dc/dtau too)
+                s = scale_constraints(J, n, 1.0);
+                s = s > 0.0 ? s : 1.0;
+                scale_constraints(J, n, s);
+                rt.tail(nc) *= s;
+                c.conservativeResizeLike(Eigen::VectorXd::Zero(n + nc));
+            }
             double dtau = std::numeric_limits<double>::quiet_NaN();
-            if (!border->bordered_only() && lu.factorize(n, J.rows, J.cols, J.values)) {
+            if (nc == 0 && !border->bordered_only() && lu.factorize(n, J.rows, J.cols, J.values)) {
                 const Eigen::VectorXd mr = -r, mrt = -rt;
                 lu.solve(mr, x);
                 lu.solve(mrt, b);
@@ -123,19 +133,23 @@ StaticNewtonResult static_newton(Equations& eq, double t, Eigen::VectorXd& lam, 
                     x += dtau * b;
                 }
             }
-            // K singular (or singular by construction): the bordered matrix is regular at a simple limit point
+            // K singular (or singular by construction), or constraints: the whole bordered
+            // matrix, regular at a simple limit point
             if (!std::isfinite(dtau)) {
-                bordered(J, n, rt, c, d, Jb);
-                Eigen::VectorXd rb(n + 1), xb;
-                rb.head(n) = -r;
-                rb[n] = -g;
-                if (!lub.factorize(n + 1, Jb.rows, Jb.cols, Jb.values)) {
+                const int m = n + nc;
+                bordered(J, m, rt, c, d, Jb);
+                Eigen::VectorXd rb(m + 1), xb;
+                rb.head(n) = -r.head(n);
+                rb.segment(n, nc) = -s * r.tail(nc);
+                rb[m] = -g;
+                if (!lub.factorize(m + 1, Jb.rows, Jb.cols, Jb.values)) {
                     out.singular = true;
                     return out;
                 }
                 lub.solve(rb, xb);
                 x = xb.head(n);
-                dtau = xb[n];
+                dtau = xb[m];
+                if (nc > 0) lam += s * xb.segment(n, nc);
             }
             if (!x.allFinite() || !std::isfinite(dtau)) {
                 out.singular = true;

@@ -31,7 +31,7 @@ __getattr__, __dir__ = _lazy.attach(__name__, _LAZY)
 
 __all__ = ["CriticalFlow", "EigenResult", "Linearization", "StaticResult",
            "critical_mass_flow", "eigenvalues", "linearize", "simulate", "stability", "static_equilibrium",
-           "Sine", "TransientResult", "SteadyRotation", "steady_rotation",
+           "Sine", "TransientResult", "SteadyRotation", "SystemSteadyRotation", "steady_rotation",
            "RotatingFrequencies", "resonance_speed", "rotating_frequencies", "rotating_state",
            "OrbitBranch", "OrbitGuess", "PeriodicOrbit", "continue_orbits", "orbit_guess", "periodic_orbit",
            "Campbell", "campbell",

@@ -14,7 +14,7 @@ _MODULES = {"campbell": ["Campbell", "campbell"],
                          "periodic_orbit"],
             "rotating": ["RotatingFrequencies", "resonance_speed", "rotating_frequencies", "rotating_state"],
             "static": ["StaticResult", "static_equilibrium"],
-            "steady": ["SteadyRotation", "steady_rotation"],
+            "steady": ["SteadyRotation", "SystemSteadyRotation", "steady_rotation"],
             "transient": ["Sine", "TransientResult", "simulate"]}
 _LAZY = {name: f"{__name__}.{module}:{name}" for module, names in _MODULES.items() for name in names}
 __getattr__, __dir__ = _lazy.attach(__name__, _LAZY)
@@ -22,5 +22,5 @@ __getattr__, __dir__ = _lazy.attach(__name__, _LAZY)
 __all__ = ["CriticalFlow", "critical_mass_flow", "EigenResult", "eigenvalues", "stability",
            "Linearization", "linearize", "OrbitBranch", "OrbitGuess", "PeriodicOrbit", "continue_orbits", "orbit_guess", "periodic_orbit",
            "StaticResult", "static_equilibrium",
-           "Sine", "TransientResult", "simulate", "SteadyRotation", "steady_rotation",
+           "Sine", "TransientResult", "simulate", "SteadyRotation", "SystemSteadyRotation", "steady_rotation",
            "RotatingFrequencies", "resonance_speed", "rotating_frequencies", "rotating_state", "Campbell", "campbell"]

@@ -21,8 +21,8 @@ def require_model(model, name: str = "model"):
             hint = (": this analysis takes element models only (docs/user_guide.md, 'Elements and bodies in one "
                     "system', lists which analysis takes which system)")
         else:
-            hint = (" (static_equilibrium, linearize, critical_mass_flow and simulate also take a MultibodySystem "
-                    "or a CoupledSystem)")
+            hint = (" (static_equilibrium, linearize, critical_mass_flow, steady_rotation and simulate also take a "
+                    "MultibodySystem or a CoupledSystem)")
         raise TypeError(f"{name} must be a pipeflex.Model (ModelBuilder.build() or a scene), got {kind}{hint}")
     return model
 

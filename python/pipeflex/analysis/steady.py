@@ -9,6 +9,13 @@ row is the balance of moments about the axis. The core's one static Newton
 (``static_newton``, cpp/src/rigid_rotation.cpp) with the analytic tangent
 K + omega C Av + omega^2 M Aa and omega as its border (omega's column in place of the
 hinge angle's), with continuation in the mass flow from rest.
+
+A :class:`~pipeflex.multibody.MultibodySystem` or a :class:`~pipeflex.CoupledSystem`
+turns about its one hinge: a body hinged to the ground (or, in a coupled system, an
+element hinge). Its bodies move rigidly with the rotation too (frame r_dot =
+omega a x (r - x_h), spatial angular velocity omega a, modal rates 0), and the same
+Newton runs on the bordered KKT matrix of the joints and couplings
+(cpp/src/rotating_systems.cpp); the result is a :class:`SystemSteadyRotation`.
 """
 from __future__ import annotations
 
@@ -23,6 +30,7 @@ from ..results import Result
 from ..state import State, as_core
 from ._assembly import require_model
 from .._blas import small_problems_single_threaded
+from .._lazy import loaded_instance
 
 
 # below this many coordinates the Newton systems are solved densely (cheaper than sparse
@@ -50,8 +58,36 @@ class SteadyRotation(Result):
     residual: float
 
 
-def _hinge(model):
-    """The node with one free rotation and fixed position (the hinge), and its axis
+@dataclass(frozen=True)
+class SystemSteadyRotation(Result):
+    """Steady rotation of a :class:`~pipeflex.multibody.MultibodySystem` or a
+    :class:`~pipeflex.CoupledSystem` found by :func:`steady_rotation`.
+
+    Attributes:
+        omega: angular velocity [rad/s] about the hinge axis (right-hand rule).
+        state: the element model's deformed, rotating :class:`~pipeflex.state.State`
+            (None for bodies alone).
+        body_state: the bodies' :class:`~pipeflex.multibody.MultibodyState` (frames, modal
+            amplitudes, the rotation's rates, joint multipliers).
+        coupling_forces: the couplings' multipliers [N, N m] (empty for bodies alone).
+        axis: (3,) unit hinge axis [-]; point: (3,) a point of it [m]; hinge: which hinge
+            (a body joint's name, or "element node i").
+        iterations: Newton iterations; residual: final residual norm [N].
+    """
+
+    omega: float
+    state: Optional[State]
+    body_state: object
+    coupling_forces: np.ndarray
+    axis: np.ndarray
+    point: np.ndarray
+    hinge: str
+    iterations: int
+    residual: float
+
+
+def _element_hinges(model):
+    """The nodes with one free rotation and fixed position, as (node, axis, coordinate)
     (linear in the model size: only nodes with one reduced coordinate are looked at)."""
     nodes = np.fromiter((n for n, _ in model.dof_labels), dtype=int, count=model.n_dofs)
     single = np.bincount(nodes, minlength=model.n_nodes)[nodes] == 1
@@ -62,6 +98,12 @@ def _hinge(model):
         t = basis[6 * n:6 * n + 6, [dof]].toarray()[:, 0]
         if np.allclose(t[:3], 0.0):
             found.append((n, t[3:] / np.linalg.norm(t[3:]), int(dof)))
+    return found
+
+
+def _hinge(model):
+    """The node with one free rotation and fixed position (the hinge), and its axis."""
+    found = _element_hinges(model)
     if len(found) != 1:
         raise ValueError(f"steady_rotation needs exactly one hinge (a node with fixed position and one "
                          f"free rotation); this model has {len(found)}")
@@ -71,33 +113,47 @@ def _hinge(model):
 @small_problems_single_threaded
 def steady_rotation(model, *, omega_guess: Optional[float] = None, mass_flow: Optional[float] = None,
                     state=None, continuation_steps: int = 4, tol: float = 1e-12,
-                    max_iterations: int = 30) -> SteadyRotation:
-    """Steady rotation of a model about its single hinge under the prescribed mass flow.
+                    max_iterations: int = 30):
+    """Steady rotation of a system about its single hinge under the prescribed mass flow.
 
     Args:
-        model: a model with exactly one hinge (e.g. :func:`pipeflex.scenes.sprinkler`).
+        model: a model with exactly one hinge (e.g. :func:`pipeflex.scenes.sprinkler`);
+            or a :class:`~pipeflex.multibody.MultibodySystem` with one body hinged to the
+            ground, or a :class:`~pipeflex.CoupledSystem` with one such body or one element
+            hinge (e.g. :func:`pipeflex.scenes.sprinkler_on_hub`): then the result is a
+            :class:`SystemSteadyRotation` (the bodies' state and the couplings' forces too).
         omega_guess: starting angular velocity [rad/s] (default: from a rigid-body balance
-            of the undeformed structure at the first continuation step).
+            of the undeformed structure at the first continuation step: the moment about
+            the hinge).
         mass_flow: mdot [kg/s] (default the model's).
-        state: starting deformation (default the reference configuration).
+        state: starting deformation (default the reference configuration); of a coupled
+            system a :class:`~pipeflex.coupled.CoupledStatic` or a
+            :class:`SystemSteadyRotation`, of bodies a
+            :class:`~pipeflex.multibody.MultibodyState` or a :class:`SystemSteadyRotation`.
         continuation_steps: the flow is raised from mdot/steps to mdot in this many steps.
         tol: relative tolerance on the Newton correction (to the model size and to omega);
             a correction within 1e3 tolerances that stops halving is taken as converged
             (round-off; ``pipeflex.analysis._newton.converged``).
         max_iterations: Newton iterations per continuation step.
 
+    Returns:
+        :class:`SteadyRotation` of a model, :class:`SystemSteadyRotation` of a system with
+        bodies.
+
     Raises:
-        ValueError: no or several hinges; bad options.
+        ValueError: no or several hinges (named); bad options.
         ConvergenceError: Newton failed (the message gives the step and the residual;
             attributes ``mass_flow`` of the continuation step, ``iteration``, ``residual``).
     """
+    coupled = loaded_instance(model, "pipeflex.coupled", "CoupledSystem")
+    if coupled or loaded_instance(model, "pipeflex.multibody.system", "MultibodySystem"):
+        return _system_steady_rotation(model, coupled, omega_guess=omega_guess, mass_flow=mass_flow, state=state,
+                                       continuation_steps=continuation_steps, tol=tol,
+                                       max_iterations=max_iterations)
     require_model(model)
     node, axis, hinge_dof = _hinge(model)
-    steps = _checks.positive_int("continuation_steps", continuation_steps)
-    tol = _checks.positive("tol", tol)
-    max_iterations = _checks.positive_int("max_iterations", max_iterations)
-    mdot = model.mass_flow if mass_flow is None else _checks.finite("mass_flow", mass_flow)
-    omega = np.nan if omega_guess is None else _checks.finite("omega_guess", omega_guess)
+    steps, tol, max_iterations, mdot, omega = _options(model, omega_guess, mass_flow, continuation_steps, tol,
+                                                       max_iterations)
     st = as_core(model, state)
     size = max(float(np.ptp(model.positions, axis=0).max()), 1e-3)
     out = _core.steady_rotation(model.core, st, model.load_state(mass_flow=mdot), node, hinge_dof, axis, omega,
@@ -115,3 +171,85 @@ def steady_rotation(model, *, omega_guess: Optional[float] = None, mass_flow: Op
                                residual=rnorm, mass_flow=m_k)
     return SteadyRotation(float(out["omega"]), State.from_core(st, model), axis, node, int(out["iterations"]),
                           float(out["residual"]))
+
+
+def _options(model, omega_guess, mass_flow, continuation_steps, tol, max_iterations):
+    """steady_rotation's options checked: (steps, tol, max_iterations, mdot, omega_guess or NaN)."""
+    steps = _checks.positive_int("continuation_steps", continuation_steps)
+    tol = _checks.positive("tol", tol)
+    max_iterations = _checks.positive_int("max_iterations", max_iterations)
+    mdot = model.mass_flow if mass_flow is None else _checks.finite("mass_flow", mass_flow)
+    omega = np.nan if omega_guess is None else _checks.finite("omega_guess", omega_guess)
+    return steps, tol, max_iterations, mdot, omega
+
+
+def _system_hinge(system, coupled):
+    """The one hinge of a system with bodies: (name, point, axis, body or -1, element
+    coordinate or -1): a body joint of kind hinge to the ground, or (coupled) an element
+    node with fixed position and one free rotation. ValueError if none or several."""
+    bodies = system.bodies if coupled else system
+    found = []
+    for jt in bodies.joints:
+        if jt.kind == "hinge" and jt.b is None:
+            axis = np.asarray(jt.ref["A_ground"]) @ np.asarray(jt.ref["axis_b"])
+            found.append((jt.name, np.array(jt.ref["p_ground"], float), axis / np.linalg.norm(axis), int(jt.a[0]), -1))
+    if coupled:
+        positions = np.asarray(system.model.positions, float)
+        for node, axis, dof in _element_hinges(system.model):
+            found.append((f"element node {node}", positions[node].copy(), axis, -1, dof))
+    if len(found) != 1:
+        where = "" if not found else ": " + ", ".join(f[0] for f in found)
+        raise ValueError(f"steady_rotation needs exactly one hinge (a body hinged to the ground"
+                         f"{', or an element node with fixed position and one free rotation' if coupled else ''}); "
+                         f"this {type(system).__name__} has {len(found)}{where}")
+    return found[0]
+
+
+def _system_steady_rotation(system, coupled, *, omega_guess, mass_flow, state, continuation_steps, tol,
+                            max_iterations) -> SystemSteadyRotation:
+    """:func:`steady_rotation` of a MultibodySystem or a CoupledSystem."""
+    name, point, axis, body, dof = _system_hinge(system, coupled)
+    model = system.model if coupled else system
+    steps, tol, max_iterations, mdot, omega = _options(model, omega_guess, mass_flow, continuation_steps, tol,
+                                                       max_iterations)
+    bodies = system.bodies if coupled else system
+    if coupled:
+        from ..coupled import CoupledStatic
+        if state is None:
+            st, bs = as_core(model, None), bodies.initial_state()
+            lam_c = np.zeros(system.n_constraints - bodies.n_constraints)
+        elif isinstance(state, (CoupledStatic, SystemSteadyRotation)) and getattr(state, "state", None) is not None:
+            bs = state.body_state
+            st, lam_c = as_core(model, state.state), np.array(state.coupling_forces, float)
+        else:
+            raise TypeError(f"state of a CoupledSystem must be a CoupledStatic or a SystemSteadyRotation, "
+                            f"got {type(state).__name__}")
+        bodies.check_state(bs, "state.body_state")
+        size = max(float(np.ptp(model.positions, axis=0).max()), 1e-3)
+        out = _core.coupled_steady_rotation(model.core, st, model.load_state(mass_flow=mdot), bodies.core, bs.r,
+                                            bs.R, bs.eta, bs.lam, system.core_couplings(), lam_c, point, axis, body,
+                                            dof, omega, size, steps, tol, max_iterations, DENSE_BELOW)
+    else:
+        if state is None:
+            bs = bodies.initial_state()
+        else:
+            bs = state.body_state if isinstance(state, SystemSteadyRotation) else state
+            bodies.check_state(bs)
+        out = _core.multibody_steady_rotation(bodies.core, bs.r, bs.R, bs.eta, bs.lam, mdot, point, axis, body,
+                                              omega, steps, tol, max_iterations, DENSE_BELOW)
+    if not out["converged"]:
+        k, m_k, w, rnorm, it = out["step"], out["mass_flow"], out["omega"], out["residual"], out["step_iterations"]
+        if out["singular"]:
+            raise SingularMatrixError(f"steady_rotation: singular bordered KKT matrix at flow step {k}/{steps}, "
+                                      f"iteration {it} (omega = {w:.6g} rad/s; hinge {name}): a mechanism the "
+                                      f"hinge does not turn, or a motion locked twice", iteration=it,
+                                      residual=rnorm, mass_flow=m_k)
+        raise ConvergenceError(f"steady_rotation: no convergence at flow step {k}/{steps} (mdot = {m_k:.6g} kg/s) "
+                               f"after {it} iterations; residual {rnorm:.3e} N, omega = {w:.6g} rad/s",
+                               iteration=it, residual=rnorm, mass_flow=m_k)
+    r, R, eta, v, a, lam, _ = out["bodies"]
+    from ..multibody.system import MultibodyState
+    body_state = MultibodyState(np.array(r), np.array(R), np.array(eta), np.array(v), np.array(a), np.array(lam), 0.0)
+    forces = np.array(out["coupling_multipliers"], float) if coupled else np.zeros(0)
+    return SystemSteadyRotation(float(out["omega"]), State.from_core(st, model) if coupled else None, body_state,
+                                forces, axis, point, name, int(out["iterations"]), float(out["residual"]))

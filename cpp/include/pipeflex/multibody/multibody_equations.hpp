@@ -26,6 +26,7 @@ class MultibodyEquations final : public Equations {
           start_r_(s.r) {}
 
     const MbState& state() const { return cur_; }
+    MbState& mutable_state() { return cur_; }  // rates set by a wrapper (RigidRotationBodies)
     MbEvaluation& evaluation() { return ev_; }
 
     int n_coordinates() const override { return n_; }

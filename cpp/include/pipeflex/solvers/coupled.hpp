@@ -11,6 +11,7 @@
 #include "pipeflex/multibody/multibody.hpp"
 #include "pipeflex/solvers/equations.hpp"
 #include "pipeflex/solvers/linear_matrices.hpp"
+#include "pipeflex/solvers/rotating_systems.hpp"
 #include "pipeflex/solvers/transient.hpp"
 
 #include <vector>
@@ -57,5 +58,16 @@ LinearMatrices coupled_linear_matrices(const Model& model, State& state, const L
                                        const MultibodySystemCore& bodies, const MbState& body_state,
                                        const std::vector<Coupling>& couplings, const Eigen::VectorXd& coupling_lam,
                                        const TransientOptions& opt, double differences_step = 0.0);
+
+// Steady rotation of a coupled system about its hinge (a body's ground hinge, or the
+// element model's) under the load's mass flow (rotating_systems.hpp: continuation in the
+// flow, omega as the static Newton's border on the bordered KKT matrix), from the element
+// state and the body state (both updated: the last iterate with the rotation's rates; the
+// couplings' multipliers in coupling_lam, updated). length_scale [m]: the element model's.
+SteadyRotationOutcome coupled_steady_rotation(const Model& model, State& state, const LoadState& load,
+                                              const MultibodySystemCore& bodies, MbState& body_state,
+                                              const std::vector<Coupling>& couplings, Eigen::VectorXd& coupling_lam,
+                                              const RotationHinge& hinge, double omega_guess, double length_scale,
+                                              const SteadyRotationOptions& opt);
 
 }  // namespace pipeflex

@@ -211,9 +211,11 @@ struct StaticNewtonOptions {
     // critical point. Systems without constraints only; a non-symmetric tangent (flow
     // forces) is not counted.
     bool inertia = false;
-    // A border (systems without constraints): Newton on [K, dR/dtau; c^T, d] by block
-    // elimination (two solves with K's LU), the whole bordered matrix where K is singular
-    // (it is regular at a simple limit point) or the border says so (bordered_only).
+    // A border: Newton on [K, dR/dtau; c^T, d] by block elimination (two solves with K's
+    // LU), the whole bordered matrix where K is singular (it is regular at a simple limit
+    // point) or the border says so (bordered_only). With constraints always the whole
+    // bordered KKT matrix [K, s C_q^T, dR/dtau; s C_q, 0, s dc/dtau; c^T, 0, d] (scaled as
+    // without a border), and the constraints must hold too.
     // Converged when the correction is below tol model sizes and that of tau below
     // tol max(1, |tau|) (or, with |g| <= tol, that relative correction stalls at round-off
     // within 1e3 tol), or the residual below 1e-3 tol times the force level and |g| <= tol

@@ -25,6 +25,9 @@ class RigidRotationEquations final : public Equations {
    public:
     RigidRotationEquations(const Model& model, State& state, const LoadState& load, double length_scale,
                            int hinge_node, const Vec3<double>& axis);
+    // about the axis through a fixed point x_h [m] (a hinge outside the model: a body's)
+    RigidRotationEquations(const Model& model, State& state, const LoadState& load, double length_scale,
+                           const Vec3<double>& hinge_point, const Vec3<double>& axis);
 
     double omega() const { return omega_; }
     // the rate [rad/s]; the rates of the state set follow
@@ -34,6 +37,8 @@ class RigidRotationEquations final : public Equations {
     }
     // the mass flow [kg/s] of the residual (the continuation's step)
     void set_mass_flow(double mdot) { statics_.eq.static_mdot = mdot; }
+    // the element equations (their model and state) the rotation's are built on
+    ElementEquations& element_equations() { return statics_.eq; }
     // The reduced residual at the state set with the rates of rate w (for the rigid guess).
     const Eigen::VectorXd& residual_at(double w);
 
@@ -49,7 +54,7 @@ class RigidRotationEquations final : public Equations {
 
    private:
     ElementStatics statics_;
-    int hinge_node_;
+    Eigen::Vector3d hinge_point_;
     Vec3<double> axis_;
     double omega_ = 0.0;
     std::shared_ptr<const TangentPattern> pattern_;
