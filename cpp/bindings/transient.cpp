@@ -446,6 +446,38 @@ void bind_transient(py::module_& m) {
         py::arg("bodies"), py::arg("r"), py::arg("R"), py::arg("eta"), py::arg("lam"), py::arg("mass_flow"),
         py::arg("point"), py::arg("axis"), py::arg("hinge_body"), py::arg("omega_guess"),
         py::arg("continuation_steps"), py::arg("tol"), py::arg("max_iterations"), py::arg("dense_below"));
+    m.def(
+        "rotating_state",
+        [](const Model& md, const Model& free, State& s, const LoadState& load, const std::array<double, 3>& centre,
+           const std::array<double, 3>& axis, double omega, double length_scale, double tol, int max_iterations,
+           double divergence) {
+            RotatingStateOptions opt;
+            opt.tol = tol;
+            opt.max_iterations = max_iterations;
+            opt.divergence = divergence;
+            StaticNewtonResult out;
+            {
+                py::gil_scoped_release release;
+                out = rotating_state(md, free, s, load, Vec3<double>{{centre[0], centre[1], centre[2]}},
+                                     Vec3<double>{{axis[0], axis[1], axis[2]}}, omega, length_scale, opt);
+            }
+            py::dict d;
+            d["converged"] = out.converged;
+            d["singular"] = out.singular;
+            d["diverged"] = out.diverged;
+            d["nonfinite"] = out.nonfinite;
+            d["iterations"] = out.iterations;
+            d["residual"] = out.residual;
+            d["correction"] = out.correction;
+            return d;
+        },
+        "The rotating state of an element model at the prescribed rate omega [rad/s] about the unit axis through "
+        "the point centre [m] (seed 002's hub), by one core static_newton from the state (updated in place: the last "
+        "iterate with the rotation's rates), the tangent through free (the model's unconstrained variant). A dict: "
+        "converged, singular, diverged (a correction above divergence length scales), nonfinite, iterations, "
+        "residual [N] (at the last iterate evaluated), correction (the last, [m, rad]).",
+        py::arg("model"), py::arg("free"), py::arg("state"), py::arg("load"), py::arg("centre"), py::arg("axis"),
+        py::arg("omega"), py::arg("length_scale"), py::arg("tol"), py::arg("max_iterations"), py::arg("divergence"));
     m.attr("DENSE_LU_BELOW") = kDenseLuBelow;
     m.def("gravity_potential", [](const Model& md, const State& s, const LoadState& l) {
         check_state(md, s);

@@ -23,6 +23,14 @@ Vec3<double> node_position(const State& s, int node) {
     return {{s.q[6 * node], s.q[6 * node + 1], s.q[6 * node + 2]}};
 }
 
+// pinv(T) = (T^T T)^-1 T^T of a basis (full column rank): T^T where its columns are
+// orthonormal (coordinate selections: exactly)
+Eigen::MatrixXd left_inverse(const Eigen::MatrixXd& T) {
+    const Eigen::MatrixXd G = T.transpose() * T;
+    if (G.isIdentity(0.0)) return T.transpose();
+    return G.ldlt().solve(T.transpose());
+}
+
 }  // namespace
 
 RigidRotationEquations::RigidRotationEquations(const Model& model, State& state, const LoadState& load,
@@ -31,78 +39,110 @@ RigidRotationEquations::RigidRotationEquations(const Model& model, State& state,
 
 RigidRotationEquations::RigidRotationEquations(const Model& model, State& state, const LoadState& load,
                                                double length_scale, const Vec3<double>& hinge_point,
-                                               const Vec3<double>& axis)
+                                               const Vec3<double>& axis, const Model* free)
     : statics_(model, state, load, length_scale), hinge_point_(hinge_point[0], hinge_point[1], hinge_point[2]),
-      axis_(axis) {
+      axis_(axis), assembled_(free != nullptr ? *free : model) {
+    const Model& F = assembled_;
+    if (free != nullptr && (F.n_nodes() != model.n_nodes() || F.kinds != model.kinds ||
+                            F.pipes.size() != model.pipes.size() || F.ancf.size() != model.ancf.size()))
+        throw std::invalid_argument("rigid rotation: the unconstrained model has other nodes or elements than the "
+                                    "model");
     // the rates below hold at phi = 0: every iterate is re-based
     Eigen::VectorXd v, a;
     statics_.eq.rebase(0.0, v, a);
     const Eigen::Matrix3d S = skew(axis), S2 = S * S;
-    Eigen::Matrix<double, 6, 6> Bv = Eigen::Matrix<double, 6, 6>::Zero(), Ba = Bv;
-    Bv.topLeftCorner<3, 3>() = S;
-    Bv.bottomRightCorner<3, 3>() = 0.5 * S;   // phi_dot = T(phi)^-1 omega a, T^-1 = I - skew(phi)/2 + ...
-    Ba.topLeftCorner<3, 3>() = S2;
-    Ba.bottomRightCorner<3, 3>() = S2 / 6.0;  // phi_ddot = -T^-1 d/dt[T] phi_dot to first order in phi
-    const int n = model.n_dofs;
+    const int n = model.n_dofs, nf = F.n_dofs;
     block_.assign(n, 0);
     block_end_.assign(n, 0);
     weight_.assign(n, 0);
-    for (int i = 0; i < model.n_nodes(); ++i) {  // T_n^T B T_n per node
-        const Eigen::MatrixXd& T = model.bases[i];
+    row_ptr_.assign(nf + 1, 0);
+    for (int i = 0; i < model.n_nodes(); ++i) {
+        // per node: E = pinv(T_f) T, and pinv(T_f) B T_f E for the rates' 6 x 6 blocks B
+        const bool slopes = model.kinds[i] == NodeKind::ancf;
+        Eigen::Matrix<double, 6, 6> Bv = Eigen::Matrix<double, 6, 6>::Zero(), Ba = Bv;
+        Bv.topLeftCorner<3, 3>() = S;
+        Ba.topLeftCorner<3, 3>() = S2;
+        // rotation vectors: phi_dot = T(phi)^-1 omega a, T^-1 = I - skew(phi)/2 + ..., and
+        // phi_ddot = -T^-1 d/dt[T] phi_dot to first order in phi
+        Bv.bottomRightCorner<3, 3>() = slopes ? S : Eigen::Matrix3d(0.5 * S);
+        Ba.bottomRightCorner<3, 3>() = slopes ? S2 : Eigen::Matrix3d(S2 / 6.0);
+        const Eigen::MatrixXd &T = model.bases[i], &Tf = F.bases[i];
         const int f = model.first_dof[i], k = static_cast<int>(T.cols());
-        const Eigen::MatrixXd bv = T.transpose() * Bv * T, ba = T.transpose() * Ba * T;
+        const int ff = F.first_dof[i], kf = static_cast<int>(Tf.cols());
+        const Eigen::MatrixXd Tp = left_inverse(Tf);
+        const Eigen::MatrixXd E = free != nullptr ? Eigen::MatrixXd(Tp * T) : Eigen::MatrixXd::Identity(k, k);
+        if ((Tf * E - T).lpNorm<Eigen::Infinity>() > 1e-12)
+            throw std::invalid_argument("rigid rotation: a node's supported increments are not increments of the "
+                                        "unconstrained model");
+        if (free != nullptr && (Tf * Tp * Bv * Tf - Bv * Tf).lpNorm<Eigen::Infinity>() > 1e-12)
+            throw std::invalid_argument("rigid rotation: the rotation turns a node's increments out of the "
+                                        "unconstrained model's (planar ANCF nodes can only turn about the z axis)");
+        const Eigen::MatrixXd ev = Tp * Bv * Tf * E, ea = Tp * Ba * Tf * E;
         for (int c = 0; c < k; ++c) {
-            block_[f + c] = f;
-            block_end_[f + c] = f + k;
-            weight_[f + c] = static_cast<int>(av_.size());
-            for (int j = 0; j < k; ++j) {
-                av_.push_back(bv(j, c));
-                aa_.push_back(ba(j, c));
+            block_[f + c] = ff;
+            block_end_[f + c] = ff + kf;
+            weight_[f + c] = static_cast<int>(ek_.size());
+            for (int j = 0; j < kf; ++j) {
+                ek_.push_back(E(j, c));
+                av_.push_back(ev(j, c));
+                aa_.push_back(ea(j, c));
             }
         }
+        for (int j = 0; j < kf; ++j) {
+            for (int c = 0; c < k; ++c)
+                if (E(j, c) != 0.0) {
+                    row_map_.push_back(f + c);
+                    row_weight_.push_back(E(j, c));
+                }
+            row_ptr_[ff + j + 1] = static_cast<int>(row_map_.size());
+        }
     }
-    pattern_ = tangent_pattern(model);
+    pattern_ = tangent_pattern(F);
     const TangentPattern& P = *pattern_;
     K_.resize(P.nnz());
     C_.resize(P.nnz());
     M_.resize(P.nnz());
-    // the tangent's pattern: per column, the rows of its block's columns (K's among them)
-    std::vector<int> slot(n, -1), first(n + 1, 0);
+    ra_.resize(nf);
+    // the tangent's pattern (per column, the rows its block's columns reach through E^T)
+    // and each product term's entry, in evaluate's order
+    std::vector<int> slot(n, -1);
     for (int c = 0; c < n; ++c) {
-        first[c] = static_cast<int>(rows_.size());
+        const int start = static_cast<int>(rows_.size());
         for (int j = block_[c]; j < block_end_[c]; ++j)
-            for (int p = P.col_ptr[j]; p < P.col_ptr[j + 1]; ++p) {
-                const int r = P.row_index[p];
-                if (slot[r] >= 0) continue;
-                slot[r] = static_cast<int>(rows_.size());
-                rows_.push_back(r);
-                cols_.push_back(c);
-            }
-        for (int p = first[c]; p < static_cast<int>(rows_.size()); ++p) slot[rows_[p]] = -1;
+            for (int p = P.col_ptr[j]; p < P.col_ptr[j + 1]; ++p)
+                for (int m = row_ptr_[P.row_index[p]]; m < row_ptr_[P.row_index[p] + 1]; ++m) {
+                    const int r = row_map_[m];
+                    if (slot[r] < 0) {
+                        slot[r] = static_cast<int>(rows_.size());
+                        rows_.push_back(r);
+                        cols_.push_back(c);
+                    }
+                    target_.push_back(slot[r]);
+                }
+        for (int p = start; p < static_cast<int>(rows_.size()); ++p) slot[rows_[p]] = -1;
     }
-    first[n] = static_cast<int>(rows_.size());
-    const auto find = [&](int r, int c) {
-        return static_cast<int>(std::find(rows_.begin() + first[c], rows_.begin() + first[c + 1], r) - rows_.begin());
-    };
-    for (int c = 0; c < n; ++c)
-        for (int p = P.col_ptr[c]; p < P.col_ptr[c + 1]; ++p) target_.push_back(find(P.row_index[p], c));
-    for (int c = 0; c < n; ++c)
-        for (int j = block_[c]; j < block_end_[c]; ++j)
-            for (int p = P.col_ptr[j]; p < P.col_ptr[j + 1]; ++p) target_.push_back(find(P.row_index[p], c));
     values_.resize(rows_.size());
 }
 
 void RigidRotationEquations::rigid_rates() {
     State& s = statics_.eq.state;
+    const Model& model = statics_.eq.model;
     const Eigen::Vector3d a(axis_[0], axis_[1], axis_[2]);
-    const Eigen::Vector3d& xh = hinge_point_;
-    for (int i = 0; i < statics_.eq.model.n_nodes(); ++i) {
-        const Eigen::Vector3d r = s.q.segment<3>(6 * i) - xh;
+    const Eigen::Vector3d& xc = hinge_point_;
+    for (int i = 0; i < model.n_nodes(); ++i) {
+        const Eigen::Vector3d r = s.q.segment<3>(6 * i) - xc;
         const Eigen::Vector3d w = omega_ * a.cross(r);
         s.v.segment<3>(6 * i) = w;
-        s.v.segment<3>(6 * i + 3) = omega_ * a;
         s.a.segment<3>(6 * i) = omega_ * a.cross(w);
-        s.a.segment<3>(6 * i + 3).setZero();
+        if (model.kinds[i] == NodeKind::ancf) {
+            const Eigen::Vector3d d = s.q.segment<3>(6 * i + 3);
+            const Eigen::Vector3d wd = omega_ * a.cross(d);
+            s.v.segment<3>(6 * i + 3) = wd;
+            s.a.segment<3>(6 * i + 3) = omega_ * a.cross(wd);
+        } else {
+            s.v.segment<3>(6 * i + 3) = omega_ * a;
+            s.a.segment<3>(6 * i + 3).setZero();
+        }
     }
 }
 
@@ -127,25 +167,36 @@ void RigidRotationEquations::evaluate(double wK, double, double, Eigen::VectorXd
         statics_.eq.evaluate(1.0, 0.0, 0.0, residual, nullptr);
         return;
     }
-    // K, C and M in one pass on the model's pattern, under the statics' loads
+    // K, C and M in one pass on the pattern, under the statics' loads; the residual
+    // assembled_'s (E^T of it: the model's, its supported increments being assembled_'s)
     const ElementEquations& eq = statics_.eq;
+    const bool own = &assembled_ == &eq.model;
     double lf;
     const LoadState l = eq.evaluated_load(&lf);
     double* values[3] = {K_.data(), C_.data(), M_.data()};
-    assemble_csc(eq.model, eq.state, l, lf, {{1.0, 0.0, 0.0}, {0.0, 1.0, 0.0}, {0.0, 0.0, 1.0}}, &residual, values,
-                 eq.predicted ? eq.geometric_stresses.data() : nullptr);
-    // K + omega C Av + omega^2 M Aa on the fixed pattern: Av and Aa are block diagonal
-    const TangentPattern& P = *pattern_;
+    assemble_csc(assembled_, eq.state, l, lf, {{1.0, 0.0, 0.0}, {0.0, 1.0, 0.0}, {0.0, 0.0, 1.0}},
+                 own ? &residual : &ra_, values, eq.predicted ? eq.geometric_stresses.data() : nullptr);
     const int n = eq.n;
+    if (!own) {
+        residual.setZero(n);
+        for (int ra = 0; ra < assembled_.n_dofs; ++ra)
+            for (int m = row_ptr_[ra]; m < row_ptr_[ra + 1]; ++m) residual[row_map_[m]] += row_weight_[m] * ra_[ra];
+    }
+    // E^T (K E + omega C Av E + omega^2 M Aa E) on the fixed pattern: E, Av, Aa block diagonal
+    const TangentPattern& P = *pattern_;
     std::fill(values_.begin(), values_.end(), 0.0);
     const int* t = target_.data();
-    for (std::size_t p = 0; p < P.nnz(); ++p) values_[*t++] += K_[p];
     const double w2 = omega_ * omega_;
     for (int c = 0; c < n; ++c) {
-        const double *av = av_.data() + weight_[c], *aa = aa_.data() + weight_[c];
-        for (int j = block_[c]; j < block_end_[c]; ++j, ++av, ++aa) {
-            const double a = omega_ * *av, b = w2 * *aa;
-            for (int p = P.col_ptr[j]; p < P.col_ptr[j + 1]; ++p) values_[*t++] += a * C_[p] + b * M_[p];
+        const std::size_t w = weight_[c];
+        const double *ek = ek_.data() + w, *av = av_.data() + w, *aa = aa_.data() + w;
+        for (int j = block_[c]; j < block_end_[c]; ++j, ++ek, ++av, ++aa) {
+            const double e = *ek, a = omega_ * *av, b = w2 * *aa;
+            for (int p = P.col_ptr[j]; p < P.col_ptr[j + 1]; ++p) {
+                const double x = e * K_[p] + a * C_[p] + b * M_[p];
+                const int ra = P.row_index[p];
+                for (int m = row_ptr_[ra]; m < row_ptr_[ra + 1]; ++m) values_[*t++] += row_weight_[m] * x;
+            }
         }
     }
     tangent->rows = rows_;
@@ -219,6 +270,24 @@ SteadyRotationOutcome steady_rotation(const Model& model, State& state, const Lo
     }
     out.converged = true;
     return out;
+}
+
+StaticNewtonResult rotating_state(const Model& model, const Model& free, State& state, const LoadState& load,
+                                  const Vec3<double>& centre, const Vec3<double>& axis, double omega,
+                                  double length_scale, const RotatingStateOptions& opt) {
+    if (opt.max_iterations < 1 || !(opt.tol > 0.0) || !(opt.divergence > 0.0))
+        throw std::invalid_argument("rotating_state: max_iterations, tol and divergence must be positive");
+    RigidRotationEquations eq(model, state, load, length_scale, centre, axis, &free);
+    eq.set_omega(omega);
+    StaticNewtonOptions nopt;
+    nopt.tol = opt.tol;
+    nopt.max_iterations = opt.max_iterations;
+    nopt.dense_below = opt.dense_below;
+    nopt.apply_converged_correction = true;
+    nopt.divergence = opt.divergence;
+    nopt.divergence_from = 1;  // the rate's continuation halves its step at once
+    Eigen::VectorXd lam;
+    return static_newton(eq, 0.0, lam, nopt);
 }
 
 }  // namespace pipeflex

@@ -22,6 +22,7 @@ prestress. Two choices of the state about which K is taken:
 """
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass
 from typing import Sequence
 
@@ -34,7 +35,6 @@ from .._options import renamed
 from ..errors import ConvergenceError
 from ..results import Result
 from ..state import State, as_core
-from ._newton import converged
 from ._assembly import KCM, require_model, residual_and_tangent, tangents
 from .eigen import GROWTH_TOL, SPARSE_MIN_DOFS, eigenvalues
 from .linearize import Linearization
@@ -99,6 +99,22 @@ class _Frame:
         self.free = model.free_model()
         self.axis = model.hub.axis
         self.center = model.hub.center
+        self.dense = model.n_dofs < SPARSE_MIN_DOFS
+        self.T = self._form(sp.csr_matrix(model.basis))
+        self.radial, self.tangential = self._directions()
+        self.present = self.families()
+
+    def _form(self, X):
+        """X as the frame keeps its matrices: a dense array or CSR."""
+        if self.dense:
+            return X.toarray() if sp.issparse(X) else X
+        return sp.csr_matrix(X)
+
+    @functools.cached_property
+    def _operators(self):
+        """T_rel, A, B on the unconstrained model's coordinates, made at their first use
+        (the rotating state, solved in the core, needs none of them)."""
+        model, form = self.model, self._form
         S = skew(self.axis)
         S2 = S @ S
         n = model.n_nodes
@@ -107,12 +123,10 @@ class _Frame:
         rot[np.setdiff1d(np.arange(n), np.asarray(model.ancf_nodes, dtype=int))] = 0.0
         a_scale = np.column_stack([np.ones(n), rot + 0.5 * (1.0 - rot)]).ravel()
         b_scale = np.column_stack([np.ones(n), rot + (1.0 - rot) / 6.0]).ravel()
-        self.dense = model.n_dofs < SPARSE_MIN_DOFS
-        form = (lambda X: X.toarray() if sp.issparse(X) else X) if self.dense else sp.csr_matrix
         A = form(_block_diagonal(a_scale[:, None, None] * S))
         B = form(_block_diagonal(b_scale[:, None, None] * S2))
         Tf = form(sp.csr_matrix(self.free.basis))
-        T = form(sp.csr_matrix(model.basis))
+        T = self.T
         # pinv(Tf) = (Tf^T Tf)^-1 Tf^T: a basis has full column rank; Tf^T Tf is diagonal
         # when the basis selects coordinates (spsolve's sparse right-hand side is slow)
         G = form(Tf.T @ Tf)
@@ -123,13 +137,25 @@ class _Frame:
             Tfp = np.linalg.solve(G, Tf.T)
         else:
             Tfp = sp.csr_matrix(spla.spsolve(sp.csc_matrix(G), sp.csc_matrix(Tf.T)))
-        self.T = T
-        self.T_rel, self.A, self.B = (X if self.dense else sp.csc_matrix(X) for X in (Tfp @ T, Tfp @ A @ Tf,
-                                                                                      Tfp @ B @ Tf))
-        if _max_abs(Tf @ self.A - A @ Tf) > 1e-12 or _max_abs(Tf @ self.T_rel - T) > 1e-12:
+        T_rel, A_rel, B_rel = (X if self.dense else sp.csc_matrix(X) for X in (Tfp @ T, Tfp @ A @ Tf, Tfp @ B @ Tf))
+        if _max_abs(Tf @ A_rel - A @ Tf) > 1e-12 or _max_abs(Tf @ T_rel - T) > 1e-12:
             raise ValueError("planar ANCF nodes can only turn about the z axis")
-        self.radial, self.tangential = self._directions()
-        self.present = self.families()
+        return T_rel, A_rel, B_rel
+
+    @property
+    def T_rel(self):
+        """pinv(T_f) T: the model's coordinates in the unconstrained model's."""
+        return self._operators[0]
+
+    @property
+    def A(self):
+        """The rate operator per unit Omega on the unconstrained model's coordinates."""
+        return self._operators[1]
+
+    @property
+    def B(self):
+        """The rate operator per unit Omega^2 on the unconstrained model's coordinates."""
+        return self._operators[2]
 
     def matrices(self, state, omega):
         """Reduced M, C, K of the rotating-frame equations at rate omega [rad/s] (sparse,
@@ -249,7 +275,7 @@ def rotating_state(model, omega: float, *, state=None, state_omega: float = 0.0,
                    tol: float = 1e-10, max_iterations: int = 30):
     """The steady state of the model turning at rate ``omega`` [rad/s] with its hub.
 
-    Newton's method on R(q, v(q), a(q)) = 0 with the rotating-frame Jacobian
+    The core's static Newton on R(q, v(q), a(q)) = 0 with the rotating-frame Jacobian
     K + Omega C A + Omega^2 M B, continued in Omega^2 from ``state`` (default: the
     undeformed state) at rate ``state_omega`` over ``continuation_steps`` equal steps
     (``steps=`` is its deprecated name), a step being halved when Newton fails; ``tol``
@@ -272,7 +298,9 @@ def rotating_state(model, omega: float, *, state=None, state_omega: float = 0.0,
 
 def _steady_state(fr, omega, st, state_omega=0.0, n_steps=1, tol=1e-10, max_iterations=30):
     """:func:`rotating_state` with the model's :class:`_Frame` (built once per analysis,
-    not per rate) and checked arguments; ``st`` a core state."""
+    not per rate) and checked arguments; ``st`` a core state. One core Newton
+    (``_core.rotating_state``: the tangent through the unconstrained model) per step of
+    the continuation in Omega^2."""
     model = fr.model
     st.rebase(0.0)
     size = max(float(np.ptp(model.positions, axis=0).max()), 1e-3)
@@ -280,36 +308,23 @@ def _steady_state(fr, omega, st, state_omega=0.0, n_steps=1, tol=1e-10, max_iter
     targets = list(np.linspace(w2_good, omega**2, n_steps + 1)[1:])
     load = model.load_state()
     scale = model.force_scale()
+    center, axis = list(map(float, fr.center)), list(map(float, fr.axis))
     last_good = st
     failures = 0
     while targets:
         w2 = targets[0]
-        w = np.sign(omega) * np.sqrt(w2)
+        # the last step at omega itself: the state's rates are those of the rate asked for
+        w = omega if w2 == omega**2 else np.sign(omega) * np.sqrt(w2)
         trial = last_good.copy()
-        ok = False
-        rnorm, last = np.inf, np.inf
-        for it in range(1, max_iterations + 1):
-            trial.rebase(0.0)
-            fr.rigid_rotation(trial, w)
-            _, _, J = fr.matrices(trial, w)
-            r, _ = residual_and_tangent(model, trial, load, matrix=False)
-            rnorm = float(np.linalg.norm(r))
-            dz = _solve(J, -np.asarray(r))
-            if dz is None:  # singular J
-                break
-            _core.add_increment(model.core, trial, dz, "q")
-            error = np.abs(dz).max() / size
-            if converged(error, last, tol):
-                ok = True
-                break
-            last = error
-            if not np.all(np.isfinite(dz)) or np.abs(dz).max() > 0.5 * size:
-                break
-        if ok:
+        # a correction beyond half the model is Newton diverging: the step is halved
+        out = _core.rotating_state(model.core, fr.free.core, trial, load, center, axis, w, size, tol,
+                                   max_iterations, 0.5)
+        if out["converged"]:
             last_good = trial
             w2_good = w2
             targets.pop(0)
             continue
+        it, rnorm = out["iterations"], out["residual"]
         failures += 1
         if failures > MAX_CONTINUATION_FAILURES:
             # near a fold Newton stalls on every step: the halving would creep towards it
@@ -323,8 +338,6 @@ def _steady_state(fr, omega, st, state_omega=0.0, n_steps=1, tol=1e-10, max_iter
                                    f"(residual {rnorm:.3e} N, force scale {scale:.3e} N)", iteration=it,
                                    residual=rnorm)
         targets.insert(0, 0.5 * (w2 + w2_good))
-    last_good.rebase(0.0)
-    fr.rigid_rotation(last_good, omega)
     return last_good
 
 

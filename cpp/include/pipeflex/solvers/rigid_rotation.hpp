@@ -1,17 +1,27 @@
-// Steady rotation about a hinge: the relative equilibrium of an element model spinning
-// at an unknown rate omega about its hinge (pipeflex.steady_rotation), by the one
-// static_newton with omega as its border.
+// Rigid rotation of an element model: its statics in a frame turning at rate omega about
+// an axis, by the one static_newton. Two analyses:
+//  * steady rotation about a hinge (pipeflex.steady_rotation): omega unknown, the centre
+//    the hinge (a node's or a body's), omega as static_newton's border;
+//  * the rotating state at a prescribed rate (pipeflex.rotating_state, seed 002): omega
+//    given, the centre a point (the hub's), the tangent through the unconstrained model.
 //
-// The motion is a rigid rotation at rate omega about the unit axis a through the hinge
-// point x_h, carrying a fixed deformation: at phi = 0 (the frames re-based at every
-// iterate) node i moves with
-//     x_dot = omega a x (x - x_h),  x_ddot = omega^2 a x (a x (x - x_h)),
-//     phi_dot = omega a,            phi_ddot = 0,
+// The motion is a rigid rotation at rate omega about the unit axis a through the centre
+// x_c, carrying a fixed deformation: at phi = 0 (the frames re-based at every iterate)
+// node i moves with
+//     x_dot = omega a x (x - x_c),  x_ddot = omega^2 a x (a x (x - x_c)),
+//     phi_dot = omega a,            phi_ddot = 0          (frame nodes),
+//     d_dot = omega a x d,          d_ddot = omega^2 a x (a x d)   (ANCF slopes d),
 // so that the residual R(q, v(q, omega), a(q, omega)) is a static one in q and omega
 // (quadratic in omega) with the tangent K + omega C Av + omega^2 M Aa, Av and Aa the
 // rates' derivatives in q per unit omega and omega^2 (one 6 x 6 block per node: the
-// products keep the tangent's sparsity). The hinge angle is arbitrary: its increment is
-// pinned by the border equation, and omega's column takes its place.
+// products keep the tangent's sparsity).
+//
+// The supports hold in the rotating frame, but the rate operator need not keep a
+// supported increment supported (an ANCF clamp leaves the slope's length free: a x d is
+// not along d). The exact tangent is then E^T (K_f + omega C_f Av_f + omega^2 M_f Aa_f) E
+// with the matrices of the unconstrained model (`free`: the same nodes and elements,
+// bases T_f) at the same state and E = pinv(T_f) T (the model's increments in the
+// unconstrained model's coordinates).
 #pragma once
 
 #include "pipeflex/solvers/element_equations.hpp"
@@ -25,9 +35,10 @@ class RigidRotationEquations final : public Equations {
    public:
     RigidRotationEquations(const Model& model, State& state, const LoadState& load, double length_scale,
                            int hinge_node, const Vec3<double>& axis);
-    // about the axis through a fixed point x_h [m] (a hinge outside the model: a body's)
+    // about the axis through a fixed point x_h [m] (a hinge outside the model: a body's; a
+    // hub's centre), the tangent through `free` (the model's unconstrained variant) if not null
     RigidRotationEquations(const Model& model, State& state, const LoadState& load, double length_scale,
-                           const Vec3<double>& hinge_point, const Vec3<double>& axis);
+                           const Vec3<double>& hinge_point, const Vec3<double>& axis, const Model* free = nullptr);
 
     double omega() const { return omega_; }
     // the rate [rad/s]; the rates of the state set follow
@@ -56,17 +67,21 @@ class RigidRotationEquations final : public Equations {
     ElementStatics statics_;
     Eigen::Vector3d hinge_point_;
     Vec3<double> axis_;
+    const Model& assembled_;  // whose K, C, M: the model or its unconstrained variant
     double omega_ = 0.0;
-    std::shared_ptr<const TangentPattern> pattern_;
+    std::shared_ptr<const TangentPattern> pattern_;  // assembled_'s
     std::vector<double> K_, C_, M_;
-    // Av and Aa (reduced dv/dq / omega and da/dq / omega^2 at phi = 0) are block diagonal
-    // (a node's coordinates), so column c of C Av sums the columns of C in c's block: per
-    // column c, its block's columns block_[c]..block_end_[c] and the weights Av(j, c),
-    // Aa(j, c) at av_[c]...; the tangent's pattern (rows_, cols_) and, per product term
-    // in that order, its entry (target_; K's entries first, in the pattern's order).
-    std::vector<int> block_, block_end_, weight_, rows_, cols_, target_;
-    std::vector<double> av_, aa_, values_;
-    Eigen::VectorXd r_;
+    // E, Av E and Aa E (Av, Aa: dv/dq / omega and da/dq / omega^2 at phi = 0, in
+    // assembled_'s coordinates) are block diagonal (a node's coordinates), so column c of
+    // the tangent sums the columns of K, C, M in c's block: per column c, its block's
+    // columns block_[c]..block_end_[c] and the weights E(j, c), Av E(j, c), Aa E(j, c) at
+    // ek_[weight_[c]]...; each row ra of assembled_ adds to the model's rows
+    // row_map_[row_ptr_[ra]..row_ptr_[ra + 1]) with the weights row_weight_ (E^T); the
+    // tangent's pattern (rows_, cols_) and, per product term in that order, its entry
+    // (target_).
+    std::vector<int> block_, block_end_, weight_, row_ptr_, row_map_, rows_, cols_, target_;
+    std::vector<double> ek_, av_, aa_, row_weight_, values_;
+    Eigen::VectorXd r_, ra_;
     void rigid_rates();  // state.v, state.a of the rotation at omega (state.q set, phi = 0)
 };
 
@@ -91,6 +106,22 @@ struct RotationRateBorder final : StaticBorder {
     }
     bool bordered_only() const override { return true; }
 };
+
+// The rotating state at the prescribed rate omega [rad/s] about the unit axis through the
+// point centre [m] (seed 002's hub): one static_newton from `state` (updated: the last
+// iterate, with the rotation's rates), the tangent through `free` (the model's
+// unconstrained variant: the same nodes and elements). Converged as the static analyses
+// (the correction below tol length scales, or stalled at round-off), the converged
+// correction applied; a correction longer than `divergence` length scales is divergence.
+struct RotatingStateOptions {
+    double tol = 1e-10;
+    int max_iterations = 30;
+    double divergence = 0.5;
+    int dense_below = -1;  // StaticNewtonOptions::dense_below
+};
+StaticNewtonResult rotating_state(const Model& model, const Model& free, State& state, const LoadState& load,
+                                  const Vec3<double>& centre, const Vec3<double>& axis, double omega,
+                                  double length_scale, const RotatingStateOptions& opt);
 
 struct SteadyRotationOptions {
     int continuation_steps = 4;  // mdot raised from mdot/steps to mdot
