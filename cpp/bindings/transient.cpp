@@ -4,6 +4,7 @@
 #include "pipeflex/solvers/coupled.hpp"
 #include "pipeflex/solvers/element_equations.hpp"
 #include "pipeflex/solvers/rigid_rotation.hpp"
+#include "pipeflex/solvers/rotating_systems.hpp"
 #include "pipeflex/solvers/sparse_lu.hpp"
 #include "pipeflex/solvers/transient.hpp"
 

@@ -152,16 +152,6 @@ void RigidRotationEquations::set(const Eigen::VectorXd& z, const Eigen::VectorXd
     rigid_rates();
 }
 
-const Eigen::VectorXd& RigidRotationEquations::residual_at(double w) {
-    const Eigen::VectorXd zero = Eigen::VectorXd::Zero(statics_.eq.n);
-    const double kept = omega_;
-    omega_ = w;
-    set(zero, zero, zero, zero, 0.0);
-    evaluate(1.0, 0.0, 0.0, r_, nullptr);
-    set_omega(kept);
-    return r_;
-}
-
 void RigidRotationEquations::evaluate(double wK, double, double, Eigen::VectorXd& residual, Triplets* tangent) {
     if (tangent == nullptr) {
         statics_.eq.evaluate(1.0, 0.0, 0.0, residual, nullptr);
@@ -203,73 +193,6 @@ void RigidRotationEquations::evaluate(double wK, double, double, Eigen::VectorXd
     tangent->cols = cols_;
     tangent->values.resize(values_.size());
     for (std::size_t k = 0; k < values_.size(); ++k) tangent->values[k] = wK * values_[k];
-}
-
-double RotationRateBorder::constraint(Eigen::VectorXd* c, double* d) const {
-    if (c != nullptr) {
-        *c = Eigen::VectorXd::Zero(eq.n_coordinates());
-        (*c)[hinge_dof] = 1.0;
-        *d = 0.0;
-    }
-    return increment;
-}
-
-namespace {
-
-// omega balancing the hinge moment of the state set (secant iterations from 0 and 1 rad/s)
-double rigid_guess(RigidRotationEquations& eq, int hinge_dof) {
-    const auto moment = [&](double w) { return eq.residual_at(w)[hinge_dof]; };
-    double w0 = 0.0, w1 = 1.0, f0 = moment(w0), f1 = moment(w1);
-    for (int k = 0; k < 50; ++k) {
-        if (f1 == f0) break;
-        const double w = w1 - f1 * (w1 - w0) / (f1 - f0);
-        w0 = w1;
-        f0 = f1;
-        w1 = w;
-        f1 = moment(w1);
-        if (std::abs(w1 - w0) <= 1e-10 * std::max(1.0, std::abs(w1))) break;
-    }
-    return w1;
-}
-
-}  // namespace
-
-SteadyRotationOutcome steady_rotation(const Model& model, State& state, const LoadState& load, int hinge_node,
-                                      int hinge_dof, const Vec3<double>& axis, double omega_guess,
-                                      double length_scale, const SteadyRotationOptions& opt) {
-    if (hinge_node < 0 || hinge_node >= model.n_nodes() || hinge_dof < 0 || hinge_dof >= model.n_dofs)
-        throw std::invalid_argument("steady_rotation: the hinge node or coordinate is out of range");
-    if (opt.continuation_steps < 1 || opt.max_iterations < 1)
-        throw std::invalid_argument("steady_rotation: continuation_steps and max_iterations must be positive");
-    RigidRotationEquations eq(model, state, load, length_scale, hinge_node, axis);
-    StaticNewtonOptions nopt;
-    nopt.tol = opt.tol;
-    nopt.max_iterations = opt.max_iterations;
-    nopt.dense_below = opt.dense_below;
-    SteadyRotationOutcome out;
-    const int steps = opt.continuation_steps;
-    eq.set_omega(omega_guess);
-    Eigen::VectorXd lam;
-    for (int k = 1; k <= steps; ++k) {
-        out.step = k;
-        out.mass_flow = load.mass_flow * k / steps;
-        eq.set_mass_flow(out.mass_flow);
-        if (std::isnan(eq.omega()))
-            eq.set_omega(rigid_guess(eq, hinge_dof));
-        else if (k > 1)
-            eq.set_omega(eq.omega() * k / (k - 1));  // omega scales with the flow speed
-        RotationRateBorder border(eq, hinge_dof);
-        nopt.border = &border;
-        const StaticNewtonResult res = static_newton(eq, 0.0, lam, nopt);
-        out.iterations += res.iterations;
-        out.step_iterations = res.iterations;
-        out.residual = res.residual;
-        out.omega = eq.omega();
-        out.singular = res.singular;
-        if (!res.converged) return out;
-    }
-    out.converged = true;
-    return out;
 }
 
 StaticNewtonResult rotating_state(const Model& model, const Model& free, State& state, const LoadState& load,

@@ -81,7 +81,7 @@ double rigid_guess(RotatingSystem& sys, const Eigen::VectorXd& lam) {
         eq.set(zero, zero, zero, lam, 0.0);
     };
     at(1.0);
-    sys.rates(u);
+    sys.balance_weights(u);
     const auto moment = [&](double w) {
         at(w);
         eq.evaluate(1.0, 0.0, 0.0, r, nullptr);
@@ -107,6 +107,8 @@ SteadyRotationOutcome steady_rotation(RotatingSystem& sys, const Eigen::VectorXd
     Equations& eq = sys.equations();
     if (pin.size() != eq.n_coordinates() || lam.size() != eq.n_constraints())
         throw std::invalid_argument("steady_rotation: the pin or the multipliers do not fit the system");
+    if (opt.continuation_steps < 1 || opt.max_iterations < 1)
+        throw std::invalid_argument("steady_rotation: continuation_steps and max_iterations must be positive");
     StaticNewtonOptions nopt;
     nopt.tol = opt.tol;
     nopt.max_iterations = opt.max_iterations;
@@ -138,6 +140,30 @@ SteadyRotationOutcome steady_rotation(RotatingSystem& sys, const Eigen::VectorXd
 
 namespace {
 
+// An element model about its own hinge (a node with fixed position and one free rotation).
+class RotatingElements final : public RotatingSystem {
+   public:
+    RotatingElements(const Model& model, State& state, const LoadState& load, double length_scale, int hinge_node,
+                     int hinge_dof, const Vec3<double>& axis)
+        : eq_(model, state, load, length_scale, hinge_node, axis), hinge_dof_(hinge_dof) {}
+    Equations& equations() override { return eq_; }
+    double omega() const override { return eq_.omega(); }
+    void set_omega(double w) override { eq_.set_omega(w); }
+    void set_mass_flow(double mdot) override { eq_.set_mass_flow(mdot); }
+    void rates(Eigen::VectorXd& v) override {
+        const ElementEquations& el = eq_.element_equations();
+        v = reduce(el.model, el.state.v);
+    }
+    void balance_weights(Eigen::VectorXd& u) override {
+        u = Eigen::VectorXd::Zero(eq_.n_coordinates());
+        u[hinge_dof_] = 1.0;
+    }
+
+   private:
+    RigidRotationEquations eq_;
+    int hinge_dof_;
+};
+
 class RotatingBodies final : public RotatingSystem {
    public:
     RotatingBodies(const MultibodySystemCore& sys, const MbState& s, double mdot, const RotationHinge& h)
@@ -156,6 +182,17 @@ class RotatingBodies final : public RotatingSystem {
 };
 
 }  // namespace
+
+SteadyRotationOutcome steady_rotation(const Model& model, State& state, const LoadState& load, int hinge_node,
+                                      int hinge_dof, const Vec3<double>& axis, double omega_guess,
+                                      double length_scale, const SteadyRotationOptions& opt) {
+    if (hinge_node < 0 || hinge_node >= model.n_nodes() || hinge_dof < 0 || hinge_dof >= model.n_dofs)
+        throw std::invalid_argument("steady_rotation: the hinge node or coordinate is out of range");
+    RotatingElements rot(model, state, load, length_scale, hinge_node, hinge_dof, axis);
+    Eigen::VectorXd pin = Eigen::VectorXd::Zero(model.n_dofs), lam;
+    pin[hinge_dof] = 1.0;
+    return steady_rotation(rot, pin, load.mass_flow, omega_guess, opt, lam);
+}
 
 SteadyRotationOutcome multibody_steady_rotation(const MultibodySystemCore& sys, MbState& s, double mdot,
                                                 const RotationHinge& hinge, double omega_guess,

@@ -1,7 +1,8 @@
 // Rigid rotation of an element model: its statics in a frame turning at rate omega about
 // an axis, by the one static_newton. Two analyses:
 //  * steady rotation about a hinge (pipeflex.steady_rotation): omega unknown, the centre
-//    the hinge (a node's or a body's), omega as static_newton's border;
+//    the hinge (a node's or a body's), omega as static_newton's border (the driver of
+//    every system's steady rotation: rotating_systems.hpp);
 //  * the rotating state at a prescribed rate (pipeflex.rotating_state, seed 002): omega
 //    given, the centre a point (the hub's), the tangent through the unconstrained model.
 //
@@ -50,8 +51,6 @@ class RigidRotationEquations final : public Equations {
     void set_mass_flow(double mdot) { statics_.eq.static_mdot = mdot; }
     // the element equations (their model and state) the rotation's are built on
     ElementEquations& element_equations() { return statics_.eq; }
-    // The reduced residual at the state set with the rates of rate w (for the rigid guess).
-    const Eigen::VectorXd& residual_at(double w);
 
     int n_coordinates() const override { return statics_.eq.n; }
     double length_scale() const override { return statics_.eq.length_scale(); }
@@ -81,30 +80,8 @@ class RigidRotationEquations final : public Equations {
     // (target_).
     std::vector<int> block_, block_end_, weight_, row_ptr_, row_map_, rows_, cols_, target_;
     std::vector<double> ek_, av_, aa_, row_weight_, values_;
-    Eigen::VectorXd r_, ra_;
+    Eigen::VectorXd ra_;
     void rigid_rates();  // state.v, state.a of the rotation at omega (state.q set, phi = 0)
-};
-
-// omega as static_newton's border: the parameter is the rotation rate, the equation pins
-// the hinge angle's increment (g = its accumulated increment, c = e_hinge, d = 0). The
-// tangent is singular (the rotation about the hinge is a zero mode): the whole bordered
-// matrix is solved.
-struct RotationRateBorder final : StaticBorder {
-    RigidRotationEquations& eq;
-    int hinge_dof;
-    double increment = 0.0;  // of the hinge angle [rad]
-    RotationRateBorder(RigidRotationEquations& e, int dof) : eq(e), hinge_dof(dof) {}
-    double parameter() const override { return eq.omega(); }
-    void set_parameter(double w) override { eq.set_omega(w); }
-    // the residual is quadratic in omega: the central difference is exact for any step,
-    // and one of omega's size keeps its round-off at that of the residual
-    double difference_step() const override { return 0.5 * std::max(std::abs(eq.omega()), 1.0); }
-    double constraint(Eigen::VectorXd* c, double* d) const override;
-    void accumulate(const Eigen::VectorXd& dz, double dw) override {
-        increment += dz[hinge_dof];
-        eq.set_omega(eq.omega() + dw);
-    }
-    bool bordered_only() const override { return true; }
 };
 
 // The rotating state at the prescribed rate omega [rad/s] about the unit axis through the
@@ -138,15 +115,5 @@ struct SteadyRotationOutcome {
     int step_iterations = 0;
     double mass_flow = 0.0;  // of that step [kg/s]
 };
-
-// Steady rotation of `model` under load.mass_flow about the hinge (a node with fixed
-// position and the single reduced coordinate hinge_dof, a rotation about the unit axis)
-// from `state` (updated: the last iterate, with the rotation's rates), by continuation in
-// the mass flow: one static_newton per step, omega scaled with the flow between steps
-// (k / (k - 1)), starting from omega_guess or (NaN) the rate that balances the hinge
-// moment of the starting shape at the first step's flow (secant iterations).
-SteadyRotationOutcome steady_rotation(const Model& model, State& state, const LoadState& load, int hinge_node,
-                                      int hinge_dof, const Vec3<double>& axis, double omega_guess,
-                                      double length_scale, const SteadyRotationOptions& opt);
 
 }  // namespace pipeflex

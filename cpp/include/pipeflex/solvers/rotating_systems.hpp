@@ -71,6 +71,10 @@ class RotatingSystem {
     virtual void set_mass_flow(double mdot) = 0;
     // the reduced rates (n) of the state set
     virtual void rates(Eigen::VectorXd& v) = 0;
+    // The weights u (n) of the moment u . R whose zero is the starting rate's balance,
+    // called with the state set at omega = 1: by default those rates (the moment about the
+    // hinge of all the forces); an element model takes its hinge coordinate's row.
+    virtual void balance_weights(Eigen::VectorXd& u) { rates(u); }
 };
 
 // omega as static_newton's border, the hinge angle pinned: g = pin . (the accumulated
@@ -106,6 +110,17 @@ struct PinnedRateBorder final : StaticBorder {
 // shape at the first step's flow); lam: the multipliers (updated).
 SteadyRotationOutcome steady_rotation(RotatingSystem& sys, const Eigen::VectorXd& pin, double mdot,
                                       double omega_guess, const SteadyRotationOptions& opt, Eigen::VectorXd& lam);
+
+// Steady rotation of `model` under load.mass_flow about the hinge (a node with fixed
+// position and the single reduced coordinate hinge_dof, a rotation about the unit axis)
+// from `state` (updated: the last iterate, with the rotation's rates), by continuation in
+// the mass flow: one static_newton per step, omega scaled with the flow between steps
+// (k / (k - 1)), starting from omega_guess or (NaN) the rate that balances the hinge
+// coordinate's row of the starting shape at the first step's flow (secant iterations).
+SteadyRotationOutcome steady_rotation(const Model& model, State& state, const LoadState& load, int hinge_node,
+                                      int hinge_dof, const Vec3<double>& axis, double omega_guess,
+                                      double length_scale, const SteadyRotationOptions& opt);
+
 
 // The hinge of a system's rotation: the axis through a fixed point, and the pinned angle:
 // the rotation of `body` (hinged to the ground) about the axis, or (body < 0) the element
