@@ -114,7 +114,7 @@ ProgressFn progress_callback(py::object progress) {
     };
 }
 
-// steady_rotation's options and outcome (the systems with bodies)
+// steady_rotation's options and outcome
 SteadyRotationOptions steady_options(int continuation_steps, double tol, int max_iterations, int dense_below) {
     SteadyRotationOptions opt;
     opt.continuation_steps = continuation_steps;
@@ -366,27 +366,14 @@ void bind_transient(py::module_& m) {
         [](const Model& md, State& s, const LoadState& load, int hinge_node, int hinge_dof,
            const std::array<double, 3>& axis, double omega_guess, double length_scale, int continuation_steps,
            double tol, int max_iterations, int dense_below) {
-            SteadyRotationOptions opt;
-            opt.continuation_steps = continuation_steps;
-            opt.tol = tol;
-            opt.max_iterations = max_iterations;
-            opt.dense_below = dense_below;
+            const SteadyRotationOptions opt = steady_options(continuation_steps, tol, max_iterations, dense_below);
             SteadyRotationOutcome out;
             {
                 py::gil_scoped_release release;
                 out = steady_rotation(md, s, load, hinge_node, hinge_dof, Vec3<double>{{axis[0], axis[1], axis[2]}},
                                       omega_guess, length_scale, opt);
             }
-            py::dict d;
-            d["converged"] = out.converged;
-            d["singular"] = out.singular;
-            d["omega"] = out.omega;
-            d["iterations"] = out.iterations;
-            d["residual"] = out.residual;
-            d["step"] = out.step;
-            d["step_iterations"] = out.step_iterations;
-            d["mass_flow"] = out.mass_flow;
-            return d;
+            return steady_dict(out);
         },
         "Steady rotation of an element model about its hinge (hinge_node, its one reduced coordinate hinge_dof, "
         "the unit axis) under the load's mass flow, by the core's static_newton with omega as border and "
