@@ -73,7 +73,7 @@ def test_steady_rotation_sparse_and_dense_solves_agree(monkeypatch):
 
 def test_steady_rotation_accepts_round_off_stall():
     """A tolerance below round-off (1e-17) is met as the static solvers meet it: the
-    correction stops halving within 1e3 tolerances (analysis._newton.converged). Before, omega's last digits
+    correction stops halving within 1e3 tolerances (the core's static_newton). Before, omega's last digits
     wandered and the 4096-element sprinkler failed to converge."""
     model = pf.scenes.sprinkler(EI=100.0)
     usual = pf.steady_rotation(model)

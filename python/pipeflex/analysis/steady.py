@@ -6,7 +6,8 @@ through the hinge point x_h, carrying a fixed deformation: node i moves with
 and turns with spatial angular velocity omega a. Unknowns: the reduced coordinates,
 except the hinge angle (arbitrary), and omega; equations: R(q, v, a) = 0, whose hinge
 row is the balance of moments about the axis. The core's one static Newton
-(``static_newton``, cpp/src/rigid_rotation.cpp) with the analytic tangent
+(``static_newton``; the equations in cpp/src/rigid_rotation.cpp, the one driver of every
+system in cpp/src/rotating_systems.cpp) with the analytic tangent
 K + omega C Av + omega^2 M Aa and omega as its border (omega's column in place of the
 hinge angle's), with continuation in the mass flow from rest.
 
@@ -133,7 +134,7 @@ def steady_rotation(model, *, omega_guess: Optional[float] = None, mass_flow: Op
         continuation_steps: the flow is raised from mdot/steps to mdot in this many steps.
         tol: relative tolerance on the Newton correction (to the model size and to omega);
             a correction within 1e3 tolerances that stops halving is taken as converged
-            (round-off; ``pipeflex.analysis._newton.converged``).
+            (round-off; the core's static_newton, as every static analysis).
         max_iterations: Newton iterations per continuation step.
 
     Returns:
