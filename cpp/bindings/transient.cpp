@@ -449,15 +449,7 @@ void bind_transient(py::module_& m) {
                 out = rotating_state(md, free, s, load, Vec3<double>{{centre[0], centre[1], centre[2]}},
                                      Vec3<double>{{axis[0], axis[1], axis[2]}}, omega, length_scale, opt);
             }
-            py::dict d;
-            d["converged"] = out.converged;
-            d["singular"] = out.singular;
-            d["diverged"] = out.diverged;
-            d["nonfinite"] = out.nonfinite;
-            d["iterations"] = out.iterations;
-            d["residual"] = out.residual;
-            d["correction"] = out.correction;
-            return d;
+            return static_dict(out);
         },
         "The rotating state of an element model at the prescribed rate omega [rad/s] about the unit axis through "
         "the point centre [m] (seed 002's hub), by one core static_newton from the state (updated in place: the last "
