@@ -91,6 +91,20 @@ def test_steady_rotation_of_bodies_needs_one_ground_hinge():
         pf.steady_rotation(b.build(mass_flow=1.0))
 
 
+def test_a_hinge_between_two_bodies_is_refused_with_the_reason():
+    """A rotor hinged to a standing flexible body has no steady rotation in general (the
+    stand carries the turning reactions): the error names the hinge and says why."""
+    sec = pf.PipeSection(EI=10.0, EA=1e4, GJ=8.0, pipe_mass=0.5, fluid_mass=1.0, rotary_inertia=(1e-4, 0.0, 0.0))
+    b = MultibodyBuilder()
+    stand = b.add_body_between(flexible_body(length=0.5, n_elements=2, section=sec), (0, 0, 0), (0, 0, 0.5))
+    arm = b.add_body_between(flexible_body(length=0.5, n_elements=2, section=sec), (0, 0, 0.5), (0.5, 0, 0.5))
+    b.fix(stand, "start")
+    b.hinge(arm, "start", (0, 0, 1), stand, "end")
+    with pytest.raises(ValueError, match=r"needs a hinge to the ground; this MultibodySystem's hinges join two "
+                                         r"bodies \(joint 1 \(hinge: body 1 node 0 - body 0 node 2\)\): the standing"):
+        pf.steady_rotation(b.build(mass_flow=1.0))
+
+
 def test_bodies_steady_rotation_is_a_steady_motion():
     """Generalised-alpha started at the bodies' steady rotation (EI = 100 N m^2: they bend)
     stays there: the rate within 2e-5 (measured 5e-6, the discrete offset), the tip's

@@ -17,6 +17,13 @@ element hinge). Its bodies move rigidly with the rotation too (frame r_dot =
 omega a x (r - x_h), spatial angular velocity omega a, modal rates 0), and the same
 Newton runs on the bordered KKT matrix of the joints and couplings
 (cpp/src/rotating_systems.cpp); the result is a :class:`SystemSteadyRotation`.
+
+Why only a hinge to the ground: everything turns. A part turning on a hinge to another
+flexible part (a rotor hinged to a flexible stand, a body hinged to a body) is not in a
+relative equilibrium in general: the standing part carries the rotor's hinge reactions,
+which turn with the rotor, so it deforms periodically in the ground frame and is not
+steady in the rotating one either. (Only an axisymmetric rotor, whose reactions do not
+turn, has such a state; simulate it with :func:`pipeflex.simulate`.)
 """
 from __future__ import annotations
 
@@ -142,7 +149,8 @@ def steady_rotation(model, *, omega_guess: Optional[float] = None, mass_flow: Op
         bodies.
 
     Raises:
-        ValueError: no or several hinges (named); bad options.
+        ValueError: no or several hinges (named), or only hinges between two bodies (no
+            steady rotation in general: see the module doc); bad options.
         ConvergenceError: Newton failed (the message gives the step and the residual;
             attributes ``mass_flow`` of the continuation step, ``iteration``, ``residual``).
     """
@@ -198,6 +206,13 @@ def _system_hinge(system, coupled):
         positions = np.asarray(system.model.positions, float)
         for node, axis, dof in _element_hinges(system.model):
             found.append((f"element node {node}", positions[node].copy(), axis, -1, dof))
+    if not found:
+        between = [jt.name for jt in bodies.joints if jt.kind == "hinge" and jt.b is not None]
+        if between:
+            raise ValueError(f"steady_rotation needs a hinge to the ground; this {type(system).__name__}'s hinges "
+                             f"join two bodies ({', '.join(between)}): the standing body would carry the turning "
+                             f"body's reactions, which turn with it, so there is no steady rotation in general "
+                             f"(simulate it with pipeflex.simulate)")
     if len(found) != 1:
         where = "" if not found else ": " + ", ".join(f[0] for f in found)
         raise ValueError(f"steady_rotation needs exactly one hinge (a body hinged to the ground"
