@@ -149,3 +149,24 @@ def test_rotating_state_gives_up_near_a_fold():
                                                   r"state at Omega = 5.74099 rad/s\): a fold") as info:
         pf.rotating_state(scenes.rotating_cantilever(n_elements=10), 300.0, max_iterations=2)
     assert info.value.iteration == 2
+
+
+def test_the_min_step_holds_either_way():
+    """A failed step down the path is halved too (the interval's length, not its sign)."""
+    solve, calls = solver(lambda t, t0: abs(t - t0) <= 0.3)
+    way = follow(solve, Box(1.0), start=1.0, end=0.0, steps=1, halving="interval", max_failures=10, min_step=1e-3)
+    assert way.done and way.failures == 3
+    assert [t for t, _ in calls] == [0.0, 0.5, 0.75, 0.5, 0.0, 0.25, 0.0]
+
+
+def test_rotating_state_continues_down():
+    """From the steady state at 600 rad/s down to 300, 100 and 0 rad/s in one step: each
+    fails at once and is halved (before the driver a step down was never halved: its
+    negative interval was below the min step), and lands on the state found from rest.
+    Down to 0 the rates on the way have the start's sense (they were all 0 before)."""
+    m = scenes.rotating_cantilever(n_elements=10)
+    high = pf.rotating_state(m, 600.0, continuation_steps=3)
+    for w in (300.0, 100.0, 0.0):
+        down = pf.rotating_state(m, w, state=high, state_omega=600.0)
+        up = pf.rotating_state(m, w, continuation_steps=2) if w else m.initial_state()
+        np.testing.assert_allclose(np.asarray(down.q), np.asarray(up.q), rtol=0, atol=1e-9)

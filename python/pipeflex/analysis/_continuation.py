@@ -57,7 +57,7 @@ def follow(solve: Callable[[Any, float], tuple], state, *, start: float, end: fl
       resumes (its step is the schedule's again).
 
     It stops short after more than ``max_failures`` failed solves, or (``min_step``) when a
-    failed step, target - t, is below ``min_step``.
+    failed step, |target - t|, is below ``min_step`` (either way along the path).
     """
     if halving not in HALVINGS:
         raise ValueError(f"halving must be one of {HALVINGS}, got {halving!r}")
@@ -82,7 +82,7 @@ def follow(solve: Callable[[Any, float], tuple], state, *, start: float, end: fl
         if path.failures > max_failures:
             path.stop = "failures"
             return path
-        if min_step is not None and target - path.t < min_step:
+        if min_step is not None and abs(target - path.t) < min_step:
             path.stop = "min_step"
             return path
         if pending is not None:

@@ -309,10 +309,12 @@ def _steady_state(fr, omega, st, state_omega=0.0, n_steps=1, tol=1e-10, max_iter
     load = model.load_state()
     scale = model.force_scale()
     center, axis = list(map(float, fr.center)), list(map(float, fr.axis))
+    # the sense of the rates on the way (down to omega = 0: that of the start)
+    sense = np.sign(omega) if omega != 0.0 else np.sign(state_omega)
 
     def step(trial, w2):
         # the last step at omega itself: the state's rates are those of the rate asked for
-        w = omega if w2 == omega**2 else np.sign(omega) * np.sqrt(w2)
+        w = omega if w2 == omega**2 else sense * np.sqrt(w2)
         # a correction beyond half the model is Newton diverging: the step is halved
         out = _core.rotating_state(model.core, fr.free.core, trial, load, center, axis, w, size, tol,
                                    max_iterations, 0.5)
