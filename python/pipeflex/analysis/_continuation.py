@@ -17,7 +17,7 @@ HALVINGS = ("step", "interval")
 
 
 @dataclass
-class Path:
+class Continuation:
     """Where a continuation stopped.
 
     Attributes:
@@ -43,12 +43,12 @@ class Path:
 
 
 def follow(solve: Callable[[Any, float], tuple], state, *, start: float, end: float, steps: int,
-           halving: str, max_failures: int, min_step: Optional[float] = None) -> Path:
+           halving: str, max_failures: int, min_step: Optional[float] = None) -> Continuation:
     """Continue the converged ``state`` at t = ``start`` to t = ``end`` in ``steps`` equal steps.
 
     ``solve(trial, t) -> (converged, outcome)`` solves at t from ``trial`` (a copy of the
     last converged state, updated in place); ``outcome`` is the caller's (kept in
-    :attr:`Path.outcome`). A failed solve is retried closer, by ``halving``:
+    :attr:`Continuation.outcome`). A failed solve is retried closer, by ``halving``:
 
     * ``"step"``: t + h, the step h halved for the rest of the path (load stepping; needs
       start < end; the end counts as reached within 1e-14 of the span);
@@ -63,31 +63,31 @@ def follow(solve: Callable[[Any, float], tuple], state, *, start: float, end: fl
         raise ValueError(f"halving must be one of {HALVINGS}, got {halving!r}")
     if halving == "step" and not start < end:
         raise ValueError(f"halving='step' needs start < end, got start = {start!r}, end = {end!r}")
-    path = Path(state, start)
+    way = Continuation(state, start)
     h = (end - start) / steps
     pending = list(np.linspace(start, end, steps + 1)[1:]) if halving == "interval" else None
     last = end - 1e-14 * (end - start)
-    while (bool(pending) if pending is not None else path.t < last):
-        target = pending[0] if pending is not None else min(end, path.t + h)
-        trial = path.state.copy()
-        ok, path.outcome = solve(trial, target)
-        path.step = target - path.t if pending is not None else h
+    while (bool(pending) if pending is not None else way.t < last):
+        target = pending[0] if pending is not None else min(end, way.t + h)
+        trial = way.state.copy()
+        ok, way.outcome = solve(trial, target)
+        way.step = target - way.t if pending is not None else h
         if ok:
-            path.state, path.t = trial, target
+            way.state, way.t = trial, target
             if pending is not None:
                 pending.pop(0)
             continue
-        path.failures += 1
-        path.target = target
-        if path.failures > max_failures:
-            path.stop = "failures"
-            return path
-        if min_step is not None and abs(target - path.t) < min_step:
-            path.stop = "min_step"
-            return path
+        way.failures += 1
+        way.target = target
+        if way.failures > max_failures:
+            way.stop = "failures"
+            return way
+        if min_step is not None and abs(target - way.t) < min_step:
+            way.stop = "min_step"
+            return way
         if pending is not None:
-            pending.insert(0, 0.5 * (target + path.t))
+            pending.insert(0, 0.5 * (target + way.t))
         else:
             h /= 2
-    path.done, path.target = True, None
-    return path
+    way.done, way.target = True, None
+    return way
