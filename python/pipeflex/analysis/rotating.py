@@ -36,6 +36,7 @@ from ..errors import ConvergenceError
 from ..results import Result
 from ..state import State, as_core
 from ._assembly import KCM, require_model, residual_and_tangent, tangents
+from ._continuation import follow
 from .eigen import GROWTH_TOL, SPARSE_MIN_DOFS, eigenvalues
 from .linearize import Linearization
 from ..rotation import skew
@@ -300,45 +301,39 @@ def _steady_state(fr, omega, st, state_omega=0.0, n_steps=1, tol=1e-10, max_iter
     """:func:`rotating_state` with the model's :class:`_Frame` (built once per analysis,
     not per rate) and checked arguments; ``st`` a core state. One core Newton
     (``_core.rotating_state``: the tangent through the unconstrained model) per step of
-    the continuation in Omega^2."""
+    the continuation in Omega^2 (:func:`~pipeflex.analysis._continuation.follow`, a failed
+    step's interval bisected)."""
     model = fr.model
     st.rebase(0.0)
     size = max(float(np.ptp(model.positions, axis=0).max()), 1e-3)
-    w2_good = state_omega**2
-    targets = list(np.linspace(w2_good, omega**2, n_steps + 1)[1:])
     load = model.load_state()
     scale = model.force_scale()
     center, axis = list(map(float, fr.center)), list(map(float, fr.axis))
-    last_good = st
-    failures = 0
-    while targets:
-        w2 = targets[0]
+    # the sense of the rates on the way (down to omega = 0: that of the start)
+    sense = np.sign(omega) if omega != 0.0 else np.sign(state_omega)
+
+    def step(trial, w2):
         # the last step at omega itself: the state's rates are those of the rate asked for
-        w = omega if w2 == omega**2 else np.sign(omega) * np.sqrt(w2)
-        trial = last_good.copy()
+        w = omega if w2 == omega**2 else sense * np.sqrt(w2)
         # a correction beyond half the model is Newton diverging: the step is halved
         out = _core.rotating_state(model.core, fr.free.core, trial, load, center, axis, w, size, tol,
                                    max_iterations, 0.5)
-        if out["converged"]:
-            last_good = trial
-            w2_good = w2
-            targets.pop(0)
-            continue
-        it, rnorm = out["iterations"], out["residual"]
-        failures += 1
-        if failures > MAX_CONTINUATION_FAILURES:
-            # near a fold Newton stalls on every step: the halving would creep towards it
-            # over thousands of solves (30 s for one element; found by the fuzz run)
-            raise ConvergenceError(f"rotating_state: Newton failed at Omega = {w:.6g} rad/s ({failures - 1} failed "
-                                   f"steps; the last steady state at Omega = {np.sqrt(w2_good):.6g} rad/s): a fold "
-                                   f"or loss of the steady state near there (residual {rnorm:.3e} N, force scale "
-                                   f"{scale:.3e} N)", iteration=it, residual=rnorm)
-        if w2 - w2_good < 1e-8 * max(omega**2, 1e-30):
-            raise ConvergenceError(f"rotating_state: Newton failed at Omega = {w:.6g} rad/s after {it} iterations "
-                                   f"(residual {rnorm:.3e} N, force scale {scale:.3e} N)", iteration=it,
-                                   residual=rnorm)
-        targets.insert(0, 0.5 * (w2 + w2_good))
-    return last_good
+        return out["converged"], (w, out["iterations"], out["residual"])
+
+    # near a fold Newton stalls on every step: the halving would creep towards it over
+    # thousands of solves (30 s for one element; found by the fuzz run), hence the cap
+    way = follow(step, st, start=state_omega**2, end=omega**2, steps=n_steps, halving="interval",
+                 max_failures=MAX_CONTINUATION_FAILURES, min_step=1e-8 * max(omega**2, 1e-30))
+    if way.done:
+        return way.state
+    w, it, rnorm = way.outcome
+    if way.stop == "failures":
+        raise ConvergenceError(f"rotating_state: Newton failed at Omega = {w:.6g} rad/s ({way.failures - 1} failed "
+                               f"steps; the last steady state at Omega = {np.sqrt(way.t):.6g} rad/s): a fold "
+                               f"or loss of the steady state near there (residual {rnorm:.3e} N, force scale "
+                               f"{scale:.3e} N)", iteration=it, residual=rnorm)
+    raise ConvergenceError(f"rotating_state: Newton failed at Omega = {w:.6g} rad/s after {it} iterations "
+                           f"(residual {rnorm:.3e} N, force scale {scale:.3e} N)", iteration=it, residual=rnorm)
 
 
 def _family_eigen(fr, lin, n_modes, k=None):

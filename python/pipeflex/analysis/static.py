@@ -12,6 +12,7 @@ from ..errors import ConvergenceError, LimitPointError, SingularMatrixError
 from ..results import Result
 from ..state import State, as_core
 from ._assembly import require_model, residual_and_tangent
+from ._continuation import follow
 from .._blas import small_problems_single_threaded
 
 
@@ -141,8 +142,6 @@ def static_equilibrium(model, *, state=None, mass_flow: Optional[float] = None, 
     size = max(float(np.ptp(model.positions, axis=0).max()), model.total_length / max(1, len(model.elements)))
     solve = dict(tol=tol, size=size, max_iterations=max_iterations)
     total_iter = 0
-    lf, dlf, bis = 0.0, 1.0 / load_steps, 0
-    rnorm = 0.0
     if path == "arclength" and model.n_dofs:
         ok, it, rnorm, why, singular = _newton(model, state, *at(0.0), tol, size, max_iterations)
         if not ok and cold and mdot != 0.0 and from_mass_flow is None:  # ramp the flow with the loads
@@ -152,36 +151,36 @@ def static_equilibrium(model, *, state=None, mass_flow: Optional[float] = None, 
                 f"static equilibrium failed at the start of the continuation (t = 0) after {it} iterations: {why}",
                 load_factor=at(0.0)[1], iteration=it, residual=rnorm, mass_flow=at(0.0)[0])
         return _continue(model, state, 0.0, along, solve, arc_steps, 1.0 / load_steps, it, mdot, None)
-    while lf < 1.0 - 1e-14:
-        target = min(1.0, lf + dlf)
-        m_t, lf_t = at(target)
-        trial = state.copy()
-        ok, it, rnorm, why, singular = _newton(model, trial, m_t, lf_t, tol, size, max_iterations, step=True)
-        total_iter += it
-        if ok:
-            state, lf = trial, target
-            continue
-        bis += 1
-        if bis > max_bisections:
-            error = SingularMatrixError if singular else ConvergenceError
-            where = (f"load factor {lf_t:.6g} (from {at(lf)[1]:.6g})" if from_mass_flow is None else
-                     f"mdot = {m_t:.6g} kg/s, load factor {lf_t:.6g} (from {at(lf)[0]:.6g} kg/s)")
-            ramp = from_mass_flow is not None
-            failure = error(f"static equilibrium failed at {where} after {it} iterations: {why}",
-                            load_factor=lf_t, iteration=it, residual=rnorm, mass_flow=m_t,
-                            reached_mass_flow=at(lf)[0] if ramp else None,
-                            reached_state=State.from_core(state, model) if ramp else None)
-            if path == "load" or (path == "auto" and ramp):
+
+    def step(trial, t):
+        nonlocal total_iter
+        outcome = _newton(model, trial, *at(t), tol, size, max_iterations, step=True)
+        total_iter += outcome[1]
+        return outcome[0], outcome
+
+    way = follow(step, state, start=0.0, end=1.0, steps=load_steps, halving="step", max_failures=max_bisections)
+    _, it, rnorm, why, singular = way.outcome
+    state, lf = way.state, way.t
+    if not way.done:
+        m_t, lf_t = at(way.target)
+        error = SingularMatrixError if singular else ConvergenceError
+        where = (f"load factor {lf_t:.6g} (from {at(lf)[1]:.6g})" if from_mass_flow is None else
+                 f"mdot = {m_t:.6g} kg/s, load factor {lf_t:.6g} (from {at(lf)[0]:.6g} kg/s)")
+        ramp = from_mass_flow is not None
+        failure = error(f"static equilibrium failed at {where} after {it} iterations: {why}",
+                        load_factor=lf_t, iteration=it, residual=rnorm, mass_flow=m_t,
+                        reached_mass_flow=at(lf)[0] if ramp else None,
+                        reached_state=State.from_core(state, model) if ramp else None)
+        if path == "load" or (path == "auto" and ramp):
+            raise failure
+        secant = _core.reduce(model.core, np.asarray(state.q) - np.asarray(start.q)) / lf if lf > 0 else None
+        if lf == 0.0:  # is the start an equilibrium (under the flow's forces alone)?
+            ok, it, _, _, _ = _newton(model, state, *at(0.0), tol, size, max_iterations)
+            total_iter += it
+            if not ok:  # no: not a load path's failure (path="arclength" ramps the flow too)
                 raise failure
-            secant = _core.reduce(model.core, np.asarray(state.q) - np.asarray(start.q)) / lf if lf > 0 else None
-            if lf == 0.0:  # is the start an equilibrium (under the flow's forces alone)?
-                ok, it, _, _, _ = _newton(model, state, *at(0.0), tol, size, max_iterations)
-                total_iter += it
-                if not ok:  # no: not a load path's failure (path="arclength" ramps the flow too)
-                    raise failure
-            return _continue(model, state, lf, along, solve, arc_steps, max(dlf, 1.0 / (64 * load_steps)),
-                             total_iter, mdot, failure, secant)
-        dlf /= 2
+        return _continue(model, state, lf, along, solve, arc_steps, max(way.step, 1.0 / (64 * load_steps)),
+                         total_iter, mdot, failure, secant)
     return StaticResult(State.from_core(state, model), total_iter, rnorm, mdot)
 
 

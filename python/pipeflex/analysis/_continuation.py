@@ -1,0 +1,93 @@
+"""The one continuation in a scalar parameter with step halving.
+
+Every static Newton runs in the core's ``static_newton``; the continuation around it
+(:func:`pipeflex.static_equilibrium`'s load and flow stepping, :func:`pipeflex.rotating_state`'s
+steps in Omega^2) is :func:`follow`: it steps a parameter t from ``start`` to ``end``, one
+Newton solve per step from the last converged state, and halves a step whose solve fails.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any, Callable, Optional
+
+import numpy as np
+
+#: How a failed step is halved (see :func:`follow`).
+HALVINGS = ("step", "interval")
+
+
+@dataclass
+class Continuation:
+    """Where a continuation stopped.
+
+    Attributes:
+        state: the last converged state (the start if no step converged).
+        t: its parameter.
+        done: t reached the end.
+        target: the parameter of the failed solve it stopped at (None when done).
+        step: the step of the last solve (after the halvings before it).
+        failures: failed solves in all.
+        outcome: the last solve's outcome (the failed one when not done).
+        stop: why it stopped short: ``"failures"`` (more than ``max_failures``),
+            ``"min_step"`` (a failed step below ``min_step``); None when done.
+    """
+
+    state: Any
+    t: float
+    done: bool = False
+    target: Optional[float] = None
+    step: float = 0.0
+    failures: int = 0
+    outcome: Any = None
+    stop: Optional[str] = None
+
+
+def follow(solve: Callable[[Any, float], tuple], state, *, start: float, end: float, steps: int,
+           halving: str, max_failures: int, min_step: Optional[float] = None) -> Continuation:
+    """Continue the converged ``state`` at t = ``start`` to t = ``end`` in ``steps`` equal steps.
+
+    ``solve(trial, t) -> (converged, outcome)`` solves at t from ``trial`` (a copy of the
+    last converged state, updated in place); ``outcome`` is the caller's (kept in
+    :attr:`Continuation.outcome`). A failed solve is retried closer, by ``halving``:
+
+    * ``"step"``: t + h, the step h halved for the rest of the path (load stepping; needs
+      start < end; the end counts as reached within 1e-14 of the span);
+    * ``"interval"``: the scheduled t_k = start + k (end - start) / steps in turn, a failed
+      one approached from the last converged t by bisection, after which the schedule
+      resumes (its step is the schedule's again).
+
+    It stops short after more than ``max_failures`` failed solves, or (``min_step``) when a
+    failed step, |target - t|, is below ``min_step`` (either way along the path).
+    """
+    if halving not in HALVINGS:
+        raise ValueError(f"halving must be one of {HALVINGS}, got {halving!r}")
+    if halving == "step" and not start < end:
+        raise ValueError(f"halving='step' needs start < end, got start = {start!r}, end = {end!r}")
+    way = Continuation(state, start)
+    h = (end - start) / steps
+    pending = list(np.linspace(start, end, steps + 1)[1:]) if halving == "interval" else None
+    last = end - 1e-14 * (end - start)
+    while (bool(pending) if pending is not None else way.t < last):
+        target = pending[0] if pending is not None else min(end, way.t + h)
+        trial = way.state.copy()
+        ok, way.outcome = solve(trial, target)
+        way.step = target - way.t if pending is not None else h
+        if ok:
+            way.state, way.t = trial, target
+            if pending is not None:
+                pending.pop(0)
+            continue
+        way.failures += 1
+        way.target = target
+        if way.failures > max_failures:
+            way.stop = "failures"
+            return way
+        if min_step is not None and abs(target - way.t) < min_step:
+            way.stop = "min_step"
+            return way
+        if pending is not None:
+            pending.insert(0, 0.5 * (target + way.t))
+        else:
+            h /= 2
+    way.done, way.target = True, None
+    return way
