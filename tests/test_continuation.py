@@ -43,6 +43,14 @@ def test_equal_steps_when_every_solve_converges():
         assert way.outcome == 4 and way.target is None
 
 
+def test_the_last_step_lands_on_the_end_exactly():
+    """Ten steps of 0.1 add up to 0.9999999999999999: the last solve is at 1.0 itself
+    (it stopped at the sum before, one rounding short of the full load)."""
+    solve, calls = solver(lambda t, t0: True)
+    way = follow(solve, Box(), start=0.0, end=1.0, steps=10, halving="step", max_failures=0)
+    assert calls[-1][0] == 1.0 and way.t == 1.0 and len(calls) == 10
+
+
 def test_step_halving_keeps_the_halved_step():
     """"step": a failed step is halved for the rest of the path (load stepping)."""
     solve, calls = solver(lambda t, t0: t - t0 <= 0.3)

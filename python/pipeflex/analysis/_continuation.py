@@ -51,7 +51,7 @@ def follow(solve: Callable[[Any, float], tuple], state, *, start: float, end: fl
     :attr:`Continuation.outcome`). A failed solve is retried closer, by ``halving``:
 
     * ``"step"``: t + h, the step h halved for the rest of the path (load stepping; needs
-      start < end; the end counts as reached within 1e-14 of the span);
+      start < end; a step landing within 1e-14 of the span before the end lands on the end);
     * ``"interval"``: the scheduled t_k = start + k (end - start) / steps in turn, a failed
       one approached from the last converged t by bisection, after which the schedule
       resumes (its step is the schedule's again).
@@ -68,7 +68,9 @@ def follow(solve: Callable[[Any, float], tuple], state, *, start: float, end: fl
     pending = list(np.linspace(start, end, steps + 1)[1:]) if halving == "interval" else None
     last = end - 1e-14 * (end - start)
     while (bool(pending) if pending is not None else way.t < last):
-        target = pending[0] if pending is not None else min(end, way.t + h)
+        # the step that lands within the end's round-off lands on the end itself (ten steps
+        # of 0.1 add up to 0.9999999999999999)
+        target = pending[0] if pending is not None else (end if way.t + h >= last else way.t + h)
         trial = way.state.copy()
         ok, way.outcome = solve(trial, target)
         way.step = target - way.t if pending is not None else h
