@@ -197,6 +197,20 @@ def test_critical_flow_of_2048_elements_agrees_with_512():
     assert f2048 == pytest.approx(f512, rel=2e-10)
 
 
+def test_tracking_moves_a_lower_end_that_already_grows():
+    """Large models: the scan judges its points by Arnoldi's eigenvalues in double
+    (0.2-0.3 1/s at 8192 elements, ~0.5 kg/s of flow), so the bracket's lower end may
+    already be unstable; the tracking checks it with the refined eigenvalue and steps it
+    down instead of failing (here handed 25.5 kg/s, past the crossing at 25.0055)."""
+    from pipeflex.analysis import critical
+
+    ev = critical._Evaluator(pf.scenes.cantilever_pipe(n_elements=256), None)
+    eig_lo, eig_hi = ev(25.5)[0], ev(28.1)[0]
+    assert critical.classify(eig_lo) == "flutter"
+    mc = critical._track_root(ev, 25.5, 28.1, eig_hi, 1e-10, eig_lo)
+    assert mc == pytest.approx(25.00552056, rel=1e-9)
+
+
 @pytest.mark.slow
 def test_critical_flow_of_8192_elements_agrees_with_4096():
     """The brief's size (49152 coordinates, ~15-20 s): formerly a ConvergenceError or, on
