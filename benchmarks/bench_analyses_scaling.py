@@ -138,7 +138,7 @@ def pipe(args, ap):
         if want("critical flow") and n <= args.max_critical:
             try:
                 r["critical flow"], _ = best(lambda: pf.critical_mass_flow(m), 1)
-            except pf.ConvergenceError as e:  # round-off from ~8192 elements on: docs/performance.md
+            except pf.ConvergenceError as e:  # was round-off at 8192 elements: docs/performance.md, session 8
                 print(f"  N = {n}: critical_mass_flow failed: {str(e)[:110]}...")
         sw = swinging(m)
 

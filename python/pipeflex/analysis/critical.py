@@ -24,6 +24,7 @@ SCAN_MODES lowest of each block would be missed.
 """
 from __future__ import annotations
 
+import warnings
 from dataclasses import dataclass, replace
 from typing import Optional
 
@@ -36,9 +37,9 @@ from .. import _checks
 from ..results import Result
 from .._options import renamed
 from ..errors import ConvergenceError
-from .eigen import (SPARSE_MIN_DOFS, classify, eigen_from_blocks, free_coordinates, sparse_block_eigenvalues,
-                    MECHANISM_CONDITIONING, QuadraticPencil, eigen_noise, sparse_eigen_from_blocks,
-                    split_blocks, stiffness_conditioning, with_reduction_noise)
+from .eigen import (SPARSE_MIN_DOFS, classify, eigen_from_blocks, free_coordinates,
+                    sparse_block_eigenvalues, MECHANISM_CONDITIONING, QuadraticPencil, eigen_noise,
+                    sparse_eigen_from_blocks, split_blocks, stiffness_conditioning, with_reduction_noise)
 from ._assembly import require_model
 from .._lazy import loaded_instance
 from .linearize import linearize
@@ -212,6 +213,8 @@ def critical_mass_flow(model, *, tol: float = 1e-10, mass_flow_max: Optional[flo
             fold = _path_end(ev, lo, eig_lo, e, k0, rtol)
             if isinstance(fold, CriticalFlow):
                 return fold
+            if fold[0] != lo:
+                eig_lo = None  # the bracket starts at a flow the scan did not analyse
             lo, m, eig = fold  # an instability before the path ends: bracket [lo, m]
         if classify(eig) != "stable":
             hi = m
@@ -226,7 +229,7 @@ def critical_mass_flow(model, *, tol: float = 1e-10, mass_flow_max: Optional[flo
     if classify(eig_hi) == "flutter":
         # Track the crossing eigenvalue over the scan bracket; bisect only if that fails.
         try:
-            mc = _track_root(ev, lo, hi, eig_hi, xtol)
+            mc = _track_root(ev, lo, hi, eig_hi, xtol, eig_lo)
             _check_not_at_zero(mc, unit, hi, eig_hi, ev.model)
             return _result(ev, mc, "flutter")
         except (ValueError, ConvergenceError):
@@ -237,13 +240,13 @@ def critical_mass_flow(model, *, tol: float = 1e-10, mass_flow_max: Optional[flo
         if classify(eig) != "stable":
             hi, eig_hi = mid, eig
         else:
-            lo = mid
+            lo, eig_lo = mid, eig
             ev.accept(mid, st)
     kind = classify(eig_hi)
 
     if kind == "flutter":
         try:
-            mc = _track_root(ev, lo, hi, eig_hi, xtol)  # narrow bracket: tracking is safe
+            mc = _track_root(ev, lo, hi, eig_hi, xtol, eig_lo)  # narrow bracket: tracking is safe
         except (ValueError, ConvergenceError):  # no sign change (Re(lambda) > 0 down to lo) or lost
             _check_not_at_zero(lo, unit, hi, eig_hi, ev.model)
             iw = int(np.argmax(eig_hi.values.real))
@@ -251,9 +254,11 @@ def critical_mass_flow(model, *, tol: float = 1e-10, mass_flow_max: Optional[flo
             why = ("a weakly growing mode near the noise level (e.g. of a loaded floating-frame body, "
                    "docs/theory.md)")
             if ev.sparse:
-                why += (f"; or round-off: at {ev.model.n_dofs} coordinates this eigenvalue is only good to about "
-                        f"{eig_hi.noise[iw]:.2g} 1/s (it grows like N^4 with the number of elements N: the "
-                        "stiffness of short elements; use fewer elements)")
+                why += (f"; or round-off: at {ev.model.n_dofs} coordinates the scan's eigenvalues (shift-invert "
+                        f"Arnoldi in double) are only good to about {eig_hi.noise[iw]:.2g} 1/s (it grows like N^4 "
+                        "with the number of elements N: the stiffness of short elements; the followed eigenvalue "
+                        "itself is refined with a compensated residual, to ~1e-14 1/s up to 8192 elements of "
+                        "the cantilever, docs/performance.md); use fewer elements")
             raise ConvergenceError(f"flutter between {lo:.6g} and {hi:.6g} kg/s (lambda = {worst.real:.3g} "
                                    f"{worst.imag:+.6g}j 1/s), but the crossing eigenvalue could not be followed "
                                    f"through zero: {why}{_moving_inlets(ev.model)}", mass_flow=hi) from None
@@ -432,43 +437,46 @@ def refine_eigenpair(block, lam, x=None, *, tol=1e-10, max_iterations=20):
     ~1e-12 relative at 32 elements, ~1e-9 at 128. The test is therefore
     |step| <= max(tol |lam|, that round-off level); with a fixed 1e-10 the iteration
     wandered in the round-off and never stopped from about 96 elements on.
-    Sparse blocks (large models) are factorised by a sparse LU.
+
+    Sparse blocks (large models): Newton on [T(lam) x; c^H x - 1] = 0, the step from
+    the sparse LU of its bordered Jacobian [[T(lam), T'(lam) x], [c^H, 0]] and the
+    residual T(lam) x with K x summed in twice the working precision
+    (:meth:`~pipeflex.analysis.eigen.QuadraticPencil.residual`). The double LU only
+    corrects, so the eigenvalue is that of the stored K, C, M to a few units of the last
+    place of lam (:func:`_refined_noise`): measured 1e-14 to 2e-13 1/s from 128 to 8192
+    elements on the cantilever's crossing eigenvalue, where double's level is 1e-7 to
+    0.3 1/s. (The bordered LU, not T(lam)'s alone: near the eigenvalue T(lam) is
+    singular to working precision, and corrections through it converged only linearly,
+    about tenfold a step at 8192 elements.) Small dense blocks keep the double
+    iteration; their level is below tol.
     """
     n = len(block.dofs)
     sparse = sp.issparse(block.K)
     if sparse:
         T = QuadraticPencil(block.K, block.C, block.M)
         K, C, M = T.K, T.C, T.M
-        norms = [spla.norm(X, 1) for X in (K, C, M)]
 
         def factor(lam_):
             return spla.splu(T(complex(lam_)))
     else:
         K, C, M = block.K, block.C, block.M
-        norms = [np.linalg.norm(X, 1) for X in (K, C, M)]
-    eps = np.finfo(float).eps
     if x is None:
-        # A few inverse-iteration steps at the fixed shift lam give a starting vector.
-        x = np.random.default_rng(0).standard_normal(n) + 0j
-        if sparse:
-            fsolve = factor(lam).solve
-        else:
-            lu = sla.lu_factor(lam * lam * M + lam * C + K)
-            fsolve = lambda r: sla.lu_solve(lu, r)  # noqa: E731
-        dT = 2 * lam * M + C
-        for _ in range(4):
-            x = fsolve(np.asarray(dT @ x, complex))
-            x /= np.linalg.norm(x)
+        x = _start_vector(K, C, M, lam, factor if sparse else None)
     c = x / np.vdot(x, x)
     x = x / np.vdot(c, x)
     polish = False
     for _ in range(max_iterations):
+        noise = _refined_noise(block, lam, x)  # of the current pair
         if sparse:
+            # Newton on [T(lam) x; c^H x - 1] = 0 by the LU of its (bordered) Jacobian
             dTx = 2 * lam * (M @ x) + C @ x
+            J = sp.bmat([[T(complex(lam)), sp.csc_matrix(dTx.reshape(-1, 1))],
+                         [sp.csc_matrix(c.conj().reshape(1, -1)), None]], format="csc")
             try:
-                u = factor(lam).solve(np.asarray(dTx, complex))
-            except RuntimeError:  # T(lam) exactly singular: lam is an eigenvalue to working precision
+                d = spla.splu(J).solve(np.append(-T.residual(lam, x), 0.0))
+            except RuntimeError:  # singular: lam is an eigenvalue to working precision
                 return lam, x / np.linalg.norm(x)
+            x, step = x + d[:n], -d[n]
         else:  # the arithmetic of the original dense iteration (small models: same numbers)
             T = lam * lam * M + lam * C + K
             dTx = (2 * lam * M + C) @ x
@@ -476,36 +484,93 @@ def refine_eigenpair(block, lam, x=None, *, tol=1e-10, max_iterations=20):
                 u = np.linalg.solve(T, dTx)
             except np.linalg.LinAlgError:  # T(lam) singular: lam is an eigenvalue to working precision
                 return lam, x / np.linalg.norm(x)
-        cu = np.vdot(c, u)
-        step = np.vdot(c, x) / cu
-        # round-off level of lam (eigen_noise), from the current pair
-        scale = (abs(lam) ** 2 * norms[2] + abs(lam) * norms[1] + norms[0]) * np.vdot(x, x).real
-        noise = eps * scale / max(abs(np.vdot(x, dTx)), 1e-300) / np.sqrt(n)
+            cu = np.vdot(c, u)
+            step = np.vdot(c, x) / cu
+            x = u / cu
         lam = lam - step
-        x = u / cu
         if polish:
             return lam, x
-        polish = abs(step) <= max(tol * abs(lam), noise)
+        # (4 eps |lam|: the resolution of lam itself, which the compensated level is near)
+        polish = abs(step) <= max(tol * abs(lam), noise, 4 * np.finfo(float).eps * abs(lam))
     raise ConvergenceError(f"eigenvalue refinement did not converge near lambda = {lam:.6g}",
                            iteration=max_iterations)
 
 
-def _track_root(ev, lo, hi, eig_hi, xtol):
+def _start_vector(K, C, M, lam, factor=None):
+    """A starting vector for :func:`refine_eigenpair`: a few inverse-iteration steps at
+    the fixed shift lam (the sparse LU ``factor(s)``, else dense).
+
+    Where T(lam) is singular to the last bit (lam an eigenvalue already: a small dense
+    block's own value, as the scan hands the tracking at the bracket's lower end) its
+    solve would divide by zero; the shift is then moved by 1e-10 |lam|, then 1e-7 |lam|."""
+    n = K.shape[0]
+    dT = 2 * lam * M + C
+    for nudge in (0.0, 1e-10, 1e-7):
+        s = lam + nudge * max(abs(lam), 1.0)
+        with warnings.catch_warnings(), np.errstate(all="ignore"):
+            warnings.simplefilter("ignore", sla.LinAlgWarning)
+            try:
+                if factor is not None:
+                    fsolve = factor(s).solve
+                else:
+                    lu = sla.lu_factor(s * s * M + s * C + K)
+                    fsolve = lambda r: sla.lu_solve(lu, r)  # noqa: E731
+            except RuntimeError:  # the sparse LU refuses an exactly singular matrix
+                continue
+            x = np.random.default_rng(0).standard_normal(n) + 0j
+            for _ in range(4):
+                x = fsolve(np.asarray(dT @ x, complex))
+                x /= np.linalg.norm(x)
+        if np.all(np.isfinite(x)):
+            return x
+    raise ConvergenceError(f"eigenvalue refinement: T(lambda) is singular near lambda = {lam:.6g} and no "
+                           "starting vector was found")
+
+
+def _refined_noise(block, lam, x) -> float:
+    """Round-off level [1/s] of an eigenpair from :func:`refine_eigenpair` in ``block``
+    (:func:`~pipeflex.analysis.eigen.eigen_noise`; compensated on a sparse block)."""
+    return float(eigen_noise(block.K, block.C, block.M, lam, x, compensated=sp.issparse(block.K))[0])
+
+
+def _track_root(ev, lo, hi, eig_hi, xtol, eig_lo=None):
     """Brent's method on Re(lambda) of the eigenvalue that crosses at the flutter point.
 
     The eigenvalue is followed by Newton refinement (:func:`refine_eigenpair`) from the
     value predicted linearly in mdot by the evaluations nearest to the new flow and the
-    eigenvector of the nearest one, in the decoupled block it belongs to. Large models:
+    eigenvector of the nearest one, in the decoupled block it belongs to; at the start
+    the values at the bracket's ends (large models: at ``lo``, ``eig_lo``'s value of the
+    block nearest the crossing eigenvalue at ``hi``; small ones predict ``lo`` from ``hi``
+    alone, as before, which keeps their flows bit for bit). Large models:
     should Newton land farther than TRACK_TRUST |lambda| from the prediction (on another
     eigenvalue), it starts again from the eigenpair nearest the prediction by sparse
     shift-invert Arnoldi. A full eigen-analysis at the end checks the result.
+
+    Large models also check the bracket's lower end with the refined eigenvalue and move
+    it down while that grows (the scan judged it by Arnoldi's eigenvalues in double).
+
+    Why the value at ``lo``: predicted from ``hi`` alone (as before), the first step's
+    Newton lands on the crossing eigenvalue at ``lo`` more than TRACK_TRUST away, and the
+    Arnoldi restart returned spurious eigenvalues at 8192 elements (|lambda| ~ 460 for 14).
     """
     lam = eig_hi.values
     i = int(np.argmax(lam.real - 1e300 * (lam.imag < 0)))
     dofs = eig_hi.blocks[eig_hi.block_of[i]].dofs
     seen = {hi: (lam[i], None)}
+    if eig_lo is not None and ev.sparse:
+        mine = np.array([np.array_equal(eig_lo.blocks[b].dofs, dofs) for b in eig_lo.block_of], bool)
+        if mine.any():
+            j = int(np.argmin(np.abs(eig_lo.values - lam[i]) + 1e300 * ~mine))
+            seen[lo] = (eig_lo.values[j], None)
+
+    values = {}  # mdot -> Re(lambda): the lower end is asked for twice
 
     def f(m):
+        if m not in values:
+            values[m] = re_lambda(m)
+        return values[m]
+
+    def re_lambda(m):
         keys = sorted(seen, key=lambda k: abs(k - m))[:2]
         lam0, x0 = seen[keys[0]]
         if len(keys) == 2:
@@ -532,13 +597,23 @@ def _track_root(ev, lo, hi, eig_hi, xtol):
             j = int(np.argmin(np.abs(cand - lam0)))
             near, x = refine_eigenpair(block, cand[j], X[:, j])
         seen[m] = (near, x)
-        if lo < m < hi and abs(near.real) <= eigen_noise(block.K, block.C, block.M, near, x)[0]:
+        if lo < m < hi and abs(near.real) <= _refined_noise(block, near, x):
             # Re(lambda) is zero to round-off inside the bracket: m is the crossing as far
-            # as it is determined (from ~256 elements on Brent's further steps would only
-            # wander in the noise). Not at the ends: their signs must show the crossing.
+            # as it is determined (the level is ~1e-14 1/s since the sparse refinement is
+            # compensated, so Brent now goes on to xtol; in double it stopped Brent from
+            # ~256 elements on). Not at the ends: their signs must show the crossing.
             return 0.0
         return near.real
 
+    if ev.sparse:
+        # The scan called lo stable by Arnoldi's eigenvalues in double, whose level grows
+        # like N^4 (0.2-0.3 1/s at 8192 elements, ~0.5 kg/s of flow here): refined, the
+        # crossing eigenvalue may already grow there. Step lo down by the bracket's width.
+        width = hi - lo
+        while f(lo) > 0.0:
+            if lo <= 0.0:
+                raise ValueError("the crossing eigenvalue grows down to zero flow")
+            lo = max(0.0, lo - width)
     return _brentq(f, lo, hi, xtol=xtol, rtol=4 * np.finfo(float).eps)
 
 
