@@ -74,10 +74,10 @@ StaticNewtonResult static_newton(Equations& eq, double t, Eigen::VectorXd& lam, 
         out.nonfinite = !r.allFinite() || !std::isfinite(out.residual);
         return !out.nonfinite;
     };
+    const auto constraints_held = [&]() { return nc == 0 || r.tail(nc).lpNorm<Eigen::Infinity>() <= 1e-6 * L; };
     const auto satisfied = [&]() {
-        const bool held = nc == 0 || r.tail(nc).lpNorm<Eigen::Infinity>() <= 1e-6 * L;
-        if (border != nullptr) return held && std::abs(border->constraint(nullptr, nullptr)) <= tol;
-        return held;
+        if (border != nullptr) return constraints_held() && std::abs(border->constraint(nullptr, nullptr)) <= tol;
+        return constraints_held();
     };
     if (by_force) {  // a warm start: converged already at the model's own force level
         if (!residual_here(nullptr)) return out;
@@ -161,7 +161,9 @@ StaticNewtonResult static_newton(Equations& eq, double t, Eigen::VectorXd& lam, 
             eq.rebase(v, a);
             border->accumulate(x, dtau);
             const double size = std::max(out.correction / L, std::abs(dtau) / std::max(1.0, std::abs(border->parameter())));
-            if (size <= tol || (rnorm <= 1e-3 * tol * std::max(fscale, 1e-300) && satisfied())) return converged_applied();
+            // a small correction converges only with the constraints held, as without a border
+            if ((size <= tol && constraints_held()) || (rnorm <= 1e-3 * tol * std::max(fscale, 1e-300) && satisfied()))
+                return converged_applied();
             if (size >= 0.5 * last && size <= 1e3 * tol && satisfied())  // stalled at round-off
                 return converged_applied();
             last = size;
