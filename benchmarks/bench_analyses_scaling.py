@@ -12,6 +12,9 @@ Wall times are the best of --repeat runs; slopes between successive sizes.
 Then the floating-frame chain (pf.scenes.ffrf_cantilever_pipe, 4 elements per body, 1.5 N
 tip force) with B bodies (--bodies): static equilibrium without flow, and a generalised-
 alpha step at 30 kg/s (h = 1 ms; the difference of 50- and 100-step runs over 50).
+With --mechanism also a mechanism's static equilibrium: B bodies rigidly joined along x
+(4 m, 4 elements each, EI 1e5 N m^2, EA 1e8 N), the first on a ground hinge about z,
+under gravity along -z (the hinge's free rotation unloaded: hinged_chain).
 Then the rotating ANCF cantilever of seed 002 (pf.scenes.rotating_cantilever, Model A)
 with N elements (--ancf): rotating_frequencies at gamma = 0 and 5 with 4 modes per family
 (the 4th longitudinal mode lies above ~30 bending ones: ~40 eigenvalues near 0), a
@@ -20,7 +23,7 @@ beam at rest. An analysis that took more than --budget seconds is skipped at lar
 (the dense path before: ~N^3).
 Run: .venv/bin/python benchmarks/bench_analyses_scaling.py [--sizes 8 32 128 512 2048 8192]
      [--bodies 4 16 64 128] [--ancf 10 20 40 80 160 320 640 1280] [--parts pipe chain rotating]
-     [--only linearize "IDA start"] [--repeat 5] [--cpu]
+     [--only linearize "IDA start"] [--repeat 5] [--cpu] [--mechanism]
 (--only: these rows of the element table; the static equilibrium is solved anyway, as the
 state to linearise about.)
 """
@@ -32,7 +35,7 @@ import time
 import numpy as np
 
 import pipeflex as pf
-from pipeflex.multibody import simulate as mb_simulate, static_equilibrium as mb_static
+from pipeflex.multibody import MultibodyBuilder, flexible_body, simulate as mb_simulate, static_equilibrium as mb_static
 
 
 CLOCK = time.perf_counter  # --cpu: time.process_time (a loaded machine: the CPU time taken)
@@ -99,6 +102,7 @@ def main():
     ap.add_argument("--parts", nargs="+", default=["pipe", "chain", "rotating"],
                     choices=["pipe", "chain", "rotating"])
     ap.add_argument("--only", nargs="+", default=None, help="rows of the element table to run")
+    ap.add_argument("--mechanism", action="store_true", help="also the hinged chain's static equilibrium")
     ap.add_argument("--cpu", action="store_true",
                     help="CPU time of the process instead of wall time (with one BLAS thread, on a shared machine)")
     args = ap.parse_args()
@@ -175,10 +179,27 @@ def ffrf_chain(args):
         t50, _ = best(lambda: run(50), args.repeat)
         t100, _ = best(lambda: run(100), args.repeat)
         r["FFRF step"] = max(t100 - t50, 1e-9) / 50
+        if args.mechanism:
+            h = hinged_chain(nb)
+            r["hinged static"], _ = best(lambda: mb_static(h), args.repeat)
         chain[nb] = r
         print(f"{nb:6d} bodies ({s.n_coordinates} coordinates): " + ", ".join(f"{k} {v:.3g} s" for k, v in r.items()),
               flush=True)
-    table(chain, ("FFRF static", "FFRF step"), unit="bodies")
+    table(chain, ("FFRF static", "FFRF step") + (("hinged static",) if args.mechanism else ()), unit="bodies")
+
+
+def hinged_chain(n):
+    """n bodies rigidly joined along x (4 m), the first on a ground hinge about z, gravity
+    along -z: a mechanism whose free rotation the loads leave alone."""
+    sec = pf.PipeSection(EI=1e5, EA=1e8, pipe_mass=8.0, fluid_mass=2.0)
+    body = flexible_body(length=4.0 / n, n_elements=4, section=sec)
+    b = MultibodyBuilder()
+    ids = [b.add_body(body, position=(4.0 / n * (k + 0.5), 0.0, 0.0)) for k in range(n)]
+    b.hinge(ids[0], "start", (0.0, 0.0, 1.0))
+    for k in range(n - 1):
+        b.rigid(ids[k], "end", ids[k + 1], "start")
+    b.set_gravity((0.0, 0.0, -9.81))
+    return b.build()
 
 
 def rotating(args):

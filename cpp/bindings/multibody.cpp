@@ -192,19 +192,21 @@ void bind_multibody(py::module_& m) {
         .def(
             "static_newton",
             [](const MultibodySystemCore& sys, const Arr& r, const Arr& R, const VecX& eta, const VecX& lam, double t,
-               double mass_flow, double load_factor, double tol, int max_iterations) {
+               double mass_flow, double load_factor, double tol, int max_iterations, bool mechanism) {
                 MbState s = to_state(sys, r, R, eta, VecX::Zero(eta.size()), VecX::Zero(eta.size()), lam, t);
                 StaticNewtonResult res;
                 {
                     py::gil_scoped_release release;
-                    res = multibody_static(sys, s, mass_flow, load_factor, tol, max_iterations);
+                    res = multibody_static(sys, s, mass_flow, load_factor, tol, max_iterations, mechanism);
                 }
                 py::dict d = static_dict(res);
                 d["state"] = from_state(s);
                 return d;
             },
+            "One load step's static equilibrium by the core's static_newton; mechanism: the joints leave a rigid "
+            "motion free (the frames' free motions penalised, StaticNewtonOptions::shift).",
             py::arg("r"), py::arg("R"), py::arg("eta"), py::arg("lam"), py::arg("t"), py::arg("mass_flow"),
-            py::arg("load_factor"), py::arg("tol"), py::arg("max_iterations"))
+            py::arg("load_factor"), py::arg("tol"), py::arg("max_iterations"), py::arg("mechanism") = false)
         .def(
             "integrate",
             [](const MultibodySystemCore& sys, const Arr& r, const Arr& R, const VecX& eta, const VecX& v,

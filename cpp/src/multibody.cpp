@@ -508,13 +508,20 @@ LinearMatrices multibody_linear_matrices(const MultibodySystemCore& sys, const M
 }
 
 StaticNewtonResult multibody_static(const MultibodySystemCore& sys, MbState& s, double mdot, double load_factor,
-                                    double tol, int max_iterations) {
+                                    double tol, int max_iterations, bool mechanism) {
     sys.check_state(s);
     const TimeTable flow = TimeTable::constant(mdot);
     MultibodyEquations eq(sys, s, flow);
     eq.set_static_load_factor(load_factor);
     VecX lam = s.lam;
-    const StaticNewtonResult res = static_newton(eq, s.t, lam, tol, max_iterations);
+    StaticNewtonOptions opt;
+    opt.tol = tol;
+    opt.max_iterations = max_iterations;
+    if (mechanism) {  // the free rigid motions are the frames'
+        opt.shift = VecX::Zero(sys.n_coordinates());
+        for (int j = 0; j < sys.n_bodies(); ++j) opt.shift.segment<6>(sys.offset(j)).setConstant(kMechanismShift);
+    }
+    const StaticNewtonResult res = static_newton(eq, s.t, lam, opt);
     s = eq.state();
     s.lam = lam;
     s.v.setZero();

@@ -44,6 +44,49 @@ void bordered(const Triplets& K, int m, const Eigen::VectorXd& rt, const Eigen::
     A.add(m, m, d);
 }
 
+// A mechanism's regularisation (StaticNewtonOptions::shift): the penalty
+//     1/2 sum_i w_i (x_i - (C_S^T nu)_i)^2 + 1/2 delta |nu|^2,   w_i = shift_i s,
+// over the shifted coordinates S, with nc more unknowns nu that minimise it: it is
+// 1/2 |x_S|^2_W projected off the range of C_S^T (C_S the constraint rows' S columns), so
+// it acts on the motions of S that the constraints leave free (a hinge's rotation), and not
+// on those they lock, however soft: those move the other coordinates too (a body's frame
+// turned against its elastic modes at a clamp), and the penalty would slow their Newton.
+// H its Hessian ((n + 2 nc) square: x, the multipliers' rows (none), nu); delta (1e-8 of
+// C_S W C_S^T's largest diagonal) keeps nu determined where C_S's rows are dependent.
+Eigen::SparseMatrix<double> mechanism_penalty(const Triplets& J, int n, int nc, const Eigen::VectorXd& shift,
+                                              double s) {
+    std::vector<Eigen::Triplet<double>> cs, h;
+    for (std::size_t k = 0; k < J.values.size(); ++k)
+        if (J.rows[k] >= n && J.cols[k] < n && shift[J.cols[k]] != 0.0)
+            cs.emplace_back(J.rows[k] - n, J.cols[k], J.values[k]);
+    Eigen::SparseMatrix<double> C(nc, n);
+    C.setFromTriplets(cs.begin(), cs.end());
+    const Eigen::VectorXd w = s * shift;
+    const Eigen::SparseMatrix<double> CW = C * w.asDiagonal();
+    const Eigen::SparseMatrix<double> G = CW * Eigen::SparseMatrix<double>(C.transpose());
+    double delta = 0.0;
+    for (int a = 0; a < nc; ++a) delta = std::max(delta, G.coeff(a, a));
+    delta = delta > 0.0 ? 1e-8 * delta : s;
+    const int nu = n + nc;
+    for (int i = 0; i < n; ++i)
+        if (w[i] != 0.0) h.emplace_back(i, i, w[i]);
+    for (int j = 0; j < CW.outerSize(); ++j)
+        for (Eigen::SparseMatrix<double>::InnerIterator e(CW, j); e; ++e) {
+            h.emplace_back(e.col(), nu + e.row(), -e.value());
+            h.emplace_back(nu + e.row(), e.col(), -e.value());
+        }
+    for (int j = 0; j < G.outerSize(); ++j)
+        for (Eigen::SparseMatrix<double>::InnerIterator e(G, j); e; ++e) h.emplace_back(nu + e.row(), nu + e.col(), e.value());
+    for (int a = 0; a < nc; ++a) h.emplace_back(nu + a, nu + a, delta);
+    Eigen::SparseMatrix<double> H(nu + nc, nu + nc);
+    H.setFromTriplets(h.begin(), h.end());
+    return H;
+}
+
+// Solves per iteration with a shift: the correction's filter k^(p-1) / (k + w)^p in a
+// direction of stiffness k that the penalty w acts on.
+constexpr int kShiftFilterSolves = 4;
+
 }  // namespace
 
 StaticNewtonResult static_newton(Equations& eq, double t, Eigen::VectorXd& lam, const StaticNewtonOptions& opt) {
@@ -51,7 +94,10 @@ StaticNewtonResult static_newton(Equations& eq, double t, Eigen::VectorXd& lam, 
     const double L = eq.length_scale(), tol = opt.tol;
     StaticBorder* border = opt.border;
     const Eigen::VectorXd zero = Eigen::VectorXd::Zero(n);
-    Eigen::VectorXd r, rhs(n + nc), x, v = zero, a = zero, rt, rp, c, b;
+    Eigen::VectorXd r, rhs(n + nc), x, y, v = zero, a = zero, rt, rp, c, b;
+    // a mechanism's penalty (mechanism_penalty) brings nc more unknowns
+    const bool shifted = opt.shift.size() > 0 && border == nullptr;
+    const int m = shifted ? n + 2 * nc : n + nc;
     Triplets J, Jb;
     const int dense_below = opt.dense_below < 0 ? kDenseLuBelow : opt.dense_below;
     FixedPatternLU lu(dense_below), lub(dense_below);
@@ -74,10 +120,10 @@ StaticNewtonResult static_newton(Equations& eq, double t, Eigen::VectorXd& lam, 
         out.nonfinite = !r.allFinite() || !std::isfinite(out.residual);
         return !out.nonfinite;
     };
+    const auto constraints_held = [&]() { return nc == 0 || r.tail(nc).lpNorm<Eigen::Infinity>() <= 1e-6 * L; };
     const auto satisfied = [&]() {
-        const bool held = nc == 0 || r.tail(nc).lpNorm<Eigen::Infinity>() <= 1e-6 * L;
-        if (border != nullptr) return held && std::abs(border->constraint(nullptr, nullptr)) <= tol;
-        return held;
+        if (border != nullptr) return constraints_held() && std::abs(border->constraint(nullptr, nullptr)) <= tol;
+        return constraints_held();
     };
     if (by_force) {  // a warm start: converged already at the model's own force level
         if (!residual_here(nullptr)) return out;
@@ -161,7 +207,9 @@ StaticNewtonResult static_newton(Equations& eq, double t, Eigen::VectorXd& lam, 
             eq.rebase(v, a);
             border->accumulate(x, dtau);
             const double size = std::max(out.correction / L, std::abs(dtau) / std::max(1.0, std::abs(border->parameter())));
-            if (size <= tol || (rnorm <= 1e-3 * tol * std::max(fscale, 1e-300) && satisfied())) return converged_applied();
+            // a small correction converges only with the constraints held, as without a border
+            if ((size <= tol && constraints_held()) || (rnorm <= 1e-3 * tol * std::max(fscale, 1e-300) && satisfied()))
+                return converged_applied();
             if (size >= 0.5 * last && size <= 1e3 * tol && satisfied())  // stalled at round-off
                 return converged_applied();
             last = size;
@@ -170,14 +218,29 @@ StaticNewtonResult static_newton(Equations& eq, double t, Eigen::VectorXd& lam, 
         // constraint rows and columns scaled by the stiffness block's size (as the integrator's)
         double s = scale_constraints(J, n, 1.0);
         s = s > 0.0 ? s : 1.0;
+        Eigen::SparseMatrix<double> H;
+        if (shifted) H = mechanism_penalty(J, n, nc, opt.shift, s);
         scale_constraints(J, n, s);
-        if (!lu.factorize(n + nc, J.rows, J.cols, J.values)) {
+        for (int j = 0; j < H.outerSize(); ++j)
+            for (Eigen::SparseMatrix<double>::InnerIterator e(H, j); e; ++e) J.add(e.row(), e.col(), e.value());
+        if (!lu.factorize(m, J.rows, J.cols, J.values)) {
             out.singular = true;
             return out;
         }
+        rhs = Eigen::VectorXd::Zero(m);
         rhs.head(n) = -r.head(n);
-        rhs.tail(nc) = -s * r.tail(nc);
+        rhs.segment(n, nc) = -s * r.tail(nc);
         lu.solve(rhs, x);
+        // x - A^-1 H x (A the penalised matrix) is A^-1 K A^-1 of the right-hand side: 1/k
+        // (1 - 2 w / k) in a direction of stiffness k >> w, k / w^2 -> 0 where k << w (a free
+        // motion, loaded or not, keeps its value, as a truncated pseudo-inverse keeps it);
+        // each further solve multiplies by k / (k + w). The constraint rows of H x are zero:
+        // the correction still satisfies the linearised constraints.
+        for (int k = 1; shifted && k < kShiftFilterSolves; ++k) {
+            rhs = H * x;
+            lu.solve(rhs, y);
+            x -= y;
+        }
         if (!x.allFinite()) {
             out.singular = true;
             return out;
@@ -185,7 +248,7 @@ StaticNewtonResult static_newton(Equations& eq, double t, Eigen::VectorXd& lam, 
         const double size = x.head(n).lpNorm<Eigen::Infinity>();
         const bool held = satisfied();
         out.correction = size;
-        lam += s * x.tail(nc);
+        lam += s * x.segment(n, nc);
         const bool small = held && size <= tol * L;
         const bool balanced = by_force && held && (rnorm <= 1e-3 * tol * fscale || rnorm == 0.0);
         // converged: unless asked, the correction (round-off here) is not applied, so that an

@@ -62,53 +62,6 @@ class MultibodyStatic(Result):
     mass_flow: float
 
 
-def _null_space_step(S, J, F, c, elastic, cutoff=1e-9):
-    """Newton increment (dq, dlam) for S dq + J^T dlam = -F, J dq = -c by the null-space
-    method: dq = -J^+ c + T z with C_q T = 0 and (T^T S T) z = T^T (-F - S dq_c);
-    dlam from J^T dlam = -F - S dq (least squares).
-
-    The free motions T are split into the rigid motions of a mechanism (no elastic
-    coordinate moves: ``elastic`` masks those, e.g. a free hinge, or a toggle before its
-    joints carry load) and the rest. The rest is solved exactly; only the mechanism's
-    part, after condensing the rest out, goes through a pseudo-inverse (singular values
-    below ``cutoff`` times the largest of S dropped), so that its neutral directions are
-    left alone instead of wandering with the round-off. (A pseudo-inverse of the whole
-    T^T S T would also drop soft elastic directions: bending is ~1e-10 of the axial
-    stiffness of a nearly inextensible pipe.)"""
-    n = S.shape[0]
-    U, sv, Vt = np.linalg.svd(J) if J.shape[0] else (None, np.zeros(0), np.zeros((0, n)))
-    rank = int(np.sum(sv > 1e-12 * (sv[0] if len(sv) else 1.0)))
-    dq = -(Vt[:rank].T @ ((U[:, :rank].T @ c) / sv[:rank])) if rank else np.zeros(n)
-    T = Vt[rank:].T if J.shape[0] else np.eye(n)
-    # order T's columns: those that deform the bodies first, then the rigid mechanism motions
-    _, se, Qt = np.linalg.svd(T[elastic], full_matrices=True)
-    n_el = int(np.sum(se > 1e-8))
-    T = T @ Qt.T
-    Sr = T.T @ S @ T
-    r = T.T @ (-F - S @ dq)
-    e, m = slice(0, n_el), slice(n_el, T.shape[1])
-    z = np.zeros(T.shape[1])
-    if n_el:
-        See = Sr[e, e]
-        try:
-            Xe = np.linalg.solve(See, np.column_stack([r[e], Sr[e, m]]))
-        except np.linalg.LinAlgError:
-            Xe = np.linalg.pinv(See, rcond=1e-14) @ np.column_stack([r[e], Sr[e, m]])
-        schur, rhs = Sr[m, m] - Sr[m, e] @ Xe[:, 1:], r[m] - Sr[m, e] @ Xe[:, 0]
-    else:
-        Xe, schur, rhs = np.zeros((0, 1 + T.shape[1])), Sr, r
-    if T.shape[1] > n_el:
-        scale = np.abs(S).max()
-        U2, s2, V2t = np.linalg.svd(schur)
-        keep = s2 > cutoff * scale
-        z[m] = V2t[keep].T @ ((U2[:, keep].T @ rhs) / s2[keep])
-    if n_el:
-        z[e] = Xe[:, 0] - Xe[:, 1:] @ z[m]
-    dq = dq + T @ z
-    dlam = np.linalg.lstsq(J.T, -F - S @ dq, rcond=None)[0] if J.shape[0] else np.zeros(0)
-    return dq, dlam
-
-
 def _has_mechanism(J, elastic) -> bool:
     """Whether the joints leave a rigid motion of the bodies free (a hinge, a spherical
     joint, an unsupported body): J restricted to the frame coordinates is rank-deficient,
@@ -146,8 +99,8 @@ def static_equilibrium(system: MultibodySystem, *, state: Optional[MultibodyStat
     Raises:
         ValueError: bad options or a state that does not fit the system.
         ConvergenceError: with the load factor, iteration and residual where it failed.
-        SingularMatrixError: the increments converged but the residual exceeds
-            :data:`RESIDUAL_TOL` of the applied force level: the loads drive a mechanism.
+        SingularMatrixError: the residual exceeds :data:`RESIDUAL_TOL` of the applied
+            force level: the loads drive a mechanism.
     """
     steps = _checks.positive_int("load_steps", load_steps)
     tol = _checks.positive("tol", tol)
@@ -169,71 +122,60 @@ def static_equilibrium(system: MultibodySystem, *, state: Optional[MultibodyStat
         sl = system.body_slice(j)
         elastic[sl.start + 6:sl.stop] = True
     total = 0
-    # Without a mechanism the KKT matrix is regular: the core's Newton (static_newton, one
-    # sparse LU per iteration, the equations the integrator uses) instead of the null-space
-    # step's dense SVDs (cubic in the number of bodies), which remain for mechanisms and as
-    # the fallback.
-    sparse_path = not _has_mechanism(system.constraints(st, sparse=True)[1], elastic)
-    S = None
+    # The core's Newton (static_newton: one sparse LU of the KKT matrix per iteration, the
+    # equations the integrator uses). A mechanism's KKT matrix is singular: the frames' free
+    # motions are then penalised (not the residual) and the corrections filtered so that a
+    # free motion without stiffness keeps its value; if the loads drive it, the residual
+    # check below names the mechanism.
+    mechanism = _has_mechanism(system.constraints(st, sparse=True)[1], elastic)
+    failed = None
     for k in range(1, steps + 1):
         lf = k / steps
-        last = np.inf
-        if sparse_path:
-            out = system.core.static_newton(st.r, st.R, st.eta, st.lam, st.t, mdot, lf, tol, max_iterations)
+        out = system.core.static_newton(st.r, st.R, st.eta, st.lam, st.t, mdot, lf, tol, max_iterations,
+                                        mechanism=mechanism)
+        total += out["iterations"]
+        if (out["singular"] or out["diverged"]) and not mechanism:
+            # (nearly) singular: a mechanism after all, from here with the penalty
+            mechanism = True
+            out = system.core.static_newton(st.r, st.R, st.eta, st.lam, st.t, mdot, lf, tol, max_iterations,
+                                            mechanism=True)
             total += out["iterations"]
-            if out["converged"]:
-                r, R, eta, _, _, lam, t_ = out["state"]
-                st = MultibodyState(r, R, eta, np.zeros_like(eta), np.zeros_like(eta), lam, t_)
-                continue
-            if not (out["singular"] or out["diverged"]):
-                raise ConvergenceError(f"static solve did not converge at load factor {lf:.3g} after "
-                                       f"{max_iterations} iterations (last increment {out['correction']:.3g})",
-                                       load_factor=lf, iteration=max_iterations, residual=out["residual"],
-                                       mass_flow=mdot)
-            sparse_path = False  # (nearly) singular, a mechanism after all: the null-space step from here
-        for it in range(max_iterations):
-            F, c, J, S = system.evaluate(st, mass_flow=mdot, load_factor=lf, gravity_factor=lf)
-            where = dict(load_factor=lf, iteration=it, mass_flow=mdot)
-            if not (np.all(np.isfinite(S)) and np.all(np.isfinite(F)) and np.all(np.isfinite(c))):
-                raise ConvergenceError(f"static solve: non-finite tangent or residual at load factor {lf:.3g}, "
-                                       f"iteration {it}", **where)
-            dq, dlam = _null_space_step(S, J, F, c, elastic)
-            total += 1
-            if not (np.all(np.isfinite(dq)) and np.all(np.isfinite(dlam))):
-                raise ConvergenceError(f"static solve: non-finite increment at load factor {lf:.3g}, iteration {it}",
-                                       residual=float(np.abs(F).max()), **where)
-            st.lam[:] += dlam
-            size = np.abs(dq).max()
-            satisfied = np.abs(c).max() <= 1e-6 * L
-            if satisfied and size <= tol * L:
-                # converged; the increment (round-off here) is not applied, so that an exact
-                # state, such as a straight pipe under flow, keeps its exact symmetry
-                break
-            system.increment(st, dq)
-            if satisfied and size >= 0.5 * last and size <= 1e3 * tol * L:  # stalled at round-off
-                break
-            last = size
-        else:
-            raise ConvergenceError(f"static solve did not converge at load factor {lf:.3g} after {max_iterations} "
-                                   f"iterations (last increment {np.abs(dq).max():.3g}, constraint violation "
-                                   f"{np.abs(c).max():.3g} m)", load_factor=lf, iteration=max_iterations,
-                                   residual=float(np.abs(F).max()), mass_flow=mdot)
+        if out["converged"]:
+            r, R, eta, _, _, lam, t_ = out["state"]
+            st = MultibodyState(r, R, eta, np.zeros_like(eta), np.zeros_like(eta), lam, t_)
+            continue
+        if not mechanism:
+            raise _not_converged(lf, out, max_iterations, mdot)
+        failed = (lf, out)  # the loads may drive the mechanism (its free motion left alone): the residual says
+        break
     F, _, _, _ = system.evaluate(st, mass_flow=mdot, tangent=False, jacobian=False)
     res = float(np.abs(F).max())
     if not res <= RESIDUAL_TOL * applied:
         # round-off of the stiffest forces: ~eps |S| L (nearly inextensible bodies: EA ~ 1e10 EI)
-        S = system.evaluate(st, mass_flow=mdot)[3] if S is None else S
+        S = system.evaluate(st, mass_flow=mdot)[3]
         roundoff = 1e3 * np.finfo(float).eps * float(np.abs(S).max()) * L
     if not res <= RESIDUAL_TOL * applied and not res <= roundoff:
         worst = int(np.argmax(np.abs(F)))
         body = int(np.searchsorted(system.offsets, worst, side="right")) - 1
+        how = "the increments converged but" if failed is None else "the increments did not converge and"
         raise SingularMatrixError(
-            f"static solve: the increments converged but the residual {res:.3g} is {res / applied:.3g} of the applied "
+            f"static solve: {how} the residual {res:.3g} is {res / applied:.3g} of the applied "
             f"force level {applied:.3g} N (largest at body {body}): the loads drive a mechanism, a rigid motion the "
             f"joints leave free (e.g. about a spherical joint or a free hinge) without stiffness here; there is no "
             f"static equilibrium in that direction: support it", load_factor=1.0, iteration=total, residual=res,
             mass_flow=mdot)
+    if failed is not None:
+        raise _not_converged(*failed, max_iterations, mdot)
     return MultibodyStatic(st, total, res, mdot)
+
+
+def _not_converged(lf, out, max_iterations, mdot) -> ConvergenceError:
+    """The error of a load step's static_newton that did not converge (its dict ``out``)."""
+    why = ("a singular KKT matrix" if out["singular"] else "a correction beyond the model" if out["diverged"]
+           else f"after {max_iterations} iterations")
+    return ConvergenceError(f"static solve did not converge at load factor {lf:.3g} ({why}; last increment "
+                            f"{out['correction']:.3g})", load_factor=lf, iteration=out["iterations"],
+                            residual=out["residual"], mass_flow=mdot)
 
 
 @dataclass(frozen=True)

@@ -128,11 +128,20 @@ class MultibodyEquations final : public Equations {
     MbEvaluation ev_;
 };
 
+// The penalty on a mechanism's free frame motions, relative to the stiffness block's
+// largest magnitude (StaticNewtonOptions::shift): free motions much softer are left alone
+// (the dense null-space step's pseudo-inverse cut at 1e-9), stiffer ones (a pendulum's
+// gravity) converge at the rate 4 penalty / their stiffness. 1e-10 slowed a chain of
+// spherical joints to a crawl (its spins' penalty met the bodies' torsion); relative to
+// the bodies' softest stiffness instead, a ball-jointed pipe's weight walked it to hang.
+constexpr double kMechanismShift = 1e-11;
+
 // Static equilibrium of the bodies from the state s (its frames, modal coordinates and
 // multipliers; updated) under the mass flow mdot [kg/s] and the loads and gravity scaled by
-// load_factor: static_newton on the system's equations.
+// load_factor: static_newton on the system's equations; with mechanism (the joints leave a
+// rigid motion free) the frames' free motions penalised by kMechanismShift.
 StaticNewtonResult multibody_static(const MultibodySystemCore& sys, MbState& s, double mdot, double load_factor,
-                                    double tol, int max_iterations);
+                                    double tol, int max_iterations, bool mechanism = false);
 
 // The linearised equations (linear_matrices) of the bodies about the state s (its rates and
 // multipliers) under the mass flow mdot [kg/s].

@@ -224,6 +224,17 @@ struct StaticNewtonOptions {
     // Below this many unknowns the tangent is factorised densely (FixedPatternLU); < 0:
     // kDenseLuBelow, the integrators' crossover.
     int dense_below = -1;
+    // A mechanism (joints that leave a rigid motion free: a free hinge, a spherical joint)
+    // has a singular KKT matrix. Empty, or n weights (nonzero on the coordinates S whose
+    // free motions make the mechanism: the bodies' frames): the stiffness is penalised by
+    // shift_i s (s the stiffness block's largest magnitude) on the motions of S that the
+    // constraints leave free, which makes the KKT matrix regular, and the correction is
+    // filtered by three more solves with the same LU, so that a free motion much softer than
+    // the penalty (loaded or not) keeps its value, as a truncated pseudo-inverse keeps it,
+    // and one much stiffer converges at the rate 4 penalty / its stiffness. The residual is
+    // not penalised, so neither is the equilibrium; a loaded free motion keeps its residual
+    // (the caller judges it). Not with a border.
+    Eigen::VectorXd shift;
 };
 struct StaticNewtonResult {
     bool converged = false, singular = false;
