@@ -5,7 +5,7 @@ import pytest
 
 import pipeflex as pf
 from helpers import on_clamped_hub
-from pipeflex import scenes
+from pipeflex import coupled, scenes
 from pipeflex.coupled import CoupledSystem, simulate
 from pipeflex.multibody import MultibodyBuilder, flexible_body
 from pipeflex.seeds.seed002.studies import tip_deflection
@@ -183,13 +183,13 @@ def test_pf_simulate_takes_a_multibody_system():
 TIP_SECTION = pf.PipeSection(EI=10.0, pipe_mass=8.0, fluid_mass=2.0, EA=1e5, rotary_inertia=(1e-3, 0.0, 0.0))
 
 
-def tip_loaded_arm(n, *, clamped, mass_flow=0.0):
+def tip_loaded_arm(n, *, clamped, mass_flow=0.0, force=1.5):
     """Seed 000's Fig. 3 cantilever (L = 1 m, EI = 10 N m^2, EA = 1e5 N) of n elements under
-    a 1.5 N tip force: (model, root node, tip node)."""
+    a tip force [N] (1.5 N): (model, root node, tip node)."""
     b = pf.ModelBuilder()
     n0 = b.add_node((0.0, 0.0, 0.0))
     nodes = b.add_line(n0, (1.0, 0.0, 0.0), n, TIP_SECTION)
-    b.add_load(nodes[-1], force=(0.0, 1.5, 0.0))
+    b.add_load(nodes[-1], force=(0.0, force, 0.0))
     if clamped:
         b.clamp(n0)
     return b.build(mass_flow=mass_flow, floating=not clamped), n0, nodes[-1]
@@ -209,6 +209,49 @@ def test_coupled_statics_take_the_mixed_newton():
         tips.append(st.state.q[6 * tip + 1])
     assert counts[1] <= counts[0] + 1 <= 6, counts
     assert tips[1] == pytest.approx(tips[0], rel=1e-5)  # 0.0499 m: P L^3 / 3 EI = 0.05 m
+
+
+def test_a_failed_coupled_load_step_is_halved(monkeypatch):
+    """The coupled statics step the load on the package's one continuation driver (as
+    element models): the 8-element cantilever on a clamped hub under a 50 N tip force
+    (tip at 0.61 m, 0.72 m) diverges in one load step (main before this test raised
+    there); the step is halved, 0.5 and 1 converge, and the equilibrium is the one of two
+    load steps, bit for bit."""
+    calls = []
+    solve = coupled._core.coupled_static
+
+    def recorded(*args):
+        out = solve(*args)
+        calls.append((args[10], bool(out["converged"]), out["iterations"]))
+        return out
+    arm, root, tip = tip_loaded_arm(8, clamped=False, force=50.0)
+    cs = on_clamped_hub(arm, root, stiffness_ratio=1e4)
+    monkeypatch.setattr(coupled._core, "coupled_static", recorded)
+    st = pf.static_equilibrium(cs, load_steps=1)
+    assert [c[:2] for c in calls] == [(1.0, False), (0.5, True), (1.0, True)]
+    assert st.iterations == sum(c[2] for c in calls)
+    two = pf.static_equilibrium(cs, load_steps=2)
+    np.testing.assert_array_equal(st.state.q, two.state.q)
+    np.testing.assert_array_equal(st.coupling_forces, two.coupling_forces)
+    np.testing.assert_array_equal(st.body_state.eta, two.body_state.eta)
+    assert st.state.q[6 * tip:6 * tip + 2] == pytest.approx([0.609, 0.717], abs=1e-3)
+
+
+def test_coupled_max_bisections_is_honoured():
+    """max_bisections=0: the diverging full step of the 50 N cantilever raises, with the
+    load factor, iteration, residual and flow of the failed step; a negative count is a
+    ValueError naming it."""
+    arm, root, _ = tip_loaded_arm(8, clamped=False, force=50.0)
+    cs = on_clamped_hub(arm, root, stiffness_ratio=1e4)
+    with pytest.raises(pf.ConvergenceError, match=r"load factor 1 \(from 0, after 0 halvings") as caught:
+        pf.static_equilibrium(cs, max_bisections=0)
+    e = caught.value
+    assert (e.load_factor, e.mass_flow) == (1.0, 0.0)
+    assert e.iteration >= 1 and e.residual > 0.0
+    with pytest.raises(pf.ConvergenceError, match=r"load factor 0.5 \(from 0, after 1 halvings"):
+        coupled.static_equilibrium(cs, load_steps=1, max_bisections=1, max_iterations=2)
+    with pytest.raises(ValueError, match="max_bisections"):
+        pf.static_equilibrium(cs, max_bisections=-1)
 
 
 def test_static_cantilever_on_a_clamped_hub_equals_the_clamped_elements():

@@ -30,6 +30,7 @@ import numpy as np
 
 from . import _checks, _core
 from .analysis import constrained
+from .analysis._continuation import follow
 from .analysis.transient import TransientResult
 from .model import Model
 from .multibody.analysis import MAX_STEPS, MultibodyResult
@@ -133,10 +134,10 @@ class CoupledSystem:
 
     def _static(self, *, state=None, mass_flow=None, load_steps=1, **options) -> "CoupledStatic":
         """:func:`pipeflex.static_equilibrium`'s entry for a coupled system."""
-        unknown = set(options) - {"tol", "max_iterations"}
+        unknown = set(options) - {"tol", "max_iterations", "max_bisections"}
         if unknown:
             raise ValueError(f"unknown option(s) {sorted(unknown)} for a CoupledSystem's static solve; "
-                             f"valid: load_steps, mass_flow, max_iterations, state, tol")
+                             f"valid: load_steps, mass_flow, max_bisections, max_iterations, state, tol")
         return static_equilibrium(self, state=state, mass_flow=mass_flow, load_steps=load_steps, **options)
 
     def _linearize(self, state=None, *, mass_flow=None) -> "CoupledLinearization":
@@ -219,14 +220,34 @@ class CoupledStatic(Result):
     mass_flow: float
 
 
+@dataclass
+class _Iterate:
+    """The unknowns of a coupled static solve: the element state (a ``_core.State``,
+    updated in place by the core), the bodies' coordinates and joint multipliers, and the
+    couplings' multipliers (:func:`~pipeflex.analysis._continuation.follow`'s state)."""
+
+    elements: object
+    r: np.ndarray
+    R: np.ndarray
+    eta: np.ndarray
+    lam: np.ndarray
+    lam_c: np.ndarray
+
+    def copy(self) -> "_Iterate":
+        # the core returns new body arrays, so only the element state, solved in place, is copied
+        return _Iterate(self.elements.copy(), self.r, self.R, self.eta, self.lam, self.lam_c)
+
+
 def static_equilibrium(system: CoupledSystem, *, state: Optional["CoupledStatic"] = None,
                        mass_flow: Optional[float] = None, load_steps: int = 1,
-                       tol: float = 1e-10, max_iterations: int = 30) -> CoupledStatic:
+                       tol: float = 1e-10, max_iterations: int = 30, max_bisections: int = 8) -> CoupledStatic:
     """Static equilibrium of a :class:`CoupledSystem` from its assembly configuration (or
     from ``state``): the core's Newton on the scaled KKT matrix of the element and body
     equations with their joints (one sparse LU per iteration), loads and gravity applied
-    in ``load_steps`` increments; converged when the correction is below ``tol`` model
-    sizes.
+    in ``load_steps`` increments (halved, at most ``max_bisections`` times in all, where
+    Newton fails: the package's one load stepping,
+    :func:`~pipeflex.analysis._continuation.follow`); converged when the correction is
+    below ``tol`` model sizes.
 
     Args:
         state: a :class:`CoupledStatic` to start from (e.g. the equilibrium at another
@@ -235,53 +256,68 @@ def static_equilibrium(system: CoupledSystem, *, state: Optional["CoupledStatic"
         load_steps: increments of the loads and gravity.
         tol: Newton tolerance on the correction, relative to the model size [-].
         max_iterations: Newton iterations per load step.
+        max_bisections: halvings of the increment allowed in all.
 
     Raises:
-        SingularMatrixError: the KKT matrix is singular (a mechanism: a rigid motion that
-            neither supports, joints nor couplings lock, or a motion locked twice).
-        ConvergenceError: no convergence (load factor, iterations, residual).
+        SingularMatrixError: the KKT matrix is singular, or Newton's correction leaves the
+            model at every halving (a mechanism: a rigid motion that neither supports,
+            joints nor couplings lock, or a motion locked twice).
+        ConvergenceError: no convergence after the halvings; ``load_factor`` the failed
+            step's, ``iteration``, ``residual`` [N] and ``mass_flow`` [kg/s] its own.
     """
     if not isinstance(system, CoupledSystem):
         raise ValueError("system must be a pipeflex.CoupledSystem")
     steps = _checks.positive_int("load_steps", load_steps)
     tol = _checks.positive("tol", tol)
     max_iterations = _checks.positive_int("max_iterations", max_iterations)
+    max_bisections = _checks.non_negative_int("max_bisections", max_bisections)
     model, bodies = system.model, system.bodies
     mdot = model.mass_flow if mass_flow is None else _checks.finite("mass_flow", mass_flow)
     opt = _core.TransientOptions()
     opt.length_scale = max(float(np.ptp(model.positions, axis=0).max()), bodies.length_scale, 1e-3)
     if state is None:
-        st = as_core(model, None)
         bs = bodies.initial_state()
-        lam_c = np.zeros(system.n_constraints - bodies.n_constraints)
+        start = _Iterate(as_core(model, None), bs.r, bs.R, bs.eta, bs.lam,
+                         np.zeros(system.n_constraints - bodies.n_constraints))
     elif isinstance(state, CoupledStatic):
-        st, bs, lam_c = as_core(model, state.state), state.body_state, np.array(state.coupling_forces, float)
+        bs = state.body_state
+        start = _Iterate(as_core(model, state.state), bs.r, bs.R, bs.eta, bs.lam,
+                         np.array(state.coupling_forces, float))
     else:
         raise TypeError(f"state must be a CoupledStatic (pipeflex.static_equilibrium(system)), "
                         f"got {type(state).__name__}")
-    r, R, eta, lam = bs.r, bs.R, bs.eta, bs.lam
+    load, couplings = model.load_state(mass_flow=mdot), system.core_couplings()
     total = 0
-    for k in range(1, steps + 1):
-        lf = k / steps
-        out = _core.coupled_static(model.core, st, model.load_state(mass_flow=mdot), bodies.core, r, R, eta, lam,
-                                   system.core_couplings(), lam_c, lf, opt, tol, max_iterations)
+
+    def solve(trial, lf):
+        nonlocal total
+        out = _core.coupled_static(model.core, trial.elements, load, bodies.core, trial.r, trial.R, trial.eta,
+                                   trial.lam, couplings, trial.lam_c, lf, opt, tol, max_iterations)
         total += out["iterations"]
-        r, R, eta, _, _, lam, _ = out["bodies"]
-        lam_c = np.array(out["coupling_multipliers"])
+        trial.r, trial.R, trial.eta, _, _, trial.lam, _ = out["bodies"]
+        trial.lam_c = np.array(out["coupling_multipliers"])
+        return bool(out["converged"]), out
+
+    way = follow(solve, start, start=0.0, end=1.0, steps=steps, halving="step", max_failures=max_bisections)
+    out = way.outcome
+    if not way.done:
+        lf = way.target
+        where = f"at load factor {lf:.6g} (from {way.t:.6g}, after {way.failures - 1} halvings of the load step)"
         if out["singular"] or out["diverged"]:
-            what = "singular KKT matrix" if out["singular"] else \
-                f"a correction of {out['correction']:.3g} m, beyond the model's size (a nearly singular tangent)"
-            raise SingularMatrixError(f"coupled static solve: {what} at load factor {lf:.3g}, iteration "
-                                      f"{out['iterations']}: a mechanism (a rigid motion that supports, joints and "
-                                      f"couplings leave free, loaded) or a motion locked twice", load_factor=lf,
+            what, large = ("singular KKT matrix", "") if out["singular"] else (
+                f"a correction of {out['correction']:.3g} m, beyond the model's size (a nearly singular tangent)",
+                ", or a load step too large (more load_steps or max_bisections)")
+            raise SingularMatrixError(f"coupled static solve: {what} {where}, iteration {out['iterations']}: a "
+                                      f"mechanism (a rigid motion that supports, joints and couplings leave free, "
+                                      f"loaded) or a motion locked twice{large}", load_factor=lf,
                                       iteration=out["iterations"], residual=out["residual"], mass_flow=mdot)
-        if not out["converged"]:
-            raise ConvergenceError(f"coupled static solve did not converge at load factor {lf:.3g} after "
-                                   f"{max_iterations} iterations (last correction {out['correction']:.3g}, residual "
-                                   f"{out['residual']:.3g} N)", load_factor=lf, iteration=max_iterations,
-                                   residual=out["residual"], mass_flow=mdot)
-    zero = np.zeros_like(eta)
-    return CoupledStatic(State.from_core(st, model), MultibodyState(r, R, eta, zero, zero.copy(), lam, 0.0), lam_c,
+        raise ConvergenceError(f"coupled static solve did not converge {where} after {max_iterations} iterations "
+                               f"(last correction {out['correction']:.3g}, residual {out['residual']:.3g} N)",
+                               load_factor=lf, iteration=max_iterations, residual=out["residual"], mass_flow=mdot)
+    end = way.state
+    zero = np.zeros_like(end.eta)
+    return CoupledStatic(State.from_core(end.elements, model),
+                         MultibodyState(end.r, end.R, end.eta, zero, zero.copy(), end.lam, 0.0), end.lam_c,
                          total, float(out["residual"]), mdot)
 
 

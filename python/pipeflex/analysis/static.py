@@ -95,7 +95,8 @@ def static_equilibrium(model, *, state=None, mass_flow: Optional[float] = None, 
             point below t = 1: ``load_factor`` [-] of the limit point, ``reached_state``
             there, ``mass_flow`` its mdot [kg/s].
 
-    A :class:`~pipeflex.CoupledSystem` is solved by :func:`pipeflex.coupled.static_equilibrium`.
+    A :class:`~pipeflex.CoupledSystem` is solved by :func:`pipeflex.coupled.static_equilibrium`
+    (``load_steps``, ``max_bisections``, ``tol``, ``max_iterations``; not ``path``, ``from_mass_flow``).
     A :class:`~pipeflex.multibody.MultibodySystem` is solved by
     :func:`pipeflex.multibody.static_equilibrium` (same options).
     """
@@ -103,7 +104,8 @@ def static_equilibrium(model, *, state=None, mass_flow: Optional[float] = None, 
     if own is not None:
         if path != "auto" or from_mass_flow is not None:
             raise NotImplementedError("path and from_mass_flow for a CoupledSystem")
-        return own(state=state, mass_flow=mass_flow, load_steps=load_steps, tol=tol, max_iterations=max_iterations)
+        return own(state=state, mass_flow=mass_flow, load_steps=load_steps, tol=tol, max_iterations=max_iterations,
+                   max_bisections=max_bisections)
 
     if path not in ("auto", "load", "arclength"):
         raise ValueError(f"path must be 'auto', 'load' or 'arclength', got {path!r}")
