@@ -268,7 +268,8 @@ class ModelBuilder:
         up_v = None if up is None else _checks.unit_vector("up", up)
         tp = chord if tangent_p is None else _checks.unit_vector("tangent_p", tangent_p)
         tq = chord if tangent_q is None else _checks.unit_vector("tangent_q", tangent_q)
-        Ep, Eq = _triad(tp, up_v), _triad(tq, up_v)
+        Ep = _triad(tp, up_v)
+        Eq = Ep if tangent_p is None and tangent_q is None else _triad(tq, up_v)  # straight: one triad
         if length is not None:
             l0 = _checks.positive("length", length)
         elif tangent_p is None and tangent_q is None:
@@ -471,12 +472,13 @@ class ModelBuilder:
                 raise ValueError(f"element {e['p']}->{e['q']} carries a mass flow but its fluid_mass is 0")
         known = {}  # nodes with the same constraint rows share one basis (e.g. all planar ANCF nodes)
         bases = [self._basis(i, known) for i in range(len(self._positions))]
-        core, infos = self._make_core(bases, self._hub)
+        data = [self._element_data(e) for e in self._elements]  # both cores copy them
+        core, infos = self._make_core(bases, self._hub, data)
         # the same model without supports (planar ANCF nodes keep z, z' fixed), for
         # analyses that need the unconstrained matrices (rotating frame)
         free_bases = [np.eye(6)[:, [0, 1, 3, 4]] if i in self._ancf_nodes else np.eye(6)
                       for i in range(len(self._positions))]
-        free_core, _ = self._make_core(free_bases, None)
+        free_core, _ = self._make_core(free_bases, None, data)
         model = Model(core, np.array(self._positions), tuple(infos), bases, mdot, self._gravity.copy(),
                       hub=self._hub, ancf_nodes=tuple(sorted(self._ancf_nodes)),
                       free=(free_core, free_bases), description=_snapshot(vars(self)))
@@ -495,7 +497,7 @@ class ModelBuilder:
                                  f"not connected to a supported node: add clamp/pin/hinge/fix on it so it cannot "
                                  f"drift")
 
-    def _make_core(self, bases, hub):
+    def _make_core(self, bases, hub, data):
         core = _core.Model()
         for i, x in enumerate(self._positions):
             if i in self._ancf_nodes:
@@ -503,8 +505,8 @@ class ModelBuilder:
             else:
                 core.add_node(x)
         infos = []
-        for e in self._elements:
-            core.add_pipe(e["p"], e["q"], self._element_data(e))
+        for e, d in zip(self._elements, data):
+            core.add_pipe(e["p"], e["q"], d)
             infos.append(ElementInfo((e["p"], e["q"]), e["section"], e["l0"], e["flow_factor"]))
         for e in self._ancf:
             d = _core.AncfElementData()
