@@ -4,6 +4,7 @@ import numpy as np
 import pytest
 
 import pipeflex as pf
+from pipeflex import scenes
 from pipeflex.multibody import MultibodyBuilder, flexible_body, simulate, static_equilibrium
 
 L, EI, MU = 0.8, 50.0, 2.0  # m, N m^2, kg/m
@@ -65,18 +66,18 @@ def test_hinge_and_roller_make_a_simply_supported_beam():
 
 # -- mechanisms in the core's static Newton ---------------------------------------------
 
-def _hinged_chain(n, clamp=False, gravity=(0.0, 0.0, -9.81)):
-    """n bodies rigidly joined along x (4 m), the first on a ground hinge about z (or
-    clamped); gravity along -z leaves the hinge's rotation unloaded. EA = 1e3 EI: the
-    residual check's round-off allowance (1e3 eps |S| L) stays below the weight."""
-    sec = pf.PipeSection(EI=1e5, EA=1e8, pipe_mass=8.0, fluid_mass=2.0)
+def _hinged_chain(n, clamp=False, gravity=(0.0, 0.0, -9.81), axis=(0.0, 0.0, 1.0), EA=1e8):
+    """n bodies rigidly joined along x (4 m), the first on a ground hinge about ``axis``
+    (default z; or clamped); gravity along -z leaves a hinge about z unloaded. EA = 1e3 EI
+    (None: the default, 1e10 EI)."""
+    sec = pf.PipeSection(EI=1e5, pipe_mass=8.0, fluid_mass=2.0, **({} if EA is None else {"EA": EA}))
     body = flexible_body(length=4.0 / n, n_elements=4, section=sec)
     b = MultibodyBuilder()
     ids = [b.add_body(body, position=(4.0 / n * (k + 0.5), 0.0, 0.0)) for k in range(n)]
     if clamp:
         b.fix(ids[0], "start")
     else:
-        b.hinge(ids[0], "start", (0.0, 0.0, 1.0))
+        b.hinge(ids[0], "start", axis)
     for k in range(n - 1):
         b.rigid(ids[k], "end", ids[k + 1], "start")
     b.set_gravity(gravity)
@@ -125,3 +126,56 @@ def test_driven_hinge_raises_the_mechanism_error():
     the residual check names the mechanism."""
     with pytest.raises(pf.SingularMatrixError, match=r"residual .* of the applied force level .*mechanism"):
         static_equilibrium(_hinged_chain(4, gravity=(0.0, -9.81, 0.0)))
+
+
+@pytest.mark.parametrize("n", [2, 3, 4])
+def test_weight_turning_a_hinge_raises_with_nearly_inextensible_bodies(n):
+    """A ground hinge about the horizontal y axis, gravity along -z: the weight turns the
+    chain, there is no equilibrium near the assembly. With the default EA (1e10 EI) the
+    old check (the residual against 1e3 eps |S|_max L, the axial stiffness' round-off)
+    let it return with a residual of 110 N (4 bodies) and no error. The residual's
+    generalised force on the free rotation is 0.38 of the applied force level."""
+    with pytest.raises(pf.SingularMatrixError, match=r"residual along the rigid motions .* of the applied force "
+                                                     r"level .*the loads drive a mechanism"):
+        static_equilibrium(_hinged_chain(n, axis=(0.0, 1.0, 0.0), EA=None))
+
+
+@pytest.mark.parametrize("n", [2, 3, 4])
+def test_unloaded_vertical_hinge_converges_with_nearly_inextensible_bodies(n):
+    """The same chains on a hinge about the vertical z axis: the weight does no work on
+    its rotation, the chain sags as if clamped (the generalised force on the free rotation
+    at the result: 1e-22 N)."""
+    hinged = static_equilibrium(_hinged_chain(n, EA=None))
+    clamped = static_equilibrium(_hinged_chain(n, clamp=True, EA=None))
+    for j in range(n):
+        np.testing.assert_allclose(hinged.state.r[j], clamped.state.r[j], atol=1e-10)
+    assert clamped.state.r[-1][2] < -1e-2
+
+
+def test_flow_turning_a_bent_pipe_on_a_hinge_raises():
+    """Seed 004's curved pipe on its hinge about z: at rest an equilibrium; with flow the
+    jet's reaction at the bent end turns it (a sprinkler), no static equilibrium."""
+    system = scenes.ffrf_curved_pipe(E=9.585e9, n_bodies=2, elements_per_body=4)
+    assert static_equilibrium(system, mass_flow=0.0).residual < 1e-12
+    with pytest.raises(pf.SingularMatrixError, match=r"the loads drive a mechanism"):
+        static_equilibrium(system, mass_flow=0.5)
+
+
+def test_failed_load_step_is_halved():
+    """Clamped body, a tip force that bends it by 17 % of its length: Newton does not
+    converge in 3 iterations from the assembly; halved steps (the one continuation,
+    max_bisections as pf.static_equilibrium's) reach the one-step result with 30."""
+    b = MultibodyBuilder()
+    j = b.add_body(_body(), position=(L / 2, 0.0, 0.0))
+    b.fix(j, "start")
+    b.add_load(j, "end", force=(0.0, 40.0, 0.0))
+    s = b.build()
+    with pytest.raises(pf.ConvergenceError, match="did not converge at load factor 1 "):
+        static_equilibrium(s, max_iterations=3, max_bisections=0)
+    halved = static_equilibrium(s, max_iterations=3)
+    whole = static_equilibrium(s)
+    np.testing.assert_allclose(s.node_position(halved.state, j, "end"), s.node_position(whole.state, j, "end"),
+                               atol=1e-9 * L)
+    for solve in (static_equilibrium, pf.static_equilibrium):  # the latter passes it on
+        with pytest.raises(ValueError, match="max_bisections"):
+            solve(s, max_bisections=-1)

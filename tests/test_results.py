@@ -319,7 +319,9 @@ def test_systems_pickle_and_deepcopy(make, copier):
     assert s2 is not s and s2.core is not s.core
     assert s2.info == s.info and s2.mass_flow == s.mass_flow and s2.n_dofs == s.n_dofs
     assert_same(s.initial_state(), s2.initial_state())
-    st, st2 = mb.static_equilibrium(s, load_steps=2), mb.static_equilibrium(s2, load_steps=2)
+    # at rest: small_system's flow turns its hinge (the jet's reaction at the bent end, a sprinkler),
+    # there is no static equilibrium with it
+    st, st2 = (mb.static_equilibrium(x, load_steps=2, mass_flow=0.0) for x in (s, s2))
     assert_same(st, st2)
     assert_same(mb.linearize(s, st.state), mb.linearize(s2, st2.state))
     runs = [mb.simulate(x, 0.005, step=1e-3, state=st.state, n_outputs=6) for x in (s, s2)]

@@ -117,7 +117,8 @@ def static_equilibrium(model, *, state=None, mass_flow: Optional[float] = None, 
         if from_mass_flow is not None:
             raise NotImplementedError("from_mass_flow (flow continuation) for a MultibodySystem")
         return multibody_static(model, state=state, mass_flow=mass_flow, load_steps=load_steps, tol=tol,
-                                max_iterations=max(_checks.positive_int("max_iterations", max_iterations), 30))
+                                max_iterations=max(_checks.positive_int("max_iterations", max_iterations), 30),
+                                max_bisections=max_bisections)
     require_model(model)
     load_steps = _checks.positive_int("load_steps", load_steps)
     tol = _checks.positive("tol", tol)

@@ -26,6 +26,7 @@ import scipy.sparse.linalg as spla
 
 from .. import _checks
 from ..analysis import constrained
+from ..analysis._continuation import follow
 from .._options import renamed
 from ..time_functions import time_function
 from ..errors import ConvergenceError, SingularMatrixError
@@ -77,16 +78,43 @@ def _has_mechanism(J, elastic) -> bool:
     return not pivots.min() > 1e-12 * pivots.max()
 
 
+def _free_motion_force(system: MultibodySystem, J, F: np.ndarray, frame: np.ndarray) -> np.ndarray:
+    """The residual ``F``'s generalised force on the free rigid motions: its frame part
+    projected off the range of C_S^T (C_S the columns ``frame`` of the sparse constraint
+    Jacobian ``J``), the part no joint reaction can balance (what the core's mechanism
+    penalty acts on). Rotations are measured as arcs of the model's size L, so that it is in
+    N throughout (moments / L). One sparse LU of C_S C_S^T (banded for a chain: linear in
+    the bodies), regularised by 1e-12 of its largest diagonal where C_S's rows are
+    dependent (a body clamped at both ends)."""
+    L = system.length_scale
+    arc = np.tile([1.0, 1.0, 1.0, L, L, L], len(system.bodies))
+    f = F[frame] / arc
+    A = sp.csc_matrix(J)[:, np.flatnonzero(frame)] @ sp.diags(1.0 / arc)
+    if A.shape[0] == 0:
+        return f
+    G = (A @ A.T).tocsc()
+    delta = 1e-12 * float(G.diagonal().max())
+    if not delta > 0.0:  # no constraint acts on the frames
+        return f
+    mu = spla.splu((G + delta * sp.identity(G.shape[0], format="csc")).tocsc()).solve(A @ f)
+    return f - A.T @ mu
+
+
 def static_equilibrium(system: MultibodySystem, *, state: Optional[MultibodyState] = None,
                        mass_flow: Optional[float] = None, t: float = 0.0, load_steps: int = 1,
-                       tol: float = 1e-10, max_iterations: int = 30) -> MultibodyStatic:
+                       tol: float = 1e-10, max_iterations: int = 30, max_bisections: int = 8) -> MultibodyStatic:
     """Static equilibrium (at rest) under the loads at time ``t``, gravity and the flow.
 
-    Loads and gravity are applied in ``load_steps`` increments; Newton's method on the
-    coordinates and the Lagrange multipliers, converged when the increment is below
-    ``tol`` times the model's size (``system.length_scale``: the assembly's largest extent) (or
-    stalls at round-off within 1e3 tol).
-    Neutral directions of a mechanism (a free hinge) keep their assembly value.
+    Loads and gravity are applied in ``load_steps`` equal increments (halved
+    automatically, at most ``max_bisections`` times, when Newton fails: the one
+    continuation, :func:`pipeflex.analysis._continuation.follow`, as
+    :func:`pipeflex.static_equilibrium`'s); Newton's method on the coordinates and the
+    Lagrange multipliers, converged when the increment is below ``tol`` times the model's
+    size (``system.length_scale``: the assembly's largest extent) (or stalls at round-off
+    within 1e3 tol).
+    Neutral directions of a mechanism (a free hinge) keep their assembly value; loads that
+    drive one (a generalised force on a free rigid motion above :data:`RESIDUAL_TOL` of the
+    applied force level) raise.
 
     Args:
         state: starting guess (default: the assembly configuration).
@@ -95,16 +123,19 @@ def static_equilibrium(system: MultibodySystem, *, state: Optional[MultibodyStat
         load_steps: increments of the loads and gravity.
         tol: Newton tolerance on the increment, relative to the model's size [-].
         max_iterations: Newton iterations per load step.
+        max_bisections: halvings of the increment allowed in all.
 
     Raises:
         ValueError: bad options or a state that does not fit the system.
         ConvergenceError: with the load factor, iteration and residual where it failed.
-        SingularMatrixError: the residual exceeds :data:`RESIDUAL_TOL` of the applied
-            force level: the loads drive a mechanism.
+        SingularMatrixError: the loads drive a mechanism: the residual's generalised force
+            on the rigid motions the joints leave free exceeds :data:`RESIDUAL_TOL` of the
+            applied force level (no static equilibrium near the assembly).
     """
     steps = _checks.positive_int("load_steps", load_steps)
     tol = _checks.positive("tol", tol)
     max_iterations = _checks.positive_int("max_iterations", max_iterations)
+    max_bisections = _checks.non_negative_int("max_bisections", max_bisections)
     t = _checks.finite("t", t)
     mdot = system.mass_flow if mass_flow is None else _checks.finite("mass_flow", mass_flow)
     if state is not None:
@@ -112,61 +143,70 @@ def static_equilibrium(system: MultibodySystem, *, state: Optional[MultibodyStat
     st = replace(system.initial_state() if state is None else state.copy(), t=t)
     st.v[:] = 0.0
     st.a[:] = 0.0
-    L = system.length_scale
     # the applied force level (loads, gravity, flow at the start, multipliers 0), to judge
-    # the final residual
+    # the residual along the free motions
     start = replace(st, lam=np.zeros_like(st.lam))
     applied = float(np.abs(system.evaluate(start, mass_flow=mdot, tangent=False, jacobian=False)[0]).max(initial=0.0))
-    elastic = np.zeros(system.n_coordinates, bool)
+    frame = np.zeros(system.n_coordinates, bool)
     for j in range(len(system.bodies)):
-        sl = system.body_slice(j)
-        elastic[sl.start + 6:sl.stop] = True
+        frame[system.offsets[j]:system.offsets[j] + 6] = True
     total = 0
     # The core's Newton (static_newton: one sparse LU of the KKT matrix per iteration, the
     # equations the integrator uses). A mechanism's KKT matrix is singular: the frames' free
     # motions are then penalised (not the residual) and the corrections filtered so that a
-    # free motion without stiffness keeps its value; if the loads drive it, the residual
-    # check below names the mechanism.
-    mechanism = _has_mechanism(system.constraints(st, sparse=True)[1], elastic)
-    failed = None
-    for k in range(1, steps + 1):
-        lf = k / steps
-        out = system.core.static_newton(st.r, st.R, st.eta, st.lam, st.t, mdot, lf, tol, max_iterations,
-                                        mechanism=mechanism)
+    # free motion without stiffness keeps its value; the loads drive it if the residual under
+    # the full loads has a generalised force on it (driven): then no step, however short, reaches
+    # an equilibrium, and a failed step is not halved.
+    mechanism = _has_mechanism(system.constraints(st, sparse=True)[1], ~frame)
+
+    def driven(s, how):
+        """The mechanism error if the residual at ``s`` under the full loads drives a free
+        motion, else None: its generalised force (N) against RESIDUAL_TOL of the applied force
+        level, or the round-off of the forces it sums (the loads and the joint reactions on
+        the frames); nothing drives where nothing is applied. (The full loads, not a step's:
+        the flow is not stepped, so a stepped load may balance it only at the end.)"""
+        F = system.evaluate(s, mass_flow=mdot, tangent=False, jacobian=False)[0]
+        J = system.constraints(s, sparse=True)[1]
+        g = np.abs(_free_motion_force(system, J, F, frame))
+        force = float(g.max(initial=0.0))
+        level = max(applied, float(np.abs(J.T @ s.lam)[frame].max(initial=0.0)))
+        if not applied > 0.0 or force <= max(RESIDUAL_TOL * applied, 1e3 * np.finfo(float).eps * level):
+            return None
+        worst = int(np.argmax(g)) // 6
+        return SingularMatrixError(
+            f"static solve: {how} the residual along the rigid motions the joints leave free (its generalised force) "
+            f"is {force:.3g} N, {force / max(applied, 1e-300):.3g} of the applied force level {applied:.3g} N (largest "
+            f"at body {worst}): the loads drive a mechanism (e.g. about a spherical joint or a free hinge) without "
+            f"stiffness here; there is no static equilibrium in that direction: support it",
+            load_factor=1.0, iteration=total, residual=float(np.abs(F).max()), mass_flow=mdot)
+
+    def solve(trial, lf):
+        nonlocal mechanism, total
+        out = system.core.static_newton(trial.r, trial.R, trial.eta, trial.lam, trial.t, mdot, lf, tol,
+                                        max_iterations, mechanism=mechanism)
         total += out["iterations"]
         if (out["singular"] or out["diverged"]) and not mechanism:
             # (nearly) singular: a mechanism after all, from here with the penalty
             mechanism = True
-            out = system.core.static_newton(st.r, st.R, st.eta, st.lam, st.t, mdot, lf, tol, max_iterations,
-                                            mechanism=True)
+            out = system.core.static_newton(trial.r, trial.R, trial.eta, trial.lam, trial.t, mdot, lf, tol,
+                                            max_iterations, mechanism=True)
             total += out["iterations"]
         if out["converged"]:
-            r, R, eta, _, _, lam, t_ = out["state"]
-            st = MultibodyState(r, R, eta, np.zeros_like(eta), np.zeros_like(eta), lam, t_)
-            continue
-        if not mechanism:
-            raise _not_converged(lf, out, max_iterations, mdot)
-        failed = (lf, out)  # the loads may drive the mechanism (its free motion left alone): the residual says
-        break
-    F, _, _, _ = system.evaluate(st, mass_flow=mdot, tangent=False, jacobian=False)
-    res = float(np.abs(F).max())
-    if not res <= RESIDUAL_TOL * applied:
-        # round-off of the stiffest forces: ~eps |S| L (nearly inextensible bodies: EA ~ 1e10 EI)
-        S = system.evaluate(st, mass_flow=mdot)[3]
-        roundoff = 1e3 * np.finfo(float).eps * float(np.abs(S).max()) * L
-    if not res <= RESIDUAL_TOL * applied and not res <= roundoff:
-        worst = int(np.argmax(np.abs(F)))
-        body = int(np.searchsorted(system.offsets, worst, side="right")) - 1
-        how = "the increments converged but" if failed is None else "the increments did not converge and"
-        raise SingularMatrixError(
-            f"static solve: {how} the residual {res:.3g} is {res / applied:.3g} of the applied "
-            f"force level {applied:.3g} N (largest at body {body}): the loads drive a mechanism, a rigid motion the "
-            f"joints leave free (e.g. about a spherical joint or a free hinge) without stiffness here; there is no "
-            f"static equilibrium in that direction: support it", load_factor=1.0, iteration=total, residual=res,
-            mass_flow=mdot)
-    if failed is not None:
-        raise _not_converged(*failed, max_iterations, mdot)
-    return MultibodyStatic(st, total, res, mdot)
+            r, R, eta, _, _, lam, _ = out["state"]
+            trial.r[...], trial.R[...], trial.eta[...], trial.lam[...] = r, R, eta, lam
+            error = driven(trial, "the increments converged but") if mechanism and lf == 1.0 else None
+        else:  # from the last equilibrium (trial unchanged): halving does not help if the loads drive it
+            error = driven(trial, "the increments did not converge and") if mechanism else None
+        if error is not None:
+            raise error
+        return out["converged"], (lf, out)
+
+    way = follow(solve, st, start=0.0, end=1.0, steps=steps, halving="step", max_failures=max_bisections)
+    if not way.done:
+        raise _not_converged(*way.outcome, max_iterations, mdot)
+    st = way.state
+    F = system.evaluate(st, mass_flow=mdot, tangent=False, jacobian=False)[0]
+    return MultibodyStatic(st, total, float(np.abs(F).max()), mdot)
 
 
 def _not_converged(lf, out, max_iterations, mdot) -> ConvergenceError:
