@@ -633,20 +633,27 @@ class Model:
         labels = []
         first_dof = list(core.first_dof)  # one conversion: each attribute access copies the vector
         ancf = set(ancf_nodes)  # a tuple's `in` would make the build quadratic in the nodes
+        # each distinct basis (most nodes have the identity) read once: its entries column by
+        # column (j, then i) and each column's one component (-1: combined)
+        seen = {}
         for n, T in enumerate(bases):
-            f = first_dof[n]
+            key = (T.shape, T.tobytes())
+            entries = seen.get(key)
+            if entries is None:
+                j, i = np.nonzero(T.T)
+                single = np.count_nonzero(T, axis=0) == 1
+                entries = seen[key] = (i, j, T[i, j], [int(i[j == c][0]) if single[c] else -1
+                                                         for c in range(T.shape[1])])
+            i, j, v, component = entries
             names = ANCF_COMPONENTS if n in ancf else COMPONENTS
-            for j in range(T.shape[1]):
-                nz = np.nonzero(T[:, j])[0]
-                labels.append((n, names[nz[0]] if len(nz) == 1 else "combined"))
-                for i in nz:
-                    rows.append(6 * n + i)
-                    cols.append(f + j)
-                    vals.append(T[i, j])
-        # the triplets of `basis` (CSR on first use), kept as arrays: 24 bytes an entry where the
-        # lists of numpy scalars and ints take about 110
-        self._basis_matrix = (np.array(vals, dtype=float),
-                              (np.array(rows, dtype=np.int64), np.array(cols, dtype=np.int64)))
+            labels.extend((n, names[k] if k >= 0 else "combined") for k in component)
+            rows.append(6 * n + i)
+            cols.append(first_dof[n] + j)
+            vals.append(v)
+        # the triplets of `basis` (CSR on first use), kept as arrays: 24 bytes an entry
+        self._basis_matrix = (np.concatenate(vals).astype(float) if vals else np.zeros(0),
+                              (np.concatenate(rows).astype(np.int64) if rows else np.zeros(0, np.int64),
+                               np.concatenate(cols).astype(np.int64) if cols else np.zeros(0, np.int64)))
         #: (node, component) of each reduced coordinate
         self.dof_labels = tuple(labels)
 
