@@ -61,3 +61,36 @@ def test_best_time_and_bad_input():
         mc.element_curved_model(-1.0)
     with pytest.raises(ValueError):
         mc.error_cost_figure([], title="x", cost="money")
+
+
+
+def test_reduced_coordinates_labels_and_basis_per_node():
+    """The basis (reduced -> nodal coordinates) and the dof labels, node by node, for a
+    tilted hinge (one "combined" rotation), a pin, two fixed components and free nodes
+    (Model reads each distinct nodal basis once and shares it among its nodes)."""
+    import numpy as np
+
+    import pipeflex as pf
+
+    sec = pf.PipeSection(EI=10.0, pipe_mass=1.0, fluid_mass=0.5, EA=1e5)
+    b = pf.ModelBuilder()
+    n0 = b.add_node((0.0, 0.0, 0.0))
+    nodes = b.add_line(n0, (1.0, 0.0, 0.0), 6, sec)
+    b.hinge(n0, (0.0, 0.6, 0.8))
+    b.pin(nodes[3])
+    b.fix(nodes[5], ["uz", "rx"])
+    m = b.build()
+    eye = np.eye(6)
+    want = {0: np.array([[0.0, 0.0, 0.0, 0.0, 0.6, 0.8]]).T, nodes[3]: eye[:, 3:], nodes[5]: eye[:, [0, 1, 4, 5]]}
+    first = list(m.core.first_dof) + [m.n_dofs]
+    B = m.basis.toarray()
+    labels = []
+    for n in range(m.n_nodes):
+        T = want.get(n, eye)
+        block = B[6 * n:6 * n + 6, first[n]:first[n + 1]]
+        assert block.shape == T.shape
+        np.testing.assert_allclose(np.abs(block), np.abs(T), atol=1e-15)  # a column's sign is free
+        assert not np.any(np.delete(B[6 * n:6 * n + 6], np.arange(first[n], first[n + 1]), axis=1))
+        labels += [(n, "combined" if np.count_nonzero(T[:, j]) > 1 else pf.model.COMPONENTS[np.flatnonzero(T[:, j])[0]])
+                   for j in range(T.shape[1])]
+    assert m.dof_labels == tuple(labels)
