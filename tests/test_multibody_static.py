@@ -136,3 +136,15 @@ def test_one_max_iterations_default_passed_through():
         with pytest.raises(pf.ConvergenceError, match="after 2 iterations"):
             solve(s, max_iterations=2, max_bisections=0)
         assert solve(s, max_iterations=4, max_bisections=0).iterations == 4
+
+
+def test_failure_after_a_rejected_step_names_the_rejection():
+    """A load stepping that fails by Newton after a step was rejected by the acceptance test
+    (the fuzz's seed 0, case 268: a hinged two-body chain, the step to 0.5 stretched a body
+    2.17 times its length, the halved step to 0.16 diverged) says so."""
+    out = dict(singular=False, diverged=True, correction=106.0, iterations=3, residual=1.0)
+    e = analysis._not_converged(0.16, out, None, 30, 0.0, (0.5, 2.17, 0))
+    assert isinstance(e, pf.ConvergenceError)
+    assert str(e) == ("static solve did not converge at load factor 0.16 (a correction beyond the model; last increment "
+                      "106); the step to load factor 0.5 was rejected: it stretched body 0 elastically by 2.17 of its "
+                      "length, more than DEFORMATION_LIMIT = 0.5 (the floating frame's small elastic deformation)")

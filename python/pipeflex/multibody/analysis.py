@@ -150,6 +150,7 @@ def static_equilibrium(system: MultibodySystem, *, state: Optional[MultibodyStat
     floor = FORCE_FLOOR * _bending_force(system)
     core = system.core
     total = 0
+    rejected = None  # the last step rejected by the acceptance test: (load factor, deformation, body)
     # The core's Newton (static_newton: one sparse LU of the KKT matrix per iteration, the
     # equations the integrator uses). A mechanism's KKT matrix is singular: the frames' free
     # motions are then penalised (not the residual) and the corrections filtered so that a
@@ -184,7 +185,7 @@ def static_equilibrium(system: MultibodySystem, *, state: Optional[MultibodyStat
             load_factor=1.0, iteration=total, residual=float(np.abs(F).max()), mass_flow=mdot)
 
     def solve(trial, lf):
-        nonlocal mechanism, total
+        nonlocal mechanism, total, rejected
         out = core.static_newton(trial.r, trial.R, trial.eta, trial.lam, trial.t, mdot, lf, tol, max_iterations,
                                  mechanism=mechanism)
         total += out["iterations"]
@@ -197,31 +198,33 @@ def static_equilibrium(system: MultibodySystem, *, state: Optional[MultibodyStat
         error, ok, stretched = None, out["converged"], None
         if ok:
             r, R, eta, _, _, lam, _ = out["state"]
-            stretch = replace(trial, r=r, R=R, eta=eta, lam=lam)
-            deformation, body = _largest_deformation(system, stretch)
+            deformation, body = _largest_deformation(system, replace(trial, r=r, R=R, eta=eta, lam=lam))
             if not deformation <= DEFORMATION_LIMIT:  # rejected: trial unchanged, the step halved
                 ok, stretched = False, (deformation, body)
+                rejected = (lf, deformation, body)
             else:
                 trial.r[...], trial.R[...], trial.eta[...], trial.lam[...] = r, R, eta, lam
                 if mechanism and lf == 1.0:
                     error = driven(trial, "the increments converged but", out.get("free"))
         if not ok and mechanism:  # from the last equilibrium (trial unchanged): halving does not help if the loads drive it
-            error = driven(trial, "the increments did not converge and")
+            error = driven(trial, "the increments did not converge and" if stretched is None else
+                           f"the step's equilibrium stretched body {stretched[1]} beyond DEFORMATION_LIMIT and")
         if error is not None:
             raise error
         return ok, (lf, out, stretched)
 
     way = follow(solve, st, start=0.0, end=1.0, steps=steps, halving="step", max_failures=max_bisections)
     if not way.done:
-        raise _not_converged(*way.outcome, max_iterations, mdot)
+        raise _not_converged(*way.outcome, max_iterations, mdot, rejected)
     st = way.state
     F = system.evaluate(st, mass_flow=mdot, tangent=False, jacobian=False)[0]
     return MultibodyStatic(st, total, float(np.abs(F).max()), mdot)
 
 
-def _not_converged(lf, out, stretched, max_iterations, mdot) -> ConvergenceError:
+def _not_converged(lf, out, stretched, max_iterations, mdot, rejected=None) -> ConvergenceError:
     """The error of a load step's static_newton that did not converge (its dict ``out``), or
-    whose equilibrium was rejected (``stretched``: the deformation and the body)."""
+    whose equilibrium was rejected (``stretched``: the deformation and the body); ``rejected``:
+    an earlier step's rejection (load factor, deformation, body), named too."""
     if stretched is not None:
         deformation, body = stretched
         return ConvergenceError(
@@ -232,8 +235,12 @@ def _not_converged(lf, out, stretched, max_iterations, mdot) -> ConvergenceError
             iteration=out["iterations"], residual=out["residual"], mass_flow=mdot)
     why = ("a singular KKT matrix" if out["singular"] else "a correction beyond the model" if out["diverged"]
            else f"after {max_iterations} iterations")
+    earlier = "" if rejected is None else (
+        f"; the step to load factor {rejected[0]:.3g} was rejected: it stretched body {rejected[2]} elastically by "
+        f"{rejected[1]:.3g} of its length, more than DEFORMATION_LIMIT = {DEFORMATION_LIMIT:g} (the floating "
+        f"frame's small elastic deformation)")
     return ConvergenceError(f"static solve did not converge at load factor {lf:.3g} ({why}; last increment "
-                            f"{out['correction']:.3g})", load_factor=lf, iteration=out["iterations"],
+                            f"{out['correction']:.3g}){earlier}", load_factor=lf, iteration=out["iterations"],
                             residual=out["residual"], mass_flow=mdot)
 
 
