@@ -280,3 +280,20 @@ def test_static_cantilever_on_a_clamped_hub_equals_the_clamped_elements():
     loose.rigid(n0, j2, "end")
     with pytest.raises(pf.SingularMatrixError, match="mechanism"):
         pf.static_equilibrium(loose)
+
+
+def test_pf_static_equilibrium_passes_max_iterations_to_the_coupled_statics(monkeypatch):
+    """One default, 30 Newton iterations per load step (as the element and multibody
+    statics), and pf.static_equilibrium passes a given count on to the core."""
+    seen = []
+    solve = coupled._core.coupled_static
+
+    def recorded(*args):
+        seen.append(args[-1])
+        return solve(*args)
+    arm, root, _ = tip_loaded_arm(8, clamped=False)
+    cs = on_clamped_hub(arm, root, stiffness_ratio=1e4)
+    monkeypatch.setattr(coupled._core, "coupled_static", recorded)
+    pf.static_equilibrium(cs)
+    pf.static_equilibrium(cs, max_iterations=7)
+    assert seen == [30, 7]

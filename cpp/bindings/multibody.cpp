@@ -57,6 +57,21 @@ py::tuple pipeflex::from_state(const MbState& s) {
 
 namespace {
 
+// FreeMotions as a dict: the force per body (n_bodies, 6), its moments divided by the
+// length scale (arcs of the model's size: in N throughout).
+py::dict free_dict(const MultibodySystemCore& sys, const FreeMotions& f) {
+    const double L = sys.length_scale();
+    py::array_t<double> force({sys.n_bodies(), 6});
+    auto F = force.mutable_unchecked<2>();
+    for (int j = 0; j < sys.n_bodies(); ++j)
+        for (int i = 0; i < 6; ++i) F(j, i) = f.force[sys.offset(j) + i] / (i < 3 ? 1.0 : L);
+    py::dict d;
+    d["count"] = f.count;
+    d["force"] = force;
+    d["reaction"] = f.reaction;
+    return d;
+}
+
 }  // namespace
 
 void bind_multibody(py::module_& m) {
@@ -201,12 +216,31 @@ void bind_multibody(py::module_& m) {
                 }
                 py::dict d = static_dict(res);
                 d["state"] = from_state(s);
+                if (res.free.count >= 0) d["free"] = free_dict(sys, res.free);
                 return d;
             },
             "One load step's static equilibrium by the core's static_newton; mechanism: the joints leave a rigid "
-            "motion free (the frames' free motions penalised, StaticNewtonOptions::shift).",
+            "motion free (the frames' free motions penalised, StaticNewtonOptions::shift), and when converged "
+            "'free' is the end state's free_motions dict.",
             py::arg("r"), py::arg("R"), py::arg("eta"), py::arg("lam"), py::arg("t"), py::arg("mass_flow"),
             py::arg("load_factor"), py::arg("tol"), py::arg("max_iterations"), py::arg("mechanism") = false)
+        .def(
+            "free_motions",
+            [](const MultibodySystemCore& sys, const Arr& r, const Arr& R, const VecX& eta, const VecX& lam, double t,
+               double mass_flow) {
+                const MbState s = to_state(sys, r, R, eta, VecX::Zero(eta.size()), VecX::Zero(eta.size()), lam, t);
+                FreeMotions f;
+                {
+                    py::gil_scoped_release release;
+                    f = multibody_free_motions(sys, s, mass_flow);
+                }
+                return free_dict(sys, f);
+            },
+            "The frames' free motions at the state (at rest, the full loads; the core's FrameGram): 'count' the "
+            "rigid motions the joints leave free, 'force' (n_bodies, 6) the residual's generalised force on them "
+            "(projected off the range of the frames' constraint rows; moments divided by the length scale, so in "
+            "N), 'reaction' the largest joint reaction on a frame coordinate [N, N m].",
+            py::arg("r"), py::arg("R"), py::arg("eta"), py::arg("lam"), py::arg("t"), py::arg("mass_flow"))
         .def(
             "integrate",
             [](const MultibodySystemCore& sys, const Arr& r, const Arr& R, const VecX& eta, const VecX& v,

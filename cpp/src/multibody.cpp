@@ -507,6 +507,19 @@ LinearMatrices multibody_linear_matrices(const MultibodySystemCore& sys, const M
     return linear_matrices(eq, s.v, s.a, s.lam, s.t, differences_step);
 }
 
+VecX multibody_frame_shift(const MultibodySystemCore& sys) {
+    VecX w = VecX::Zero(sys.n_coordinates());
+    for (int j = 0; j < sys.n_bodies(); ++j) w.segment<6>(sys.offset(j)).setConstant(kMechanismShift);
+    return w;
+}
+
+FreeMotions multibody_free_motions(const MultibodySystemCore& sys, const MbState& s, double mdot) {
+    sys.check_state(s);
+    const TimeTable flow = TimeTable::constant(mdot);
+    MultibodyEquations eq(sys, s, flow);
+    return free_motions(eq, s.t, s.lam, multibody_frame_shift(sys));
+}
+
 StaticNewtonResult multibody_static(const MultibodySystemCore& sys, MbState& s, double mdot, double load_factor,
                                     double tol, int max_iterations, bool mechanism) {
     sys.check_state(s);
@@ -517,10 +530,7 @@ StaticNewtonResult multibody_static(const MultibodySystemCore& sys, MbState& s, 
     StaticNewtonOptions opt;
     opt.tol = tol;
     opt.max_iterations = max_iterations;
-    if (mechanism) {  // the free rigid motions are the frames'
-        opt.shift = VecX::Zero(sys.n_coordinates());
-        for (int j = 0; j < sys.n_bodies(); ++j) opt.shift.segment<6>(sys.offset(j)).setConstant(kMechanismShift);
-    }
+    if (mechanism) opt.shift = multibody_frame_shift(sys);  // the free rigid motions are the frames'
     const StaticNewtonResult res = static_newton(eq, s.t, lam, opt);
     s = eq.state();
     s.lam = lam;

@@ -8,6 +8,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <memory>
 
 namespace pipeflex {
 
@@ -30,6 +31,56 @@ int negative_eigenvalues(const Triplets& J, int n) {
     return static_cast<int>((d.array() < 0.0).count());
 }
 
+FrameGram::FrameGram(const Triplets& J, int n, int nc, const Eigen::VectorXd& w) : C(nc, n) {
+    std::vector<Eigen::Triplet<double>> cs;
+    for (std::size_t k = 0; k < J.values.size(); ++k)
+        if (J.rows[k] >= n && J.cols[k] < n && w[J.cols[k]] != 0.0)
+            cs.emplace_back(J.rows[k] - n, J.cols[k], J.values[k]);
+    C.setFromTriplets(cs.begin(), cs.end());
+    CW = C * w.asDiagonal();
+    G = CW * Eigen::SparseMatrix<double>(C.transpose());
+    n_shifted = static_cast<int>((w.array() != 0.0).count());
+    w_ = w;
+}
+
+void FrameGram::factorize() {
+    if (factorized_) return;
+    factorized_ = true;
+    const int nc = static_cast<int>(G.rows());
+    if (nc == 0) return;
+    double delta = 0.0;
+    for (int a = 0; a < nc; ++a) delta = std::max(delta, G.coeff(a, a));
+    Eigen::SparseMatrix<double> A = G;
+    Eigen::SparseMatrix<double> I(nc, nc);
+    I.setIdentity();
+    A += (delta > 0.0 ? 1e-12 * delta : 1.0) * I;
+    ldlt_.compute(A);
+}
+
+int FrameGram::free_motions() {
+    factorize();
+    if (G.rows() == 0) return n_shifted;
+    if (ldlt_.info() != Eigen::Success) return n_shifted;  // not positive: count none as locked
+    const Eigen::VectorXd d = ldlt_.vectorD();
+    const double top = d.cwiseAbs().maxCoeff();
+    const int rank = static_cast<int>((d.array() > 1e-10 * top).count());
+    return std::max(0, n_shifted - rank);
+}
+
+Eigen::VectorXd FrameGram::free_force(const Eigen::VectorXd& f) {
+    factorize();
+    Eigen::VectorXd g = (w_.array() != 0.0).select(f, 0.0);
+    if (G.rows() == 0 || ldlt_.info() != Eigen::Success) return g;
+    // the regularised solve, refined twice against G itself (the regularisation would leave
+    // 1e-12 of the reactions in the projection; G's null space is C^T's, so its component of
+    // mu does not matter)
+    const Eigen::VectorXd b = CW * g;
+    Eigen::VectorXd mu = ldlt_.solve(b);
+    for (int k = 0; k < 2; ++k) mu += ldlt_.solve(b - G * mu);
+    g -= C.transpose() * mu;
+    return g;
+}
+
 namespace {
 
 // The bordered matrix [K, rt; c^T, d] ((m + 1) x (m + 1), rt and c stored whole so that
@@ -44,43 +95,46 @@ void bordered(const Triplets& K, int m, const Eigen::VectorXd& rt, const Eigen::
     A.add(m, m, d);
 }
 
-// A mechanism's regularisation (StaticNewtonOptions::shift): the penalty
-//     1/2 sum_i w_i (x_i - (C_S^T nu)_i)^2 + 1/2 delta |nu|^2,   w_i = shift_i s,
+// A mechanism's regularisation (StaticNewtonOptions::shift) from the frames' Gram matrix
+// (FrameGram with w = shift s): the penalty
+//     1/2 sum_i w_i (x_i - (C^T nu)_i)^2 + 1/2 delta |nu|^2
 // over the shifted coordinates S, with nc more unknowns nu that minimise it: it is
-// 1/2 |x_S|^2_W projected off the range of C_S^T (C_S the constraint rows' S columns), so
-// it acts on the motions of S that the constraints leave free (a hinge's rotation), and not
-// on those they lock, however soft: those move the other coordinates too (a body's frame
-// turned against its elastic modes at a clamp), and the penalty would slow their Newton.
-// H its Hessian ((n + 2 nc) square: x, the multipliers' rows (none), nu); delta (1e-8 of
-// C_S W C_S^T's largest diagonal) keeps nu determined where C_S's rows are dependent.
-Eigen::SparseMatrix<double> mechanism_penalty(const Triplets& J, int n, int nc, const Eigen::VectorXd& shift,
-                                              double s) {
-    std::vector<Eigen::Triplet<double>> cs, h;
-    for (std::size_t k = 0; k < J.values.size(); ++k)
-        if (J.rows[k] >= n && J.cols[k] < n && shift[J.cols[k]] != 0.0)
-            cs.emplace_back(J.rows[k] - n, J.cols[k], J.values[k]);
-    Eigen::SparseMatrix<double> C(nc, n);
-    C.setFromTriplets(cs.begin(), cs.end());
-    const Eigen::VectorXd w = s * shift;
-    const Eigen::SparseMatrix<double> CW = C * w.asDiagonal();
-    const Eigen::SparseMatrix<double> G = CW * Eigen::SparseMatrix<double>(C.transpose());
+// 1/2 |x_S|^2_W projected off the range of C^T, so it acts on the motions of S that the
+// constraints leave free (a hinge's rotation), and not on those they lock, however soft:
+// those move the other coordinates too (a body's frame turned against its elastic modes at
+// a clamp), and the penalty would slow their Newton. H its Hessian ((n + 2 nc) square: x,
+// the multipliers' rows (none), nu); delta (1e-8 of G's largest diagonal) keeps nu
+// determined where C's rows are dependent.
+Eigen::SparseMatrix<double> mechanism_penalty(const FrameGram& gram, const Eigen::VectorXd& w, double s) {
+    const int n = static_cast<int>(w.size()), nc = static_cast<int>(gram.G.rows());
+    std::vector<Eigen::Triplet<double>> h;
     double delta = 0.0;
-    for (int a = 0; a < nc; ++a) delta = std::max(delta, G.coeff(a, a));
+    for (int a = 0; a < nc; ++a) delta = std::max(delta, gram.G.coeff(a, a));
     delta = delta > 0.0 ? 1e-8 * delta : s;
     const int nu = n + nc;
     for (int i = 0; i < n; ++i)
         if (w[i] != 0.0) h.emplace_back(i, i, w[i]);
-    for (int j = 0; j < CW.outerSize(); ++j)
-        for (Eigen::SparseMatrix<double>::InnerIterator e(CW, j); e; ++e) {
+    for (int j = 0; j < gram.CW.outerSize(); ++j)
+        for (Eigen::SparseMatrix<double>::InnerIterator e(gram.CW, j); e; ++e) {
             h.emplace_back(e.col(), nu + e.row(), -e.value());
             h.emplace_back(nu + e.row(), e.col(), -e.value());
         }
-    for (int j = 0; j < G.outerSize(); ++j)
-        for (Eigen::SparseMatrix<double>::InnerIterator e(G, j); e; ++e) h.emplace_back(nu + e.row(), nu + e.col(), e.value());
+    for (int j = 0; j < gram.G.outerSize(); ++j)
+        for (Eigen::SparseMatrix<double>::InnerIterator e(gram.G, j); e; ++e)
+            h.emplace_back(nu + e.row(), nu + e.col(), e.value());
     for (int a = 0; a < nc; ++a) h.emplace_back(nu + a, nu + a, delta);
     Eigen::SparseMatrix<double> H(nu + nc, nu + nc);
     H.setFromTriplets(h.begin(), h.end());
     return H;
+}
+
+// The free motions from a Gram matrix at the state whose residual is r, multipliers lam.
+FreeMotions free_motions_of(FrameGram& gram, const Eigen::VectorXd& r, const Eigen::VectorXd& lam) {
+    FreeMotions f;
+    f.count = gram.free_motions();
+    f.force = gram.free_force(r);
+    if (lam.size() > 0) f.reaction = (gram.C.transpose() * lam).lpNorm<Eigen::Infinity>();
+    return f;
 }
 
 // Solves per iteration with a shift: the correction's filter k^(p-1) / (k + w)^p in a
@@ -88,6 +142,17 @@ Eigen::SparseMatrix<double> mechanism_penalty(const Triplets& J, int n, int nc, 
 constexpr int kShiftFilterSolves = 4;
 
 }  // namespace
+
+FreeMotions free_motions(Equations& eq, double t, const Eigen::VectorXd& lam, const Eigen::VectorXd& w) {
+    const int n = eq.n_coordinates(), nc = eq.n_constraints();
+    const Eigen::VectorXd zero = Eigen::VectorXd::Zero(n);
+    Eigen::VectorXd r;
+    Triplets J;
+    eq.set(zero, zero, zero, lam, t);
+    eq.evaluate(1.0, 0.0, 0.0, r, &J);
+    FrameGram gram(J, n, nc, w);
+    return free_motions_of(gram, r.head(n), lam);
+}
 
 StaticNewtonResult static_newton(Equations& eq, double t, Eigen::VectorXd& lam, const StaticNewtonOptions& opt) {
     const int n = eq.n_coordinates(), nc = eq.n_constraints();
@@ -137,6 +202,11 @@ StaticNewtonResult static_newton(Equations& eq, double t, Eigen::VectorXd& lam, 
         out.converged = true;
         if (opt.inertia && nc == 0) {
             if (residual_here(&J)) out.negative_end = negative_eigenvalues(J, n);
+        } else if (shifted) {  // the free motions at the end state (its Gram matrix)
+            if (residual_here(&J)) {
+                FrameGram gram(J, n, nc, opt.shift);
+                out.free = free_motions_of(gram, r.head(n), lam);
+            }
         } else if (opt.apply_converged_correction || border != nullptr) {
             residual_here(nullptr);
         }
@@ -219,7 +289,11 @@ StaticNewtonResult static_newton(Equations& eq, double t, Eigen::VectorXd& lam, 
         double s = scale_constraints(J, n, 1.0);
         s = s > 0.0 ? s : 1.0;
         Eigen::SparseMatrix<double> H;
-        if (shifted) H = mechanism_penalty(J, n, nc, opt.shift, s);
+        std::unique_ptr<FrameGram> gram;
+        if (shifted) {
+            gram = std::make_unique<FrameGram>(J, n, nc, s * opt.shift);
+            H = mechanism_penalty(*gram, s * opt.shift, s);
+        }
         scale_constraints(J, n, s);
         for (int j = 0; j < H.outerSize(); ++j)
             for (Eigen::SparseMatrix<double>::InnerIterator e(H, j); e; ++e) J.add(e.row(), e.col(), e.value());
@@ -255,6 +329,7 @@ StaticNewtonResult static_newton(Equations& eq, double t, Eigen::VectorXd& lam, 
         // exact state, such as a straight pipe under flow, keeps its exact symmetry
         if ((small || balanced) && !opt.apply_converged_correction) {
             out.converged = true;
+            if (shifted) out.free = free_motions_of(*gram, r.head(n), lam);  // the state is r's
             return out;
         }
         if (!small && !balanced && opt.divergence > 0.0 && it >= opt.divergence_from && size > opt.divergence * L) {

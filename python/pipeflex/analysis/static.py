@@ -40,7 +40,7 @@ class StaticResult(Result):
 
 @small_problems_single_threaded
 def static_equilibrium(model, *, state=None, mass_flow: Optional[float] = None, load_steps: int = 1,
-                       tol: float = 1e-10, max_iterations: int = 25, max_bisections: int = 8,
+                       tol: float = 1e-10, max_iterations: int = 30, max_bisections: int = 8,
                        from_mass_flow: Optional[float] = None, path: str = "auto",
                        arc_steps: int = 200) -> StaticResult:
     """Solve R(q) = 0 for the static equilibrium under loads, gravity and mass flow.
@@ -117,7 +117,7 @@ def static_equilibrium(model, *, state=None, mass_flow: Optional[float] = None, 
         if from_mass_flow is not None:
             raise NotImplementedError("from_mass_flow (flow continuation) for a MultibodySystem")
         return multibody_static(model, state=state, mass_flow=mass_flow, load_steps=load_steps, tol=tol,
-                                max_iterations=max(_checks.positive_int("max_iterations", max_iterations), 30),
+                                max_iterations=max_iterations,
                                 max_bisections=max_bisections)
     require_model(model)
     load_steps = _checks.positive_int("load_steps", load_steps)

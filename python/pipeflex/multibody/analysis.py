@@ -21,8 +21,6 @@ from dataclasses import dataclass, field, replace
 from typing import Optional, Tuple
 
 import numpy as np
-import scipy.sparse as sp
-import scipy.sparse.linalg as spla
 
 from .. import _checks
 from ..analysis import constrained
@@ -40,6 +38,17 @@ from .system import MultibodyState, MultibodySystem, TimeFunction
 #: (converged solves reach either; a loaded mechanism's neutral direction, left alone,
 #: keeps a residual of order the load).
 RESIDUAL_TOL = 1e-6
+
+#: The absolute floor of the same judgement, relative to the bodies' bending force scale
+#: (the largest EI / L^2): a generalised force that would bend a body by less than this
+#: fraction of its length is round-off, not a load that drives a mechanism.
+FORCE_FLOOR = 1e3 * float(np.finfo(float).eps)
+
+#: The floating frame's small elastic deformation: a converged static step in which a node
+#: of a body moves elastically, in the body's frame, by more than this fraction of the
+#: body's length is rejected (and halved), an equilibrium of the equations far outside the
+#: model's validity (the bodies' reduction bases are linear).
+DEFORMATION_LIMIT = 0.5
 
 #: Default of :func:`simulate`'s ``max_steps``: the most steps a run may take (refused
 #: before the first step), the same as :func:`pipeflex.simulate`'s.
@@ -63,41 +72,22 @@ class MultibodyStatic(Result):
     mass_flow: float
 
 
-def _has_mechanism(J, elastic) -> bool:
-    """Whether the joints leave a rigid motion of the bodies free (a hinge, a spherical
-    joint, an unsupported body): J restricted to the frame coordinates is rank-deficient,
-    seen as a vanishing pivot of the sparse LU of its Gram matrix (J_r^T J_r is banded for
-    a chain: linear in the number of bodies, where a dense rank is cubic)."""
-    rigid = sp.csc_matrix(J[:, ~elastic])
-    if rigid.shape[1] == 0:
-        return False
-    try:
-        pivots = np.abs(spla.splu((rigid.T @ rigid).tocsc()).U.diagonal())
-    except RuntimeError:  # exactly singular
-        return True
-    return not pivots.min() > 1e-12 * pivots.max()
+def _bending_force(system: MultibodySystem) -> float:
+    """The bodies' bending force scale [N]: the largest EI / L^2 (either bending stiffness,
+    L the body's length), the force that bends a body by about its length."""
+    return max(max(b.section.EI, b.section.EIz) / b.length**2 for b in system.bodies)
 
 
-def _free_motion_force(system: MultibodySystem, J, F: np.ndarray, frame: np.ndarray) -> np.ndarray:
-    """The residual ``F``'s generalised force on the free rigid motions: its frame part
-    projected off the range of C_S^T (C_S the columns ``frame`` of the sparse constraint
-    Jacobian ``J``), the part no joint reaction can balance (what the core's mechanism
-    penalty acts on). Rotations are measured as arcs of the model's size L, so that it is in
-    N throughout (moments / L). One sparse LU of C_S C_S^T (banded for a chain: linear in
-    the bodies), regularised by 1e-12 of its largest diagonal where C_S's rows are
-    dependent (a body clamped at both ends)."""
-    L = system.length_scale
-    arc = np.tile([1.0, 1.0, 1.0, L, L, L], len(system.bodies))
-    f = F[frame] / arc
-    A = sp.csc_matrix(J)[:, np.flatnonzero(frame)] @ sp.diags(1.0 / arc)
-    if A.shape[0] == 0:
-        return f
-    G = (A @ A.T).tocsc()
-    delta = 1e-12 * float(G.diagonal().max())
-    if not delta > 0.0:  # no constraint acts on the frames
-        return f
-    mu = spla.splu((G + delta * sp.identity(G.shape[0], format="csc")).tocsc()).solve(A @ f)
-    return f - A.T @ mu
+def _largest_deformation(system: MultibodySystem, state: MultibodyState) -> Tuple[float, int]:
+    """The largest elastic displacement of a node in its body's frame, Phi_u (eta - eta0),
+    as a fraction of that body's length, and the body."""
+    worst, body = 0.0, 0
+    for j, b in enumerate(system.bodies):
+        u = (b.basis @ (system.eta(state, j) - b.eta0)).reshape(-1, 6)[:, :3]
+        d = float(np.sqrt((u * u).sum(axis=1)).max(initial=0.0)) / b.length
+        if not d <= worst:  # NaN too
+            worst, body = d, j
+    return worst, body
 
 
 def static_equilibrium(system: MultibodySystem, *, state: Optional[MultibodyState] = None,
@@ -112,9 +102,17 @@ def static_equilibrium(system: MultibodySystem, *, state: Optional[MultibodyStat
     Lagrange multipliers, converged when the increment is below ``tol`` times the model's
     size (``system.length_scale``: the assembly's largest extent) (or stalls at round-off
     within 1e3 tol).
-    Neutral directions of a mechanism (a free hinge) keep their assembly value; loads that
-    drive one (a generalised force on a free rigid motion above :data:`RESIDUAL_TOL` of the
-    applied force level) raise.
+
+    Step acceptance: a converged step in which a body's elastic displacement (a node's,
+    in the body's frame: its reduction basis times its elastic coordinates) exceeds
+    :data:`DEFORMATION_LIMIT` of the body's length is a root of the equations outside the
+    floating frame's small elastic deformation; it is rejected and the step halved.
+
+    Mechanisms (the joints leave a rigid motion of the frames free; the core's frame Gram
+    matrix tells): neutral directions keep their assembly value; loads that drive one (the
+    residual's generalised force on a free rigid motion above :data:`RESIDUAL_TOL` of the
+    applied force level, the round-off of the joint reactions and :data:`FORCE_FLOOR` of
+    the bodies' bending force scale EI / L^2) raise.
 
     Args:
         state: starting guess (default: the assembly configuration).
@@ -127,10 +125,12 @@ def static_equilibrium(system: MultibodySystem, *, state: Optional[MultibodyStat
 
     Raises:
         ValueError: bad options or a state that does not fit the system.
-        ConvergenceError: with the load factor, iteration and residual where it failed.
+        ConvergenceError: with the load factor, iteration and residual where it failed;
+            also when the halved steps still end beyond :data:`DEFORMATION_LIMIT` (the
+            message names the body: the floating frame's small-deformation assumption).
         SingularMatrixError: the loads drive a mechanism: the residual's generalised force
-            on the rigid motions the joints leave free exceeds :data:`RESIDUAL_TOL` of the
-            applied force level (no static equilibrium near the assembly).
+            on the rigid motions the joints leave free exceeds the allowance above (no
+            static equilibrium near the assembly).
     """
     steps = _checks.positive_int("load_steps", load_steps)
     tol = _checks.positive("tol", tol)
@@ -147,32 +147,36 @@ def static_equilibrium(system: MultibodySystem, *, state: Optional[MultibodyStat
     # the residual along the free motions
     start = replace(st, lam=np.zeros_like(st.lam))
     applied = float(np.abs(system.evaluate(start, mass_flow=mdot, tangent=False, jacobian=False)[0]).max(initial=0.0))
-    frame = np.zeros(system.n_coordinates, bool)
-    for j in range(len(system.bodies)):
-        frame[system.offsets[j]:system.offsets[j] + 6] = True
+    floor = FORCE_FLOOR * _bending_force(system)
+    core = system.core
     total = 0
+    rejected = None  # the last step rejected by the acceptance test: (load factor, deformation, body)
     # The core's Newton (static_newton: one sparse LU of the KKT matrix per iteration, the
     # equations the integrator uses). A mechanism's KKT matrix is singular: the frames' free
     # motions are then penalised (not the residual) and the corrections filtered so that a
     # free motion without stiffness keeps its value; the loads drive it if the residual under
     # the full loads has a generalised force on it (driven): then no step, however short, reaches
-    # an equilibrium, and a failed step is not halved.
-    mechanism = _has_mechanism(system.constraints(st, sparse=True)[1], ~frame)
+    # an equilibrium, and a failed step is not halved. The free motions, their force and the
+    # joint reactions come from the core's one frame Gram matrix (FrameGram).
+    mechanism = core.free_motions(st.r, st.R, st.eta, st.lam, st.t, mdot)["count"] > 0
 
-    def driven(s, how):
+    def driven(s, how, free=None):
         """The mechanism error if the residual at ``s`` under the full loads drives a free
         motion, else None: its generalised force (N) against RESIDUAL_TOL of the applied force
-        level, or the round-off of the forces it sums (the loads and the joint reactions on
-        the frames); nothing drives where nothing is applied. (The full loads, not a step's:
-        the flow is not stepped, so a stepped load may balance it only at the end.)"""
-        F = system.evaluate(s, mass_flow=mdot, tangent=False, jacobian=False)[0]
-        J = system.constraints(s, sparse=True)[1]
-        g = np.abs(_free_motion_force(system, J, F, frame))
+        level, the round-off of the forces it sums (the loads and the joint reactions on the
+        frames) and the absolute floor; nothing drives where nothing is applied. ``free``: the
+        core's free motions at ``s`` if known (static_newton's at the full loads). (The full
+        loads, not a step's: the flow is not stepped, so a stepped load may balance it only at
+        the end.)"""
+        if free is None:
+            free = core.free_motions(s.r, s.R, s.eta, s.lam, s.t, mdot)
+        g = np.abs(free["force"])
         force = float(g.max(initial=0.0))
-        level = max(applied, float(np.abs(J.T @ s.lam)[frame].max(initial=0.0)))
-        if not applied > 0.0 or force <= max(RESIDUAL_TOL * applied, 1e3 * np.finfo(float).eps * level):
+        level = max(applied, free["reaction"])
+        if not applied > 0.0 or force <= max(RESIDUAL_TOL * applied, 1e3 * np.finfo(float).eps * level, floor):
             return None
-        worst = int(np.argmax(g)) // 6
+        worst = int(np.argmax(g.max(axis=1)))
+        F = system.evaluate(s, mass_flow=mdot, tangent=False, jacobian=False)[0]
         return SingularMatrixError(
             f"static solve: {how} the residual along the rigid motions the joints leave free (its generalised force) "
             f"is {force:.3g} N, {force / max(applied, 1e-300):.3g} of the applied force level {applied:.3g} N (largest "
@@ -181,40 +185,62 @@ def static_equilibrium(system: MultibodySystem, *, state: Optional[MultibodyStat
             load_factor=1.0, iteration=total, residual=float(np.abs(F).max()), mass_flow=mdot)
 
     def solve(trial, lf):
-        nonlocal mechanism, total
-        out = system.core.static_newton(trial.r, trial.R, trial.eta, trial.lam, trial.t, mdot, lf, tol,
-                                        max_iterations, mechanism=mechanism)
+        nonlocal mechanism, total, rejected
+        out = core.static_newton(trial.r, trial.R, trial.eta, trial.lam, trial.t, mdot, lf, tol, max_iterations,
+                                 mechanism=mechanism)
         total += out["iterations"]
         if (out["singular"] or out["diverged"]) and not mechanism:
             # (nearly) singular: a mechanism after all, from here with the penalty
             mechanism = True
-            out = system.core.static_newton(trial.r, trial.R, trial.eta, trial.lam, trial.t, mdot, lf, tol,
-                                            max_iterations, mechanism=True)
+            out = core.static_newton(trial.r, trial.R, trial.eta, trial.lam, trial.t, mdot, lf, tol, max_iterations,
+                                     mechanism=True)
             total += out["iterations"]
-        if out["converged"]:
+        error, ok, stretched = None, out["converged"], None
+        if ok:
             r, R, eta, _, _, lam, _ = out["state"]
-            trial.r[...], trial.R[...], trial.eta[...], trial.lam[...] = r, R, eta, lam
-            error = driven(trial, "the increments converged but") if mechanism and lf == 1.0 else None
-        else:  # from the last equilibrium (trial unchanged): halving does not help if the loads drive it
-            error = driven(trial, "the increments did not converge and") if mechanism else None
+            deformation, body = _largest_deformation(system, replace(trial, r=r, R=R, eta=eta, lam=lam))
+            if not deformation <= DEFORMATION_LIMIT:  # rejected: trial unchanged, the step halved
+                ok, stretched = False, (deformation, body)
+                rejected = (lf, deformation, body)
+            else:
+                trial.r[...], trial.R[...], trial.eta[...], trial.lam[...] = r, R, eta, lam
+                if mechanism and lf == 1.0:
+                    error = driven(trial, "the increments converged but", out.get("free"))
+        if not ok and mechanism:  # from the last equilibrium (trial unchanged): halving does not help if the loads drive it
+            error = driven(trial, "the increments did not converge and" if stretched is None else
+                           f"the step's equilibrium stretched body {stretched[1]} beyond DEFORMATION_LIMIT and")
         if error is not None:
             raise error
-        return out["converged"], (lf, out)
+        return ok, (lf, out, stretched)
 
     way = follow(solve, st, start=0.0, end=1.0, steps=steps, halving="step", max_failures=max_bisections)
     if not way.done:
-        raise _not_converged(*way.outcome, max_iterations, mdot)
+        raise _not_converged(*way.outcome, max_iterations, mdot, rejected)
     st = way.state
     F = system.evaluate(st, mass_flow=mdot, tangent=False, jacobian=False)[0]
     return MultibodyStatic(st, total, float(np.abs(F).max()), mdot)
 
 
-def _not_converged(lf, out, max_iterations, mdot) -> ConvergenceError:
-    """The error of a load step's static_newton that did not converge (its dict ``out``)."""
+def _not_converged(lf, out, stretched, max_iterations, mdot, rejected=None) -> ConvergenceError:
+    """The error of a load step's static_newton that did not converge (its dict ``out``), or
+    whose equilibrium was rejected (``stretched``: the deformation and the body); ``rejected``:
+    an earlier step's rejection (load factor, deformation, body), named too."""
+    if stretched is not None:
+        deformation, body = stretched
+        return ConvergenceError(
+            f"static solve: at load factor {lf:.3g} the equilibrium found stretches body {body} elastically by "
+            f"{deformation:.3g} of its length (in its frame), more than DEFORMATION_LIMIT = {DEFORMATION_LIMIT:g}: "
+            f"the floating frame's small elastic deformation assumption is violated (halved steps end there too); "
+            f"stiffen the body, split it into more bodies, or lower the loads", load_factor=lf,
+            iteration=out["iterations"], residual=out["residual"], mass_flow=mdot)
     why = ("a singular KKT matrix" if out["singular"] else "a correction beyond the model" if out["diverged"]
            else f"after {max_iterations} iterations")
+    earlier = "" if rejected is None else (
+        f"; the step to load factor {rejected[0]:.3g} was rejected: it stretched body {rejected[2]} elastically by "
+        f"{rejected[1]:.3g} of its length, more than DEFORMATION_LIMIT = {DEFORMATION_LIMIT:g} (the floating "
+        f"frame's small elastic deformation)")
     return ConvergenceError(f"static solve did not converge at load factor {lf:.3g} ({why}; last increment "
-                            f"{out['correction']:.3g})", load_factor=lf, iteration=out["iterations"],
+                            f"{out['correction']:.3g}){earlier}", load_factor=lf, iteration=out["iterations"],
                             residual=out["residual"], mass_flow=mdot)
 
 

@@ -22,6 +22,8 @@
 #include "pipeflex/assembly/model.hpp"
 
 #include <Eigen/Core>
+#include <Eigen/SparseCholesky>
+#include <Eigen/SparseCore>
 #include <string>
 
 namespace pipeflex {
@@ -236,6 +238,42 @@ struct StaticNewtonOptions {
     // (the caller judges it). Not with a border.
     Eigen::VectorXd shift;
 };
+// The constraint Gram matrix of a set S of coordinates (a mechanism's: the bodies' frames),
+// the one concept behind the mechanism test, static_newton's penalty on the free motions
+// (StaticNewtonOptions::shift) and the free-motion force: C (nc x n) the constraint rows'
+// S columns of the KKT triplets J (rows >= n, unscaled), W = diag(w) (w nonzero on S),
+// CW = C W, G = C W C^T (banded for a chain: sparse, linear in the bodies).
+struct FrameGram {
+    FrameGram(const Triplets& J, int n, int nc, const Eigen::VectorXd& w);
+    // The motions of S that C leaves free: |S| - rank C, the pivots of G's L D L^T (G
+    // regularised by 1e-12 of its largest diagonal, so dependent rows, a body clamped at
+    // both ends, give pivots of that size) below 1e-10 of the largest counted as zero.
+    int free_motions();
+    // f (n) on S projected off range(C^T) in W's metric, f - C^T G^-1 C W f (zero off S):
+    // the part of a force on S that no constraint reaction balances (C W of it is zero).
+    // (With the penalty's W, uniform on S, the metric of the frames' coordinates: whether a
+    // force is balanced does not depend on it, only the size of the part that is not.)
+    Eigen::VectorXd free_force(const Eigen::VectorXd& f);
+    Eigen::SparseMatrix<double> C, CW, G;
+    int n_shifted = 0;  // |S|
+
+   private:
+    void factorize();
+    Eigen::VectorXd w_;
+    Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>, Eigen::Lower> ldlt_;
+    bool factorized_ = false;
+};
+
+// The free motions of S (w's nonzero entries) at the equations' state at rest under their
+// loads (load factor as set), with the multipliers lam: FrameGram's count, the residual's
+// free-motion force (n, zero off S) and the largest constraint reaction on S, max |C^T lam|.
+struct FreeMotions {
+    int count = -1;  // -1: not evaluated
+    Eigen::VectorXd force;
+    double reaction = 0.0;
+};
+FreeMotions free_motions(Equations& eq, double t, const Eigen::VectorXd& lam, const Eigen::VectorXd& w);
+
 struct StaticNewtonResult {
     bool converged = false, singular = false;
     bool diverged = false;   // a correction longer than options.divergence model sizes
@@ -246,6 +284,9 @@ struct StaticNewtonResult {
     // with options.inertia: the negative eigenvalues of the tangent at the start and at the
     // converged end (-1: not counted: no iteration, or a zero pivot)
     int negative_start = -1, negative_end = -1;
+    // with options.shift, converged: the free motions at the end state (FreeMotions), so
+    // that the caller judges whether the loads drive one
+    FreeMotions free;
 };
 StaticNewtonResult static_newton(Equations& eq, double t, Eigen::VectorXd& lam, const StaticNewtonOptions& opt);
 // The number of negative eigenvalues of a symmetric n x n matrix given by triplets
