@@ -119,3 +119,25 @@ def test_bulk_names_the_first_bad_element(points, options, match):
     with pytest.raises(ValueError, match=match):
         b._add_pipes(np.array(nodes[:-1]), np.array(nodes[1:]), SEC, **options)
     assert not b._elements
+
+
+def test_core_bulk_calls_refuse_bad_arrays_before_changing_the_model():
+    core = _core.Model()
+    core.add_nodes(np.array([[0.0, 0.0, 0.0], [1.0, 0.0, 0.0]]))
+    one = dict(l0=[1.0], EA=[1.0], GJ=[1.0], EIy=[1.0], EIz=[1.0], Phi_y=[0.0], Phi_z=[0.0],
+               offset_p=np.eye(3)[None], offset_q=np.eye(3)[None], pipe_mass=[1.0], fluid_mass=[0.0], kv=[1.0],
+               rotary_inertia=[[0.0, 0.0, 0.0]], flow_factor=[1.0], end_terms_p=[True], end_terms_q=[True])
+    with pytest.raises(ValueError, match=r"q must be a node index in \[0, 2\), got 5"):
+        core.add_pipes([0], [5], **one)
+    with pytest.raises(ValueError, match="offset_q must have 9 entries for each of the 1 rows, got 3"):
+        core.add_pipes([0], [1], **{**one, "offset_q": [1.0, 0.0, 0.0]})
+    with pytest.raises(ValueError, match=r"positions must be an \(n, 3\) array"):
+        core.add_nodes(np.zeros((2, 2)))
+    with pytest.raises(ValueError, match=r"index must be in \[0, 1\)"):
+        core.set_shared_bases([np.eye(6)], [0, 1])
+    core.add_pipes([0], [1], **one)
+    core.set_shared_bases([np.eye(6)], [0, 0])
+    core.finalize()
+    assert (core.n_nodes, core.n_dofs) == (2, 12) and core.pipe(0).l0 == 1.0
+    with pytest.raises(ValueError):
+        core.pipe(1)

@@ -118,14 +118,22 @@ void bind_assembly(py::module_& m) {
                  md.pipes.reserve(md.pipes.size() + static_cast<std::size_t>(n));
                  for (py::ssize_t k = 0; k < n; ++k) {
                      PipeElementData d;
-                     d.l0 = s[0][k], d.EA = s[1][k], d.GJ = s[2][k], d.EIy = s[3][k], d.EIz = s[4][k];
-                     d.Phi_y = s[5][k], d.Phi_z = s[6][k];
+                     d.l0 = s[0][k];
+                     d.EA = s[1][k];
+                     d.GJ = s[2][k];
+                     d.EIy = s[3][k];
+                     d.EIz = s[4][k];
+                     d.Phi_y = s[5][k];
+                     d.Phi_z = s[6][k];
                      std::copy(op + 9 * k, op + 9 * k + 9, d.offset_p.c.begin());  // row-major, as Mat3
                      std::copy(oq + 9 * k, oq + 9 * k + 9, d.offset_q.c.begin());
-                     d.pipe_mass = s[7][k], d.fluid_mass = s[8][k], d.kv = s[9][k];
+                     d.pipe_mass = s[7][k];
+                     d.fluid_mass = s[8][k];
+                     d.kv = s[9][k];
                      std::copy(ri + 3 * k, ri + 3 * k + 3, d.rotary_inertia.begin());
                      d.flow_factor = s[10][k];
-                     d.end_terms_p = ep[k], d.end_terms_q = eq[k];
+                     d.end_terms_p = ep[k];
+                     d.end_terms_q = eq[k];
                      md.pipes.push_back({pp[k], qq[k], d});
                  }
              },
