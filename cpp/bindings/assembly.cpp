@@ -3,6 +3,7 @@
 
 #include <pybind11/stl.h>
 
+#include <algorithm>
 #include <tuple>
 
 namespace py = pybind11;
@@ -43,6 +44,18 @@ void set_coordinates(State& s, Eigen::VectorXd& dst, const Eigen::VectorXd& x, c
     dst = x;
 }
 
+using Doubles = py::array_t<double, py::array::c_style | py::array::forcecast>;
+using Ints = py::array_t<int, py::array::c_style | py::array::forcecast>;
+using Bools = py::array_t<bool, py::array::c_style | py::array::forcecast>;
+
+// The entries of one argument of a bulk call: n rows of `width` values each.
+template <class A> auto rows(const A& a, py::ssize_t n, py::ssize_t width, const char* name) {
+    if (a.size() != n * width)
+        throw std::invalid_argument(std::string(name) + " must have " + std::to_string(width) + " entries for each of the " +
+                                    std::to_string(n) + " rows, got " + std::to_string(a.size()));
+    return a.data();
+}
+
 py::tuple triplets_to_numpy(const Triplets& t) {
     return py::make_tuple(py::array_t<int>(t.rows.size(), t.rows.data()),
                           py::array_t<int>(t.cols.size(), t.cols.data()),
@@ -60,12 +73,76 @@ void bind_assembly(py::module_& m) {
                  md.positions.push_back(to_vec3(x));
                  return md.n_nodes() - 1;
              })
+        .def("add_nodes",
+             [](Model& md, const Doubles& x) {
+                 if (x.ndim() != 2 || x.shape(1) != 3)
+                     throw std::invalid_argument("positions must be an (n, 3) array");
+                 const double* v = x.data();
+                 changed(md);
+                 for (py::ssize_t i = 0; i < x.shape(0); ++i)
+                     md.positions.push_back({{v[3 * i], v[3 * i + 1], v[3 * i + 2]}});
+             },
+             py::arg("positions"), "Frame nodes at the rows of positions (n, 3) [m], in order.")
         .def("add_pipe",
              [](Model& md, int p, int q, const PipeElementData& d) {
                  changed(md);
                  md.pipes.push_back({node_index(md, p, "p"), node_index(md, q, "q"), d});
                  return static_cast<int>(md.pipes.size()) - 1;
              })
+        .def("add_pipes",
+             // The fields of PipeElementData as one array per field (a row per element): a
+             // model's elements cross in one call instead of one object each.
+             [](Model& md, const Ints& p, const Ints& q, const Doubles& l0, const Doubles& EA, const Doubles& GJ,
+                const Doubles& EIy, const Doubles& EIz, const Doubles& Phi_y, const Doubles& Phi_z,
+                const Doubles& offset_p, const Doubles& offset_q, const Doubles& pipe_mass,
+                const Doubles& fluid_mass, const Doubles& kv, const Doubles& rotary_inertia,
+                const Doubles& flow_factor, const Bools& end_terms_p, const Bools& end_terms_q) {
+                 const py::ssize_t n = p.size();
+                 const int* pp = rows(p, n, 1, "p");
+                 const int* qq = rows(q, n, 1, "q");
+                 const double* s[] = {rows(l0, n, 1, "l0"), rows(EA, n, 1, "EA"), rows(GJ, n, 1, "GJ"),
+                                      rows(EIy, n, 1, "EIy"), rows(EIz, n, 1, "EIz"), rows(Phi_y, n, 1, "Phi_y"),
+                                      rows(Phi_z, n, 1, "Phi_z"), rows(pipe_mass, n, 1, "pipe_mass"),
+                                      rows(fluid_mass, n, 1, "fluid_mass"), rows(kv, n, 1, "kv"),
+                                      rows(flow_factor, n, 1, "flow_factor")};
+                 const double* op = rows(offset_p, n, 9, "offset_p");
+                 const double* oq = rows(offset_q, n, 9, "offset_q");
+                 const double* ri = rows(rotary_inertia, n, 3, "rotary_inertia");
+                 const bool* ep = rows(end_terms_p, n, 1, "end_terms_p");
+                 const bool* eq = rows(end_terms_q, n, 1, "end_terms_q");
+                 for (py::ssize_t k = 0; k < n; ++k) {  // all indices checked before the model changes
+                     node_index(md, pp[k], "p");
+                     node_index(md, qq[k], "q");
+                 }
+                 changed(md);
+                 md.pipes.reserve(md.pipes.size() + static_cast<std::size_t>(n));
+                 for (py::ssize_t k = 0; k < n; ++k) {
+                     PipeElementData d;
+                     d.l0 = s[0][k];
+                     d.EA = s[1][k];
+                     d.GJ = s[2][k];
+                     d.EIy = s[3][k];
+                     d.EIz = s[4][k];
+                     d.Phi_y = s[5][k];
+                     d.Phi_z = s[6][k];
+                     std::copy(op + 9 * k, op + 9 * k + 9, d.offset_p.c.begin());  // row-major, as Mat3
+                     std::copy(oq + 9 * k, oq + 9 * k + 9, d.offset_q.c.begin());
+                     d.pipe_mass = s[7][k];
+                     d.fluid_mass = s[8][k];
+                     d.kv = s[9][k];
+                     std::copy(ri + 3 * k, ri + 3 * k + 3, d.rotary_inertia.begin());
+                     d.flow_factor = s[10][k];
+                     d.end_terms_p = ep[k];
+                     d.end_terms_q = eq[k];
+                     md.pipes.push_back({pp[k], qq[k], d});
+                 }
+             },
+             py::arg("p"), py::arg("q"), py::kw_only(), py::arg("l0"), py::arg("EA"), py::arg("GJ"), py::arg("EIy"),
+             py::arg("EIz"), py::arg("Phi_y"), py::arg("Phi_z"), py::arg("offset_p"), py::arg("offset_q"),
+             py::arg("pipe_mass"), py::arg("fluid_mass"), py::arg("kv"), py::arg("rotary_inertia"),
+             py::arg("flow_factor"), py::arg("end_terms_p"), py::arg("end_terms_q"),
+             "Pipe elements from nodes p to q (arrays of n indices), the fields of PipeElementData "
+             "one array each: n values, offset_p/offset_q (n, 3, 3), rotary_inertia (n, 3).")
         .def("add_load",
              [](Model& md, int node, const Eigen::Vector3d& f, const Eigen::Vector3d& mo,
                 const Eigen::Vector3d& ff, const Eigen::Vector3d& fm) {
@@ -123,6 +200,20 @@ void bind_assembly(py::module_& m) {
                  changed(md);
                  md.bases = b;
              })
+        .def("set_shared_bases",
+             [](Model& md, const std::vector<Eigen::MatrixXd>& distinct, const Ints& index) {
+                 const int* k = index.data();
+                 for (py::ssize_t i = 0; i < index.size(); ++i)
+                     if (k[i] < 0 || k[i] >= static_cast<int>(distinct.size()))
+                         throw std::invalid_argument("index must be in [0, " + std::to_string(distinct.size()) +
+                                                     ") (one of the distinct bases), got " + std::to_string(k[i]));
+                 changed(md);
+                 md.bases.clear();
+                 md.bases.reserve(static_cast<std::size_t>(index.size()));
+                 for (py::ssize_t i = 0; i < index.size(); ++i) md.bases.push_back(distinct[k[i]]);
+             },
+             py::arg("distinct"), py::arg("index"),
+             "The bases of set_bases given once each: node i gets distinct[index[i]] (most nodes share one).")
         .def("finalize", &Model::finalize)
         .def_property_readonly("n_nodes", &Model::n_nodes)
         .def_readonly("n_dofs", &Model::n_dofs)

@@ -52,6 +52,29 @@ def unit_vector(name: str, value) -> np.ndarray:
     return v / n
 
 
+def row_norms(v: np.ndarray) -> np.ndarray:
+    """Euclidean norms of the rows of ``v`` (n, 3), summed in order x, y, z: those of
+    np.linalg.norm of each row alone, bit for bit (the element data of a line or arc are
+    those of its elements one by one)."""
+    return np.sqrt(v[:, 0] * v[:, 0] + v[:, 1] * v[:, 1] + v[:, 2] * v[:, 2])
+
+
+def unit_vectors(name: str, value: np.ndarray) -> np.ndarray:
+    """The rows of ``value`` (n, 3) as unit vectors, as :func:`unit_vector` of each; the
+    message names the first row that is not finite or is zero."""
+    v = np.asarray(value, dtype=float)
+    if v.ndim != 2 or v.shape[1] != 3:
+        raise ValueError(f"{name} must be an (n, 3) array of 3-vectors, got shape {v.shape}")
+    bad = np.flatnonzero(~np.all(np.isfinite(v), axis=1))
+    if bad.size:
+        raise ValueError(f"{name} must be finite, got {v[bad[0]]} (row {bad[0]})")
+    n = row_norms(v)
+    zero = np.flatnonzero(~(n >= 1e-12))
+    if zero.size:
+        raise ValueError(f"{name} must be a non-zero vector, got {v[zero[0]]} (row {zero[0]})")
+    return v / n[:, None]
+
+
 def _integer(name: str, value, low: int, rule: str) -> int:
     x = 0.5 if isinstance(value, bool) else finite(name, value)  # True is not a count
     if x != int(x) or x < low:

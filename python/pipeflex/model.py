@@ -11,7 +11,7 @@ position in m and the slope dr/dx [-] (z and z' are fixed: the element is planar
 from __future__ import annotations
 
 import copy
-import math
+from itertools import chain
 from dataclasses import dataclass
 from typing import Iterable, List, Optional, Sequence, Tuple
 
@@ -24,27 +24,50 @@ from .sections import PipeSection, refuse_unsupported
 COMPONENTS = ("ux", "uy", "uz", "rx", "ry", "rz")
 ANCF_COMPONENTS = ("ux", "uy", "uz", "dx", "dy", "dz")  # position, slope dr/dx
 ELASTIC_MODELS = ("A", "0")
+_IDENTITY = np.eye(6)  # the basis of every free node, one read-only array for all of them
+_IDENTITY.flags.writeable = False
+_NEXT, _LAST = np.array([1, 2, 0]), np.array([2, 0, 1])  # (a x b)_i = a[_NEXT[i]] b[_LAST[i]] - a[_LAST[i]] b[_NEXT[i]]
+
+
+def _triads(tangents: np.ndarray, up: Optional[np.ndarray], where=lambda k: "") -> np.ndarray:
+    """Orthonormal triads (n, 3, 3), each [e_x, e_y, e_z] (columns): e_x along a row of
+    ``tangents`` (n, 3), e_z towards ``up`` (default global z, global y for a vertical
+    e_x). Component by component, in the order of the scalar formulas: a line's triads
+    are those of its elements one by one, bit for bit. ``where(k)`` names element k in
+    the message if ``up`` is parallel to its axis."""
+    T = np.asarray(tangents, dtype=float)
+    T2 = T * T
+    EX = T / np.sqrt(T2[:, 0] + T2[:, 1] + T2[:, 2])[:, None]
+    if up is None:
+        U = np.zeros_like(EX)
+        vertical = np.abs(EX[:, 2]) >= 0.9
+        U[:, 1], U[:, 2] = vertical, ~vertical
+    else:
+        U = np.broadcast_to(np.asarray(up, dtype=float), EX.shape)
+    D = U * EX
+    EZ = U - (D[:, 0] + D[:, 1] + D[:, 2])[:, None] * EX
+    Z2 = EZ * EZ
+    n = np.sqrt(Z2[:, 0] + Z2[:, 1] + Z2[:, 2])
+    if not (n >= 1e-9).all():
+        k = np.flatnonzero(~(n >= 1e-9))[0]
+        raise ValueError(f"up vector {U[k]} is parallel to the element axis {EX[k]}{where(k)}")
+    EZ = EZ / n[:, None]
+    E = np.empty((len(T), 3, 3))
+    E[:, :, 0], E[:, :, 2] = EX, EZ
+    E[:, :, 1] = EZ[:, _NEXT] * EX[:, _LAST] - EZ[:, _LAST] * EX[:, _NEXT]  # e_z x e_x
+    return E
 
 
 def _triad(tangent: np.ndarray, up: Optional[np.ndarray]) -> np.ndarray:
-    """Orthonormal triad [e_x, e_y, e_z] (columns): e_x along the tangent, e_z towards ``up``.
-    Plain float arithmetic: numpy's per-call overhead on 3-vectors dominated building
-    large models."""
-    tx, ty, tz = (float(c) for c in tangent)
-    t = math.sqrt(tx * tx + ty * ty + tz * tz)
-    ex = (tx / t, ty / t, tz / t)
-    if up is None:
-        u = (0.0, 0.0, 1.0) if abs(ex[2]) < 0.9 else (0.0, 1.0, 0.0)
-    else:
-        u = tuple(float(c) for c in up)
-    d = u[0] * ex[0] + u[1] * ex[1] + u[2] * ex[2]
-    ez = [u[i] - d * ex[i] for i in range(3)]
-    n = math.sqrt(ez[0] * ez[0] + ez[1] * ez[1] + ez[2] * ez[2])
-    if n < 1e-9:
-        raise ValueError(f"up vector {np.array(u)} is parallel to the element axis {np.array(ex)}")
-    ez = [c / n for c in ez]
-    ey = (ez[1] * ex[2] - ez[2] * ex[1], ez[2] * ex[0] - ez[0] * ex[2], ez[0] * ex[1] - ez[1] * ex[0])
-    return np.array([[ex[i], ey[i], ez[i]] for i in range(3)])
+    """The triad (3 x 3) of :func:`_triads` for one ``tangent``."""
+    return _triads(np.asarray(tangent, dtype=float).reshape(1, 3), up)[0]
+
+
+def _squares(x: np.ndarray) -> np.ndarray:
+    """x**2 by libm's pow, as Python's and numpy's scalar ``x**2`` (an array's ``x**2`` is
+    x*x, which differs from pow in the last bit for ~0.1 % of x): the element data stay
+    those of the scalar formulas."""
+    return np.power(x, 2.0)
 
 
 def _snapshot(description: dict) -> dict:
@@ -62,17 +85,21 @@ def _snapshot(description: dict) -> dict:
     return out
 
 
-def _strain_free_length(chord: np.ndarray, Ep: np.ndarray, Eq: np.ndarray) -> float:
-    """l0 with eps_1 = 0 (eq. 1) for end triads Ep, Eq (columns e_x, e_y, e_z) and a chord:
-    eps_1 = l - l0 + l0 c with c = (2c3^2 + c3 c4 + 2c4^2 + 2c5^2 + c5 c6 + 2c6^2)/30, where
-    c_k = eps_bar_k / l0 depend on the directions only."""
-    lc = float(np.linalg.norm(chord))
-    el = chord / lc
-    c3, c4 = -el @ Ep[:, 2], el @ Eq[:, 2]
-    c5, c6 = el @ Ep[:, 1], -el @ Eq[:, 1]
-    c = (2 * c3**2 + c3 * c4 + 2 * c4**2 + 2 * c5**2 + c5 * c6 + 2 * c6**2) / 30.0
-    if c >= 1.0:
-        raise ValueError("element end tangents turn too far from the chord for one element")
+def _strain_free_lengths(chords: np.ndarray, lc: np.ndarray, Ep: np.ndarray, Eq: np.ndarray,
+                         where=lambda k: "") -> np.ndarray:
+    """l0 with eps_1 = 0 (eq. 1) for end triads Ep, Eq (n, 3, 3; columns e_x, e_y, e_z),
+    chords (n, 3) and their lengths lc (n): eps_1 = l - l0 + l0 c with
+    c = (2c3^2 + c3 c4 + 2c4^2 + 2c5^2 + c5 c6 + 2c6^2)/30, where c_k = eps_bar_k / l0
+    depend on the directions only. ``where(k)`` names element k in the message."""
+    el = (chords / lc[:, None])[:, :, None]
+    P, Q = el * Ep, el * Eq
+    P, Q = P[:, 0] + P[:, 1] + P[:, 2], Q[:, 0] + Q[:, 1] + Q[:, 2]  # el . e_x, e_y, e_z, summed x, y, z
+    c3, c4 = -P[:, 2], Q[:, 2]
+    c5, c6 = P[:, 1], -Q[:, 1]
+    c = (2 * _squares(c3) + c3 * c4 + 2 * _squares(c4) + 2 * _squares(c5) + c5 * c6 + 2 * _squares(c6)) / 30.0
+    if (c >= 1.0).any():
+        raise ValueError(f"element end tangents turn too far from the chord for one "
+                         f"element{where(np.flatnonzero(c >= 1.0)[0])}")
     return lc / (1.0 - c)
 
 
@@ -254,45 +281,90 @@ class ModelBuilder:
         p = self._node("p", p)
         q = self._node("q", q)
         _checks.element_count("the element count", 1, self._n_elements())
-        if p == q:
-            raise ValueError(f"a pipe element needs two different nodes, got p = q = {p}")
-        for i in (p, q):
-            if i in self._ancf_nodes:
-                raise ValueError(f"node {i} is an ANCF node; pipe elements need frame nodes (add_node)")
+        return self._add_pipes(np.array([p]), np.array([q]), section, up=up, tangent_p=tangent_p,
+                               tangent_q=tangent_q, length=length, flow_factor=flow_factor,
+                               fluid_end_terms=fluid_end_terms)[0]
+
+    def _add_pipes(self, p: np.ndarray, q: np.ndarray, section: PipeSection, *,
+                   up: Optional[Sequence[float]] = None, tangent_p: Optional[Sequence[float]] = None,
+                   tangent_q: Optional[Sequence[float]] = None, length: Optional[float] = None,
+                   flow_factor: float = 1.0, fluid_end_terms: bool = True) -> List[int]:
+        """Pipe elements from nodes ``p`` to ``q`` (arrays of n node indices in range), all
+        with the options of :meth:`add_pipe` (``tangent_p``, ``tangent_q`` may also be
+        (n, 3) arrays, a tangent per element): every rule checked once for all of them
+        (naming the first element that breaks it), their triads and lengths as arrays.
+        Nothing is added unless all pass. Returns the element indices."""
+        def where(k):
+            return f" (element {p[k]}->{q[k]})"
+
+        if (p == q).any():
+            raise ValueError(f"a pipe element needs two different nodes, got p = q = {p[p == q][0]}")
+        if self._ancf_nodes:
+            ancf = [i for i in np.column_stack((p, q)).ravel().tolist() if i in self._ancf_nodes]
+            if ancf:
+                raise ValueError(f"node {ancf[0]} is an ANCF node; pipe elements need frame nodes (add_node)")
         if not isinstance(section, PipeSection):
             raise ValueError("section must be a pipeflex.PipeSection")
-        chord = self._positions[q] - self._positions[p]
-        lc = float(np.linalg.norm(chord))
-        if lc <= 0.0:
-            raise ValueError(f"element {p}->{q} has zero length: nodes {p} and {q} coincide")
+        x = self._positions
+        chords = np.array([x[i] for i in q.tolist()]) - np.array([x[i] for i in p.tolist()])
+        lc = _checks.row_norms(chords)
+        if not (lc > 0.0).all():
+            k = np.flatnonzero(~(lc > 0.0))[0]
+            raise ValueError(f"element {p[k]}->{q[k]} has zero length: nodes {p[k]} and {q[k]} coincide")
         up_v = None if up is None else _checks.unit_vector("up", up)
-        tp = chord if tangent_p is None else _checks.unit_vector("tangent_p", tangent_p)
-        tq = chord if tangent_q is None else _checks.unit_vector("tangent_q", tangent_q)
-        Ep = _triad(tp, up_v)
-        Eq = Ep if tangent_p is None and tangent_q is None else _triad(tq, up_v)  # straight: one triad
+        straight = tangent_p is None and tangent_q is None
+
+        def tangents(name, t):  # one for all elements or, as an (n, 3) array, one each
+            if isinstance(t, np.ndarray) and t.ndim == 2:
+                return _checks.unit_vectors(name, t)
+            return np.repeat(_checks.unit_vector(name, t)[None, :], len(p), axis=0)
+
+        tp = chords if tangent_p is None else tangents("tangent_p", tangent_p)
+        tq = chords if tangent_q is None else tangents("tangent_q", tangent_q)
+        Ep = _triads(tp, up_v, where)
+        Eq = Ep if straight else _triads(tq, up_v, where)  # straight: one triad
         if length is not None:
-            l0 = _checks.positive("length", length)
-        elif tangent_p is None and tangent_q is None:
+            l0 = np.full(len(p), _checks.positive("length", length))
+        elif straight:
             l0 = lc  # a straight element: eps_1 of eq. 1 vanishes at the chord
         else:
-            l0 = _strain_free_length(chord, Ep, Eq)
-        if l0 < lc * (1 - 1e-12):
-            raise ValueError(f"length l0 = {l0} must not be shorter than the chord {lc}")
-        self._elements.append(dict(p=p, q=q, section=section, l0=l0, Ep=Ep, Eq=Eq, flow_factor=_checks.finite("flow_factor", flow_factor),
-                                   fluid_end_terms=bool(fluid_end_terms)))
-        return len(self._elements) - 1
+            l0 = _strain_free_lengths(chords, lc, Ep, Eq, where)
+        if (l0 < lc * (1 - 1e-12)).any():
+            k = np.flatnonzero(l0 < lc * (1 - 1e-12))[0]
+            raise ValueError(f"length l0 = {l0[k]} must not be shorter than the chord {lc[k]}{where(k)}")
+        ff = _checks.finite("flow_factor", flow_factor)
+        end_terms = bool(fluid_end_terms)
+        first = len(self._elements)
+        self._elements.extend([{"p": a, "q": b, "section": section, "l0": l, "Ep": E, "Eq": F, "flow_factor": ff,
+                                "fluid_end_terms": end_terms}
+                               for a, b, l, E, F in zip(p.tolist(), q.tolist(), l0.tolist(), Ep, Eq)])
+        return list(range(first, len(self._elements)))
 
     def add_line(self, start: int, end: Sequence[float], n_elements: int, section: PipeSection,
                  **options) -> List[int]:
         """A straight pipe from node ``start`` to the point ``end`` [m] in ``n_elements``
-        equal elements; returns the node indices along it (``start`` first)."""
+        equal elements; returns the node indices along it (``start`` first). ``options``
+        are those of :meth:`add_pipe`, for every element."""
         start = self._node("start", start)
         n = _checks.element_count("n_elements", n_elements, self._n_elements())
         x0, x1 = self._positions[start], _checks.vector3("end", end)
-        nodes = [start]
-        for k in range(1, n + 1):
-            nodes.append(self.add_node(x0 + (x1 - x0) * k / n))
-            self.add_pipe(nodes[-2], nodes[-1], section, **options)
+        return self._add_chain(start, x0 + (x1 - x0) * np.arange(1, n + 1)[:, None] / n, section, **options)
+
+    def _add_chain(self, start: int, X: np.ndarray, section: PipeSection, **options) -> List[int]:
+        """New nodes at the rows of ``X`` (n, 3) [m] and pipe elements from ``start`` through
+        them in order (:meth:`_add_pipes`); all or nothing. Returns the node indices
+        (``start`` first)."""
+        first = len(self._positions)
+        bad = np.flatnonzero(~np.all(np.isfinite(X), axis=1))
+        if bad.size:
+            raise ValueError(f"position must be finite, got {X[bad[0]]} (new node {first + bad[0]})")
+        nodes = [start] + list(range(first, first + len(X)))
+        self._positions.extend(X)
+        try:
+            self._add_pipes(np.array(nodes[:-1]), np.array(nodes[1:]), section, **options)
+        except BaseException:
+            del self._positions[first:]
+            raise
         return nodes
 
     def add_arc(self, start: int, *, center: Sequence[float], angle: float, normal: Sequence[float],
@@ -325,14 +397,9 @@ class ModelBuilder:
         def rot(th):  # about the unit normal k by th: Rodrigues' formula
             return np.eye(3) + np.sin(th) * K + (1 - np.cos(th)) * K @ K
 
-        nodes = [start]
-        sgn = np.sign(angle)
-        for i in range(1, n + 1):
-            nodes.append(self.add_node(c + rot(dth * i) @ r0))
-            tp = sgn * np.cross(k, rot(dth * (i - 1)) @ r0)
-            tq = sgn * np.cross(k, rot(dth * i) @ r0)
-            self.add_pipe(nodes[-2], nodes[-1], section, up=k, tangent_p=tp, tangent_q=tq, **options)
-        return nodes
+        r = np.array([rot(dth * i) @ r0 for i in range(n + 1)])  # from the centre to node i of the arc
+        t = np.sign(angle) * np.cross(k, r)  # the tangents at the nodes
+        return self._add_chain(start, c + r[1:], section, up=k, tangent_p=t[:-1], tangent_q=t[1:], **options)
 
     def _n_elements(self) -> int:
         return len(self._elements) + len(self._ancf)
@@ -472,14 +539,18 @@ class ModelBuilder:
                 raise ValueError(f"element {e['p']}->{e['q']} carries a mass flow but its fluid_mass is 0")
         known = {}  # nodes with the same constraint rows share one basis (e.g. all planar ANCF nodes)
         bases = [self._basis(i, known) for i in range(len(self._positions))]
-        data = [self._element_data(e) for e in self._elements]  # both cores copy them
-        core, infos = self._make_core(bases, self._hub, data)
+        positions = np.array(self._positions)
+        pipes = self._pipe_arrays()  # both cores copy them
+        core = self._make_core(positions, bases, self._hub, pipes)
         # the same model without supports (planar ANCF nodes keep z, z' fixed), for
         # analyses that need the unconstrained matrices (rotating frame)
-        free_bases = [np.eye(6)[:, [0, 1, 3, 4]] if i in self._ancf_nodes else np.eye(6)
-                      for i in range(len(self._positions))]
-        free_core, _ = self._make_core(free_bases, None, data)
-        model = Model(core, np.array(self._positions), tuple(infos), bases, mdot, self._gravity.copy(),
+        planar = np.eye(6)[:, [0, 1, 3, 4]]
+        free_bases = [planar if i in self._ancf_nodes else _IDENTITY for i in range(len(self._positions))]
+        free_core = self._make_core(positions, free_bases, None, pipes)
+        infos = [ElementInfo((e["p"], e["q"]), e["section"], e["l0"], e["flow_factor"]) for e in self._elements]
+        infos += [ElementInfo((e["p"], e["q"]), e["section"], e["l"], 0.0, kind="ancf", elastic=e["elastic"])
+                  for e in self._ancf]
+        model = Model(core, positions, tuple(infos), bases, mdot, self._gravity.copy(),
                       hub=self._hub, ancf_nodes=tuple(sorted(self._ancf_nodes)),
                       free=(free_core, free_bases), description=_snapshot(vars(self)))
         return model
@@ -488,7 +559,8 @@ class ModelBuilder:
         """Every connected part of the structure needs a support, as the whole model does:
         an unsupported part drifts (a mechanism whose round-off eigenvalues would decide
         a stability answer)."""
-        count, part = _parts(len(self._positions), [(e["p"], e["q"]) for e in els])
+        count, part = _parts(len(self._positions), np.array([e["p"] for e in els], dtype=np.int64),
+                             np.array([e["q"] for e in els], dtype=np.int64))
         supported = {part[i] for i in self._constraints}
         for k in range(count):
             if k not in supported:
@@ -497,37 +569,34 @@ class ModelBuilder:
                                  f"not connected to a supported node: add clamp/pin/hinge/fix on it so it cannot "
                                  f"drift")
 
-    def _make_core(self, bases, hub, data):
+    def _make_core(self, positions, bases, hub, pipes):
         core = _core.Model()
-        for i, x in enumerate(self._positions):
-            if i in self._ancf_nodes:
-                core.add_ancf_node(x, self._ancf_nodes[i])
-            else:
-                core.add_node(x)
-        infos = []
-        for e, d in zip(self._elements, data):
-            core.add_pipe(e["p"], e["q"], d)
-            infos.append(ElementInfo((e["p"], e["q"]), e["section"], e["l0"], e["flow_factor"]))
+        start = 0  # frame nodes in runs between the ANCF nodes
+        for i in sorted(self._ancf_nodes):
+            core.add_nodes(positions[start:i])
+            core.add_ancf_node(positions[i], self._ancf_nodes[i])
+            start = i + 1
+        core.add_nodes(positions[start:])
+        core.add_pipes(**pipes)
         for e in self._ancf:
             d = _core.AncfElementData()
             sec = e["section"]
             d.l, d.EA, d.EI, d.mass, d.elastic = e["l"], sec.EA, sec.EIz, sec.pipe_mass, e["elastic"]
             core.add_ancf(e["p"], e["q"], d)
-            infos.append(ElementInfo((e["p"], e["q"]), sec, e["l"], 0.0, kind="ancf", elastic=e["elastic"]))
         if hub is not None:
             core.set_hub(list(hub.nodes), hub.axis, hub.center, hub.omega, hub.spin_up_time)
         for ld in self._loads:
             core.add_load(ld["node"], ld["f"], ld["m"], ld["ff"], ld["fm"])
         for m in self._masses:
             core.add_mass(m["node"], m["mass"], m["inertia"])
-        core.set_bases(bases)
+        core.set_shared_bases(*_distinct(bases))
         core.finalize()
-        return core, infos
+        return core
 
     def _basis(self, node: int, known: dict) -> np.ndarray:
         rows = self._constraints.get(node, [])
         if not rows:
-            return np.eye(6)
+            return _IDENTITY
         key = tuple(tuple(float(c) for c in r) for r in rows)
         if key not in known:
             known[key] = self._constrained_basis(np.array(rows))
@@ -546,45 +615,65 @@ class ModelBuilder:
         T[np.abs(T) < 1e-15] = 0.0
         return T
 
-    @staticmethod
-    def _element_data(e: dict) -> "_core.PipeElementData":
-        s: PipeSection = e["section"]
-        l0 = e["l0"]
-        d = _core.PipeElementData()
-        d.l0 = l0
-        d.EA, d.GJ, d.EIy, d.EIz = s.EA, s.GJ, s.EI, s.EIz
-        # eq. 7: Phi_z = 12 E I_y / (G A k_z l0^2), Phi_y = 12 E I_z / (G A k_y l0^2)
-        d.Phi_z = 0.0 if s.GAz is None else 12.0 * s.EI / (s.GAz * l0**2)
-        d.Phi_y = 0.0 if s.GAy is None else 12.0 * s.EIz / (s.GAy * l0**2)
-        d.offset_p, d.offset_q = e["Ep"], e["Eq"]
-        d.pipe_mass, d.fluid_mass, d.kv = s.pipe_mass, s.fluid_mass, s.kv
-        d.rotary_inertia = list(s.rotary_inertia)
-        d.flow_factor = e["flow_factor"]
-        d.end_terms_p = e["fluid_end_terms"] and e["p"] not in e.get("reservoir", ())
-        d.end_terms_q = e["fluid_end_terms"] and e["q"] not in e.get("reservoir", ())
-        return d
+    def _pipe_arrays(self) -> dict:
+        """The pipe elements' data (_core.PipeElementData) field by field, a row per
+        element: the arguments of _core.Model.add_pipes."""
+        els = self._elements
+        sections, k = _distinct([e["section"] for e in els])  # a line's elements share one section
+        table = np.array([[s.EA, s.GJ, s.EI, s.EIz, s.pipe_mass, s.fluid_mass, s.kv, *s.rotary_inertia]
+                          for s in sections], dtype=float).reshape(-1, 10)[k]
+        EA, GJ, EI, EIz = table[:, :4].T
+        l0 = np.array([e["l0"] for e in els], dtype=float)
+        # eq. 7: Phi_z = 12 E I_y / (G A k_z l0^2), Phi_y = 12 E I_z / (G A k_y l0^2); 0: rigid in shear
+        shear = np.array([[s.GAz is not None, s.GAy is not None] for s in sections], dtype=bool).reshape(-1, 2)[k]
+        GA = np.array([[1.0 if s.GAz is None else s.GAz, 1.0 if s.GAy is None else s.GAy] for s in sections],
+                      dtype=float).reshape(-1, 2)[k]
+        l0sq = _squares(l0) if shear.any() else l0
+        Phi_z = np.where(shear[:, 0], 12.0 * EI / (GA[:, 0] * l0sq), 0.0)
+        Phi_y = np.where(shear[:, 1], 12.0 * EIz / (GA[:, 1] * l0sq), 0.0)
+        ends = [e["fluid_end_terms"] for e in els]
+        reservoir = [e.get("reservoir", ()) for e in els]
+        return dict(p=np.array([e["p"] for e in els], dtype=np.int32),
+                    q=np.array([e["q"] for e in els], dtype=np.int32),
+                    l0=l0, EA=EA, GJ=GJ, EIy=EI, EIz=EIz, Phi_y=Phi_y, Phi_z=Phi_z,
+                    offset_p=np.array([e["Ep"] for e in els], dtype=float).reshape(-1, 3, 3),
+                    offset_q=np.array([e["Eq"] for e in els], dtype=float).reshape(-1, 3, 3),
+                    pipe_mass=table[:, 4], fluid_mass=table[:, 5], kv=table[:, 6], rotary_inertia=table[:, 7:10],
+                    flow_factor=np.array([e["flow_factor"] for e in els], dtype=float),
+                    end_terms_p=np.array([x and e["p"] not in r for x, e, r in zip(ends, els, reservoir)], dtype=bool),
+                    end_terms_q=np.array([x and e["q"] not in r for x, e, r in zip(ends, els, reservoir)], dtype=bool))
 
 
-def _parts(n: int, edges) -> Tuple[int, np.ndarray]:
-    """The connected parts of an undirected graph of ``n`` nodes: their count and each
-    node's part, numbered in the order of the parts' first nodes (as scipy's
-    connected_components). A union-find, linear in the edges: building a model needs no
-    scipy (its sparse package imports in about 30 ms)."""
-    root = list(range(n))
+def _distinct(objects: list) -> Tuple[list, np.ndarray]:
+    """The distinct objects (by identity) of a list, in the order of first use, and each
+    entry's index among them: e.g. the nodal bases (the builder hands one array to all
+    nodes with the same supports) or the elements' sections (one per line)."""
+    ids = list(map(id, objects))
+    index = {i: k for k, i in enumerate(dict.fromkeys(ids))}
+    by_id = dict(zip(ids, objects))
+    return [by_id[i] for i in index], np.fromiter(map(index.__getitem__, ids), dtype=np.int64, count=len(ids))
 
-    def find(i):
-        while root[i] != i:
-            root[i] = root[root[i]]  # path halving
-            i = root[i]
-        return i
 
-    for p, q in edges:
-        a, b = find(p), find(q)
-        if a != b:
-            root[max(a, b)] = min(a, b)
-    labels: dict = {}
-    part = np.array([labels.setdefault(find(i), len(labels)) for i in range(n)], dtype=np.int64)
-    return len(labels), part
+def _parts(n: int, p: np.ndarray, q: np.ndarray) -> Tuple[int, np.ndarray]:
+    """The connected parts of an undirected graph of ``n`` nodes with edges p[k]-q[k]:
+    their count and each node's part, numbered in the order of the parts' first nodes (as
+    scipy's connected_components; building a model needs no scipy, whose sparse package
+    imports in about 30 ms). Array by array: each round hooks every edge's larger root on
+    its smaller one, then jumps pointers to the roots (a part's root is its first node);
+    the rounds and jumps are logarithmic in the part's size."""
+    root = np.arange(n)
+    while True:
+        a, b = root[p], root[q]
+        if np.array_equal(a, b):
+            break
+        np.minimum.at(root, np.maximum(a, b), np.minimum(a, b))
+        while True:
+            up = root[root]
+            if np.array_equal(up, root):
+                break
+            root = up
+    first, part = np.unique(root, return_inverse=True)
+    return len(first), part.astype(np.int64)
 
 
 def _rebuild_model(description: dict, mass_flow: float, free: bool) -> "Model":
@@ -629,31 +718,33 @@ class Model:
         self.ancf_nodes = ancf_nodes
         self.info: dict = {}
         self._free = free
-        rows, cols, vals = [], [], []
-        labels = []
-        first_dof = list(core.first_dof)  # one conversion: each attribute access copies the vector
-        ancf = set(ancf_nodes)  # a tuple's `in` would make the build quadratic in the nodes
-        # each distinct basis (most nodes have the identity) read once: its entries column by
-        # column (j, then i) and each column's one component (-1: combined)
-        seen = {}
-        for n, T in enumerate(bases):
-            key = (T.shape, T.tobytes())
-            entries = seen.get(key)
-            if entries is None:
-                j, i = np.nonzero(T.T)
-                single = np.count_nonzero(T, axis=0) == 1
-                entries = seen[key] = (i, j, T[i, j], [int(i[j == c][0]) if single[c] else -1
-                                                         for c in range(T.shape[1])])
-            i, j, v, component = entries
-            names = ANCF_COMPONENTS if n in ancf else COMPONENTS
-            labels.extend((n, names[k] if k >= 0 else "combined") for k in component)
-            rows.append(6 * n + i)
-            cols.append(first_dof[n] + j)
-            vals.append(v)
+        first_dof = np.asarray(core.first_dof, dtype=np.int64)  # one conversion: each access copies it
+        ancf = np.zeros(len(bases), dtype=bool)
+        ancf[list(ancf_nodes)] = True
+        # each distinct basis (most nodes share the identity) read once: its entries column by
+        # column (j, then i) and each column's one component (-1: combined), then placed for
+        # all its nodes at once
+        distinct, kind = _distinct(bases)
+        rows, cols, vals, owner, width, names = [], [], [], [], [], {}
+        for g, T in enumerate(distinct):
+            nodes = np.flatnonzero(kind == g)
+            j, i = np.nonzero(T.T)
+            single = np.count_nonzero(T, axis=0) == 1
+            component = [int(i[j == c][0]) if single[c] else -1 for c in range(T.shape[1])]
+            for planar, comps in ((False, COMPONENTS), (True, ANCF_COMPONENTS)):
+                names[g, planar] = [comps[k] if k >= 0 else "combined" for k in component]
+            rows.append((6 * nodes[:, None] + i).ravel())
+            cols.append((first_dof[nodes][:, None] + j).ravel())
+            vals.append(np.broadcast_to(T[i, j], (len(nodes), len(i))).ravel())
+            owner.append(np.repeat(nodes, len(i)))
+            width.append(T.shape[1])
+        order = np.argsort(np.concatenate(owner), kind="stable") if owner else np.zeros(0, np.int64)  # node by node
         # the triplets of `basis` (CSR on first use), kept as arrays: 24 bytes an entry
-        self._basis_matrix = (np.concatenate(vals).astype(float) if vals else np.zeros(0),
-                              (np.concatenate(rows).astype(np.int64) if rows else np.zeros(0, np.int64),
-                               np.concatenate(cols).astype(np.int64) if cols else np.zeros(0, np.int64)))
+        self._basis_matrix = (np.concatenate(vals).astype(float)[order] if vals else np.zeros(0),
+                              (np.concatenate(rows).astype(np.int64)[order] if rows else np.zeros(0, np.int64),
+                               np.concatenate(cols).astype(np.int64)[order] if cols else np.zeros(0, np.int64)))
+        node_of_dof = np.repeat(np.arange(len(bases)), np.array(width, dtype=np.int64)[kind]).tolist()
+        labels = zip(node_of_dof, chain.from_iterable([names[g, a] for g, a in zip(kind.tolist(), ancf.tolist())]))
         #: (node, component) of each reduced coordinate
         self.dof_labels = tuple(labels)
 
