@@ -53,6 +53,27 @@ def test_a_transient_of_an_element_model_needs_no_multibody_threadpoolctl_or_eig
     assert loaded == [] or loaded == ["threadpoolctl", "no OpenBLAS"]
 
 
+def test_an_element_scene_loads_no_scipy_bodies_or_seed_studies():
+    """``pf.scenes`` and the seed packages load their modules on first use: building the
+    seed-000 cantilever imports neither the floating-frame bodies nor scipy nor the seed's
+    studies (the Coriolis meter's study imports the eigen-analysis)."""
+    loaded = run(f"""
+        import json, sys
+        import pipeflex as pf
+        pf.scenes.cantilever_pipe(n_elements=4)
+        print(json.dumps([m for m in {HEAVY!r} + ["pipeflex.seeds.seed000.coriolis", "pipeflex.seeds.seed004"]
+                          if m in sys.modules]))
+        """)
+    assert loaded == []
+    scenes = run("""
+        import json
+        import pipeflex as pf
+        print(json.dumps([n for n in pf.scenes.__all__ if not hasattr(pf.scenes, n)]
+                         + [n for n in pf.seeds.seed004.__all__ if not hasattr(pf.seeds.seed004, n)]))
+        """)
+    assert scenes == []
+
+
 def test_every_public_name_resolves_and_keeps_its_meaning_when_a_namesake_submodule_loads_first():
     kinds = run("""
         import json

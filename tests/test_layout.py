@@ -45,6 +45,10 @@ def _imports(name, path, modules):
             for a in node.names:
                 sub = f"{target}.{a.name}"
                 found.add(sub if sub in modules else target)
+        elif (isinstance(node, ast.Assign) and isinstance(node.value, ast.Dict)
+              and any(isinstance(t, ast.Name) and t.id == "_LAZY" for t in node.targets)):
+            # a lazy name table (pipeflex._lazy.attach): "module" or "module:attribute"
+            found.update(v.value.partition(":")[0] for v in node.value.values if isinstance(v, ast.Constant))
     return {m for m in found if m in modules and m != name}
 
 

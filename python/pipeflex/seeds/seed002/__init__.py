@@ -1,5 +1,15 @@
 """Seed 002 (Berzeri & Shabana): planar ANCF beams, centrifugal stiffening, frequencies of
 the rotating cantilever (Tables 2-5), Southwell coefficients and spin-up (Figs. 2-7)."""
-from . import references, scenes, studies, tables, validation
+from ... import _lazy
+
+# submodules load on first use: a scene does not pay for the studies' imports (scipy)
+_LAZY = {
+    "references": "pipeflex.seeds.seed002.references",
+    "scenes": "pipeflex.seeds.seed002.scenes",
+    "studies": "pipeflex.seeds.seed002.studies",
+    "tables": "pipeflex.seeds.seed002.tables",
+    "validation": "pipeflex.seeds.seed002.validation",
+}
+__getattr__, __dir__ = _lazy.attach(__name__, _LAZY)
 
 __all__ = ["references", "scenes", "studies", "tables", "validation"]
