@@ -209,7 +209,7 @@ def critical_mass_flow(model, *, tol: float = 1e-10, mass_flow_max: Optional[flo
                          f"{named}): there is no static equilibrium to lose stability; support the free motion")
     if classify(eig) != "stable":
         raise ValueError(f"the model is already unstable ({classify(eig)}) without flow")
-    k0, eig_lo = abs(_kmin(eig, ev.sparse)), eig
+    eig0 = eig_lo = eig
     h = unit / steps
     lo, hi = 0.0, None
     while hi is None:
@@ -219,7 +219,8 @@ def critical_mass_flow(model, *, tol: float = 1e-10, mass_flow_max: Optional[flo
         except ConvergenceError as e:
             if e.reached_state is None:
                 raise
-            fold = _path_end(ev, lo, eig_lo, e, k0, rtol)
+            # (the stiffness without flow only where a path ends: a sparse model's is an Arnoldi run)
+            fold = _path_end(ev, lo, eig_lo, e, abs(_kmin(eig0, ev.sparse)), rtol)
             if isinstance(fold, CriticalFlow):
                 return fold
             if fold[0] != lo:

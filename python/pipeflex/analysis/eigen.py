@@ -740,8 +740,12 @@ def _conservative(K, C, M, rtol: float = 1e-12) -> bool:
             if np.array_equal(Xt.indptr, X.indptr) and np.array_equal(Xt.indices, X.indices):
                 return np.abs(X.data - sign * Xt.data).max()  # (a symmetric pattern, the usual case)
         return abs(X - sign * X.T).max()
-    return all(off(X, sign) <= rtol * (abs(X).max() if X.nnz else 0.0)
-               for X, sign in ((K, 1.0), (M, 1.0), (C, -1.0)))
+
+    def size(X):
+        X = sp.csc_matrix(X)
+        return (np.abs(X.data).max() if X.has_canonical_format else abs(X).max()) if X.nnz else 0.0
+
+    return all(off(X, sign) <= rtol * size(X) for X, sign in ((K, 1.0), (M, 1.0), (C, -1.0)))
 
 
 def _rayleigh_on_axis(lam, X, MX, CX, KX):
