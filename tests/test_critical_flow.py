@@ -207,8 +207,55 @@ def test_tracking_moves_a_lower_end_that_already_grows():
     ev = critical._Evaluator(pf.scenes.cantilever_pipe(n_elements=256), None)
     eig_lo, eig_hi = ev(25.5)[0], ev(28.1)[0]
     assert critical.classify(eig_lo) == "flutter"
-    mc = critical._track_root(ev, 25.5, 28.1, eig_hi, 1e-10, eig_lo)
+    mc, _ = critical._track_root(ev, 25.5, 28.1, eig_hi, 1e-10, eig_lo)
     assert mc == pytest.approx(25.00552056, rel=1e-9)
+
+
+@pytest.mark.parametrize("n", [8, 64])
+def test_final_check_refuses_a_flow_off_the_crossing(n, monkeypatch):
+    """The final check refines the crossing eigenvalue at the returned flow and holds it
+    to its own resolution (round-off, Brent's flow tolerance, the tracked scatter: ~1e-9
+    1/s here): a flow 1e-6 relative past the crossing (Re lambda ~1e-5 1/s) is refused,
+    on the dense (8 elements) and the sparse path (64). Formerly it passed anything below
+    1e3 times the scan's round-off bound."""
+    from pipeflex.analysis import critical
+
+    model = pf.scenes.cantilever_pipe(n_elements=n)
+    brentq = critical._brentq
+    monkeypatch.setattr(critical, "_brentq", lambda f, a, b, **kw: brentq(f, a, b, **kw) * (1 + 1e-6))
+    with pytest.raises(pf.ConvergenceError, match="not on the imaginary axis"):
+        pf.critical_mass_flow(model)
+    monkeypatch.setattr(critical, "_brentq", brentq)
+    r = pf.critical_mass_flow(model)
+    assert abs(r.eigenvalue.real) < 1e-9
+
+
+def test_scan_reuses_unchanged_blocks_and_the_band_lu_solves_as_superlu():
+    """The scan's sparse analyses (BlockSolutions): a block whose matrices did not change
+    (the torsion, without flow terms) keeps its solution, the others start from the last
+    scale; the eigenvalues agree with a fresh analysis to round-off. The band LU of the
+    shift-invert (a beam numbered along the pipe) solves as SuperLU's."""
+    import scipy.sparse.linalg as spla
+    from pipeflex.analysis import eigen
+
+    model = pf.scenes.cantilever_pipe(n_elements=64, polar_inertia=1e-4)
+    lin = [pf.linearize(model, pf.static_equilibrium(model, mass_flow=m).state, mass_flow=m) for m in (10.0, 12.0)]
+    blocks = [eigen.split_blocks(x.K, x.C, x.M, sparse=True) for x in lin]
+    previous = eigen.BlockSolutions()
+    eigen.sparse_eigen_from_blocks(blocks[0], model.n_dofs, 16, previous=previous)
+    first = list(previous.solved)
+    warm = eigen.sparse_eigen_from_blocks(blocks[1], model.n_dofs, 16, previous=previous)
+    fresh = eigen.sparse_eigen_from_blocks(blocks[1], model.n_dofs, 16)
+    assert np.all(np.abs(warm.values - fresh.values) <= warm.noise + fresh.noise)
+    unchanged = [s for s in previous.solved if any(s[1] is f[1] for f in first)]
+    assert len(unchanged) == 1 and len(unchanged[0][0].dofs) == 65 - 1  # the torsion: one per free node
+
+    T = eigen.QuadraticPencil(blocks[1][1].K, blocks[1][1].C, blocks[1][1].M)(2.0 + 13.0j)
+    band = eigen._BandLU.of(T)
+    assert band is not None and band.kl <= 3 and band.ku <= 3
+    rhs = np.random.default_rng(1).standard_normal(T.shape[0])
+    want = spla.splu(T).solve(rhs.astype(complex))
+    assert np.allclose(band.solve(rhs), want, rtol=1e-10, atol=1e-10 * np.abs(want).max())
 
 
 @pytest.mark.slow

@@ -11,7 +11,8 @@ the real part of the crossing eigenvalue over the scan bracket, the eigenvalue f
 by Newton refinement in its block (bisection on full eigen-analyses only if the
 tracking is lost); divergence: bisection to 1e-3 relative, then Brent's method on the
 stiffness eigenvalue through zero (det K = 0); (3) a full eigen-analysis at the result
-checks that no other eigenvalue is unstable.
+checks that no other eigenvalue is unstable, and a flutter's crossing eigenvalue, refined
+there, that it is zero to its resolution (:func:`_result`).
 
 Large models (at least :data:`~pipeflex.analysis.eigen.SPARSE_MIN_DOFS` coordinates):
 the scan and the checks compute only the :data:`SCAN_MODES` eigenvalues nearest 0 in
@@ -20,7 +21,12 @@ refines the crossing eigenpair by Newton from its eigenvector at the nearest flo
 sparse LU per step; Arnoldi near the predicted eigenvalue only if Newton lands elsewhere),
 so that the cost grows about linearly with the number of elements. A pipe's flutter and
 divergence are instabilities of its lowest modes; an instability of a mode above the
-SCAN_MODES lowest of each block would be missed.
+SCAN_MODES lowest of each block would be missed. Every scan point still gets its full
+analysis (no block is skipped or only followed): a block whose K, C and M are those of the
+previous analysis to the bit (e.g. a straight pipe's torsion, which the flow does not
+change) takes that analysis' eigenvalues, which are its own; the others are solved anew,
+only starting from the previous scale (:class:`~pipeflex.analysis.eigen.BlockSolutions`).
+So the scan sees whatever a scan of independent analyses would.
 """
 from __future__ import annotations
 
@@ -37,8 +43,9 @@ from .. import _checks
 from ..results import Result
 from .._options import renamed
 from ..errors import ConvergenceError
-from .eigen import (SPARSE_MIN_DOFS, classify, eigen_from_blocks, free_coordinates,
-                    sparse_block_eigenvalues, MECHANISM_CONDITIONING, QuadraticPencil, eigen_noise,
+from .eigen import (GROWTH_TOL, SPARSE_MIN_DOFS, BlockSolutions, _growing, classify, eigen_from_blocks,
+                    free_coordinates,
+                    sparse_block_eigenvalues, MECHANISM_CONDITIONING, QuadraticPencil, eigen_noise, one_norms,
                     sparse_eigen_from_blocks, split_blocks, stiffness_conditioning, with_reduction_noise)
 from ._assembly import require_model
 from .._lazy import loaded_instance
@@ -99,6 +106,8 @@ class _Evaluator:
         self.flow = None  # mdot of self.state once it is an equilibrium
         self.count = 0
         self.sparse = model.n_dofs >= SPARSE_MIN_DOFS
+        # the scan's analyses at neighbouring flows: unchanged blocks are not solved again
+        self.previous = BlockSolutions() if self.sparse else None
         self._kept = {}  # mdot -> (blocks, equilibrium, linearisation), the last few
         # bodies and coupled systems: warm-started solves without the flow continuation
         self.continuation = not (self.coupled or bodies)
@@ -140,7 +149,8 @@ class _Evaluator:
 
         def solve(want_vectors):
             if self.sparse:
-                return sparse_eigen_from_blocks(blocks, self.model.n_dofs, SCAN_MODES, vectors=want_vectors)
+                return sparse_eigen_from_blocks(blocks, self.model.n_dofs, SCAN_MODES, vectors=want_vectors,
+                                                previous=self.previous)
             return eigen_from_blocks(blocks, self.model.n_dofs, vectors=want_vectors)
 
         eig = with_reduction_noise(solve(vectors), lin, lambda: solve(True))
@@ -200,7 +210,7 @@ def critical_mass_flow(model, *, tol: float = 1e-10, mass_flow_max: Optional[flo
                          f"{named}): there is no static equilibrium to lose stability; support the free motion")
     if classify(eig) != "stable":
         raise ValueError(f"the model is already unstable ({classify(eig)}) without flow")
-    k0, eig_lo = abs(_kmin(eig, ev.sparse)), eig
+    eig0 = eig_lo = eig
     h = unit / steps
     lo, hi = 0.0, None
     while hi is None:
@@ -210,7 +220,8 @@ def critical_mass_flow(model, *, tol: float = 1e-10, mass_flow_max: Optional[flo
         except ConvergenceError as e:
             if e.reached_state is None:
                 raise
-            fold = _path_end(ev, lo, eig_lo, e, k0, rtol)
+            # (the stiffness without flow only where a path ends: a sparse model's is an Arnoldi run)
+            fold = _path_end(ev, lo, eig_lo, e, abs(_kmin(eig0, ev.sparse)), rtol)
             if isinstance(fold, CriticalFlow):
                 return fold
             if fold[0] != lo:
@@ -229,9 +240,9 @@ def critical_mass_flow(model, *, tol: float = 1e-10, mass_flow_max: Optional[flo
     if classify(eig_hi) == "flutter":
         # Track the crossing eigenvalue over the scan bracket; bisect only if that fails.
         try:
-            mc = _track_root(ev, lo, hi, eig_hi, xtol, eig_lo)
+            mc, crossing = _track_root(ev, lo, hi, eig_hi, xtol, eig_lo)
             _check_not_at_zero(mc, unit, hi, eig_hi, ev.model)
-            return _result(ev, mc, "flutter")
+            return _result(ev, mc, "flutter", crossing=crossing)
         except (ValueError, ConvergenceError):
             pass  # tracking lost: fall back to bisection on full eigen-analyses
     while hi - lo > 1e-3 * hi:
@@ -242,11 +253,11 @@ def critical_mass_flow(model, *, tol: float = 1e-10, mass_flow_max: Optional[flo
         else:
             lo, eig_lo = mid, eig
             ev.accept(mid, st)
-    kind = classify(eig_hi)
+    kind, crossing = classify(eig_hi), None
 
     if kind == "flutter":
         try:
-            mc = _track_root(ev, lo, hi, eig_hi, xtol, eig_lo)  # narrow bracket: tracking is safe
+            mc, crossing = _track_root(ev, lo, hi, eig_hi, xtol, eig_lo)  # narrow bracket: tracking is safe
         except (ValueError, ConvergenceError):  # no sign change (Re(lambda) > 0 down to lo) or lost
             _check_not_at_zero(lo, unit, hi, eig_hi, ev.model)
             iw = int(np.argmax(eig_hi.values.real))
@@ -288,7 +299,7 @@ def critical_mass_flow(model, *, tol: float = 1e-10, mass_flow_max: Optional[flo
                                    "changes sign there (a neutral direction, or an unstable eigenvalue that the "
                                    "stiffness does not show): cannot locate the critical flow", mass_flow=hi) from None
 
-    return _result(ev, mc, kind)
+    return _result(ev, mc, kind, crossing=crossing)
 
 
 def _kmin(eig, sparse):
@@ -452,6 +463,7 @@ def refine_eigenpair(block, lam, x=None, *, tol=1e-10, max_iterations=20):
     """
     n = len(block.dofs)
     sparse = sp.issparse(block.K)
+    norms = one_norms(block.K, block.C, block.M)
     if sparse:
         T = QuadraticPencil(block.K, block.C, block.M)
         K, C, M = T.K, T.C, T.M
@@ -466,14 +478,12 @@ def refine_eigenpair(block, lam, x=None, *, tol=1e-10, max_iterations=20):
     x = x / np.vdot(c, x)
     polish = False
     for _ in range(max_iterations):
-        noise = _refined_noise(block, lam, x)  # of the current pair
+        noise = _refined_noise(block, lam, x, norms)  # of the current pair
         if sparse:
             # Newton on [T(lam) x; c^H x - 1] = 0 by the LU of its (bordered) Jacobian
             dTx = 2 * lam * (M @ x) + C @ x
-            J = sp.bmat([[T(complex(lam)), sp.csc_matrix(dTx.reshape(-1, 1))],
-                         [sp.csc_matrix(c.conj().reshape(1, -1)), None]], format="csc")
             try:
-                d = spla.splu(J).solve(np.append(-T.residual(lam, x), 0.0))
+                d = spla.splu(T.bordered(complex(lam), dTx, c.conj())).solve(np.append(-T.residual(lam, x), 0.0))
             except RuntimeError:  # singular: lam is an eigenvalue to working precision
                 return lam, x / np.linalg.norm(x)
             x, step = x + d[:n], -d[n]
@@ -527,10 +537,11 @@ def _start_vector(K, C, M, lam, factor=None):
                            "starting vector was found")
 
 
-def _refined_noise(block, lam, x) -> float:
+def _refined_noise(block, lam, x, norms=None) -> float:
     """Round-off level [1/s] of an eigenpair from :func:`refine_eigenpair` in ``block``
-    (:func:`~pipeflex.analysis.eigen.eigen_noise`; compensated on a sparse block)."""
-    return float(eigen_noise(block.K, block.C, block.M, lam, x, compensated=sp.issparse(block.K))[0])
+    (:func:`~pipeflex.analysis.eigen.eigen_noise`, ``norms`` its :func:`one_norms` if known;
+    compensated on a sparse block)."""
+    return float(eigen_noise(block.K, block.C, block.M, lam, x, compensated=sp.issparse(block.K), norms=norms)[0])
 
 
 def _track_root(ev, lo, hi, eig_hi, xtol, eig_lo=None):
@@ -552,6 +563,8 @@ def _track_root(ev, lo, hi, eig_hi, xtol, eig_lo=None):
     Why the value at ``lo``: predicted from ``hi`` alone (as before), the first step's
     Newton lands on the crossing eigenvalue at ``lo`` more than TRACK_TRUST away, and the
     Arnoldi restart returned spurious eigenvalues at 8192 elements (|lambda| ~ 460 for 14).
+
+    Returns the crossing flow mc and the :class:`_Crossing` there (for :func:`_result`).
     """
     lam = eig_hi.values
     i = int(np.argmax(lam.real - 1e300 * (lam.imag < 0)))
@@ -614,22 +627,78 @@ def _track_root(ev, lo, hi, eig_hi, xtol, eig_lo=None):
             if lo <= 0.0:
                 raise ValueError("the crossing eigenvalue grows down to zero flow")
             lo = max(0.0, lo - width)
-    return _brentq(f, lo, hi, xtol=xtol, rtol=4 * np.finfo(float).eps)
+    rtol = 4 * np.finfo(float).eps
+    mc = _brentq(f, lo, hi, xtol=xtol, rtol=rtol)
+    f(mc)  # (Brent returns a flow it evaluated: nothing is computed again)
+    lam_c, x_c = seen[mc]
+    resolution = xtol + rtol * abs(mc)
+    slope = (seen[hi][0].real - seen[lo][0].real) / (hi - lo)
+    scatter = max((abs(seen[k][0].real - lam_c.real - slope * (k - mc)) for k in seen
+                   if 0.0 < abs(k - mc) <= 100.0 * resolution), default=0.0)
+    return mc, _Crossing(dofs, lam_c, x_c, slope, resolution, scatter)
 
 
-def _result(ev, mc, kind, eig_c=None):
+@dataclass(frozen=True)
+class _Crossing:
+    """The tracked crossing at the flow mc Brent's method returned: its block's coordinates,
+    lambda [1/s] and vector there (refined, :func:`refine_eigenpair`), dRe(lambda)/dmdot
+    [1/kg] (the secant over the tracked bracket), the flow's resolution [kg/s] (Brent's
+    bound |mc - root| <= xtol + rtol |mc|) and the scatter [1/s] of the tracked Re(lambda)
+    about that secant at the flows within 100 resolutions of mc (Brent's last iterates).
+
+    Why the scatter: refined to ~1e-13 1/s, Re(lambda) still scatters from flow to flow
+    by the round-off of the static solve and the linearisation, which the refinement takes
+    as exact: measured ~1e-9 1/s at 1024 elements, ~1e-8 at 4096, ~6e-8 at 8192 (a few
+    1e-9 of the flow there, above tol)."""
+
+    dofs: np.ndarray
+    value: complex
+    vector: np.ndarray
+    slope: float
+    resolution: float
+    scatter: float
+
+
+def _result(ev, mc, kind, eig_c=None, crossing=None):
     """Final check with a full eigen-analysis at mc (or ``eig_c``, that of a flow next to
-    it, e.g. of the last equilibrium before a fold), and the critical mode."""
+    it, e.g. of the last equilibrium before a fold), and the critical mode.
+
+    Flutter (``crossing``: the tracking's :class:`_Crossing` at mc): no eigenvalue but the
+    crossing one (and its conjugate and copies in equal blocks) may grow by the scan's own
+    rule (:func:`~pipeflex.analysis.eigen.classify`) by more than the tracked one changes
+    over the flow's tolerance (|dRe/dmdot| 4 (xtol + rtol mc), ~tol mc), else the tracked
+    crossing was not the first (a nearly equal mode of a nearly symmetric pipe's other
+    bending plane may cross within the tolerance); and the crossing eigenvalue, refined at
+    mc, must be on the axis to its resolution: |Re lambda| <= 4 noise + 2 |dRe/dmdot|
+    (xtol + rtol mc) + 2 scatter (:class:`_Crossing`), noise its round-off level
+    (:func:`_refined_noise`, compensated on a sparse block: ~1e-13 1/s). On the
+    cantilever (dRe/dmdot ~0.5 1/s per kg/s) that is ~1e-9 1/s at 1024 elements, 1e-7 at
+    8192; a flow 1e-6 relative off the crossing has Re lambda ~1e-5 1/s."""
     if eig_c is None:
         eig_c, _ = ev(mc)
     lam = eig_c.values
     if kind == "flutter":
-        if np.any(lam.real > np.maximum(1e-6 * np.abs(lam), 1e3 * eig_c.noise)):
+        ref = crossing.value
+        mine = np.array([np.array_equal(eig_c.blocks[b].dofs, crossing.dofs) for b in eig_c.block_of], bool)
+        i = int(np.argmin(np.abs(lam - ref) + 1e300 * ((lam.imag < 0) | ~mine)))
+        copies = np.minimum(np.abs(lam - lam[i]), np.abs(lam - np.conj(lam[i]))) <= 1e-12 * np.abs(lam[i])
+        within = lam.real <= (np.maximum(GROWTH_TOL * np.abs(lam), eig_c.noise)
+                              + 4.0 * abs(crossing.slope) * crossing.resolution)
+        if np.any(_growing(eig_c) & ~copies & ~within):
             raise ConvergenceError(f"at the computed flutter point mdot = {mc:.10g} kg/s another eigenvalue "
                                    "is unstable: the tracked crossing was not the first one", mass_flow=mc)
-        i = int(np.argmin(np.abs(lam.real) + 1e300 * (lam.imag < 0)))
         block = eig_c.blocks[eig_c.block_of[i]]
-        lam_c, x = refine_eigenpair(block, lam[i])
+        if ev.sparse and np.array_equal(block.dofs, crossing.dofs):
+            lam_c, x = refine_eigenpair(block, ref, crossing.vector)  # converged: one or two Newton steps
+        else:  # (small models: as before, from the analysis' value, bit for bit)
+            lam_c, x = refine_eigenpair(block, lam[i])
+        bound = (4.0 * _refined_noise(block, lam_c, x) + 2.0 * abs(crossing.slope) * crossing.resolution
+                 + 2.0 * crossing.scatter)
+        if not abs(lam_c.real) <= bound:
+            raise ConvergenceError(f"at the computed flutter point mdot = {mc:.10g} kg/s the crossing eigenvalue "
+                                   f"lambda = {lam_c.real:.3g} {lam_c.imag:+.10g}j 1/s is not on the imaginary axis "
+                                   f"to its resolution {bound:.2g} 1/s: the flow is not the crossing",
+                                   mass_flow=mc)
         freq = abs(lam_c.imag)
     else:
         # null vector of the stiffness block through zero

@@ -109,7 +109,7 @@ def split_blocks(K, C, M, *, tol: float = 1e-13, sparse: bool = False) -> List[B
         if not X.has_canonical_format:
             X = X.copy()
             X.sum_duplicates()
-        pattern = next((p for p, _ in entries if p.matches(X)), None) or _CscPattern(X)
+        pattern = next((p for p, _ in entries if p.matches(X)), None) or _CscPattern.of(X)
         entries.append((pattern, X.data))
     kept = {}  # per pattern: the entries that couple in any of the matrices
     for pattern, data in entries:
@@ -121,10 +121,7 @@ def split_blocks(K, C, M, *, tol: float = 1e-13, sparse: bool = False) -> List[B
         ref[ref == 0.0] = np.max(np.abs(data))
         keep = np.abs(data) > tol * ref
         kept[pattern] = kept[pattern] | keep if pattern in kept else keep
-    r = np.concatenate([np.arange(n)] + [p.row[keep] for p, keep in kept.items()])
-    c = np.concatenate([np.arange(n)] + [p.col[keep] for p, keep in kept.items()])
-    coupling = sp.csr_matrix((np.ones(len(r), bool), (r, c)), shape=(n, n))
-    ncomp, labels = connected_components(coupling, directed=False)
+    ncomp, labels = _components(n, kept)
     if sparse:
         return [Block(dofs, *mats) for dofs, mats in _sparse_blocks(entries, ncomp, labels)]
     dense = [X.toarray() if sp.issparse(X) else np.asarray(X) for X in (K, C, M)]
@@ -136,8 +133,35 @@ def split_blocks(K, C, M, *, tol: float = 1e-13, sparse: bool = False) -> List[B
     return blocks
 
 
+def _components(n, kept):
+    """The connected components (count, label per coordinate) of the coupling graph of the
+    entries ``kept`` (pattern -> mask), the last result again for the same entries."""
+    global _partition
+    if (_partition is not None and _partition[0] == n and len(_partition[1]) == len(kept)
+            and all(p is q and np.array_equal(k, l) for (p, k), (q, l) in zip(kept.items(), _partition[1]))):
+        return _partition[2]
+    r = np.concatenate([np.arange(n)] + [p.row[keep] for p, keep in kept.items()])
+    c = np.concatenate([np.arange(n)] + [p.col[keep] for p, keep in kept.items()])
+    coupling = sp.csr_matrix((np.ones(len(r), bool), (r, c)), shape=(n, n))
+    result = connected_components(coupling, directed=False)
+    _partition = n, list(kept.items()), result
+    return result
+
+
+_partition = None  # the last (n, entries kept, components) of _components
+
+
 class _CscPattern:
     """Row and column of each entry of a canonical CSC matrix, and which are diagonal."""
+
+    @classmethod
+    def of(cls, X):
+        """The pattern of X: the last one made again if X has its arrays (a scan's repeated
+        linearisations: one pattern)."""
+        global _last_pattern
+        if _last_pattern is None or not _last_pattern.matches(X):
+            _last_pattern = cls(X)
+        return _last_pattern
 
     def __init__(self, X):
         self.indptr, self.indices = X.indptr, X.indices
@@ -187,6 +211,7 @@ class _BlockLayout:
 
 
 _layout = None  # the last block layout: the repeated splits of an analysis reuse it
+_last_pattern = None  # the last _CscPattern.of
 
 
 def _sparse_blocks(entries, ncomp, labels):
@@ -204,6 +229,9 @@ def _sparse_blocks(entries, ncomp, labels):
     return [(dofs, [m[c] for m in mats]) for c, dofs in enumerate(dofs_of)]
 
 
+_similar_signs = {}  # (dofs of a, of b) -> the signs d last found: the repeated analyses of a scan reuse them
+
+
 def _sign_similarity_sparse(a: Block, b: Block):
     """:func:`_sign_similarity` for sparse blocks."""
     if len(a.dofs) != len(b.dofs):
@@ -214,6 +242,30 @@ def _sign_similarity_sparse(a: Block, b: Block):
             return None
         if not np.allclose(np.abs(x.data), np.abs(y.data), rtol=1e-14, atol=0.0):
             return None
+    key = (a.dofs.tobytes(), b.dofs.tobytes())
+    d = _similar_signs.get(key)
+    if d is None or not _signs_map(d, pairs):
+        d = _find_signs(a, pairs)
+        if d is None:
+            return None
+        if len(_similar_signs) >= 16:
+            _similar_signs.clear()
+        _similar_signs[key] = d
+    return d
+
+
+def _signs_map(d, pairs) -> bool:
+    """y = D x D for each (x, y) of ``pairs`` (sparse, one pattern), D = diag(d)."""
+    for x, y in pairs:  # (D x D)_ij = d_i x_ij d_j on x's pattern, which is y's
+        cols = np.repeat(np.arange(x.shape[1]), np.diff(x.indptr))
+        if not np.allclose(d[x.indices] * x.data * d[cols], y.data, rtol=1e-14, atol=0.0):
+            return False
+    return True
+
+
+def _find_signs(a: Block, pairs):
+    """The signs d of :func:`_sign_similarity_sparse` (None if there are none): the signs
+    of the entries met along a spanning tree of the coupling, checked on all entries."""
     n = len(a.dofs)
     links = (abs(a.K) + abs(a.C) + abs(a.M)).tocsr()
     order, pred = breadth_first_order(links, 0, directed=False, return_predecessors=True)
@@ -223,8 +275,13 @@ def _sign_similarity_sparse(a: Block, b: Block):
     parent = pred[child]
     sgn = np.zeros(len(child))
     for x, y in pairs:  # sign(x_ij) sign(y_ij) of the first matrix coupling i and j
-        xv = np.asarray(x[parent, child]).ravel()
-        yv = np.asarray(y[parent, child]).ravel()
+        # x_ij at (parent, child) from the CSC arrays (column child; rows sorted: canonical)
+        lo_, hi_ = x.indptr[child], x.indptr[child + 1]
+        key = x.indices.astype(np.int64) + np.repeat(np.arange(n, dtype=np.int64), np.diff(x.indptr)) * n
+        pos = np.minimum(np.searchsorted(key, child.astype(np.int64) * n + parent), max(len(key) - 1, 0))
+        hit = (pos >= lo_) & (pos < hi_) & (x.indices[pos] == parent) if len(key) else np.zeros(len(child), bool)
+        xv = np.where(hit, x.data[pos] if len(key) else 0.0, 0.0)
+        yv = np.where(hit, y.data[pos] if len(key) else 0.0, 0.0)  # the same pattern
         todo = (sgn == 0.0) & (xv != 0.0)
         sgn[todo] = np.sign(xv[todo]) * np.sign(yv[todo])
     if np.any(sgn == 0.0):
@@ -233,13 +290,7 @@ def _sign_similarity_sparse(a: Block, b: Block):
     d[0] = 1.0
     for j, i, s_ in zip(child, parent, sgn):
         d[j] = d[i] * s_
-    D = sp.diags(d)
-    for x, y in pairs:
-        z = (D @ x @ D).tocsc()
-        z.sort_indices()
-        if z.nnz != y.nnz or not np.allclose(z.data, y.data, rtol=1e-14, atol=0.0):
-            return None
-    return d
+    return d if _signs_map(d, pairs) else None
 
 
 def _sign_similarity(a: Block, b: Block):
@@ -510,7 +561,22 @@ def _nearest(values, k, sigma) -> np.ndarray:
     return dist <= cut * (1 + 1e-10) + 1e-300
 
 
-def eigen_noise(K, C, M, lam, x, *, compensated: bool = False) -> np.ndarray:
+def one_norms(K, C, M) -> list:
+    """The 1-norms of K, C, M (sparse or dense), as :func:`eigen_noise` reads them."""
+    return [_sparse_norm1(X) if sp.issparse(X) else np.linalg.norm(X, 1) for X in (K, C, M)]
+
+
+def _sparse_norm1(X) -> float:
+    """max_j sum_i |X_ij| of a sparse X, from its CSC arrays (scipy's norm builds |X| and
+    sums it as a matrix: ~1 ms on a 2048-coordinate block, called per eigen-solve)."""
+    X = X if X.format == "csc" else sp.csc_matrix(X)
+    if X.nnz == 0:
+        return 0.0
+    cols = np.repeat(np.arange(X.shape[1]), np.diff(X.indptr))
+    return float(np.bincount(cols, weights=np.abs(X.data), minlength=X.shape[1]).max())
+
+
+def eigen_noise(K, C, M, lam, x, *, compensated: bool = False, norms=None) -> np.ndarray:
     """Round-off level [1/s] of eigenvalues lam of the quadratic with right vectors x (columns).
 
     First-order perturbation: rounding the terms of T(lam) x = (lam^2 M + lam C + K) x
@@ -530,9 +596,11 @@ def eigen_noise(K, C, M, lam, x, *, compensated: bool = False) -> np.ndarray:
     (:meth:`QuadraticPencil.residual`, as :func:`~pipeflex.analysis.critical.refine_eigenpair`
     does on sparse blocks): its round-off is eps^2 |K| instead of eps |K|, and the level
     falls to that of the mass and damping terms.
+
+    ``norms``: :func:`one_norms` of K, C, M, where the caller has them already.
     """
     eps = np.finfo(float).eps
-    nm = [spla.norm(X, 1) if sp.issparse(X) else np.linalg.norm(X, 1) for X in (K, C, M)]
+    nm = list(one_norms(K, C, M) if norms is None else norms)
     if compensated:
         nm[0] *= eps
     lam = np.atleast_1d(np.asarray(lam, complex))
@@ -561,13 +629,17 @@ def _sparse_negative(K) -> int:
     return _negative(K.toarray())
 
 
-def sparse_block_eigenvalues(b: Block, k: int, sigma: complex, *, vectors: bool = False, guess=None):
+def sparse_block_eigenvalues(b: Block, k: int, sigma: complex, *, vectors: bool = False, guess=None,
+                             scale: Optional[float] = None):
     """The (about) k eigenvalues nearest sigma of one sparse block, by shift-invert Arnoldi.
 
     Returns ``(lam, noise, V, negative)`` as :func:`block_eigenvalues`. Small blocks are
     solved densely. ``guess`` = (lambda, x): an eigenpair near the one sought (e.g. at a
     neighbouring flow) starts the Krylov space at its state vector [x, lambda x], which
-    cuts the Arnoldi iterations when following an eigenvalue.
+    cuts the Arnoldi iterations when following an eigenvalue. ``scale``: the velocity
+    scale tau [1/s] of the state (:func:`_velocity_scale`), e.g. the largest
+    |lambda - sigma| of this block's solution at a neighbouring flow; default: estimated
+    by a short Arnoldi run.
     """
     n = len(b.dofs)
     K, C, M = (sp.csc_matrix(X) for X in (b.K, b.C, b.M))
@@ -583,26 +655,30 @@ def sparse_block_eigenvalues(b: Block, k: int, sigma: complex, *, vectors: bool 
     real = sigma.imag == 0.0
     s = sigma.real if real else sigma
     dtype = float if real else complex
-    Cs = (C + 2 * s * M).tocsr()  # T'(sigma): the damping of the quadratic in mu = lambda - sigma
-    Mr = M.tocsr()
-    tau = 1.0
+    Cs = C + 2 * s * M  # T'(sigma): the damping of the quadratic in mu = lambda - sigma
 
-    def op(v):
+    def operator(tau):
         # shift-invert of the first-order form on the state [x; mu x / tau]: [f; g] -> [y; f / tau]
-        # with T(sigma) y = -(T'(sigma) f + tau M g)
-        v = np.asarray(v).ravel()
-        f, g = v[:n], v[n:]
-        y = -lu.solve(np.asarray(Cs @ f + tau * (Mr @ g), dtype=dtype))
-        return np.concatenate([y, f / tau])
+        # with T(sigma) y = -(T'(sigma) f + tau M g), [T'(sigma), tau M] one matrix: one product
+        A = sp.hstack([Cs, tau * M], format="csr")
 
-    ops = spla.LinearOperator((2 * n, 2 * n), matvec=op, dtype=dtype)
+        def op(v):
+            v = np.asarray(v).ravel()
+            y = -lu.solve(np.asarray(A @ v, dtype=dtype))
+            return np.concatenate([y, v[:n] / tau])
+        return op
+
     rng = np.random.default_rng(0)
     v0 = rng.standard_normal(2 * n)
     if not real:
         v0 = v0 + 1j * rng.standard_normal(2 * n)
     kk = min(k + 2, 2 * n - 2)
-    with one_thread():
-        tau = _velocity_scale(op, v0, kk)  # op runs with tau = 1 here
+    if scale is not None and scale > 0.0:
+        tau = float(scale)
+    else:
+        with one_thread():
+            tau = _velocity_scale(operator(1.0), v0, kk)
+    ops = _Operator(operator(tau), 2 * n, dtype)
     if guess is not None:
         lam_g, x_g = guess
         z = np.concatenate([x_g, (lam_g - sigma) * x_g / tau])
@@ -639,14 +715,37 @@ def sparse_block_eigenvalues(b: Block, k: int, sigma: complex, *, vectors: bool 
     return lam, noise, X, 0
 
 
+class _Operator(spla.LinearOperator):
+    """A LinearOperator whose ``matvec`` is the function ``op`` itself, without
+    LinearOperator's shape checks (~40 us a call; ARPACK applies it 50-60 times a block)."""
+
+    def __init__(self, op, n, dtype):
+        super().__init__(np.dtype(dtype), (n, n))
+        self.matvec = op  # (the instance's: ARPACK's loop calls it)
+
+    def _matvec(self, v):
+        return self.matvec(v)
+
+
 def _conservative(K, C, M, rtol: float = 1e-12) -> bool:
     """K and M symmetric, C skew-symmetric (gyroscopic or none): an undamped conservative
     block, whose T(i w) is Hermitian for real w."""
     def off(X, sign):
-        X = sp.csr_matrix(X)
-        return abs(X - sign * X.T).max() if X.nnz else 0.0
-    return all(off(X, sign) <= rtol * (abs(X).max() if X.nnz else 0.0)
-               for X, sign in ((K, 1.0), (M, 1.0), (C, -1.0)))
+        X = sp.csc_matrix(X)
+        if not X.nnz:
+            return 0.0
+        if X.has_canonical_format:
+            Xt = X.tocsr()  # its arrays are X^T's in CSC
+            Xt.sort_indices()
+            if np.array_equal(Xt.indptr, X.indptr) and np.array_equal(Xt.indices, X.indices):
+                return np.abs(X.data - sign * Xt.data).max()  # (a symmetric pattern, the usual case)
+        return abs(X - sign * X.T).max()
+
+    def size(X):
+        X = sp.csc_matrix(X)
+        return (np.abs(X.data).max() if X.has_canonical_format else abs(X).max()) if X.nnz else 0.0
+
+    return all(off(X, sign) <= rtol * size(X) for X, sign in ((K, 1.0), (M, 1.0), (C, -1.0)))
 
 
 def _rayleigh_on_axis(lam, X, MX, CX, KX):
@@ -712,25 +811,69 @@ class QuadraticPencil:
 
     def __init__(self, K, C, M):
         self.K, self.C, self.M = (sp.csc_matrix(X) for X in (K, C, M))
-        U = (abs(self.K) + abs(self.C) + abs(self.M)).tocsc()  # no cancellation: the union pattern
-        U.sort_indices()
-        self.indices, self.indptr, self.shape = U.indices, U.indptr, U.shape
-        n = U.shape[0]
-        key = np.repeat(np.arange(n, dtype=np.int64), np.diff(U.indptr)) * n + U.indices
-        self.values = []
+        first = max((self.K, self.C, self.M), key=lambda X: X.nnz)
+        if first.has_canonical_format and all(X.nnz == 0 or (np.array_equal(X.indptr, first.indptr) and
+                                                             np.array_equal(X.indices, first.indices))
+                                              for X in (self.K, self.C, self.M)):
+            # one pattern (linearize's K, C, M share it; an empty matrix takes zeros):
+            # the union is that pattern
+            self.indices, self.indptr, self.shape = first.indices, first.indptr, first.shape
+            self.values = [X.data if X.nnz else np.zeros(first.nnz) for X in (self.K, self.C, self.M)]
+            return
+        n = self.K.shape[0]
+        parts = []  # (column n + row of each entry, value), canonical
         for X in (self.K, self.C, self.M):
-            X = X.copy()
-            X.sum_duplicates()
-            xkey = np.repeat(np.arange(n, dtype=np.int64), np.diff(X.indptr)) * n + X.indices
+            if not X.has_canonical_format:
+                X = X.copy()
+                X.sum_duplicates()
+            parts.append((np.repeat(np.arange(n, dtype=np.int64), np.diff(X.indptr)) * n + X.indices, X.data))
+        # the union pattern in CSC order: the keys merged (a stable sort of three sorted runs)
+        keys = np.concatenate([k for k, _ in parts])
+        order = np.argsort(keys, kind="stable")
+        new = np.ones(len(keys), bool)
+        np.not_equal(keys[order[1:]], keys[order[:-1]], out=new[1:])
+        key = keys[order[new]]
+        at = np.empty(len(keys), np.int64)  # each entry's place in the union
+        at[order] = np.cumsum(new) - 1
+        self.indices = (key % n).astype(np.int32)
+        self.indptr = np.searchsorted(key, np.arange(n + 1, dtype=np.int64) * n).astype(np.int32)
+        self.shape = self.K.shape
+        self.values, start = [], 0
+        for xkey, data in parts:
             v = np.zeros(len(key))
-            v[np.searchsorted(key, xkey)] = X.data
+            v[at[start:start + len(xkey)]] = data
             self.values.append(v)
+            start += len(xkey)
 
     def __call__(self, s):
         k, c, m = self.values
         T = sp.csc_matrix((s * s * m + s * c + k, self.indices, self.indptr), shape=self.shape)
         T.has_canonical_format = True
         return T
+
+    def bordered(self, s, column, row):
+        """[[T(s), column], [row, 0]] (CSC, n + 1 square; ``column``, ``row`` dense n-vectors)
+        from the value arrays: the Jacobian of Newton on [T(s) x; c^H x - 1] = 0
+        (:func:`~pipeflex.analysis.critical.refine_eigenpair`), without a sparse block
+        assembly each step. Each column of T gets the row's entry last."""
+        n = self.shape[0]
+        if not hasattr(self, "_border"):
+            nnz = len(self.indices)
+            at = np.arange(nnz) + np.repeat(np.arange(n), np.diff(self.indptr))  # after j row entries
+            last = self.indptr[1:] + np.arange(n)
+            indptr = np.concatenate([self.indptr + np.arange(n + 1), [nnz + 2 * n]]).astype(np.int32)
+            indices = np.empty(nnz + 2 * n, np.int32)
+            indices[at], indices[last], indices[nnz + n:] = self.indices, n, np.arange(n)
+            self._border = at, last, indices, indptr
+        at, last, indices, indptr = self._border
+        k, c, m = self.values
+        data = np.empty(len(indices), complex)
+        data[at] = s * s * m + s * c + k
+        data[last] = row
+        data[len(indices) - n:] = column
+        J = sp.csc_matrix((data, indices, indptr), shape=(n + 1, n + 1))
+        J.has_canonical_format = True
+        return J
 
     def residual(self, s, x) -> np.ndarray:
         """T(s) x with K x summed in twice the working precision (compensated: Ogita,
@@ -801,15 +944,61 @@ def _two_sum(a, b):
     return s, (a - (s - z)) + (b - z)
 
 
+#: A sparse matrix whose entries lie within this many diagonals below and above the main
+#: one is factored as a band (:class:`_BandLU`), else by SuperLU.
+BAND_MAX = 16
+
+
+class _BandLU:
+    """LU with partial pivoting of a sparse matrix stored as a band (LAPACK gbtrf/gbtrs),
+    solving as SuperLU's ``solve``.
+
+    Why: a chain of beam elements numbered along the pipe gives blocks of bandwidth 3;
+    SuperLU's solve costs 0.27 ms for such a block of 2048 coordinates, the band's
+    0.08 ms, and the shift-invert Arnoldi of :func:`sparse_block_eigenvalues` applies it
+    50-60 times per block."""
+
+    def __init__(self, A, kl, ku):
+        A = A.tocoo()
+        n = A.shape[0]
+        ab = np.zeros((2 * kl + ku + 1, n), A.dtype)
+        ab[kl + ku + A.row - A.col, A.col] = A.data  # duplicates cannot occur (canonical CSC)
+        gbtrf, self._gbtrs = sla.get_lapack_funcs(("gbtrf", "gbtrs"), (ab,))
+        self._lu, self._piv, info = gbtrf(ab, kl, ku)
+        if info > 0:
+            raise RuntimeError("Factor is exactly singular")
+        self.kl, self.ku, self.dtype = kl, ku, ab.dtype
+
+    @classmethod
+    def of(cls, A):
+        """The band LU of the canonical CSC matrix A, or None if its band is wider than BAND_MAX."""
+        cols = np.repeat(np.arange(A.shape[1]), np.diff(A.indptr))
+        off = A.indices - cols
+        kl, ku = (int(max(off.max(), 0)), int(max(-off.min(), 0))) if len(off) else (0, 0)
+        return cls(A, kl, ku) if kl <= BAND_MAX and ku <= BAND_MAX else None
+
+    def u_diagonal(self) -> np.ndarray:
+        return self._lu[self.kl + self.ku]
+
+    def solve(self, b):
+        if np.iscomplexobj(b) and self.dtype.kind != "c":
+            return self.solve(b.real) + 1j * self.solve(b.imag)
+        x, info = self._gbtrs(self._lu, self.kl, self.ku, np.asarray(b, self.dtype), self._piv)
+        return x
+
+
 def _shift_factor(T, sigma):
-    """Sparse LU of T(sigma) = sigma^2 M + sigma C + K (a :class:`QuadraticPencil`); the
-    shift is moved off an (exactly or numerically) singular point by a tiny amount."""
+    """LU of T(sigma) = sigma^2 M + sigma C + K (a :class:`QuadraticPencil`; a band's by
+    :class:`_BandLU`, else SuperLU's); the shift is moved off an (exactly or numerically)
+    singular point by a tiny amount."""
     for attempt in range(3):
         s = sigma.real if sigma.imag == 0.0 else sigma
         Ts = T(s)
         try:
-            lu = spla.splu(Ts)
-            u = np.abs(lu.U.diagonal())
+            lu = _BandLU.of(Ts)
+            if lu is None:
+                lu = spla.splu(Ts)
+            u = np.abs(lu.u_diagonal() if isinstance(lu, _BandLU) else lu.U.diagonal())
             if u.min() > 1e-13 * u.max():
                 return Ts, lu
         except RuntimeError:
@@ -820,12 +1009,48 @@ def _shift_factor(T, sigma):
     raise np.linalg.LinAlgError(f"T(sigma) is singular near sigma = {sigma}: choose another sigma")
 
 
-def sparse_eigen_from_blocks(blocks, n, k, *, sigma=None, vectors=False) -> EigenResult:
+class BlockSolutions:
+    """The block solutions of the last :func:`sparse_eigen_from_blocks` call given this
+    object (same k and sigma), for a sequence of analyses at nearby parameters (the
+    critical-flow scan). A block whose K, C and M equal (up to coordinate signs, as
+    :func:`_solve_blocks` compares blocks) those of a block solved last time takes its
+    solution: the same matrices, the same eigenvalues (e.g. a straight pipe's torsion,
+    which the flow does not change). Another block at the same coordinates skips
+    the short Arnoldi run of :func:`_velocity_scale`: its scale tau is the largest
+    |lambda - sigma| of last time's solution (|mu_k| itself, where that run estimates it
+    within a few times; 0.1 to 100 times it converge alike)."""
+
+    def __init__(self):
+        self.key = None  # (k, sigma) of the solutions
+        self.solved = []  # (block, lam, noise, V, negative)
+
+    def known(self, k, sigma):
+        return self.solved if self.key == (k, sigma) else []
+
+    def scale(self, block, sigma):
+        for a, lam, *_ in self.solved:
+            if len(lam) and np.array_equal(a.dofs, block.dofs):
+                return float(np.max(np.abs(lam - sigma)))
+        return None
+
+
+def sparse_eigen_from_blocks(blocks, n, k, *, sigma=None, vectors=False,
+                             previous: Optional[BlockSolutions] = None) -> EigenResult:
     """The k eigenvalues nearest sigma (default 0) of sparse blocks (:func:`split_blocks`
-    with ``sparse=True``), as an :class:`EigenResult` in :func:`eigen_from_blocks`' order."""
+    with ``sparse=True``), as an :class:`EigenResult` in :func:`eigen_from_blocks`' order.
+    ``previous``: the solutions of the last call given it (:class:`BlockSolutions`), reused
+    where a block is unchanged and as the start of the others; updated to this call's."""
     sigma = 0.0 if sigma is None else complex(sigma)
-    values, noise, block_of, vecs, static_negative = _solve_blocks(
-        blocks, n, lambda b: sparse_block_eigenvalues(b, k, sigma, vectors=vectors), _sign_similarity_sparse, vectors)
+    known = [] if previous is None else previous.known(k, sigma)
+
+    def solve(b):
+        scale = None if previous is None or previous.key != (k, sigma) else previous.scale(b, sigma)
+        return sparse_block_eigenvalues(b, k, sigma, vectors=vectors, scale=scale)
+
+    values, noise, block_of, vecs, static_negative, solved = _solve_blocks(
+        blocks, n, solve, _sign_similarity_sparse, vectors, known)
+    if previous is not None:
+        previous.key, previous.solved = (k, sigma), solved
     keep = _nearest(values, k, sigma)
     values, noise, block_of = values[keep], noise[keep], block_of[keep]
     order = np.lexsort((values.real, np.round(np.abs(values.imag), 12)))
@@ -833,25 +1058,28 @@ def sparse_eigen_from_blocks(blocks, n, k, *, sigma=None, vectors=False) -> Eige
     return EigenResult(values[order], noise[order], V, block_of[order], static_negative, blocks)
 
 
-def _solve_blocks(blocks, n, solve, similarity, with_vectors):
+def _solve_blocks(blocks, n, solve, similarity, with_vectors, known=()):
     """Eigenvalues of every block by ``solve(block)`` -> (lam, noise, V, negative), a block
     equal to an earlier one up to DOF signs (``similarity``) reusing its solution (the two
-    bending planes of a straight pipe). Returns the concatenated values, noise, owning
-    block, the vectors scattered to all ``n`` DOFs (if ``with_vectors``) and the count of
-    negative static stiffnesses."""
+    bending planes of a straight pipe), or equal to one of ``known`` (block, lam, noise,
+    V, negative), solved by an earlier call (:func:`_same_block`). Returns the
+    concatenated values, noise, owning block, the vectors scattered to all ``n`` DOFs (if
+    ``with_vectors``), the count of negative static stiffnesses and this call's distinct
+    solutions (as ``known``)."""
     vals, noises, vecs, owner = [], [], [], []
     static_negative = 0
-    solved = []  # (block, lam, noise, V) already computed
+    solved = []  # (block, lam, noise, V, negative) of this call
     for i, b in enumerate(blocks):
-        for a, lam_a, noise_a, V_a in solved:
+        for a, lam_a, noise_a, V_a, negative_a in solved:
             d = similarity(a, b)
             if d is not None:
                 lam, noise, V = lam_a, noise_a, (None if V_a is None else d[:, None] * V_a)
                 break
         else:
-            lam, noise, V, negative = solve(b)
+            same = next((s for s in known if _same_block(s[0], b)), None)
+            lam, noise, V, negative = same[1:] if same is not None else solve(b)
             static_negative += negative
-            solved.append((b, lam, noise, V))
+            solved.append((b, lam, noise, V, negative))
         if len(lam) == 0:
             continue
         vals.append(lam)
@@ -864,11 +1092,27 @@ def _solve_blocks(blocks, n, solve, similarity, with_vectors):
     values = np.concatenate(vals) if vals else np.zeros(0, complex)
     noise = np.concatenate(noises) if noises else np.zeros(0)
     block_of = np.concatenate(owner) if owner else np.zeros(0, int)
-    return values, noise, block_of, vecs, static_negative
+    return values, noise, block_of, vecs, static_negative, solved
+
+
+def _same_block(a: Block, b: Block) -> bool:
+    """The same coordinates and the same K, C, M (sparse: the same CSC arrays) to the bit."""
+    if not np.array_equal(a.dofs, b.dofs):
+        return False
+    for x, y in ((a.K, b.K), (a.C, b.C), (a.M, b.M)):
+        if sp.issparse(x) != sp.issparse(y):
+            return False
+        if not sp.issparse(x):
+            if not np.array_equal(x, y):
+                return False
+        elif not (x.shape == y.shape and np.array_equal(x.indptr, y.indptr)
+                  and np.array_equal(x.indices, y.indices) and np.array_equal(x.data, y.data)):
+            return False
+    return True
 
 
 def eigen_from_blocks(blocks, n, *, vectors=False) -> EigenResult:
-    values, noise, block_of, vecs, static_negative = _solve_blocks(
+    values, noise, block_of, vecs, static_negative, _ = _solve_blocks(
         blocks, n, lambda b: block_eigenvalues(b, vectors=vectors), _sign_similarity, vectors)
     order = np.lexsort((values.real, np.round(np.abs(values.imag), 12)))
     V = np.concatenate(vecs, axis=1)[:, order] if vectors and vecs else None
