@@ -137,9 +137,10 @@ def _components(n, kept):
     """The connected components (count, label per coordinate) of the coupling graph of the
     entries ``kept`` (pattern -> mask), the last result again for the same entries."""
     global _partition
-    if (_partition is not None and _partition[0] == n and len(_partition[1]) == len(kept)
-            and all(p is q and np.array_equal(k, l) for (p, k), (q, l) in zip(kept.items(), _partition[1]))):
-        return _partition[2]
+    last = _partition  # one read: another thread may replace it (a sweep's threads)
+    if (last is not None and last[0] == n and len(last[1]) == len(kept)
+            and all(p is q and np.array_equal(k, l) for (p, k), (q, l) in zip(kept.items(), last[1]))):
+        return last[2]
     r = np.concatenate([np.arange(n)] + [p.row[keep] for p, keep in kept.items()])
     c = np.concatenate([np.arange(n)] + [p.col[keep] for p, keep in kept.items()])
     coupling = sp.csr_matrix((np.ones(len(r), bool), (r, c)), shape=(n, n))
@@ -159,9 +160,10 @@ class _CscPattern:
         """The pattern of X: the last one made again if X has its arrays (a scan's repeated
         linearisations: one pattern)."""
         global _last_pattern
-        if _last_pattern is None or not _last_pattern.matches(X):
-            _last_pattern = cls(X)
-        return _last_pattern
+        last = _last_pattern  # one read: another thread may replace it
+        if last is None or not last.matches(X):
+            last = _last_pattern = cls(X)
+        return last
 
     def __init__(self, X):
         self.indptr, self.indices = X.indptr, X.indices
