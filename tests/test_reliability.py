@@ -436,3 +436,18 @@ def test_a_nearly_conservative_undamped_model_is_not_called_flutter():
     eig = pf.eigenvalues(lin)
     assert pf.stability(eig) == "stable"
     assert np.abs(eig.values.real).max() == 0.0  # on the axis: the symmetric part's eigenvalues
+
+
+def test_state_frames_copy_in_and_out_of_the_core(m4):
+    """The core state's frames in one call (State.from_core/to_core) equal the node-by-node
+    frame(i)/set_frame(i), bit for bit; a wrong shape is refused by name."""
+    rng = np.random.default_rng(3)
+    core = m4.initial_state()
+    for i in range(m4.n_nodes):
+        core.set_frame(i, pf.rotation.rotation_exp(rng.normal(size=3)))
+    st = pf.State.from_core(core, m4)
+    assert np.array_equal(st.frames, np.array([core.frame(i) for i in range(m4.n_nodes)]))
+    back = st.to_core(m4)
+    assert all(np.array_equal(back.frame(i), core.frame(i)) for i in range(m4.n_nodes))
+    with pytest.raises(ValueError, match=r"frames must have shape \(5, 3, 3\)"):
+        core.frames = np.zeros((4, 3, 3))

@@ -238,6 +238,27 @@ void bind_assembly(py::module_& m) {
             [](State& s, const Eigen::VectorXd& x) { set_coordinates(s, s.a, x, "a"); }, py::return_value_policy::reference_internal)
         .def("frame", [](const State& s, int i) { return from_mat3<RowMat3>(s.frames[frame_index(s, i)]); })
         .def("set_frame", [](State& s, int i, const RowMat3& R) { s.frames[frame_index(s, i)] = to_mat3(R); })
+        .def_property(
+            "frames",
+            [](const State& s) {
+                const auto n = static_cast<py::ssize_t>(s.frames.size());
+                py::array_t<double> out({n, py::ssize_t{3}, py::ssize_t{3}});
+                auto o = out.mutable_unchecked<3>();
+                for (py::ssize_t i = 0; i < n; ++i)
+                    for (int r = 0; r < 3; ++r)
+                        for (int c = 0; c < 3; ++c) o(i, r, c) = s.frames[i](r, c);
+                return out;
+            },
+            [](State& s, const py::array_t<double, py::array::c_style | py::array::forcecast>& a) {
+                const auto n = static_cast<py::ssize_t>(s.frames.size());
+                if (a.ndim() != 3 || a.shape(0) != n || a.shape(1) != 3 || a.shape(2) != 3)
+                    throw std::invalid_argument("frames must have shape (" + std::to_string(n) + ", 3, 3)");
+                auto x = a.unchecked<3>();
+                for (py::ssize_t i = 0; i < n; ++i)
+                    for (int r = 0; r < 3; ++r)
+                        for (int c = 0; c < 3; ++c) s.frames[i](r, c) = x(i, r, c);
+            },
+            "Every node's reference rotation, (n_nodes, 3, 3), copied (one call where frame(i) is one per node).")
         .def("rotation", [](const State& s, int i) { return from_mat3<RowMat3>(s.rotation(frame_index(s, i))); })
         .def("rebase", &State::rebase, py::arg("max_angle"))
         .def("copy", [](const State& s) { return State(s); });

@@ -48,7 +48,7 @@ class State(Result):
         ancf = np.zeros(n, dtype=bool)
         ancf[list(model.ancf_nodes)] = True
         return cls(np.array(state.q, dtype=float), np.array(state.v, dtype=float), np.array(state.a, dtype=float),
-                   np.array([state.frame(i) for i in range(n)], dtype=float).reshape(n, 3, 3), ancf)
+                   state.frames, ancf)
 
     def to_core(self, model) -> "_core.State":
         """A new ``_core.State`` of ``model`` holding these values."""
@@ -64,8 +64,7 @@ class State(Result):
             raise ValueError(f"state.frames[{bad[0]}] must be finite")
         s = _core.State(model.core)
         s.q, s.v, s.a = self.q, self.v, self.a
-        for i in range(n):
-            s.set_frame(i, self.frames[i])
+        s.frames = self.frames
         return s
 
     def frame(self, node: int) -> np.ndarray:
