@@ -105,10 +105,11 @@ def split_blocks(K, C, M, *, tol: float = 1e-13, sparse: bool = False) -> List[B
     n = K.shape[0]
     entries = []  # (pattern, values) of K, C, M; linearize's three share one pattern
     for X in (K, C, M):
-        X = sp.csc_matrix(X)
-        if not X.has_canonical_format:
-            X = X.copy()
-            X.sum_duplicates()
+        if not (sp.issparse(X) and X.format == "csc" and X.has_canonical_format):  # (linearize's are)
+            X = sp.csc_matrix(X)
+            if not X.has_canonical_format:
+                X = X.copy()
+                X.sum_duplicates()
         pattern = next((p for p, _ in entries if p.matches(X)), None) or _CscPattern.of(X)
         entries.append((pattern, X.data))
     kept = {}  # per pattern: the entries that couple in any of the matrices
@@ -122,15 +123,7 @@ def split_blocks(K, C, M, *, tol: float = 1e-13, sparse: bool = False) -> List[B
         keep = np.abs(data) > tol * ref
         kept[pattern] = kept[pattern] | keep if pattern in kept else keep
     ncomp, labels = _components(n, kept)
-    if sparse:
-        return [Block(dofs, *mats) for dofs, mats in _sparse_blocks(entries, ncomp, labels)]
-    dense = [X.toarray() if sp.issparse(X) else np.asarray(X) for X in (K, C, M)]
-    blocks = []
-    for c in range(ncomp):
-        idx = np.nonzero(labels == c)[0]
-        ix = np.ix_(idx, idx)
-        blocks.append(Block(idx, dense[0][ix], dense[1][ix], dense[2][ix]))
-    return blocks
+    return [Block(dofs, *mats) for dofs, mats in _split_entries(entries, ncomp, labels, sparse)]
 
 
 def _components(n, kept):
@@ -191,20 +184,26 @@ class _BlockLayout:
         order = np.flatnonzero(labels[pattern.row] == owner)
         order = order[np.argsort(owner[order], kind="stable")]
         bounds = np.searchsorted(owner[order], np.arange(ncomp + 1))
-        self.parts = []  # per block: (entries taken, CSC indices, CSC indptr)
+        self.parts = []  # per block: (entries taken, CSC indices, CSC indptr, column of each entry)
         for c, dofs in enumerate(self.dofs):
             sel = order[bounds[c]:bounds[c + 1]]
-            counts = np.bincount(local[pattern.col[sel]], minlength=len(dofs))
+            cols = local[pattern.col[sel]]
+            counts = np.bincount(cols, minlength=len(dofs))
             indptr = np.concatenate([[0], np.cumsum(counts)]).astype(np.int32)
-            self.parts.append((sel, local[pattern.row[sel]].astype(np.int32), indptr))
+            self.parts.append((sel, local[pattern.row[sel]].astype(np.int32), indptr, cols))
 
     def matches(self, pattern, labels):
         return (pattern is self.pattern or pattern.matches(self.pattern)) and np.array_equal(labels, self.labels)
 
-    def blocks(self, data):
-        """The block matrices (CSC, explicit zeros dropped) of the values ``data``."""
+    def blocks(self, data, sparse=True):
+        """The block matrices of the values ``data``: CSC (explicit zeros dropped) or dense."""
         out = []
-        for (sel, indices, indptr), dofs in zip(self.parts, self.dofs):
+        for (sel, indices, indptr, cols), dofs in zip(self.parts, self.dofs):
+            if not sparse:  # (a small model's: no sparse matrix to build and check)
+                Y = np.zeros((len(dofs), len(dofs)), data.dtype)
+                Y[indices, cols] = data[sel]
+                out.append(Y)
+                continue
             Y = sp.csc_matrix((data[sel], indices.copy(), indptr.copy()), shape=(len(dofs), len(dofs)))
             Y.has_canonical_format = True
             Y.eliminate_zeros()
@@ -216,8 +215,8 @@ _layout = None  # the last block layout: the repeated splits of an analysis reus
 _last_pattern = None  # the last _CscPattern.of
 
 
-def _sparse_blocks(entries, ncomp, labels):
-    """[(dofs, [K, C, M] of the block)] for the partition ``labels``."""
+def _split_entries(entries, ncomp, labels, sparse):
+    """[(dofs, [K, C, M] of the block)] for the partition ``labels`` (CSC or dense blocks)."""
     global _layout
     layouts = {}  # per pattern of this call
     for pattern, _ in entries:
@@ -226,7 +225,7 @@ def _sparse_blocks(entries, ncomp, labels):
             if layout is None or not layout.matches(pattern, labels):
                 layout = _BlockLayout(pattern, ncomp, labels)
             layouts[pattern] = _layout = layout
-    mats = [layouts[pattern].blocks(data) for pattern, data in entries]
+    mats = [layouts[pattern].blocks(data, sparse) for pattern, data in entries]
     dofs_of = next(iter(layouts.values())).dofs  # one partition: every layout's is the same
     return [(dofs, [m[c] for m in mats]) for c, dofs in enumerate(dofs_of)]
 
@@ -304,6 +303,12 @@ def _sign_similarity(a: Block, b: Block):
     if len(a.dofs) != len(b.dofs):
         return None
     pairs = [(a.K, b.K), (a.C, b.C), (a.M, b.M)]
+    # The signs of the same blocks' last pair, if they still map a to b (this test implies
+    # the next on |X|): they are unique (a is connected), so the search below finds them.
+    key = (a.dofs.tobytes(), b.dofs.tobytes())
+    d = _similar_signs.get(key)
+    if d is not None and _dense_signs_map(d, pairs):
+        return d
     for x, y in pairs:
         if not np.allclose(np.abs(x), np.abs(y), rtol=1e-14, atol=0.0):
             return None
@@ -320,13 +325,23 @@ def _sign_similarity(a: Block, b: Block):
             x, y = next((x[i, j], y[i, j]) for x, y in pairs if x[i, j] != 0.0)
             d[j] = d[i] * np.sign(x) * np.sign(y)
             stack.append(j)
-    if np.any(d == 0.0):
+    if np.any(d == 0.0) or not _dense_signs_map(d, pairs):
         return None
+    if len(_similar_signs) >= 16:
+        _similar_signs.clear()
+    _similar_signs[key] = d
+    return d
+
+
+def _dense_signs_map(d, pairs) -> bool:
+    """y = D x D for each (x, y) of ``pairs`` (dense), D = diag(d)."""
     D = np.outer(d, d)
     for x, y in pairs:
-        if not np.allclose(D * x, y, rtol=1e-14, atol=0.0):
-            return None
-    return d
+        z = D * x
+        # (a straight pipe's two bending planes are equal to the bit: the cheaper test first)
+        if not (np.array_equal(z, y) or np.allclose(z, y, rtol=1e-14, atol=0.0)):
+            return False
+    return True
 
 
 def block_eigenvalues(b: Block, *, vectors: bool = False):
@@ -410,7 +425,10 @@ def _companion(K, C, M, vectors):
         lu = sla.lu_factor(K, check_finite=False)
     X = sla.lu_solve(lu, M, check_finite=False)
     Y = sla.lu_solve(lu, C, check_finite=False)
-    A = np.block([[np.zeros((n, n)), np.eye(n)], [-X, -Y]])
+    A = np.zeros((2 * n, 2 * n), np.result_type(X, Y))  # [[0, I], [-X, -Y]]
+    A[:n, n:] = np.eye(n)
+    np.negative(X, out=A[n:, :n])
+    np.negative(Y, out=A[n:, n:])
     if vectors:
         mu, V = np.linalg.eig(A)
     else:
