@@ -148,15 +148,19 @@ FreeMotions free_motions_of(FrameGram& gram, const Eigen::VectorXd& r, const Eig
 //  - kFastFilter: 4 y2 - 3 y3, phi = 4 mu^3 - 3 mu^4 (a Hermite step: phi(1) = 1,
 //    phi'(1) = 0): rate 6 (w / k)^2, 0.24 at k = 3.3 w; a soft free motion keeps its value
 //    to third order. Used once the residual on the free motions has fallen below
-//    kFastFilterBelow of the force level: far from it a loaded free motion whose stiffness
-//    grows as it moves (a pendulum swinging down from the horizontal) would be walked to a
-//    far equilibrium, where a driven mechanism must be refused.
+//    kFastFilterBelow of the force level, and only while the frames have moved less than
+//    kFastFilterNear model sizes in this solve (the corrections' sum on S, rotations
+//    counted as lengths): a loaded free motion whose stiffness grows as it moves (a
+//    pendulum swinging down from the horizontal) would otherwise be walked to a far
+//    equilibrium, where a driven mechanism must be refused (a stiff enough free motion
+//    converges near: the chain's sag moved its frames by 1e-4 model sizes).
 // Both sum to 1, so the correction satisfies the linearised constraints (H's constraint rows
 // are zero).
 constexpr int kShiftFilterSolves = 4;
 constexpr double kSafeFilter[kShiftFilterSolves] = {0.0, 0.0, 0.0, 1.0};
 constexpr double kFastFilter[kShiftFilterSolves] = {0.0, 0.0, 4.0, -3.0};
 constexpr double kFastFilterBelow = 1e-3;
+constexpr double kFastFilterNear = 1e-3;
 
 }  // namespace
 
@@ -231,6 +235,7 @@ StaticNewtonResult static_newton(Equations& eq, double t, Eigen::VectorXd& lam, 
     };
     double last = std::numeric_limits<double>::infinity();
     bool fast = false;  // a mechanism's correction: kFastFilter rather than kSafeFilter
+    Eigen::VectorXd moved = zero;  // the sum of the corrections
     for (int it = 1; it <= opt.max_iterations; ++it) {
         poll_interrupt();
         out.iterations = it;
@@ -327,7 +332,9 @@ StaticNewtonResult static_newton(Equations& eq, double t, Eigen::VectorXd& lam, 
             // once fast, fast for the rest of the solve (the force on the free motions falls
             // with the error there; one Gram factorisation fewer per iteration)
             fast = fast || gram->free_force(r.head(n)).norm() <= kFastFilterBelow * fscale;
-            const double* c = fast ? kFastFilter : kSafeFilter;
+            const bool near =
+                (opt.shift.array() != 0.0).select(moved, 0.0).lpNorm<Eigen::Infinity>() <= kFastFilterNear * L;
+            const double* c = fast && near ? kFastFilter : kSafeFilter;
             y = c[0] * x;
             for (int k = 1; k < kShiftFilterSolves; ++k) {
                 rhs = H * x;
@@ -358,6 +365,7 @@ StaticNewtonResult static_newton(Equations& eq, double t, Eigen::VectorXd& lam, 
             out.diverged = true;  // a correction beyond the model: a (nearly) singular tangent
             return out;
         }
+        if (shifted) moved += x.head(n);
         eq.predict_stresses(&x);
         eq.set(x.head(n), zero, zero, lam, t);
         eq.rebase(v, a);
