@@ -233,7 +233,9 @@ struct StaticNewtonOptions {
     // constraints leave free, which makes the KKT matrix regular, and the correction is
     // filtered by three more solves with the same LU, so that a free motion much softer than
     // the penalty (loaded or not) keeps its value, as a truncated pseudo-inverse keeps it,
-    // and one much stiffer converges at the rate 4 penalty / its stiffness. The residual is
+    // and one much stiffer converges at the rate 4 penalty / its stiffness, 6 (penalty / its
+    // stiffness)^2 once the residual on the free motions has fallen below 1e-3 of the force
+    // level, near the start (static_newton.cpp: kSafeFilter, kFastFilter). The residual is
     // not penalised, so neither is the equilibrium; a loaded free motion keeps its residual
     // (the caller judges it). Not with a border.
     Eigen::VectorXd shift;
