@@ -249,10 +249,15 @@ def _sign_similarity_sparse(a: Block, b: Block):
         d = _find_signs(a, pairs)
         if d is None:
             return None
-        if len(_similar_signs) >= 16:
-            _similar_signs.clear()
-        _similar_signs[key] = d
+        _remember_signs(key, d)
     return d
+
+
+def _remember_signs(key, d) -> None:
+    """Keep the signs d of the pair ``key`` for the next analysis (at most 16 pairs)."""
+    if len(_similar_signs) >= 16:
+        _similar_signs.clear()
+    _similar_signs[key] = d
 
 
 def _signs_map(d, pairs) -> bool:
@@ -327,9 +332,7 @@ def _sign_similarity(a: Block, b: Block):
             stack.append(j)
     if np.any(d == 0.0) or not _dense_signs_map(d, pairs):
         return None
-    if len(_similar_signs) >= 16:
-        _similar_signs.clear()
-    _similar_signs[key] = d
+    _remember_signs(key, d)
     return d
 
 
