@@ -22,11 +22,14 @@ sparse LU per step; Arnoldi near the predicted eigenvalue only if Newton lands e
 so that the cost grows about linearly with the number of elements. A pipe's flutter and
 divergence are instabilities of its lowest modes; an instability of a mode above the
 SCAN_MODES lowest of each block would be missed. Every scan point still gets its full
-analysis (no block is skipped or only followed): a block whose K, C and M are those of the
+analysis (no block is only followed): a block whose K, C and M are those of the
 previous analysis to the bit (e.g. a straight pipe's torsion, which the flow does not
-change) takes that analysis' eigenvalues, which are its own; the others are solved anew,
-only starting from the previous scale (:class:`~pipeflex.analysis.eigen.BlockSolutions`).
-So the scan sees whatever a scan of independent analyses would.
+change) takes that analysis' eigenvalues, which are its own; a block proved stable by its
+energy (:func:`~pipeflex.analysis.eigen.proved_stable`: K and M positive definite, C
+dissipative or gyroscopic, e.g. a straight pipe's axial block) contributes no eigenvalues,
+since none of them can grow; the others are solved anew, only starting from the previous
+scale (:class:`~pipeflex.analysis.eigen.BlockSolutions`). So the scan decides stability
+as a scan of independent analyses would.
 """
 from __future__ import annotations
 
@@ -150,7 +153,7 @@ class _Evaluator:
         def solve(want_vectors):
             if self.sparse:
                 return sparse_eigen_from_blocks(blocks, self.model.n_dofs, SCAN_MODES, vectors=want_vectors,
-                                                previous=self.previous)
+                                                previous=self.previous, unstable_only=True)
             return eigen_from_blocks(blocks, self.model.n_dofs, vectors=want_vectors)
 
         eig = with_reduction_noise(solve(vectors), lin, lambda: solve(True))

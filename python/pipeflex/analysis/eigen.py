@@ -738,6 +738,57 @@ def sparse_block_eigenvalues(b: Block, k: int, sigma: complex, *, vectors: bool 
     return lam, noise, X, 0
 
 
+def proved_stable(b: Block) -> bool:
+    """No eigenvalue of the block has Re(lambda) > 0, proved by its energy: K and M
+    symmetric positive definite and the symmetric part of C positive semi-definite, so
+    E = (v'Mv + x'Kx)/2 > 0 and dE/dt = -v'C_sym v <= 0 (the skew, gyroscopic part of C
+    does no work; Kelvin-Tait-Chetaev). E.g. a straight pipe's axial block with flow: the
+    outflow damps it, the flow's follower terms act on the bending blocks only.
+
+    Sufficient tests, each cheap next to an Arnoldi run: symmetry to 1e-12 of the largest
+    entry, definiteness by a (band) Cholesky or an LU without pivoting whose pivots are all
+    positive, semi-definiteness of C_sym by diagonal dominance with a non-negative
+    diagonal (to 1e-12 of its largest entry: Re(lambda) may be round-off above 0, as in
+    any computed spectrum). A block that fails a test is simply not proved stable."""
+    K, C, M = (sp.csc_matrix(X) for X in (b.K, b.C, b.M))
+    if not (K.nnz and M.nnz) or not all(_symmetric(X) for X in (K, M)):
+        return False
+    if C.nnz:
+        S = 0.5 * (C + C.T)
+        d = S.diagonal()
+        off = np.asarray(abs(S).sum(axis=1)).ravel() - np.abs(d)
+        if np.any(d - off < -1e-12 * np.abs(S.data).max()):
+            return False
+    return _positive_definite(K) and _positive_definite(M)
+
+
+def _symmetric(X, rtol: float = 1e-12) -> bool:
+    return bool(abs(X - X.T).max() <= rtol * np.abs(X.data).max()) if X.nnz else True
+
+
+def _positive_definite(X) -> bool:
+    """A symmetric sparse X is positive definite: its band Cholesky (LAPACK pbtrf) exists,
+    or (wider patterns) its LU without pivoting has only positive pivots."""
+    X = sp.csc_matrix(X)
+    cols = np.repeat(np.arange(X.shape[1]), np.diff(X.indptr))
+    low = X.indices - cols
+    kl = int(max(low.max(), 0)) if len(low) else 0
+    if kl <= BAND_MAX:
+        ab = np.zeros((kl + 1, X.shape[0]))
+        below = low >= 0
+        ab[low[below], cols[below]] = X.data[below]
+        try:
+            sla.cholesky_banded(ab, lower=True, check_finite=True)
+            return True
+        except (np.linalg.LinAlgError, ValueError):
+            return False
+    try:
+        lu = spla.splu(X, permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0, options=dict(SymmetricMode=True))
+    except RuntimeError:
+        return False
+    return bool(np.array_equal(lu.perm_r, lu.perm_c) and np.all(lu.U.diagonal() > 0.0))
+
+
 class _Operator(spla.LinearOperator):
     """A LinearOperator whose ``matvec`` is the function ``op`` itself, without
     LinearOperator's shape checks (~40 us a call; ARPACK applies it 50-60 times a block)."""
@@ -1058,15 +1109,21 @@ class BlockSolutions:
 
 
 def sparse_eigen_from_blocks(blocks, n, k, *, sigma=None, vectors=False,
-                             previous: Optional[BlockSolutions] = None) -> EigenResult:
+                             previous: Optional[BlockSolutions] = None,
+                             unstable_only: bool = False) -> EigenResult:
     """The k eigenvalues nearest sigma (default 0) of sparse blocks (:func:`split_blocks`
     with ``sparse=True``), as an :class:`EigenResult` in :func:`eigen_from_blocks`' order.
     ``previous``: the solutions of the last call given it (:class:`BlockSolutions`), reused
-    where a block is unchanged and as the start of the others; updated to this call's."""
+    where a block is unchanged and as the start of the others; updated to this call's.
+    ``unstable_only``: for a stability decision, a block proved stable
+    (:func:`proved_stable`) contributes no eigenvalues instead of an Arnoldi run."""
     sigma = 0.0 if sigma is None else complex(sigma)
     known = [] if previous is None else previous.known(k, sigma)
 
     def solve(b):
+        if unstable_only and proved_stable(b):
+            m = len(b.dofs)
+            return np.zeros(0, complex), np.zeros(0), np.zeros((m, 0), complex), 0
         scale = None if previous is None or previous.key != (k, sigma) else previous.scale(b, sigma)
         return sparse_block_eigenvalues(b, k, sigma, vectors=vectors, scale=scale)
 
