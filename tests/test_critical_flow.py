@@ -221,11 +221,11 @@ def test_final_check_refuses_a_flow_off_the_crossing(n, monkeypatch):
     from pipeflex.analysis import critical
 
     model = pf.scenes.cantilever_pipe(n_elements=n)
-    brentq = critical._brentq
-    monkeypatch.setattr(critical, "_brentq", lambda f, a, b, **kw: brentq(f, a, b, **kw) * (1 + 1e-6))
+    brentq = critical.brentq
+    monkeypatch.setattr(critical, "brentq", lambda f, a, b, **kw: brentq(f, a, b, **kw) * (1 + 1e-6))
     with pytest.raises(pf.ConvergenceError, match="not on the imaginary axis"):
         pf.critical_mass_flow(model)
-    monkeypatch.setattr(critical, "_brentq", brentq)
+    monkeypatch.setattr(critical, "brentq", brentq)
     r = pf.critical_mass_flow(model)
     assert abs(r.eigenvalue.real) < 1e-9
 

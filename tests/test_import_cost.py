@@ -107,3 +107,15 @@ def test_one_thread_sets_and_restores_openblas_threads():
         assert get() == 2
     finally:
         put(before)
+
+
+def test_a_critical_flow_does_not_import_scipy_optimize():
+    """Brent's method is pipeflex's own (analysis/_roots.py): scipy.optimize's package
+    costs 70-90 ms of a process's first critical flow."""
+    loaded = run("""
+        import json, sys
+        import pipeflex as pf
+        pf.critical_mass_flow(pf.scenes.cantilever_pipe(n_elements=4))
+        print(json.dumps([m for m in ("scipy.optimize",) if m in sys.modules]))
+        """)
+    assert loaded == []

@@ -345,7 +345,8 @@ def _crossings(speeds, freqs, ks) -> Tuple[np.ndarray, np.ndarray, np.ndarray, n
     """Where each branch meets omega = k Omega: sign changes of omega_b - k Omega between
     neighbouring speeds, located on a cubic spline of the branch (linear with < 4 speeds)."""
     from scipy.interpolate import CubicSpline
-    from scipy.optimize import brentq
+
+    from ._roots import brentq
 
     out = []
     for b in range(freqs.shape[1]):

@@ -53,6 +53,7 @@ from .eigen import (GROWTH_TOL, SPARSE_MIN_DOFS, BlockSolutions, _growing, class
 from ._assembly import require_model
 from .._lazy import loaded_instance
 from .linearize import linearize
+from ._roots import brentq
 from .static import static_equilibrium
 from .._blas import small_problems_single_threaded
 
@@ -284,7 +285,7 @@ def critical_mass_flow(model, *, tol: float = 1e-10, mass_flow_max: Optional[flo
 
         try:
             try:
-                mc = _brentq(kmin, lo, hi, xtol=xtol, rtol=4 * np.finfo(float).eps)
+                mc = brentq(kmin, lo, hi, xtol=xtol, rtol=4 * np.finfo(float).eps)
             except ValueError:
                 if not ev.sparse:
                     raise
@@ -296,7 +297,7 @@ def critical_mass_flow(model, *, tol: float = 1e-10, mass_flow_max: Optional[flo
                     if a <= 0.0:
                         raise
                     a = max(0.0, hi - 2.0 * (hi - a))
-                mc = _brentq(kmin, a, hi, xtol=xtol, rtol=4 * np.finfo(float).eps)
+                mc = brentq(kmin, a, hi, xtol=xtol, rtol=4 * np.finfo(float).eps)
         except ValueError:
             raise ConvergenceError(f"divergence between {lo:.6g} and {hi:.6g} kg/s, but no stiffness eigenvalue "
                                    "changes sign there (a neutral direction, or an unstable eigenvalue that the "
@@ -631,7 +632,7 @@ def _track_root(ev, lo, hi, eig_hi, xtol, eig_lo=None):
                 raise ValueError("the crossing eigenvalue grows down to zero flow")
             lo = max(0.0, lo - width)
     rtol = 4 * np.finfo(float).eps
-    mc = _brentq(f, lo, hi, xtol=xtol, rtol=rtol)
+    mc = brentq(f, lo, hi, xtol=xtol, rtol=rtol)
     f(mc)  # (Brent returns a flow it evaluated: nothing is computed again)
     lam_c, x_c = seen[mc]
     resolution = xtol + rtol * abs(mc)
@@ -722,11 +723,3 @@ def _result(ev, mc, kind, eig_c=None, crossing=None):
     mode = np.zeros(ev.model.n_dofs, complex)
     mode[block.dofs] = x / x[np.argmax(np.abs(x))]
     return CriticalFlow(float(mc), kind, float(freq), complex(lam_c), mode, ev.count)
-
-
-def _brentq(f, a, b, **options):
-    """scipy.optimize.brentq, imported when first needed: scipy.optimize adds ~40 ms to
-    `import pipeflex`, a third of it (the peer scene's process time, docs/performance.md)."""
-    from scipy.optimize import brentq
-
-    return brentq(f, a, b, **options)

@@ -528,7 +528,7 @@ def resonance_speed(model, *, mode: int = 1, gamma_range: Sequence[float] = (0.5
         ValueError: ``mode`` beyond the model's transverse modes, a bad ``gamma_range``
             (low < high, both >= 0), or no resonance of the mode within it.
     """
-    from scipy.optimize import brentq
+    from ._roots import brentq
 
     j = _checks.positive_int("mode", mode) - 1
     try:
