@@ -9,11 +9,21 @@ extrapolated; the two extrapolations agree to ~1e-13 m).
 
 For each accuracy target the cheapest run meeting it is reported, solve time (simulate
 only, best of `--repeat`) and process time (a fresh interpreter: import, build, static
-solve, simulate). The peer's figures (Exudyn 1.11, -O3, its 2D ALE-ANCF pipe, trapezoidal
-rule, dense LU, modified Newton, best tuned setting) are those the issue measured on this
-machine kind; the peer is not installed here (PyPI is unreachable).
+solve, simulate). Without `--peer` the peer's figures are those the issue measured on another
+machine (Exudyn 1.11, -O3, its 2D ALE-ANCF pipe, trapezoidal rule, dense LU, modified Newton,
+relTol 1e-4 / 1e-6).
+
+With `--peer` the peer itself runs beside pipeflex in the same process, alternating (Exudyn 1.11
+built from source, `benchmarks/peer/exudyn_scene.py` says how; skipped with one line when
+`import exudyn` fails): both codes sweep the same steps around each target, error against each
+code's own converged reference; a (setting, step) qualifies for a target when it meets it at
+that step and at every smaller step of the sweep (no lucky zero crossing of the error); the
+largest qualifying step of each setting is timed again, best of `--repeat` alternating, and
+the cheapest of each code as whole processes (`benchmarks/processes/peer_exudyn.py` for the
+peer), alternating pairs, one BLAS thread each; ratio pipeflex / peer (< 1: pipeflex faster).
 
 Run: .venv/bin/python benchmarks/bench_limit_cycle.py [--repeat 5] [--quick]
+     PYTHONPATH=<EXUDYN>/main/pythonDev .venv/bin/python benchmarks/bench_limit_cycle.py --peer [--repeat 5]
 """
 import argparse
 import os
@@ -61,6 +71,19 @@ SETTINGS = [
 ]
 STEPS = (2e-3, 1.2e-3, 1e-3, 5e-4, 2.5e-4, 1.2e-4, 1e-4)
 
+# The peer's settings (benchmarks/peer/exudyn_scene.run options) and the steps both codes sweep per target.
+PEER_SETTINGS = [
+    ("peer trapezoidal, mod. Newton, relTol 1e-2", dict(solver="trapezoidal", rel_tol=1e-2)),
+    ("peer trapezoidal, mod. Newton, relTol 1e-3", dict(solver="trapezoidal", rel_tol=1e-3)),
+    ("peer trapezoidal, mod. Newton, relTol 1e-4", dict(solver="trapezoidal", rel_tol=1e-4)),
+    ("peer trapezoidal, mod. Newton, relTol 1e-6", dict(solver="trapezoidal", rel_tol=1e-6)),
+    ("peer gen-alpha rho 1, mod. Newton, relTol 1e-2", dict(solver="generalized_alpha", rel_tol=1e-2)),
+    ("peer gen-alpha rho 1, mod. Newton, relTol 1e-4", dict(solver="generalized_alpha", rel_tol=1e-4)),
+    ("peer trapezoidal, sparse LU, relTol 1e-4", dict(solver="trapezoidal", rel_tol=1e-4, linear_solver="sparse")),
+]
+SIDE_STEPS = {1e-4: (2.5e-3, 2e-3, 1.6e-3, 1.25e-3, 1e-3, 8e-4, 6.25e-4),
+              1e-6: (3.2e-4, 2.5e-4, 2e-4, 1.6e-4, 1.25e-4, 1e-4)}
+
 PROCESS = """
 import time; t0 = time.perf_counter()
 import sys; sys.path.insert(0, {here!r})
@@ -71,32 +94,146 @@ print(time.perf_counter() - t0)
 """
 
 
+def process_command(step, options):
+    return [sys.executable, "-c", PROCESS.format(here=os.path.dirname(os.path.abspath(__file__)), step=step,
+                                                 options=options)]
+
+
+def peer_process_command(step, options):
+    script = os.path.join(os.path.dirname(os.path.abspath(__file__)), "processes", "peer_exudyn.py")
+    return [sys.executable, script, repr(step), repr(options.get("rel_tol", 1e-6)),
+            options.get("solver", "trapezoidal"), "1" if options.get("modified_newton", True) else "0",
+            options.get("linear_solver", "dense")]
+
+
+def wall(command):
+    """Wall seconds of one fresh interpreter, one BLAS thread."""
+    t0 = time.perf_counter()
+    subprocess.run(command, check=True, capture_output=True, env=dict(os.environ, OPENBLAS_NUM_THREADS="1"))
+    return time.perf_counter() - t0
+
+
 def process_time(step, options, repeat):
-    best = np.inf
-    code = PROCESS.format(here=os.path.dirname(os.path.abspath(__file__)), step=step, options=options)
-    for _ in range(repeat):
-        t0 = time.perf_counter()
-        subprocess.run([sys.executable, "-c", code], check=True, capture_output=True)
-        best = min(best, time.perf_counter() - t0)
-    return best
+    return min(wall(process_command(step, options)) for _ in range(repeat))
+
+
+def blas_threads():
+    try:
+        from threadpoolctl import threadpool_info
+        return ", ".join(f"{i['internal_api']} {i['num_threads']}" for i in threadpool_info())
+    except ImportError:
+        return "unknown"
+
+
+def load_peer():
+    """The peer's scene module, or None (one printed line) when exudyn cannot be imported."""
+    sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "peer"))
+    import exudyn_scene
+    try:
+        exudyn_scene.load()
+    except ImportError as e:
+        print(f"peer skipped: exudyn is not importable ({e}); benchmarks/peer/exudyn_scene.py says how to build it")
+        return None
+    return exudyn_scene
+
+
+def qualifying(runs, target):
+    """Per setting, its largest step meeting the target there and at every smaller step of the sweep:
+    (label, options, step, error, seconds) runs."""
+    best = {}
+    for r in runs:
+        same = [q for q in runs if q[0] == r[0] and q[2] <= r[2]]
+        if all(q[3] <= target for q in same) and (r[0] not in best or r[2] > best[r[0]][2]):
+            best[r[0]] = r
+    return list(best.values())
+
+
+def side_by_side(es, repeat, ref_pf, ref_peer):
+    """Both codes on the same steps per target, alternating. Each setting's largest qualifying step is timed
+    again (best of `repeat`, the two codes alternating); the cheapest of each code is run as whole processes
+    (alternating pairs of fresh interpreters)."""
+    model, n, st = scene()
+    print(f"peer reference tip displacement at 2 s = {ref_peer:.12f} m; the two references differ by "
+          f"{abs(ref_peer - ref_pf):.2e} m")
+    print(f"{'setting':48s} {'step [s]':>9s} {'error [m]':>10s} {'solve [s]':>10s} {'it/step':>8s} {'tangents':>8s}")
+    sweeps = {}
+    for target, steps in SIDE_STEPS.items():
+        runs_pf, runs_peer = [], []
+        for h in steps:
+            for label, options in SETTINGS:
+                t0 = time.perf_counter()
+                y, stats = tip(model, n, st, step=h, **options)
+                sec = time.perf_counter() - t0
+                runs_pf.append((label, options, h, abs(y - ref_pf), sec))
+                print(f"{'pipeflex ' + label:48s} {h:9.2e} {abs(y - ref_pf):10.2e} {sec:10.4f} "
+                      f"{stats['newton_iterations'] / stats['steps']:8.2f} {stats['jacobians']:8d}")
+            for label, options in PEER_SETTINGS:
+                y, sec, stats = es.run(h, **options)
+                runs_peer.append((label, options, h, abs(y - ref_peer), sec))
+                print(f"{label:48s} {h:9.2e} {abs(y - ref_peer):10.2e} {sec:10.4f} "
+                      f"{stats['newton_iterations'] / stats['steps']:8.2f} {stats['jacobians']:8d}")
+        sweeps[target] = (qualifying(runs_pf, target), qualifying(runs_peer, target))
+    print(f"\nload average {os.getloadavg()[0]:.2f}; BLAS threads here: {blas_threads()}; "
+          "processes: OPENBLAS_NUM_THREADS=1")
+    print(f"each setting's largest qualifying step, solve best of {repeat} (the codes alternating)")
+    print(f"{'target':>7s} {'setting':48s} {'step':>8s} {'error':>9s} {'solve [s]':>10s}")
+    chosen = {}
+    for target, (cand_pf, cand_peer) in sweeps.items():
+        best_pf, best_peer = [np.inf] * len(cand_pf), [np.inf] * len(cand_peer)
+        for _ in range(repeat):
+            for i, r in enumerate(cand_pf):
+                t0 = time.perf_counter()
+                tip(model, n, st, step=r[2], **r[1])
+                best_pf[i] = min(best_pf[i], time.perf_counter() - t0)
+            for i, r in enumerate(cand_peer):
+                best_peer[i] = min(best_peer[i], es.run(r[2], **r[1])[1])
+        for cand, best, code in ((cand_pf, best_pf, "pipeflex "), (cand_peer, best_peer, "")):
+            for r, sec in zip(cand, best):
+                print(f"{target:7.0e} {code + r[0]:48s} {r[2]:8.2e} {r[3]:9.2e} {sec:10.4f}")
+        chosen[target] = [(cand[int(np.argmin(best))], min(best)) if cand else None
+                          for cand, best in ((cand_pf, best_pf), (cand_peer, best_peer))]
+    print(f"\ncheapest of each code per target: solve as above; process best and median of {repeat} alternating "
+          "pairs; ratio pipeflex / peer")
+    print(f"{'target':>7s} {'code':8s} {'setting':48s} {'step':>8s} {'error':>9s} {'solve [s]':>10s} "
+          f"{'process [s]':>18s}")
+    for target, (pf_best, peer_best) in chosen.items():
+        if pf_best is None or peer_best is None:
+            print(f"{target:7.0e} no qualifying run: pipeflex {pf_best is not None}, peer {peer_best is not None}")
+            continue
+        (pf_run, solve_pf), (peer_run, solve_peer) = pf_best, peer_best
+        proc_pf, proc_peer = [], []
+        for _ in range(repeat):
+            proc_pf.append(wall(process_command(pf_run[2], pf_run[1])))
+            proc_peer.append(wall(peer_process_command(peer_run[2], peer_run[1])))
+        for code, r, solve, proc in (("pipeflex", pf_run, solve_pf, proc_pf),
+                                     ("peer", peer_run, solve_peer, proc_peer)):
+            print(f"{target:7.0e} {code:8s} {r[0]:48s} {r[2]:8.2e} {r[3]:9.2e} {solve:10.4f} "
+                  f"{min(proc):8.3f} (med {np.median(proc):5.3f})")
+        print(f"{target:7.0e} ratio pipeflex / peer: solve {solve_pf / solve_peer:.2f}, "
+              f"process {min(proc_pf) / min(proc_peer):.2f} (medians {np.median(proc_pf) / np.median(proc_peer):.2f}); "
+              f"load average {os.getloadavg()[0]:.2f}")
 
 
 def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("--repeat", type=int, default=5)
     ap.add_argument("--quick", action="store_true", help="fewer steps, one repeat")
+    ap.add_argument("--peer", action="store_true", help="the peer (exudyn) beside pipeflex, alternating")
+    ap.add_argument("--peer-reference", action="store_true",
+                    help="with --peer: recompute the peer's reference (about 40 s) instead of the recorded one")
     args = ap.parse_args()
     repeat = 1 if args.quick else args.repeat
     steps = (1e-3, 1e-4) if args.quick else STEPS
     model, n, st = scene()
     ref, ref_err = reference(model, n, st)
-    try:
-        from threadpoolctl import threadpool_info
-        blas = ", ".join(f"{i['internal_api']} {i['num_threads']}" for i in threadpool_info())
-    except ImportError:
-        blas = "unknown"
     print(f"reference tip displacement at 2 s = {ref:.12f} m (extrapolations differ by {ref_err:.1e} m)")
-    print(f"load average {os.getloadavg()[0]:.2f}; BLAS threads: {blas}")
+    print(f"load average {os.getloadavg()[0]:.2f}; BLAS threads: {blas_threads()}")
+    if args.peer:
+        es = load_peer()
+        if es is not None:
+            ref_peer = es.reference()[0] if args.peer_reference else es.REFERENCE
+            side_by_side(es, repeat, ref, ref_peer)
+        return
     print(f"{'setting':38s} {'step [s]':>9s} {'error [m]':>10s} {'solve [s]':>10s} {'steps':>6s} "
           f"{'it/step':>8s} {'tangents':>8s}")
     runs = []
