@@ -65,11 +65,22 @@ def reference(model, tip_node, state):
 
 
 # (label, options) of the settings charted; steps are added per run.
+EXTRAPOLATED = "extrapolated: h, h/2, rho_inf=1, newton_tol=1e-9"
 SETTINGS = [
     ("default", {}),
     ("tuned: work=False, newton_tol=1e-6", dict(work=False, newton_tol=1e-6)),
+    (EXTRAPOLATED, dict(extrapolate=True, rho_inf=1.0, newton_tol=1e-9, work=False)),
+    ("extrapolated, newton_tol=1e-8", dict(extrapolate=True, rho_inf=1.0, newton_tol=1e-8, work=False)),
 ]
 STEPS = (2e-3, 1.2e-3, 1e-3, 5e-4, 2.5e-4, 1.2e-4, 1e-4)
+# Richardson extrapolation (pf.simulate(extrapolate=True)) is fourth order: its own, longer
+# steps, each dividing T_END (the output must be a whole number of steps).
+EXTRAPOLATED_STEPS = (1e-2, 8e-3, 5e-3, 4e-3, 2.5e-3, 2e-3, 1.6e-3, 1.25e-3, 1e-3)
+
+
+def steps_of(options, steps):
+    """The steps a setting sweeps: its own if it extrapolates, else ``steps``."""
+    return EXTRAPOLATED_STEPS if options.get("extrapolate") else steps
 
 # The peer's settings (benchmarks/peer/exudyn_scene.run options) and the steps both codes sweep per target.
 PEER_SETTINGS = [
@@ -159,14 +170,15 @@ def side_by_side(es, repeat, ref_pf, ref_peer):
     sweeps = {}
     for target, steps in SIDE_STEPS.items():
         runs_pf, runs_peer = [], []
-        for h in steps:
-            for label, options in SETTINGS:
+        for label, options in SETTINGS:
+            for h in steps_of(options, steps):
                 t0 = time.perf_counter()
                 y, stats = tip(model, n, st, step=h, **options)
                 sec = time.perf_counter() - t0
                 runs_pf.append((label, options, h, abs(y - ref_pf), sec))
                 print(f"{'pipeflex ' + label:48s} {h:9.2e} {abs(y - ref_pf):10.2e} {sec:10.4f} "
                       f"{stats['newton_iterations'] / stats['steps']:8.2f} {stats['jacobians']:8d}")
+        for h in steps:
             for label, options in PEER_SETTINGS:
                 y, sec, stats = es.run(h, **options)
                 runs_peer.append((label, options, h, abs(y - ref_peer), sec))
@@ -238,7 +250,7 @@ def main():
           f"{'it/step':>8s} {'tangents':>8s}")
     runs = []
     for label, options in SETTINGS:
-        for h in steps:
+        for h in steps_of(options, steps):
             best = np.inf
             for _ in range(repeat):
                 t0 = time.perf_counter()
