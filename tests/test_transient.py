@@ -233,8 +233,11 @@ def test_richardson_extrapolation_raises_the_order():
     extrapolated 3e2-2e3x below it and by more than 16x over two halvings (order > 2;
     measured 3.6). Reference: extrapolated at h = 0.625 ms (error ~1e-8 m)."""
     m, st = _flutter_cantilever()
-    run = lambda h, **kw: pf.simulate(m, 1.0, state=st, n_outputs=2, progress=False, integrator="generalized_alpha",  # noqa: E731
-                                      step=h, rho_inf=1.0, newton_tol=1e-12, **kw)
+
+    def run(h, **kw):
+        return pf.simulate(m, 1.0, state=st, n_outputs=2, progress=False, integrator="generalized_alpha", step=h,
+                           rho_inf=1.0, newton_tol=1e-12, **kw)
+
     ref = run(6.25e-4, extrapolate=True)
     assert ref.metadata["extrapolated"]["steps"] == [6.25e-4, 3.125e-4]
     plain = {h: np.abs(run(h).x - ref.x).max() for h in (1e-2, 5e-3, 2.5e-3)}

@@ -217,8 +217,9 @@ def simulate(model, t_end: float, *, integrator: str = "auto", state=None, t_sta
             the h^2 term of the global error (:func:`richardson`): fourth order with
             ``rho_inf=1`` (a symmetric method), third otherwise; for smooth motion and a
             tight ``newton_tol`` (the default), whose error the combination does not
-            cancel. E.g. the tip of Meijaard & Hakvoort's fluttering cantilever (Fig. 3) at 2 s: 1e-4 m at
-            h = 1.25 ms alone, 4e-7 m extrapolated from 2.5 and 1.25 ms (docs/performance.md).
+            cancel. E.g. the tip of Meijaard & Hakvoort's fluttering cantilever (Fig. 3)
+            at 2 s: 1e-4 m at h = 1.25 ms alone, 4e-7 m extrapolated from 2.5 and
+            1.25 ms (docs/performance.md).
             The output times must be whole steps of h from t_start.
 
     Raises:
@@ -360,8 +361,9 @@ def richardson(coarse: TransientResult, fine: TransientResult, *, order: int = 2
     term of their global error removed.
 
     The rotations are combined on SO(3): each run's R_h = R exp(c h^order~), so
-    R = R_fine exp(log(R_coarse^T R_fine) / (2^order - 1)~). ``final_state`` is the fine run's (not extrapolated); ``stats`` are
-    the two runs' together; ``metadata["extrapolated"]`` holds the two steps.
+    R = R_fine exp(log(R_coarse^T R_fine) / (2^order - 1)~). ``final_state`` is the fine
+    run's (not extrapolated); ``stats`` are the two runs' together;
+    ``metadata["extrapolated"]`` holds the two steps.
 
     Raises:
         ValueError: the runs do not match (integrator, output times, steps not h and h/2).
