@@ -233,16 +233,6 @@ def simulate(model, t_end: float, *, integrator: str = "auto", state=None, t_sta
             raise ValueError("extrapolate=True is for element models (pipeflex.Model) only")
         if choose_integrator(integrator, options) != "generalized_alpha":
             raise ValueError("extrapolate=True needs generalised-alpha (its fixed step; IDA controls its own error)")
-        run = dict(integrator=integrator, state=state, t_start=t_start, n_outputs=n_outputs, times=times,
-                   mass_flow=mass_flow, load_factor=load_factor, progress=progress)
-        coarse = simulate(model, t_end, **run, **options)
-        h = coarse.metadata["step"]
-        whole = (coarse.t - coarse.t[0]) / h
-        if np.any(np.abs(whole - np.round(whole)) > 1e-9 * np.maximum(whole, 1.0)):
-            raise ValueError(f"extrapolate=True: the output times must be whole steps of h = {h:.6g} s from t_start "
-                             "(choose step or the output times so)")
-        fine = simulate(model, t_end, **run, **{**options, "step": 0.5 * h})
-        return richardson(coarse, fine)
     if loaded_instance(model, "pipeflex.multibody.system", "MultibodySystem"):
         from ..multibody import simulate as multibody_simulate
 
@@ -313,6 +303,15 @@ def simulate(model, t_end: float, *, integrator: str = "auto", state=None, t_sta
         opt.step = default_step(model, times, state, mass_flow=peak)
     if integrator == "generalized_alpha" and opt.step > (t1 - t0):
         opt.step = t1 - t0
+    if extrapolate:
+        h = float(opt.step)
+        whole = (times - t0) / h
+        if np.any(np.abs(whole - np.round(whole)) > 1e-9 * np.maximum(whole, 1.0)):
+            raise ValueError(f"extrapolate=True: the output times must be whole steps of h = {h:.6g} s from t_start "
+                             "(choose step or the output times so)")
+        run = dict(integrator=integrator, state=state, t_start=t_start, times=times, mass_flow=mass_flow,
+                   load_factor=load_factor, progress=progress)
+        return richardson(*(simulate(model, t_end, **run, **{**options, "step": step}) for step in (h, 0.5 * h)))
 
     bar = None
     if progress or (progress is None and (t1 - t0) > 5.0):
