@@ -762,17 +762,11 @@ def proved_stable(b: Block) -> bool:
     return _positive_definite(K) and _positive_definite(M)
 
 
-def _symmetric(X, rtol: float = 1e-12) -> bool:
-    return bool(abs(X - X.T).max() <= rtol * np.abs(X.data).max()) if X.nnz else True
-
-
 def _positive_definite(X) -> bool:
     """A symmetric sparse X is positive definite: its band Cholesky (LAPACK pbtrf) exists,
     or (wider patterns) its LU without pivoting has only positive pivots."""
     X = sp.csc_matrix(X)
-    cols = np.repeat(np.arange(X.shape[1]), np.diff(X.indptr))
-    low = X.indices - cols
-    kl = int(max(low.max(), 0)) if len(low) else 0
+    cols, low, kl, _ = _band(X)
     if kl <= BAND_MAX:
         ab = np.zeros((kl + 1, X.shape[0]))
         below = low >= 0
@@ -804,22 +798,21 @@ class _Operator(spla.LinearOperator):
 def _conservative(K, C, M, rtol: float = 1e-12) -> bool:
     """K and M symmetric, C skew-symmetric (gyroscopic or none): an undamped conservative
     block, whose T(i w) is Hermitian for real w."""
-    def off(X, sign):
-        X = sp.csc_matrix(X)
-        if not X.nnz:
-            return 0.0
-        if X.has_canonical_format:
-            Xt = X.tocsr()  # its arrays are X^T's in CSC
-            Xt.sort_indices()
-            if np.array_equal(Xt.indptr, X.indptr) and np.array_equal(Xt.indices, X.indices):
-                return np.abs(X.data - sign * Xt.data).max()  # (a symmetric pattern, the usual case)
-        return abs(X - sign * X.T).max()
+    return all(_symmetric(X, sign, rtol) for X, sign in ((K, 1.0), (M, 1.0), (C, -1.0)))
 
-    def size(X):
-        X = sp.csc_matrix(X)
-        return (np.abs(X.data).max() if X.has_canonical_format else abs(X).max()) if X.nnz else 0.0
 
-    return all(off(X, sign) <= rtol * size(X) for X, sign in ((K, 1.0), (M, 1.0), (C, -1.0)))
+def _symmetric(X, sign: float = 1.0, rtol: float = 1e-12) -> bool:
+    """X = sign X^T to rtol of its largest entry (sign -1: skew-symmetric)."""
+    X = sp.csc_matrix(X)
+    if not X.nnz:
+        return True
+    size = np.abs(X.data).max() if X.has_canonical_format else abs(X).max()
+    if X.has_canonical_format:
+        Xt = X.tocsr()  # its arrays are X^T's in CSC
+        Xt.sort_indices()
+        if np.array_equal(Xt.indptr, X.indptr) and np.array_equal(Xt.indices, X.indices):
+            return bool(np.abs(X.data - sign * Xt.data).max() <= rtol * size)  # (a symmetric pattern, the usual case)
+    return bool(abs(X - sign * X.T).max() <= rtol * size)
 
 
 def _rayleigh_on_axis(lam, X, MX, CX, KX):
@@ -1046,9 +1039,7 @@ class _BandLU:
     @classmethod
     def of(cls, A):
         """The band LU of the canonical CSC matrix A, or None if its band is wider than BAND_MAX."""
-        cols = np.repeat(np.arange(A.shape[1]), np.diff(A.indptr))
-        off = A.indices - cols
-        kl, ku = (int(max(off.max(), 0)), int(max(-off.min(), 0))) if len(off) else (0, 0)
+        _, _, kl, ku = _band(A)
         return cls(A, kl, ku) if kl <= BAND_MAX and ku <= BAND_MAX else None
 
     def u_diagonal(self) -> np.ndarray:
@@ -1059,6 +1050,15 @@ class _BandLU:
             return self.solve(b.real) + 1j * self.solve(b.imag)
         x, info = self._gbtrs(self._lu, self.kl, self.ku, np.asarray(b, self.dtype), self._piv)
         return x
+
+
+def _band(A):
+    """Of a CSC matrix: the column of each entry, its distance below the diagonal (row -
+    column) and the lower and upper bandwidths."""
+    cols = np.repeat(np.arange(A.shape[1]), np.diff(A.indptr))
+    off = A.indices - cols
+    kl, ku = (int(max(off.max(), 0)), int(max(-off.min(), 0))) if len(off) else (0, 0)
+    return cols, off, kl, ku
 
 
 def _shift_factor(T, sigma):
