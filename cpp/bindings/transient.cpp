@@ -180,6 +180,21 @@ py::dict pipeflex::transient_dict(const TransientOutput& out, py::ssize_t N) {
 }
 
 void bind_transient(py::module_& m) {
+    m.def(
+        "_fixed_pattern_lu",
+        [](int n, const std::vector<int>& rows, const std::vector<int>& cols, const std::vector<double>& values,
+           const Eigen::VectorXd& rhs, int dense_below, bool band_first) {
+            // the tests' handle on the integrators' LU: the storage chosen and a solve
+            pipeflex::FixedPatternLU lu(dense_below, band_first);
+            const bool ok = lu.factorize(n, rows, cols, values);
+            Eigen::VectorXd x;
+            if (ok) lu.solve(rhs, x);
+            const char* names[] = {"dense", "band", "sparse"};
+            return py::make_tuple(std::string(names[static_cast<int>(lu.storage())]), ok, x);
+        },
+        py::arg("n"), py::arg("rows"), py::arg("cols"), py::arg("values"), py::arg("rhs"), py::arg("dense_below"),
+        py::arg("band_first"),
+        "FixedPatternLU on triplets (repeats summed): (storage 'dense' | 'band' | 'sparse', factorised, x = A^-1 rhs).");
     py::class_<TimeTable>(m, "TimeTable")
         .def(py::init<>())
         .def_readwrite("t", &TimeTable::t)

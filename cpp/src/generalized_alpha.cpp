@@ -40,7 +40,7 @@ double scale_constraints(Triplets& J, int n, double s) {
 
 struct AlphaNewton::Impl {
     Impl(Equations& e, const AlphaMethod& m, const AlphaOptions& o)
-        : eq(e), method(m), opt(o), n(e.n_coordinates()), nc(e.n_constraints()), lu(kDenseLuBelow), r(n + nc),
+        : eq(e), method(m), opt(o), n(e.n_coordinates()), nc(e.n_constraints()), lu(kDenseLuBelow, true), r(n + nc),
           x(n + nc), dz(n), policy(e.refresh_policy()) {}
 
     // rate / (1 - rate) of the modified Newton iteration; pessimistic until measured
