@@ -109,6 +109,22 @@ def test_split_form_plus_kink_forces_equals_unsplit():
     assert np.allclose(r_u, r_s - applied, rtol=0, atol=1e-12 * np.abs(r_u).max())
 
 
+def test_convective_angular_acceleration_is_the_rate_of_the_jacobian(rng):
+    """d/dt[T(phi)] phi_dot along phi(t) = phi + t phi_dot, against central differences of
+    T, from near the identity (the coefficients' series) to large angles."""
+    for scale in (0.0, 1e-5, 1e-2, 0.5, 3.0):
+        phi = scale * rng.standard_normal(3)
+        phid = rng.standard_normal(3)
+        h = 1e-5 * max(1.0, scale)
+        dT = (_core.rotation_jacobian(phi + h * phid) - _core.rotation_jacobian(phi - h * phid)) / (2 * h)
+        expected = dT @ phid
+        got = _core.convective_angular_acceleration(phi, phid)
+        assert np.allclose(got, expected, rtol=0, atol=1e-8 * max(1.0, np.abs(expected).max())), scale
+    # rotation about a fixed axis: T phi_dot = phi_dot, no convective part
+    axis = rng.standard_normal(3)
+    assert np.allclose(_core.convective_angular_acceleration(0.7 * axis, 2.0 * axis), 0.0, atol=1e-14)
+
+
 def test_rotation_jacobian_is_derivative_of_exp(rng):
     for scale in (1e-4, 0.5, 3.0):
         phi = scale * rng.standard_normal(3)

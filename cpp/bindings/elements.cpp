@@ -225,4 +225,13 @@ void bind_elements(py::module_& m) {
         "rotation_jacobian",
         [](const Eigen::Vector3d& phi) { return from_mat3<RowMat3>(rotation_jacobian(to_vec3(phi))); },
         py::arg("phi"), "Left Jacobian T(phi): omega = T(phi) phi_dot.");
+    m.def(
+        "convective_angular_acceleration",
+        [](const Eigen::Vector3d& phi, const Eigen::Vector3d& phid) {
+            const Vec3<double> w = convective_angular_acceleration(to_vec3(phi), to_vec3(phid));
+            return Eigen::Vector3d(w[0], w[1], w[2]);
+        },
+        py::arg("phi"), py::arg("phi_dot"),
+        "d/dt[T(phi)] phi_dot [rad/s^2]: omega_dot = T(phi) phi_ddot + this, for a rotation vector phi [rad] "
+        "and its rate phi_dot [rad/s].");
 }

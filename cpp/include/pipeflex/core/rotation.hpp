@@ -68,18 +68,21 @@ template <class S> Mat3<S> rotation_jacobian(const Vec3<S>& phi) {
 }
 
 // d/dt[T(phi)] phi_dot: the part of the angular velocity's rate omega_dot = T phi_ddot +
-// d/dt[T] phi_dot that does not involve phi_ddot, by one nested forward derivative.
+// d/dt[T] phi_dot that does not involve phi_ddot. With T = I + a W + b W^2 (a, b functions
+// of t2 = |phi|^2, W = skew(phi)) and skew(phi_dot) phi_dot = 0:
+//     d/dt[T] phi_dot = 2 (phi . phi_dot) (a' u + b' phi x u) + b phi_dot x u,  u = phi x phi_dot,
+// with a' = da/dt2, b' = db/dt2 from one forward derivative of the coefficients (a few
+// cross products instead of T's 3 x 3 products in dual numbers: a residual evaluates it at
+// every node of every element).
 template <class S> Vec3<S> convective_angular_acceleration(const Vec3<S>& phi, const Vec3<S>& phid) {
     using D = Dual<S, 1>;
-    Vec3<D> p;
-    for (int i = 0; i < 3; ++i) {
-        p[i] = D(phi[i]);
-        p[i].d[0] = phid[i];
-    }
-    const Mat3<D> T = rotation_jacobian(p);
+    D t2(dot(phi, phi)), s, a, b;
+    t2.d[0] = S(1.0);
+    rotation_coefficients(t2, s, a, b);
+    const Vec3<S> u = cross(phi, phid), w = cross(phi, u), x = cross(phid, u);
+    const S c = 2.0 * dot(phi, phid);
     Vec3<S> out;
-    for (int i = 0; i < 3; ++i)
-        out[i] = T(i, 0).d[0] * phid[0] + T(i, 1).d[0] * phid[1] + T(i, 2).d[0] * phid[2];
+    for (int i = 0; i < 3; ++i) out[i] = c * (a.d[0] * u[i] + b.d[0] * w[i]) + b.v * x[i];
     return out;
 }
 
