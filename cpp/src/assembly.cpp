@@ -555,6 +555,15 @@ void assemble_into(const Model& model, const State& state, const LoadState& load
     if (load_factor == 0.0 && nw == 0) return;
     for (const auto& l : model.loads) {
         const int n = l.node;
+        if (nw == 0) {  // the residual alone: no derivative in the rotation
+            if (residual == nullptr) break;
+            double f[6];
+            load_force(l, state.frames[n], node_vec(state.q, n, 3), f);
+            double rv[6];
+            for (int i = 0; i < 6; ++i) rv[i] = -load_factor * f[i];
+            scatter_vector(model, n, rv, residual);
+            continue;
+        }
         using D = Dual<double, 3>;
         Vec3<D> phi;
         for (int i = 0; i < 3; ++i) phi[i] = D(state.q[6 * n + 3 + i], i);
