@@ -44,3 +44,19 @@ def test_a_guess_far_from_the_first_steps_rate_converges():
     model = pf.scenes.sprinkler(EI=100.0)
     assert pf.steady_rotation(model, omega_guess=9.0).omega == pytest.approx(pf.steady_rotation(model).omega,
                                                                              rel=1e-11)
+
+
+def test_a_jump_to_another_branch_is_bisected():
+    """Seed 004's semicircular pipe of only two elements: in 4 (or 2) equal flow steps
+    Newton used to land on other branches of steady states (0.11 and -6.1 rad/s; 6 or more
+    steps: 4.92 rad/s, beside the finer meshes' 5.1-5.2). A step whose omega falls more
+    than half its prediction away is bisected, so these step counts give the one path. (The
+    first step has no prediction to be checked against: in one or two steps, from the rigid
+    balance at the full or half flow, Newton still lands elsewhere.)"""
+    from pipeflex.seeds.seed004.studies import element_curved_model
+
+    model = element_curved_model(0.9585e9, n_elements=2)
+    fine = pf.steady_rotation(model, continuation_steps=16).omega
+    for steps in (3, 4, 6):
+        assert pf.steady_rotation(model, continuation_steps=steps).omega == pytest.approx(fine, rel=1e-10)
+    assert fine == pytest.approx(4.9179, rel=1e-4)

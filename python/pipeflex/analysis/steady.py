@@ -37,6 +37,7 @@ from ..errors import ConvergenceError, SingularMatrixError
 from ..results import Result
 from ..state import State, as_core
 from ._assembly import require_model
+from ._continuation import follow
 from .._blas import small_problems_single_threaded
 from .._lazy import loaded_instance
 
@@ -138,7 +139,12 @@ def steady_rotation(model, *, omega_guess: Optional[float] = None, mass_flow: Op
             system a :class:`~pipeflex.coupled.CoupledStatic` or a
             :class:`SystemSteadyRotation`, of bodies a
             :class:`~pipeflex.multibody.MultibodyState` or a :class:`SystemSteadyRotation`.
-        continuation_steps: the flow is raised from mdot/steps to mdot in this many steps.
+        continuation_steps: the flow is raised from mdot/steps to mdot in this many steps
+            (element models: a step whose Newton fails, or whose omega falls more than
+            ``OMEGA_JUMP`` = 0.5 of its prediction away, i.e. on another branch of steady
+            states, is bisected, up to ``MAX_CONTINUATION_FAILURES`` failed solves; the
+            prediction is the last step's omega scaled with the flow, so the first step, from
+            ``omega_guess`` or the rigid balance, is not checked).
         tol: relative tolerance on the Newton correction (to the model size and to omega);
             a correction within 1e3 tolerances that stops halving is taken as converged
             (round-off; the core's static_newton, as every static analysis).
@@ -163,23 +169,72 @@ def steady_rotation(model, *, omega_guess: Optional[float] = None, mass_flow: Op
     node, axis, hinge_dof = _hinge(model)
     steps, tol, max_iterations, mdot, omega = _options(model, omega_guess, mass_flow, continuation_steps, tol,
                                                        max_iterations)
-    st = as_core(model, state)
     size = max(float(np.ptp(model.positions, axis=0).max()), 1e-3)
-    out = _core.steady_rotation(model.core, st, model.load_state(mass_flow=mdot), node, hinge_dof, axis, omega,
-                                size, steps, tol, max_iterations, DENSE_BELOW)
-    if not out["converged"]:
-        k, m_k, w, rnorm = out["step"], out["mass_flow"], out["omega"], out["residual"]
+    iterations = [0]
+
+    def solve(trial, m):
+        # one core Newton at the flow m from the last steady state, omega scaled with the
+        # flow speed (the first: omega_guess, or NaN for the rigid balance)
+        predicted = trial.mass_flow != 0.0  # (else the user's guess, or the rigid balance)
+        guess = trial.omega * m / trial.mass_flow if predicted else trial.omega
+        out = _core.steady_rotation(model.core, trial.state, model.load_state(mass_flow=m), node, hinge_dof,
+                                    axis, guess, size, 1, tol, max_iterations, DENSE_BELOW)
+        iterations[0] += out["iterations"]
+        ok = out["converged"] and (not predicted or _on_the_path(out["omega"], guess))
+        trial.omega, trial.mass_flow = float(out["omega"]), m
+        return ok, (out, m, guess)
+
+    way = follow(solve, _Spin(as_core(model, state), omega, 0.0), start=0.0, end=mdot, steps=steps,
+                 halving="interval", max_failures=MAX_CONTINUATION_FAILURES)
+    if not way.done:
+        out, m_k, guess = way.outcome
+        w, rnorm, it = out["omega"], out["residual"], out["step_iterations"]
+        k = min(int(np.floor(way.t / mdot * steps + 1e-9)) + 1, steps) if mdot != 0.0 else 1
+        scheduled = mdot * k / steps
+        where = (f"flow step {k}/{steps} (mdot = {scheduled:.6g} kg/s; the last steady state at "
+                 f"{way.t:.6g} kg/s, {way.failures} failed solves, the last at {m_k:.6g} kg/s)")
         if out["singular"]:
-            it = out["step_iterations"]
-            raise SingularMatrixError(f"steady_rotation: singular Jacobian at flow step {k}/{steps}, "
-                                      f"iteration {it} (omega = {w:.6g} rad/s)", iteration=it,
-                                      residual=rnorm, mass_flow=m_k)
-        raise ConvergenceError(f"steady_rotation: no convergence at flow step {k}/{steps} "
-                               f"(mdot = {m_k:.6g} kg/s) after {out['step_iterations']} iterations; "
-                               f"residual {rnorm:.3e} N, omega = {w:.6g} rad/s", iteration=out["step_iterations"],
-                               residual=rnorm, mass_flow=m_k)
-    return SteadyRotation(float(out["omega"]), State.from_core(st, model), axis, node, int(out["iterations"]),
+            raise SingularMatrixError(f"steady_rotation: singular Jacobian at {where}, iteration {it} "
+                                      f"(omega = {w:.6g} rad/s)", iteration=it, residual=rnorm, mass_flow=scheduled)
+        if out["converged"]:
+            raise ConvergenceError(f"steady_rotation: no steady state on the path at {where}: Newton converged "
+                                   f"to omega = {w:.6g} rad/s, off the path's {guess:.6g} rad/s (another branch)",
+                                   iteration=it, residual=rnorm, mass_flow=scheduled)
+        raise ConvergenceError(f"steady_rotation: no convergence at {where} after {it} iterations; "
+                               f"residual {rnorm:.3e} N, omega = {w:.6g} rad/s", iteration=it,
+                               residual=rnorm, mass_flow=scheduled)
+    out = way.outcome[0]
+    return SteadyRotation(way.state.omega, State.from_core(way.state.state, model), axis, node, iterations[0],
                           float(out["residual"]))
+
+
+#: Failed Newton solves (each bisecting its flow step) before steady_rotation gives up.
+MAX_CONTINUATION_FAILURES = 16
+#: How far a flow step's converged omega may fall from its prediction (the last steady
+#: state's omega scaled with the flow speed) as a fraction of it: further, Newton has
+#: jumped to another branch of steady states (a two-element semicircle in 4 flow steps
+#: landed on 0.11 rad/s, in 2 steps on -6.1 rad/s; in 6 or more on 4.92, beside the
+#: finer meshes' 5.1-5.2), and the step is bisected instead.
+OMEGA_JUMP = 0.5
+
+
+def _on_the_path(omega, predicted):
+    """Whether a flow step's omega continues the path from its prediction (OMEGA_JUMP); a
+    prediction of 0 (a structure at rest on the path) admits any omega."""
+    return predicted == 0.0 or abs(omega - predicted) <= OMEGA_JUMP * abs(predicted)
+
+
+@dataclass
+class _Spin:
+    """A point of steady_rotation's continuation: the core state, omega [rad/s] and the
+    mass flow [kg/s] it holds at (omega: the guess before the first)."""
+
+    state: object
+    omega: float
+    mass_flow: float
+
+    def copy(self):
+        return _Spin(self.state.copy(), self.omega, self.mass_flow)
 
 
 def _options(model, omega_guess, mass_flow, continuation_steps, tol, max_iterations):
