@@ -60,3 +60,13 @@ def test_a_jump_to_another_branch_is_bisected():
     for steps in (3, 4, 6):
         assert pf.steady_rotation(model, continuation_steps=steps).omega == pytest.approx(fine, rel=1e-10)
     assert fine == pytest.approx(4.9179, rel=1e-4)
+
+
+def test_bodies_follow_the_same_continuation():
+    """The bodies' and coupled systems' steady rotations run the same flow continuation: a
+    failed first step is bisected and named like the elements' (one Newton iteration
+    cannot converge)."""
+    system, _, _ = pf.scenes.sprinkler_on_hub()
+    with pytest.raises(pf.ConvergenceError, match=r"flow step 1/4 .*failed solves") as e:
+        pf.steady_rotation(system, max_iterations=1)
+    assert e.value.mass_flow == pytest.approx(system.model.mass_flow / 4)

@@ -9,7 +9,8 @@ row is the balance of moments about the axis. The core's one static Newton
 (``static_newton``; the equations in cpp/src/rigid_rotation.cpp, the one driver of every
 system in cpp/src/rotating_systems.cpp) with the analytic tangent
 K + omega C Av + omega^2 M Aa and omega as its border (omega's column in place of the
-hinge angle's), with continuation in the mass flow from rest.
+hinge angle's), with continuation in the mass flow from rest (:func:`_flow_continuation`: a step that
+fails or lands on another branch is bisected).
 
 A :class:`~pipeflex.multibody.MultibodySystem` or a :class:`~pipeflex.CoupledSystem`
 turns about its one hinge: a body hinged to the ground (or, in a coupled system, an
@@ -140,11 +141,11 @@ def steady_rotation(model, *, omega_guess: Optional[float] = None, mass_flow: Op
             :class:`SystemSteadyRotation`, of bodies a
             :class:`~pipeflex.multibody.MultibodyState` or a :class:`SystemSteadyRotation`.
         continuation_steps: the flow is raised from mdot/steps to mdot in this many steps
-            (element models: a step whose Newton fails, or whose omega falls more than
-            ``OMEGA_JUMP`` = 0.5 of its prediction away, i.e. on another branch of steady
-            states, is bisected, up to ``MAX_CONTINUATION_FAILURES`` failed solves; the
-            prediction is the last step's omega scaled with the flow, so the first step, from
-            ``omega_guess`` or the rigid balance, is not checked).
+            (a step whose Newton fails, or whose omega falls more than ``OMEGA_JUMP`` = 0.5
+            of its prediction away, i.e. on another branch of steady states, is bisected, up
+            to ``MAX_CONTINUATION_FAILURES`` failed solves; the prediction is the last step's
+            omega scaled with the flow, so the first step, from ``omega_guess`` or the rigid
+            balance, is not checked).
         tol: relative tolerance on the Newton correction (to the model size and to omega);
             a correction within 1e3 tolerances that stops halving is taken as converged
             (round-off; the core's static_newton, as every static analysis).
@@ -170,42 +171,59 @@ def steady_rotation(model, *, omega_guess: Optional[float] = None, mass_flow: Op
     steps, tol, max_iterations, mdot, omega = _options(model, omega_guess, mass_flow, continuation_steps, tol,
                                                        max_iterations)
     size = max(float(np.ptp(model.positions, axis=0).max()), 1e-3)
+
+    def solve_at(state, m, guess):
+        st, = state
+        out = _core.steady_rotation(model.core, st, model.load_state(mass_flow=m), node, hinge_dof, axis, guess,
+                                    size, 1, tol, max_iterations, DENSE_BELOW)
+        return out, (st,)
+
+    point, iterations, out = _flow_continuation(solve_at, (as_core(model, state),), omega, mdot, steps,
+                                                singular="singular Jacobian")
+    return SteadyRotation(point.omega, State.from_core(point.state[0], model), axis, node, iterations,
+                          float(out["residual"]))
+
+
+def _flow_continuation(solve_at, state, omega, mdot, steps, *, singular):
+    """steady_rotation's continuation in the mass flow from 0 to ``mdot`` in ``steps``
+    scheduled steps (``_continuation.follow``, interval halving). ``solve_at(state, m,
+    guess) -> (outcome dict, state)`` runs the core's Newton (one flow step) at the flow m
+    from ``state`` (a tuple of copyable parts) with omega starting at ``guess``: the last
+    steady state's omega scaled with the flow (the first step: ``omega``, NaN for the rigid
+    balance). A failed step, or one whose omega is off the path (:func:`_on_the_path`), is
+    bisected. Returns (the last point, Newton iterations in all, its outcome); raises
+    ConvergenceError or SingularMatrixError (``singular`` names the matrix) otherwise."""
     iterations = [0]
 
     def solve(trial, m):
-        # one core Newton at the flow m from the last steady state, omega scaled with the
-        # flow speed (the first: omega_guess, or NaN for the rigid balance)
         predicted = trial.mass_flow != 0.0  # (else the user's guess, or the rigid balance)
         guess = trial.omega * m / trial.mass_flow if predicted else trial.omega
-        out = _core.steady_rotation(model.core, trial.state, model.load_state(mass_flow=m), node, hinge_dof,
-                                    axis, guess, size, 1, tol, max_iterations, DENSE_BELOW)
+        out, trial.state = solve_at(trial.state, m, guess)
         iterations[0] += out["iterations"]
         ok = out["converged"] and (not predicted or _on_the_path(out["omega"], guess))
         trial.omega, trial.mass_flow = float(out["omega"]), m
         return ok, (out, m, guess)
 
-    way = follow(solve, _Spin(as_core(model, state), omega, 0.0), start=0.0, end=mdot, steps=steps,
-                 halving="interval", max_failures=MAX_CONTINUATION_FAILURES)
-    if not way.done:
-        out, m_k, guess = way.outcome
-        w, rnorm, it = out["omega"], out["residual"], out["step_iterations"]
-        k = min(int(np.floor(way.t / mdot * steps + 1e-9)) + 1, steps) if mdot != 0.0 else 1
-        scheduled = mdot * k / steps
-        where = (f"flow step {k}/{steps} (mdot = {scheduled:.6g} kg/s; the last steady state at "
-                 f"{way.t:.6g} kg/s, {way.failures} failed solves, the last at {m_k:.6g} kg/s)")
-        if out["singular"]:
-            raise SingularMatrixError(f"steady_rotation: singular Jacobian at {where}, iteration {it} "
-                                      f"(omega = {w:.6g} rad/s)", iteration=it, residual=rnorm, mass_flow=scheduled)
-        if out["converged"]:
-            raise ConvergenceError(f"steady_rotation: no steady state on the path at {where}: Newton converged "
-                                   f"to omega = {w:.6g} rad/s, off the path's {guess:.6g} rad/s (another branch)",
-                                   iteration=it, residual=rnorm, mass_flow=scheduled)
-        raise ConvergenceError(f"steady_rotation: no convergence at {where} after {it} iterations; "
-                               f"residual {rnorm:.3e} N, omega = {w:.6g} rad/s", iteration=it,
-                               residual=rnorm, mass_flow=scheduled)
-    out = way.outcome[0]
-    return SteadyRotation(way.state.omega, State.from_core(way.state.state, model), axis, node, iterations[0],
-                          float(out["residual"]))
+    way = follow(solve, _Spin(state, omega, 0.0), start=0.0, end=mdot, steps=steps, halving="interval",
+                 max_failures=MAX_CONTINUATION_FAILURES)
+    if way.done:
+        return way.state, iterations[0], way.outcome[0]
+    out, m_k, guess = way.outcome
+    w, rnorm, it = out["omega"], out["residual"], out["step_iterations"]
+    k = min(int(np.floor(way.t / mdot * steps + 1e-9)) + 1, steps) if mdot != 0.0 else 1
+    scheduled = mdot * k / steps
+    where = (f"flow step {k}/{steps} (mdot = {scheduled:.6g} kg/s; the last steady state at {way.t:.6g} kg/s, "
+             f"{way.failures} failed solves, the last at {m_k:.6g} kg/s)")
+    if out["singular"]:
+        raise SingularMatrixError(f"steady_rotation: {singular} at {where}, iteration {it} (omega = {w:.6g} rad/s)",
+                                  iteration=it, residual=rnorm, mass_flow=scheduled)
+    if out["converged"]:
+        raise ConvergenceError(f"steady_rotation: no steady state on the path at {where}: Newton converged to "
+                               f"omega = {w:.6g} rad/s, off the path's {guess:.6g} rad/s (another branch)",
+                               iteration=it, residual=rnorm, mass_flow=scheduled)
+    raise ConvergenceError(f"steady_rotation: no convergence at {where} after {it} iterations; residual "
+                           f"{rnorm:.3e} N, omega = {w:.6g} rad/s", iteration=it, residual=rnorm,
+                           mass_flow=scheduled)
 
 
 #: Failed Newton solves (each bisecting its flow step) before steady_rotation gives up.
@@ -226,15 +244,16 @@ def _on_the_path(omega, predicted):
 
 @dataclass
 class _Spin:
-    """A point of steady_rotation's continuation: the core state, omega [rad/s] and the
-    mass flow [kg/s] it holds at (omega: the guess before the first)."""
+    """A point of steady_rotation's continuation: the state (a tuple of parts: core
+    states, arrays), omega [rad/s] and the mass flow [kg/s] it holds at (omega: the guess
+    before the first)."""
 
-    state: object
+    state: tuple
     omega: float
     mass_flow: float
 
     def copy(self):
-        return _Spin(self.state.copy(), self.omega, self.mass_flow)
+        return _Spin(tuple(x.copy() for x in self.state), self.omega, self.mass_flow)
 
 
 def _options(model, omega_guess, mass_flow, continuation_steps, tol, max_iterations):
@@ -297,30 +316,42 @@ def _system_steady_rotation(system, coupled, *, omega_guess, mass_flow, state, c
                             f"got {type(state).__name__}")
         bodies.check_state(bs, "state.body_state")
         size = max(float(np.ptp(model.positions, axis=0).max()), 1e-3)
-        out = _core.coupled_steady_rotation(model.core, st, model.load_state(mass_flow=mdot), bodies.core, bs.r,
-                                            bs.R, bs.eta, bs.lam, system.core_couplings(), lam_c, point, axis, body,
-                                            dof, omega, size, steps, tol, max_iterations, DENSE_BELOW)
+        couplings = system.core_couplings()
+
+        def solve_at(state, m, guess):
+            st_k, r, R, eta, lam, lam_k = state
+            out = _core.coupled_steady_rotation(model.core, st_k, model.load_state(mass_flow=m), bodies.core, r, R,
+                                                eta, lam, couplings, lam_k, point, axis, body, dof, guess, size, 1,
+                                                tol, max_iterations, DENSE_BELOW)
+            r, R, eta, _, _, lam, _ = out["bodies"]
+            return out, (st_k, np.array(r), np.array(R), np.array(eta), np.array(lam),
+                         np.array(out["coupling_multipliers"], float))
+
+        start = (st, np.array(bs.r), np.array(bs.R), np.array(bs.eta), np.array(bs.lam), np.array(lam_c, float))
     else:
         if state is None:
             bs = bodies.initial_state()
         else:
             bs = state.body_state if isinstance(state, SystemSteadyRotation) else state
             bodies.check_state(bs)
-        out = _core.multibody_steady_rotation(bodies.core, bs.r, bs.R, bs.eta, bs.lam, mdot, point, axis, body,
-                                              omega, steps, tol, max_iterations, DENSE_BELOW)
-    if not out["converged"]:
-        k, m_k, w, rnorm, it = out["step"], out["mass_flow"], out["omega"], out["residual"], out["step_iterations"]
-        if out["singular"]:
-            raise SingularMatrixError(f"steady_rotation: singular bordered KKT matrix at flow step {k}/{steps}, "
-                                      f"iteration {it} (omega = {w:.6g} rad/s; hinge {name}): a mechanism the "
-                                      f"hinge does not turn, or a motion locked twice", iteration=it,
-                                      residual=rnorm, mass_flow=m_k)
-        raise ConvergenceError(f"steady_rotation: no convergence at flow step {k}/{steps} (mdot = {m_k:.6g} kg/s) "
-                               f"after {it} iterations; residual {rnorm:.3e} N, omega = {w:.6g} rad/s",
-                               iteration=it, residual=rnorm, mass_flow=m_k)
+
+        def solve_at(state, m, guess):
+            r, R, eta, lam = state
+            out = _core.multibody_steady_rotation(bodies.core, r, R, eta, lam, m, point, axis, body, guess, 1, tol,
+                                                  max_iterations, DENSE_BELOW)
+            r, R, eta, _, _, lam, _ = out["bodies"]
+            return out, (np.array(r), np.array(R), np.array(eta), np.array(lam))
+
+        start = (np.array(bs.r), np.array(bs.R), np.array(bs.eta), np.array(bs.lam))
+    point_, iterations, out = _flow_continuation(
+        solve_at, start, omega, mdot, steps,
+        singular=f"singular bordered KKT matrix (hinge {name}: a mechanism the hinge does not turn, or a motion "
+                 f"locked twice)")
+    if coupled:
+        st = point_.state[0]
     r, R, eta, v, a, lam, _ = out["bodies"]
     from ..multibody.system import MultibodyState
     body_state = MultibodyState(np.array(r), np.array(R), np.array(eta), np.array(v), np.array(a), np.array(lam), 0.0)
     forces = np.array(out["coupling_multipliers"], float) if coupled else np.zeros(0)
     return SystemSteadyRotation(float(out["omega"]), State.from_core(st, model) if coupled else None, body_state,
-                                forces, axis, point, name, int(out["iterations"]), float(out["residual"]))
+                                forces, axis, point, name, iterations, float(out["residual"]))
