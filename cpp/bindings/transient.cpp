@@ -115,9 +115,8 @@ ProgressFn progress_callback(py::object progress) {
 }
 
 // steady_rotation's options and outcome
-SteadyRotationOptions steady_options(int continuation_steps, double tol, int max_iterations, int dense_below) {
+SteadyRotationOptions steady_options(double tol, int max_iterations, int dense_below) {
     SteadyRotationOptions opt;
-    opt.continuation_steps = continuation_steps;
     opt.tol = tol;
     opt.max_iterations = max_iterations;
     opt.dense_below = dense_below;
@@ -130,9 +129,6 @@ py::dict steady_dict(const SteadyRotationOutcome& out) {
     d["omega"] = out.omega;
     d["iterations"] = out.iterations;
     d["residual"] = out.residual;
-    d["step"] = out.step;
-    d["step_iterations"] = out.step_iterations;
-    d["mass_flow"] = out.mass_flow;
     return d;
 }
 RotationHinge rotation_hinge(const Vec3d& point, const Vec3d& axis, int body, int element_dof) {
@@ -379,9 +375,9 @@ void bind_transient(py::module_& m) {
     m.def(
         "steady_rotation",
         [](const Model& md, State& s, const LoadState& load, int hinge_node, int hinge_dof,
-           const std::array<double, 3>& axis, double omega_guess, double length_scale, int continuation_steps,
-           double tol, int max_iterations, int dense_below) {
-            const SteadyRotationOptions opt = steady_options(continuation_steps, tol, max_iterations, dense_below);
+           const std::array<double, 3>& axis, double omega_guess, double length_scale, double tol,
+           int max_iterations, int dense_below) {
+            const SteadyRotationOptions opt = steady_options(tol, max_iterations, dense_below);
             SteadyRotationOutcome out;
             {
                 py::gil_scoped_release release;
@@ -391,24 +387,23 @@ void bind_transient(py::module_& m) {
             return steady_dict(out);
         },
         "Steady rotation of an element model about its hinge (hinge_node, its one reduced coordinate hinge_dof, "
-        "the unit axis) under the load's mass flow, by the core's static_newton with omega as border and "
-        "continuation in the mass flow from the state (updated in place: the last iterate with the rotation's "
-        "rates); omega_guess NaN: the rigid balance of the starting shape. A dict: converged, singular, omega "
-        "[rad/s], iterations (all steps), residual [N], step (the last, 1-based), step_iterations, mass_flow "
-        "[kg/s] of that step.",
+        "the unit axis) at the load's mass flow: one static_newton with omega as border from the state (updated "
+        "in place: the last iterate with the rotation's rates); omega_guess NaN: the rigid balance of the "
+        "starting shape. The continuation in the flow is the caller's. A dict: converged, singular, omega "
+        "[rad/s], iterations, residual [N].",
         py::arg("model"), py::arg("state"), py::arg("load"), py::arg("hinge_node"), py::arg("hinge_dof"),
-        py::arg("axis"), py::arg("omega_guess"), py::arg("length_scale"), py::arg("continuation_steps"),
+        py::arg("axis"), py::arg("omega_guess"), py::arg("length_scale"),
         py::arg("tol"), py::arg("max_iterations"), py::arg("dense_below"));
     m.def(
         "coupled_steady_rotation",
         [](const Model& md, State& s, const LoadState& load, const MultibodySystemCore& bodies, const Arr& r,
            const Arr& R, const VecX& eta, const VecX& lam, const py::list& couplings, VecX coupling_lam,
            const Vec3d& point, const Vec3d& axis, int hinge_body, int hinge_dof, double omega_guess,
-           double length_scale, int continuation_steps, double tol, int max_iterations, int dense_below) {
+           double length_scale, double tol, int max_iterations, int dense_below) {
             MbState bs = to_state(bodies, r, R, eta, VecX::Zero(eta.size()), VecX::Zero(eta.size()), lam, 0.0);
             const std::vector<Coupling> cp = couplings_from(couplings);
             const RotationHinge h = rotation_hinge(point, axis, hinge_body, hinge_dof);
-            const SteadyRotationOptions opt = steady_options(continuation_steps, tol, max_iterations, dense_below);
+            const SteadyRotationOptions opt = steady_options(tol, max_iterations, dense_below);
             SteadyRotationOutcome out;
             {
                 py::gil_scoped_release release;
@@ -426,15 +421,15 @@ void bind_transient(py::module_& m) {
         py::arg("model"), py::arg("state"), py::arg("load"), py::arg("bodies"), py::arg("r"), py::arg("R"),
         py::arg("eta"), py::arg("lam"), py::arg("couplings"), py::arg("coupling_lam"), py::arg("point"),
         py::arg("axis"), py::arg("hinge_body"), py::arg("hinge_dof"), py::arg("omega_guess"), py::arg("length_scale"),
-        py::arg("continuation_steps"), py::arg("tol"), py::arg("max_iterations"), py::arg("dense_below"));
+        py::arg("tol"), py::arg("max_iterations"), py::arg("dense_below"));
     m.def(
         "multibody_steady_rotation",
         [](const MultibodySystemCore& bodies, const Arr& r, const Arr& R, const VecX& eta, const VecX& lam,
            double mass_flow, const Vec3d& point, const Vec3d& axis, int hinge_body, double omega_guess,
-           int continuation_steps, double tol, int max_iterations, int dense_below) {
+           double tol, int max_iterations, int dense_below) {
             MbState bs = to_state(bodies, r, R, eta, VecX::Zero(eta.size()), VecX::Zero(eta.size()), lam, 0.0);
             const RotationHinge h = rotation_hinge(point, axis, hinge_body, -1);
-            const SteadyRotationOptions opt = steady_options(continuation_steps, tol, max_iterations, dense_below);
+            const SteadyRotationOptions opt = steady_options(tol, max_iterations, dense_below);
             SteadyRotationOutcome out;
             {
                 py::gil_scoped_release release;
@@ -448,7 +443,7 @@ void bind_transient(py::module_& m) {
         "as steady_rotation's dict, with bodies (the body state).",
         py::arg("bodies"), py::arg("r"), py::arg("R"), py::arg("eta"), py::arg("lam"), py::arg("mass_flow"),
         py::arg("point"), py::arg("axis"), py::arg("hinge_body"), py::arg("omega_guess"),
-        py::arg("continuation_steps"), py::arg("tol"), py::arg("max_iterations"), py::arg("dense_below"));
+        py::arg("tol"), py::arg("max_iterations"), py::arg("dense_below"));
     m.def(
         "rotating_state",
         [](const Model& md, const Model& free, State& s, const LoadState& load, const std::array<double, 3>& centre,

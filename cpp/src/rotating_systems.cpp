@@ -107,34 +107,22 @@ SteadyRotationOutcome steady_rotation(RotatingSystem& sys, const Eigen::VectorXd
     Equations& eq = sys.equations();
     if (pin.size() != eq.n_coordinates() || lam.size() != eq.n_constraints())
         throw std::invalid_argument("steady_rotation: the pin or the multipliers do not fit the system");
-    if (opt.continuation_steps < 1 || opt.max_iterations < 1)
-        throw std::invalid_argument("steady_rotation: continuation_steps and max_iterations must be positive");
+    if (opt.max_iterations < 1) throw std::invalid_argument("steady_rotation: max_iterations must be positive");
     StaticNewtonOptions nopt;
     nopt.tol = opt.tol;
     nopt.max_iterations = opt.max_iterations;
     nopt.dense_below = opt.dense_below;
+    sys.set_mass_flow(mdot);
+    sys.set_omega(std::isnan(omega_guess) ? rigid_guess(sys, lam) : omega_guess);
+    PinnedRateBorder border(sys, pin);
+    nopt.border = &border;
+    const StaticNewtonResult res = static_newton(eq, 0.0, lam, nopt);
     SteadyRotationOutcome out;
-    const int steps = opt.continuation_steps;
-    sys.set_omega(omega_guess);
-    for (int k = 1; k <= steps; ++k) {
-        out.step = k;
-        out.mass_flow = mdot * k / steps;
-        sys.set_mass_flow(out.mass_flow);
-        if (std::isnan(sys.omega()))
-            sys.set_omega(rigid_guess(sys, lam));
-        else if (k > 1)
-            sys.set_omega(sys.omega() * k / (k - 1));  // omega scales with the flow speed
-        PinnedRateBorder border(sys, pin);
-        nopt.border = &border;
-        const StaticNewtonResult res = static_newton(eq, 0.0, lam, nopt);
-        out.iterations += res.iterations;
-        out.step_iterations = res.iterations;
-        out.residual = res.residual;
-        out.omega = sys.omega();
-        out.singular = res.singular;
-        if (!res.converged) return out;
-    }
-    out.converged = true;
+    out.iterations = res.iterations;
+    out.residual = res.residual;
+    out.omega = sys.omega();
+    out.singular = res.singular;
+    out.converged = res.converged;
     return out;
 }
 

@@ -9,8 +9,8 @@ row is the balance of moments about the axis. The core's one static Newton
 (``static_newton``; the equations in cpp/src/rigid_rotation.cpp, the one driver of every
 system in cpp/src/rotating_systems.cpp) with the analytic tangent
 K + omega C Av + omega^2 M Aa and omega as its border (omega's column in place of the
-hinge angle's), with continuation in the mass flow from rest (:func:`_flow_continuation`: a step that
-fails or lands on another branch is bisected).
+hinge angle's), one solve per step of the continuation in the mass flow from rest
+(:func:`_flow_continuation`: a step that fails or lands on another branch is bisected).
 
 A :class:`~pipeflex.multibody.MultibodySystem` or a :class:`~pipeflex.CoupledSystem`
 turns about its one hinge: a body hinged to the ground (or, in a coupled system, an
@@ -175,7 +175,7 @@ def steady_rotation(model, *, omega_guess: Optional[float] = None, mass_flow: Op
     def solve_at(state, m, guess):
         st, = state
         out = _core.steady_rotation(model.core, st, model.load_state(mass_flow=m), node, hinge_dof, axis, guess,
-                                    size, 1, tol, max_iterations, DENSE_BELOW)
+                                    size, tol, max_iterations, DENSE_BELOW)
         return out, (st,)
 
     point, iterations, out = _flow_continuation(solve_at, (as_core(model, state),), omega, mdot, steps,
@@ -209,7 +209,7 @@ def _flow_continuation(solve_at, state, omega, mdot, steps, *, singular):
     if way.done:
         return way.state, iterations[0], way.outcome[0]
     out, m_k, guess = way.outcome
-    w, rnorm, it = out["omega"], out["residual"], out["step_iterations"]
+    w, rnorm, it = out["omega"], out["residual"], out["iterations"]
     k = min(int(np.floor(way.t / mdot * steps + 1e-9)) + 1, steps) if mdot != 0.0 else 1
     scheduled = mdot * k / steps
     where = (f"flow step {k}/{steps} (mdot = {scheduled:.6g} kg/s; the last steady state at {way.t:.6g} kg/s, "
@@ -321,8 +321,8 @@ def _system_steady_rotation(system, coupled, *, omega_guess, mass_flow, state, c
         def solve_at(state, m, guess):
             st_k, r, R, eta, lam, lam_k = state
             out = _core.coupled_steady_rotation(model.core, st_k, model.load_state(mass_flow=m), bodies.core, r, R,
-                                                eta, lam, couplings, lam_k, point, axis, body, dof, guess, size, 1,
-                                                tol, max_iterations, DENSE_BELOW)
+                                                eta, lam, couplings, lam_k, point, axis, body, dof, guess, size, tol,
+                                                max_iterations, DENSE_BELOW)
             r, R, eta, _, _, lam, _ = out["bodies"]
             return out, (st_k, np.array(r), np.array(R), np.array(eta), np.array(lam),
                          np.array(out["coupling_multipliers"], float))
@@ -337,7 +337,7 @@ def _system_steady_rotation(system, coupled, *, omega_guess, mass_flow, state, c
 
         def solve_at(state, m, guess):
             r, R, eta, lam = state
-            out = _core.multibody_steady_rotation(bodies.core, r, R, eta, lam, m, point, axis, body, guess, 1, tol,
+            out = _core.multibody_steady_rotation(bodies.core, r, R, eta, lam, m, point, axis, body, guess, tol,
                                                   max_iterations, DENSE_BELOW)
             r, R, eta, _, _, lam, _ = out["bodies"]
             return out, (np.array(r), np.array(R), np.array(eta), np.array(lam))

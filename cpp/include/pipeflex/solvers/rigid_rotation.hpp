@@ -100,20 +100,18 @@ StaticNewtonResult rotating_state(const Model& model, const Model& free, State& 
                                   const Vec3<double>& centre, const Vec3<double>& axis, double omega,
                                   double length_scale, const RotatingStateOptions& opt);
 
+// One Newton solve at one mass flow: the continuation in the flow is the caller's
+// (pipeflex.analysis.steady: one driver for every system, bisecting failed steps).
 struct SteadyRotationOptions {
-    int continuation_steps = 4;  // mdot raised from mdot/steps to mdot
-    double tol = 1e-12;          // static_newton's tol (correction / length_scale, omega's / max(1, |omega|))
-    int max_iterations = 30;     // per continuation step
+    double tol = 1e-12;       // static_newton's tol (correction / length_scale, omega's / max(1, |omega|))
+    int max_iterations = 30;
     int dense_below = -1;  // StaticNewtonOptions::dense_below
 };
 struct SteadyRotationOutcome {
     bool converged = false, singular = false;
     double omega = 0.0;     // [rad/s]
-    int iterations = 0;     // Newton iterations over all steps
+    int iterations = 0;     // Newton iterations
     double residual = 0.0;  // |R| at the end [N]
-    int step = 0;           // the last continuation step (1-based): the failed one
-    int step_iterations = 0;
-    double mass_flow = 0.0;  // of that step [kg/s]
 };
 
 }  // namespace pipeflex

@@ -104,19 +104,16 @@ struct PinnedRateBorder final : StaticBorder {
     bool bordered_only() const override { return true; }
 };
 
-// Steady rotation of `sys` under the mass flow mdot [kg/s] (as steady_rotation of an
-// element model: continuation in the flow, omega scaled between steps, omega_guess NaN:
-// the rate balancing the moment about the hinge, rates(omega = 1) . R, of the starting
-// shape at the first step's flow); lam: the multipliers (updated).
+// Steady rotation of `sys` at the mass flow mdot [kg/s]: one static_newton with omega as
+// its border, from omega_guess or (NaN) the rate balancing the moment about the hinge,
+// rates(omega = 1) . R, of the starting shape (secant iterations); lam: the multipliers
+// (updated). The continuation in the flow is the caller's (pipeflex.analysis.steady).
 SteadyRotationOutcome steady_rotation(RotatingSystem& sys, const Eigen::VectorXd& pin, double mdot,
                                       double omega_guess, const SteadyRotationOptions& opt, Eigen::VectorXd& lam);
 
-// Steady rotation of `model` under load.mass_flow about the hinge (a node with fixed
-// position and the single reduced coordinate hinge_dof, a rotation about the unit axis)
-// from `state` (updated: the last iterate, with the rotation's rates), by continuation in
-// the mass flow: one static_newton per step, omega scaled with the flow between steps
-// (k / (k - 1)), starting from omega_guess or (NaN) the rate that balances the hinge
-// coordinate's row of the starting shape at the first step's flow (secant iterations).
+// Steady rotation of `model` at load.mass_flow about the hinge (a node with fixed position
+// and the single reduced coordinate hinge_dof, a rotation about the unit axis) from
+// `state` (updated: the last iterate, with the rotation's rates), as above.
 SteadyRotationOutcome steady_rotation(const Model& model, State& state, const LoadState& load, int hinge_node,
                                       int hinge_dof, const Vec3<double>& axis, double omega_guess,
                                       double length_scale, const SteadyRotationOptions& opt);

@@ -54,7 +54,8 @@ class FixedPatternLU {
     FixedPatternLU(const FixedPatternLU& o)
         : dense_below_(o.dense_below_), band_first_(o.band_first_), storage_(o.storage_), n_(o.n_),
           kl_(o.kl_), ku_(o.ku_), ld_(o.ld_), rows_(o.rows_), cols_(o.cols_), slot_(o.slot_),
-          dense_A_(o.dense_A_), dense_lu_(o.dense_lu_), band_(o.band_), pivots_(o.pivots_), A_(o.A_), analyses_(o.analyses_) {
+          dense_A_(o.dense_A_), dense_lu_(o.dense_lu_), band_(o.band_), pivots_(o.pivots_), A_(o.A_),
+          analyses_(o.analyses_) {
         if (storage_ == Storage::sparse && analyzed()) lu_.analyzePattern(A_);
     }
     FixedPatternLU& operator=(const FixedPatternLU&) = delete;
