@@ -57,7 +57,8 @@ class SteadyRotation(Result):
         state: the deformed, rotating state (:class:`~pipeflex.state.State`: positions,
             rotation vectors, velocities, accelerations of the rigid rotation).
         axis: (3,) unit hinge axis [-]; hinge_node: its node.
-        iterations: Newton iterations; residual: final residual norm [N].
+        iterations: Newton iterations over all flow steps (bisected ones included);
+            residual: final residual norm [N].
     """
 
     omega: float
@@ -82,7 +83,8 @@ class SystemSteadyRotation(Result):
         coupling_forces: the couplings' multipliers [N, N m] (empty for bodies alone).
         axis: (3,) unit hinge axis [-]; point: (3,) a point of it [m]; hinge: which hinge
             (a body joint's name, or "element node i").
-        iterations: Newton iterations; residual: final residual norm [N].
+        iterations: Newton iterations over all flow steps (bisected ones included);
+            residual: final residual norm [N].
     """
 
     omega: float
@@ -149,7 +151,7 @@ def steady_rotation(model, *, omega_guess: Optional[float] = None, mass_flow: Op
         tol: relative tolerance on the Newton correction (to the model size and to omega);
             a correction within 1e3 tolerances that stops halving is taken as converged
             (round-off; the core's static_newton, as every static analysis).
-        max_iterations: Newton iterations per continuation step.
+        max_iterations: Newton iterations per solve (a flow step, or a bisection of one).
 
     Returns:
         :class:`SteadyRotation` of a model, :class:`SystemSteadyRotation` of a system with
