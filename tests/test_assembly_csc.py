@@ -60,7 +60,8 @@ def test_csc_tangents_equal_the_summed_triplets(name):
         load.frame_rate, load.frame_acceleration = 3.0, 0.5
     r, mats = tangents(model, s, load, WEIGHTS + ((0.7, -0.3, 0.2),), load_factor=0.8, residual=True)
     r_ref, _ = _core.assemble(model.core, s, load, 0.8, 0.0, 0.0, 0.0, False)
-    # Two kernels (the residual-only one and the hand tangent's) in the same order of
+    # Two kernels (the residual-only one, each node's rotation kinematics shared by its
+    # elements, and the hand tangent's, per element) in the same order of
     # operations: equal to round-off, not always bitwise, since the geometry's last bits
     # come from libm's sin/cos, whose variant (and rounding) glibc picks by CPU.
     r_ref = np.asarray(r_ref)

@@ -28,6 +28,14 @@ void gather(const Eigen::VectorXd& x, int p, int q, double* out) {
 // templated so that the follower terms are differentiated by Dual numbers.
 template <class S>
 void load_force(const NodalLoad& l, const Mat3<double>& frame, const Vec3<S>& phi, S* f) {
+    const std::array<double, 3> zero{};
+    if (l.moment.c == zero && l.follower_force.c == zero && l.follower_moment.c == zero) {  // dead force: no rotation
+        for (int i = 0; i < 3; ++i) {
+            f[i] = S(l.force[i]);
+            f[3 + i] = S(0.0);
+        }
+        return;
+    }
     const Mat3<S> R = rotation_exp(phi) * promote<S>(frame);
     const Mat3<S> T = rotation_jacobian(phi);
     const Vec3<S> F = promote<S>(l.force) + R * promote<S>(l.follower_force);
@@ -412,15 +420,12 @@ int State::rebase(double max_angle) {
         const Vec3<double> phi = node_vec(q, i, 3);
         if (kinds[i] != NodeKind::frame || std::sqrt(dot(phi, phi)) <= max_angle) continue;
         // The angular velocity and acceleration are kept; their coordinates change.
-        const Mat3<double> T = rotation_jacobian(phi);
-        const Vec3<double> phid = node_vec(v, i, 3);
-        const Vec3<double> w = T * phid;
-        const Vec3<double> wd = T * node_vec(a, i, 3) + convective_angular_acceleration(phi, phid);
-        frames[i] = rotation_exp(phi) * frames[i];
+        const NodeMotion<double> m = node_motion(phi, node_vec(v, i, 3), node_vec(a, i, 3));
+        frames[i] = m.R * frames[i];
         for (int k = 0; k < 3; ++k) {  // at phi = 0: T = I and the convective part vanishes
             q[6 * i + 3 + k] = 0.0;
-            v[6 * i + 3 + k] = w[k];
-            a[6 * i + 3 + k] = wd[k];
+            v[6 * i + 3 + k] = m.w[k];
+            a[6 * i + 3 + k] = m.al[k];
         }
         ++count;
     }
@@ -454,13 +459,23 @@ void assemble_into(const Model& model, const State& state, const LoadState& load
         derivatives = derivatives || w[i].wK != 0.0 || w[i].wC != 0.0;
     }
     const bool at_once = (nw > 1 || geometric_stresses != nullptr) && derivatives;
+    // The residual alone (every Newton iteration of the integrators): each node's rotation
+    // kinematics once, shared by the node's elements. Reused storage: no allocation per call.
+    thread_local std::vector<NodeMotion<double>> motions;
+    if (nw == 0 && !model.pipes.empty()) {
+        motions.resize(model.n_nodes());
+        for (int i = 0; i < model.n_nodes(); ++i)
+            if (model.kinds[i] == NodeKind::frame)
+                motions[i] = node_motion(node_vec(state.q, i, 3), node_vec(state.v, i, 3), node_vec(state.a, i, 3));
+    }
     for (std::size_t k = 0; k < model.pipes.size(); ++k) {
         const auto& el = model.pipes[k];
         gather(state.q, el.p, el.q, qe);
         gather(state.v, el.p, el.q, ve);
         gather(state.a, el.p, el.q, ae);
         double* r = residual != nullptr ? re : nullptr;
-        if (nw == 0) pipe_tangent(el.data, frames_of(state, el), load, qe, ve, ae, 0.0, 0.0, 0.0, re, nullptr);
+        if (nw == 0)
+            pipe_residual(el.data, frames_of(state, el), load, qe, ve, ae, motions[el.p], motions[el.q], re);
         if (at_once)
             pipe_tangents(el.data, frames_of(state, el), load, qe, ve, ae, nw, wflat.data(), r, Jptr.data(),
                           geometric_stresses != nullptr ? geometric_stresses + 6 * k : nullptr);
@@ -718,6 +733,12 @@ void add_increment(const Model& model, Eigen::Ref<Eigen::VectorXd> full, const E
     for (int n = 0; n < model.n_nodes(); ++n) {
         const Eigen::MatrixXd& T = model.bases[n];
         if (T.cols() == 0) continue;
+        if (model.is_selection[n]) {  // every step of the integrators: no small dynamic product
+            const auto& s = model.selected[n];
+            const double* d = dz.data() + model.first_dof[n];
+            for (std::size_t j = 0; j < s.size(); ++j) full[6 * n + s[j]] += d[j];
+            continue;
+        }
         full.segment<6>(6 * n).noalias() += T * dz.segment(model.first_dof[n], T.cols());
     }
 }

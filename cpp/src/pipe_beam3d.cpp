@@ -139,23 +139,15 @@ std::array<S, 6> strain_deviation(const PipeElementData& e, const std::array<S, 
 }  // namespace
 
 template <class S>
-void pipe_residual(const PipeElementData& e, const NodeFrames& ref, const LoadState& load,
-                   const S* q, const S* v, const double* acc, S* r) {
+void pipe_residual(const PipeElementData& e, const NodeFrames& ref, const LoadState& load, const S* q, const S* v,
+                   const double* acc, const NodeMotion<S>& np, const NodeMotion<S>& nq, S* r) {
     const double l0 = e.l0;
-    const Vec3<S> xp = vec(q), php = vec(q + 3), xq = vec(q + 6), phq = vec(q + 9);
-    const Vec3<S> vxp = vec(v), vphp = vec(v + 3), vxq = vec(v + 6), vphq = vec(v + 9);
-    const Mat3<S> Ep = end_triad(php, ref.p, e.offset_p), Eq = end_triad(phq, ref.q, e.offset_q);
-    const Mat3<S> Tp = rotation_jacobian(php), Tq = rotation_jacobian(phq);
-    const Vec3<S> wp = Tp * vphp, wq = Tq * vphq;
-    // The convective angular acceleration is quadratic in phi_dot: at rest its value and
-    // first derivatives vanish, so the nested derivative is skipped there.
-    auto convective = [](const Vec3<S>& phi, const Vec3<S>& phid) {
-        if (value_of(phid[0]) == 0.0 && value_of(phid[1]) == 0.0 && value_of(phid[2]) == 0.0)
-            return Vec3<S>{{S(0.0), S(0.0), S(0.0)}};
-        return convective_angular_acceleration(phi, phid);
-    };
-    const Vec3<S> alp = Tp * promote<S>(vec(acc + 3)) + convective(php, vphp);
-    const Vec3<S> alq = Tq * promote<S>(vec(acc + 9)) + convective(phq, vphq);
+    const Vec3<S> xp = vec(q), xq = vec(q + 6);
+    const Vec3<S> vxp = vec(v), vxq = vec(v + 6);
+    // the end triads E = exp(phi) R_ref R_offset (end_triad)
+    const Mat3<S> Ep = np.R * promote<S>(ref.p * e.offset_p), Eq = nq.R * promote<S>(ref.q * e.offset_q);
+    const Mat3<S>&Tp = np.T, &Tq = nq.T;
+    const Vec3<S>&wp = np.w, &wq = nq.w, &alp = np.al, &alq = nq.al;
 
     // f in virtual-displacement space [dx^p, dtheta^p, dx^q, dtheta^q].
     S f[12];
@@ -224,8 +216,19 @@ void pipe_residual(const PipeElementData& e, const NodeFrames& ref, const LoadSt
     }
 }
 
+template <class S>
+void pipe_residual(const PipeElementData& e, const NodeFrames& ref, const LoadState& load, const S* q, const S* v,
+                   const double* acc, S* r) {
+    const NodeMotion<S> np = node_motion(vec(q + 3), vec(v + 3), promote<S>(vec(acc + 3)));
+    const NodeMotion<S> nq = node_motion(vec(q + 9), vec(v + 9), promote<S>(vec(acc + 9)));
+    pipe_residual(e, ref, load, q, v, acc, np, nq, r);
+}
+
 template void pipe_residual<double>(const PipeElementData&, const NodeFrames&, const LoadState&,
                                     const double*, const double*, const double*, double*);
+template void pipe_residual<double>(const PipeElementData&, const NodeFrames&, const LoadState&, const double*,
+                                    const double*, const double*, const NodeMotion<double>&,
+                                    const NodeMotion<double>&, double*);
 
 namespace {
 

@@ -86,6 +86,39 @@ template <class S> Vec3<S> convective_angular_acceleration(const Vec3<S>& phi, c
     return out;
 }
 
+// What the elements at a node need of its rotation: R = exp(phi), T(phi), the spatial
+// angular velocity w = T phid and acceleration al = T phidd + d/dt[T] phid. A residual
+// evaluates it once per node for all the node's elements; re-basing a node keeps w and al.
+template <class S> struct NodeMotion {
+    Mat3<S> R, T;
+    Vec3<S> w, al;
+};
+
+template <class S> NodeMotion<S> node_motion(const Vec3<S>& phi, const Vec3<S>& phid, const Vec3<S>& phidd) {
+    // rotation_exp and rotation_jacobian with one evaluation of the coefficients and of
+    // skew(phi)^2 (the same operations, so the same bits)
+    S s, a, b;
+    rotation_coefficients(dot(phi, phi), s, a, b);
+    const Mat3<S> W = skew(phi);
+    const Mat3<S> W2 = W * W;
+    NodeMotion<S> m;
+    for (int i = 0; i < 9; ++i) {
+        m.R.c[i] = s * W.c[i] + a * W2.c[i];
+        m.T.c[i] = a * W.c[i] + b * W2.c[i];
+    }
+    for (int i = 0; i < 3; ++i) {
+        m.R(i, i) += 1.0;
+        m.T(i, i) += 1.0;
+    }
+    m.w = m.T * phid;
+    m.al = m.T * phidd;
+    // quadratic in phi_dot: at rest its value and first derivatives vanish, so the nested
+    // derivative is skipped there
+    if (value_of(phid[0]) != 0.0 || value_of(phid[1]) != 0.0 || value_of(phid[2]) != 0.0)
+        m.al = m.al + convective_angular_acceleration(phi, phid);
+    return m;
+}
+
 // T(phi), its partial derivatives dT[k] = dT/dphi_k, the rate Td = sum_k dT[k] phid_k and
 // its partial derivatives dTd[k] = dTd/dphi_k: what the analytic tangents of omega = T phid
 // and of the convective term Td phid need. With W = skew(phi), T = I + a W + b W^2; the

@@ -66,6 +66,11 @@ struct NodeFrames {
 template <class S>
 void pipe_residual(const PipeElementData& e, const NodeFrames& ref, const LoadState& load,
                    const S* q, const S* v, const double* acc, S* r);
+// The same with the nodes' rotation kinematics given (node_motion of q, v, acc at each
+// node): the assembly evaluates them once per node for all the node's elements.
+template <class S>
+void pipe_residual(const PipeElementData& e, const NodeFrames& ref, const LoadState& load, const S* q, const S* v,
+                   const double* acc, const NodeMotion<S>& np, const NodeMotion<S>& nq, S* r);
 
 // Residual (r, 12) and the weighted tangent J = wK dr/dq + wC dr/dq_dot + wM M
 // (row-major 12x12), derived by hand. Either output may be null.
