@@ -209,6 +209,10 @@ void Model::finalize() {
         if (static_cast<int>(slots.size()) == bases[i].cols()) selected[i] = std::move(slots);
         is_selection[i] = static_cast<int>(selected[i].size()) == bases[i].cols();
     }
+    full_slot.clear();
+    if (std::all_of(is_selection.begin(), is_selection.end(), [](bool s) { return s; }))
+        for (int i = 0; i < n; ++i)
+            for (int s : selected[i]) full_slot.push_back(6 * i + s);
     auto check_node = [n](int i, const char* what) {
         if (i < 0 || i >= n)
             throw std::invalid_argument(std::string(what) + " refers to node " + std::to_string(i) +
@@ -730,15 +734,13 @@ void add_increment(const Model& model, Eigen::Ref<Eigen::VectorXd> full, const E
     if (dz.size() != model.n_dofs)
         throw std::invalid_argument("the increment must have n_dofs = " + std::to_string(model.n_dofs) +
                                     " entries, got " + std::to_string(dz.size()));
+    if (!model.full_slot.empty()) {  // every iteration of the integrators: one pass, no small products
+        for (int k = 0; k < model.n_dofs; ++k) full[model.full_slot[k]] += dz[k];
+        return;
+    }
     for (int n = 0; n < model.n_nodes(); ++n) {
         const Eigen::MatrixXd& T = model.bases[n];
         if (T.cols() == 0) continue;
-        if (model.is_selection[n]) {  // every step of the integrators: no small dynamic product
-            const auto& s = model.selected[n];
-            const double* d = dz.data() + model.first_dof[n];
-            for (std::size_t j = 0; j < s.size(); ++j) full[6 * n + s[j]] += d[j];
-            continue;
-        }
         full.segment<6>(6 * n).noalias() += T * dz.segment(model.first_dof[n], T.cols());
     }
 }

@@ -171,13 +171,15 @@ void pipe_residual(const PipeElementData& e, const NodeFrames& ref, const LoadSt
     Vec3<double> g;
     for (int i = 0; i < 3; ++i) g[i] = load.gravity[i] * load.gravity_factor * mtot * l0;
     Vec3<S> F[4];
+    // terms with a zero factor (no flow, a steady flow) skipped: adding zeros changes no value
+    const bool flow = mdot != 0.0, unsteady = mdd != 0.0, pressure = P != 0.0;
     for (int i = 0; i < 4; ++i) {
         F[i] = -hermite::load[i] * promote<S>(g);
         for (int j = 0; j < 4; ++j) {
             F[i] += (mtot * l0 * hermite::mass[i][j]) * add[j];
-            F[i] += (2.0 * mdot * hermite::first[i][j]) * ad[j];
-            F[i] += (mdd * hermite::first[i][j]) * a[j];
-            F[i] += (P / l0 * hermite::second[i][j]) * a[j];
+            if (flow) F[i] += (2.0 * mdot * hermite::first[i][j]) * ad[j];
+            if (unsteady) F[i] += (mdd * hermite::first[i][j]) * a[j];
+            if (pressure) F[i] += (P / l0 * hermite::second[i][j]) * a[j];
         }
     }
     // Remove split-off end terms of eqs. 19-20 where asked (their sum is eqs. 21-22).

@@ -84,6 +84,9 @@ struct Model {
     // per node: whether T_n only selects slots, and the slot of each reduced coordinate
     std::vector<bool> is_selection;
     std::vector<std::vector<int>> selected;
+    // When every basis is a selection (the common case): the slot in the 6-per-node vector
+    // of each reduced coordinate (n_dofs entries; empty otherwise)
+    std::vector<int> full_slot;
     int n_dofs = 0;
     // The CSC pattern of the tangent, built by tangent_pattern() at its first use and
     // dropped by finalize(): every change of the structure ends with finalize().

@@ -258,6 +258,7 @@ class FixedPatternLU {
         const int n = n_, kv = kl_ + ku_;
         double* ab = band_.data();
         int ju = 0;  // last column touched by the row exchanges so far
+        uw_ = ku_;
         for (int j = 0; j < n; ++j) {
             double* col = ab + static_cast<std::ptrdiff_t>(j) * ld_ + kv;  // col[i] = A(j + i, j)
             const int km = std::min(kl_, n - 1 - j);
@@ -271,6 +272,7 @@ class FixedPatternLU {
             pivots_[j] = j + jp;
             if (!(big > 0.0) || !std::isfinite(big)) return false;
             ju = std::max(ju, std::min(j + ku_ + jp, n - 1));
+            uw_ = std::max(uw_, ju - j);
             if (jp != 0)
                 for (int c = j; c <= ju; ++c) std::swap(ab[band_index(j, c)], ab[band_index(j + jp, c)]);
             if (km == 0) continue;
@@ -303,7 +305,7 @@ class FixedPatternLU {
             b[j] /= col[0];
             const double t = b[j];
             if (t == 0.0) continue;
-            const int top = std::max(0, j - kv);
+            const int top = std::max(0, j - uw_);  // above U's width only the band's zeros
             for (int i = top; i < j; ++i) b[i] -= t * col[i - j];
         }
     }
@@ -312,6 +314,7 @@ class FixedPatternLU {
     bool band_first_;
     Storage storage_ = Storage::sparse;
     int n_ = -1, kl_ = 0, ku_ = 0, ld_ = 0;
+    int uw_ = 0;  // band: U's upper width, ku plus the widening by row exchanges (<= kl + ku)
     std::vector<int> rows_, cols_;  // sparse: the pattern analysed, as triplets,
     std::vector<int> slot_;         // and the place of each triplet's value
     Eigen::MatrixXd dense_A_;
