@@ -4,10 +4,13 @@ Residual, hand-derived weighted tangent (wK, wC, wM = 1, 0.5, 0.25), the AD tang
 replaced (kept as the tests' reference), mass matrix and fluid forces, timed in C++ over
 many calls (_core._bench_pipe_kernels: a Python call costs about 1 us, as much as the
 residual). Each figure is the minimum over a few runs (shared machine).
-Targets: tangent <= 5 us, residual <= 1 us.
+Targets: tangent <= 5 us, residual <= 1 us. Then the same through the assembler, per element
+of a moving cantilever with flow (_core.assemble: the integrators' route; the residual alone
+evaluates each node's rotation kinematics once for both of its elements).
 Run: .venv/bin/python benchmarks/bench_kernels.py [--quick]
 """
 import argparse
+import time
 
 import numpy as np
 
@@ -62,6 +65,25 @@ def main():
                 best[k] = min(best[k], t[k] * 1e6)
         print(f"{kind:<10}{str(rotary):>7}{'0' if not phi else 'rand':>6}"
               + "".join(f"{best[k]:>14.2f}" for k in KERNELS) + f"{best['tangent_ad'] / best['tangent']:>9.1f}")
+    assembled(rng, 3 if args.quick else 7)
+
+
+def assembled(rng, runs, n_elements=2048):
+    """us per element of the assembled residual, and of residual and tangent, on a moving cantilever."""
+    model = pf.scenes.cantilever_pipe(n_elements=n_elements, polar_inertia=1e-3, mass_flow=4.0)
+    s = model.initial_state()
+    for which, scale in (("q", 1e-3), ("v", 0.5), ("a", 2.0)):
+        _core.add_increment(model.core, s, scale * rng.standard_normal(model.n_dofs), which)
+    load = model.load_state(mass_flow=4.0)
+    print(f"\nassembled, us per element ({n_elements} elements, min of {runs} runs of 20 calls)")
+    for label, w, matrix in (("residual", (0.0, 0.0, 0.0), False), ("residual + tangent", (1.0, 0.5, 0.25), True)):
+        best = np.inf
+        for _ in range(runs):
+            t0 = time.perf_counter()
+            for _ in range(20):
+                _core.assemble(model.core, s, load, 1.0, *w, matrix)
+            best = min(best, (time.perf_counter() - t0) / 20)
+        print(f"{label:<20}{best / n_elements * 1e6:>10.2f}")
 
 
 if __name__ == "__main__":

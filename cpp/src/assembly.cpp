@@ -141,6 +141,12 @@ void widen_ancf(const double* r8, const double* J8, double* r12, double* J12) {
 }
 
 void scatter_vector(const Model& m, int n, const double* f, Eigen::VectorXd* r) {
+    if (!m.reduced_slot.empty()) {  // every basis selects: a table lookup per slot
+        const int* rs = m.reduced_slot.data() + 6 * n;
+        for (int i = 0; i < 6; ++i)
+            if (rs[i] >= 0) (*r)[rs[i]] += f[i];
+        return;
+    }
     if (m.is_selection[n]) {
         const auto& s = m.selected[n];
         for (std::size_t j = 0; j < s.size(); ++j) (*r)[m.first_dof[n] + static_cast<int>(j)] += f[s[j]];
@@ -210,9 +216,15 @@ void Model::finalize() {
         is_selection[i] = static_cast<int>(selected[i].size()) == bases[i].cols();
     }
     full_slot.clear();
-    if (std::all_of(is_selection.begin(), is_selection.end(), [](bool s) { return s; }))
+    reduced_slot.clear();
+    if (std::all_of(is_selection.begin(), is_selection.end(), [](bool s) { return s; })) {
+        reduced_slot.assign(6 * n, -1);
         for (int i = 0; i < n; ++i)
-            for (int s : selected[i]) full_slot.push_back(6 * i + s);
+            for (int s : selected[i]) {
+                reduced_slot[6 * i + s] = static_cast<int>(full_slot.size());
+                full_slot.push_back(6 * i + s);
+            }
+    }
     auto check_node = [n](int i, const char* what) {
         if (i < 0 || i >= n)
             throw std::invalid_argument(std::string(what) + " refers to node " + std::to_string(i) +

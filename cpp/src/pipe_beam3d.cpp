@@ -39,8 +39,9 @@ Strains<S> strains(double l0, const Vec3<S>& xp, const Vec3<S>& xq, const Mat3<S
     const Vec3<S> el = (S(1.0) / l) * d;
     const Vec3<S> eyp = Ep.col(1), ezp = Ep.col(2), eyq = Eq.col(1), ezq = Eq.col(2);
 
-    std::array<S, 6> eb;                          // barred strains
-    std::array<std::array<S, 12>, 6> gb{};        // their gradients
+    Strains<S> out;
+    auto& eb = out.bar;       // barred strains
+    auto& gb = out.bar_grad;  // their gradients
     for (auto& g : gb) g.fill(S(0.0));
     eb[0] = l - l0;
     for (int i = 0; i < 3; ++i) {
@@ -72,7 +73,6 @@ Strains<S> strains(double l0, const Vec3<S>& xp, const Vec3<S>& xq, const Mat3<S
 
     // eps(eps_bar) of eq. 1 and the Jacobian de/deb.
     const double c30 = 1.0 / (30.0 * l0), c6 = 1.0 / (6.0 * l0), c1l = 1.0 / l0;
-    Strains<S> out;
     auto& e = out.eps;
     e[0] = eb[0] + c30 * (2.0 * eb[2] * eb[2] + eb[2] * eb[3] + 2.0 * eb[3] * eb[3] +
                           2.0 * eb[4] * eb[4] + eb[4] * eb[5] + 2.0 * eb[5] * eb[5]);
@@ -82,9 +82,8 @@ Strains<S> strains(double l0, const Vec3<S>& xp, const Vec3<S>& xq, const Mat3<S
     e[3] = eb[3] - c6 * eb[1] * s56;
     e[4] = eb[4] - c6 * eb[1] * s34;
     e[5] = eb[5] + c6 * eb[1] * s34;
-    S J[6][6];
-    for (auto& row : J)
-        for (auto& x : row) x = S(0.0);
+    auto& J = out.jac;
+    for (auto& row : J) row.fill(S(0.0));
     for (int i = 0; i < 6; ++i) J[i][i] = S(1.0);
     J[0][2] = c30 * (4.0 * eb[2] + eb[3]);
     J[0][3] = c30 * (eb[2] + 4.0 * eb[3]);
@@ -98,20 +97,23 @@ Strains<S> strains(double l0, const Vec3<S>& xp, const Vec3<S>& xq, const Mat3<S
     J[3][1] = -c6 * s56; J[3][4] = -c6 * eb[1]; J[3][5] = -c6 * eb[1];
     J[4][1] = -c6 * s34; J[4][2] = -c6 * eb[1]; J[4][3] = -c6 * eb[1];
     J[5][1] = c6 * s34;  J[5][2] = c6 * eb[1];  J[5][3] = c6 * eb[1];
-    out.bar = eb;
-    out.bar_grad = gb;
-    for (int i = 0; i < 6; ++i)
-        for (int k = 0; k < 6; ++k) out.jac[i][k] = J[i][k];
     return out;
 }
 
 // f += D^T s, D = d eps/du = (d eps/d eps_bar)(d eps_bar/du): as (d eps_bar/du)^T ((d eps/
 // d eps_bar)^T s), 108 products instead of the 504 of forming D.
 template <class S, class T> void add_strain_work(const Strains<S>& st, const T* s, S* f) {
+    // the blocks [dx^p, dtheta^p, dx^q, dtheta^q] of each barred strain's gradient that can
+    // be nonzero (strains(): stretch, twist, the bending at p and at q); the others add zeros
+    static constexpr bool live[6][4] = {{true, false, true, false}, {false, true, false, true},
+                                        {true, true, true, false},  {true, false, true, true},
+                                        {true, true, true, false},  {true, false, true, true}};
     for (int k = 0; k < 6; ++k) {
         S sb = S(0.0);
         for (int i = 0; i < 6; ++i) sb += s[i] * st.jac[i][k];
-        for (int j = 0; j < 12; ++j) f[j] += sb * st.bar_grad[k][j];
+        for (int b = 0; b < 4; ++b)
+            if (live[k][b])
+                for (int j = 3 * b; j < 3 * b + 3; ++j) f[j] += sb * st.bar_grad[k][j];
     }
 }
 

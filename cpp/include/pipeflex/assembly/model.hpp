@@ -87,6 +87,7 @@ struct Model {
     // When every basis is a selection (the common case): the slot in the 6-per-node vector
     // of each reduced coordinate (n_dofs entries; empty otherwise)
     std::vector<int> full_slot;
+    std::vector<int> reduced_slot;  // the inverse, 6 per node (-1: a fixed slot)
     int n_dofs = 0;
     // The CSC pattern of the tangent, built by tangent_pattern() at its first use and
     // dropped by finalize(): every change of the structure ends with finalize().
