@@ -205,6 +205,30 @@ def test_work_precision_chart_and_the_old_function():
     assert len([line for line in fig.axes[0].lines if line.get_label().startswith("generalised")]) == 1
 
 
+def test_work_precision_charts_named_settings_beside_the_defaults():
+    from helpers import fluttering_cantilever
+    from pipeflex.work_precision import work_precision
+
+    m, st = fluttering_cantilever()
+
+    def tip(r):
+        return r.x[-1, -1, 1]
+
+    damped = {"damped": dict(rho_inf=0.6, newton_tol=1e-6, work=False)}
+    runs = work_precision(m, 0.1, tip, 0.0, steps=(2e-3, 1e-3), state=st, settings=damped)
+    assert [(r.integrator, r.setting, r.label) for r in runs] == [
+        ("generalized_alpha", 2e-3, None), ("generalized_alpha", 1e-3, None),
+        ("generalized_alpha", 2e-3, "damped"), ("generalized_alpha", 1e-3, "damped")]
+    assert runs[0].value != runs[2].value  # the damped setting ran, not the defaults again
+    assert all(np.isfinite(r.error) and r.wall_time > 0.0 for r in runs)
+    labels = [line.get_label() for line in plot.work_precision(runs).lines]
+    assert labels == ["generalised-alpha (step $h$ [s])", "generalised-alpha, damped (step $h$ [s])"]
+    with pytest.raises(ValueError, match=r"settings\['damped'\] sets \['step'\]"):
+        work_precision(m, 0.1, tip, 0.0, steps=(1e-3,), settings={"damped": dict(step=1e-3)})
+    with pytest.raises(TypeError, match="settings must map names"):
+        work_precision(m, 0.1, tip, 0.0, steps=(1e-3,), settings={"damped": 0.6})
+
+
 def test_stability_map():
     beta = np.linspace(0.1, 0.9, 5)
     ax = plot.stability_map(beta, 5 + beta, 10 * beta, kind=["flutter"] * 4 + ["divergence"])

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import time
 from dataclasses import dataclass, field
-from typing import Callable, Dict, List, Optional, Sequence
+from typing import Callable, Dict, List, Mapping, Optional, Sequence
 
 import numpy as np
 
@@ -21,26 +21,42 @@ class Run:
     error: float
     wall_time: float
     stats: dict = field(default_factory=dict)
+    label: Optional[str] = None  # a named setting's (work_precision(settings=...)); None: the integrator's defaults
 
 
 def work_precision(model, t_end: float, qoi: Callable, reference: float, *,
                    steps: Sequence[float] = (), rtols: Sequence[float] = (), state=None,
-                   ida_atol_factor: float = 1e-2, repeat: int = 1, n_outputs: int = 2) -> List[Run]:
+                   ida_atol_factor: float = 1e-2, repeat: int = 1, n_outputs: int = 2,
+                   settings: Optional[Mapping[str, Mapping]] = None) -> List[Run]:
     """Run generalised-alpha with each step in ``steps`` and IDA with each rtol in
     ``rtols`` (atol = ida_atol_factor * rtol), evaluate ``qoi(result)`` and its error
     against ``reference``; the wall time is the best of ``repeat`` runs. ``n_outputs``
-    equally spaced outputs (the generalised-alpha step is at most their spacing)."""
+    equally spaced outputs (the generalised-alpha step is at most their spacing).
+
+    ``settings``: named sets of further generalised-alpha options, each also run at every
+    step of ``steps`` and charted as its own line (``Run.label``), e.g.
+    ``{"damped": dict(rho_inf=0.6, newton_tol=1e-6, work=False)}``: speed and accuracy of
+    the settings side by side."""
+    named = dict(settings or {})
+    for name, opts in named.items():
+        if not isinstance(name, str) or not isinstance(opts, Mapping):
+            raise TypeError(f"settings must map names (str) to option dicts, got {name!r}: {opts!r}")
+        fixed = {"step", "integrator", "state", "n_outputs"} & set(opts)
+        if fixed:
+            raise ValueError(f"settings[{name!r}] sets {sorted(fixed)}: work_precision sets those itself "
+                             "(the step from steps)")
+    plan = [("generalized_alpha", h, dict(step=h), None) for h in steps]
+    plan += [("generalized_alpha", h, dict(opts, step=h), name) for name, opts in named.items() for h in steps]
+    plan += [("ida", r, dict(rtol=r, atol=ida_atol_factor * r), None) for r in rtols]
     runs = []
-    settings = [("generalized_alpha", h, dict(step=h)) for h in steps]
-    settings += [("ida", r, dict(rtol=r, atol=ida_atol_factor * r)) for r in rtols]
-    for integ, s, opts in settings:
+    for integ, s, opts, label in plan:
         best = np.inf
         for _ in range(repeat):
             t0 = time.perf_counter()
             res = simulate(model, t_end, integrator=integ, state=state, n_outputs=n_outputs, progress=False, **opts)
             best = min(best, time.perf_counter() - t0)
         v = float(qoi(res))
-        runs.append(Run(integ, s, v, abs(v - reference), best, res.stats))
+        runs.append(Run(integ, s, v, abs(v - reference), best, res.stats, label))
     return runs
 
 

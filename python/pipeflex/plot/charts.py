@@ -117,8 +117,9 @@ def work_precision(runs, *, reference_name: Optional[str] = None, target: Option
                    quantity: str = "the quantity of interest", title: Optional[str] = None,
                    annotate: bool = True, labels: Optional[dict] = None):
     """Work-precision diagram: error of a quantity against wall time, log-log, one line per
-    method (``run.integrator``; the runs of :func:`pipeflex.work_precision.work_precision`
-    or any objects with ``integrator``, ``setting``, ``error``, ``wall_time``).
+    method (``run.integrator``, or a named setting's ``run.label``; the runs of
+    :func:`pipeflex.work_precision.work_precision` or any objects with ``integrator``,
+    ``setting``, ``error``, ``wall_time``).
 
     Args:
         runs: the runs.
@@ -128,18 +129,26 @@ def work_precision(runs, *, reference_name: Optional[str] = None, target: Option
         quantity: name (and unit) of the quantity of interest.
         title: of the axes.
         annotate: write each run's setting (step [s] or rtol) next to its point.
-        labels: method name -> legend label (default: generalised-alpha (step), IDA (rtol)).
+        labels: method name -> legend label (default: generalised-alpha (step), IDA (rtol),
+            a named setting "generalised-alpha, <name> (step)").
 
     Returns:
         The axes.
     """
     ax = _axes(ax, figsize=(6, 4.2))
     names = {"generalized_alpha": "generalised-alpha (step $h$ [s])", "ida": "IDA (rtol [-])"}
+
+    def method(r):
+        return getattr(r, "label", None) or r.integrator
+
+    for r in runs:
+        if getattr(r, "label", None):
+            names.setdefault(r.label, f"generalised-alpha, {r.label} (step $h$ [s])")
     names.update(labels or {})
-    methods = list(dict.fromkeys(r.integrator for r in runs))
+    methods = list(dict.fromkeys(method(r) for r in runs))
     markers = "os^vD<>"
     for i, m in enumerate(methods):
-        rs = [r for r in runs if r.integrator == m]
+        rs = [r for r in runs if method(r) == m]
         err = [max(r.error, 1e-16) for r in rs]
         ax.loglog([r.wall_time for r in rs], err, markers[i % len(markers)] + "-", label=names.get(m, m))
         if annotate:
