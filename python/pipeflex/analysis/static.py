@@ -57,6 +57,11 @@ def static_equilibrium(model, *, state=None, mass_flow: Optional[float] = None, 
     result's ``state``). Without ``from_mass_flow`` the flow is ``mass_flow`` throughout
     and only the loads are stepped.
 
+    A flow whose forces alone (applied at once to the reference configuration, no
+    ``state``) have no equilibrium near it, as on a slender curved pipe whose flow
+    deflects it far, is followed from rest instead, as if ``from_mass_flow=0`` (with
+    ``path="auto"``, and as ``path="arclength"`` does).
+
     Limit points: with ``path="auto"`` (default), when the load stepping fails (Newton
     does not converge after the bisections, or the tangent is singular), the path is
     followed from the last converged step by arc-length (Riks/Crisfield) continuation in
@@ -180,7 +185,19 @@ def static_equilibrium(model, *, state=None, mass_flow: Optional[float] = None, 
         if lf == 0.0:  # is the start an equilibrium (under the flow's forces alone)?
             ok, it, _, _, _ = _newton(model, state, *at(0.0), tol, size, max_iterations)
             total_iter += it
-            if not ok:  # no: not a load path's failure (path="arclength" ramps the flow too)
+            if not ok and cold and mdot != 0.0:
+                # no, and the full flow at once from rest has none near: follow the flow from
+                # rest with the loads (as path="arclength" does), the equilibrium reached
+                # continuously; its own failure says where that path stopped
+                try:
+                    return static_equilibrium(model, mass_flow=mdot, load_steps=load_steps, tol=tol,
+                                              max_iterations=max_iterations, max_bisections=max_bisections,
+                                              from_mass_flow=0.0, path=path, arc_steps=arc_steps)
+                except ConvergenceError as e:
+                    e.args = (f"{failure.args[0]}; following the flow from rest (from_mass_flow=0) failed "
+                              f"too: {e.args[0]}",)
+                    raise
+            if not ok:  # no: not a load path's failure
                 raise failure
         return _continue(model, state, lf, along, solve, arc_steps, max(way.step, 1.0 / (64 * load_steps)),
                          total_iter, mdot, failure, secant)
