@@ -53,11 +53,10 @@ void mass_residual(const NodalMass& nm, const Mat3<double>& frame, const LoadSta
                    const S* q, const S* v, const double* a, S* r) {
     const Vec3<S> phi = {{q[3], q[4], q[5]}}, phid = {{v[3], v[4], v[5]}};
     for (int i = 0; i < 3; ++i) r[i] = S(nm.mass * (a[i] - load.gravity[i] * load.gravity_factor));
-    const Mat3<S> R = rotation_exp(phi) * promote<S>(frame);
-    const Mat3<S> T = rotation_jacobian(phi);
-    const Vec3<S> w = T * phid;
-    const Vec3<S> al = T * promote<S>(Vec3<double>{{a[3], a[4], a[5]}}) +
-                       convective_angular_acceleration(phi, phid);
+    const NodeMotion<S> nd = node_motion(phi, phid, promote<S>(Vec3<double>{{a[3], a[4], a[5]}}));
+    const Mat3<S> R = nd.R * promote<S>(frame);
+    const Mat3<S>& T = nd.T;
+    const Vec3<S>&w = nd.w, &al = nd.al;
     const Vec3<S> wb = tmul(R, w), ab = tmul(R, al);
     Vec3<S> jw, ja;
     for (int i = 0; i < 3; ++i) {
