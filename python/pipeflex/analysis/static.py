@@ -1,7 +1,7 @@
 """Static equilibrium by Newton's method with load stepping."""
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Optional
 
 import numpy as np
@@ -190,9 +190,11 @@ def static_equilibrium(model, *, state=None, mass_flow: Optional[float] = None, 
                 # rest with the loads (as path="arclength" does), the equilibrium reached
                 # continuously; its own failure says where that path stopped
                 try:
-                    return static_equilibrium(model, mass_flow=mdot, load_steps=load_steps, tol=tol,
-                                              max_iterations=max_iterations, max_bisections=max_bisections,
-                                              from_mass_flow=0.0, path=path, arc_steps=arc_steps)
+                    ramped = static_equilibrium(model, mass_flow=mdot, load_steps=load_steps, tol=tol,
+                                                max_iterations=max_iterations, max_bisections=max_bisections,
+                                                from_mass_flow=0.0, path=path, arc_steps=arc_steps)
+                    # iterations: all of them, the failed first attempt's included
+                    return replace(ramped, iterations=ramped.iterations + total_iter)
                 except ConvergenceError as e:
                     e.args = (f"{failure.args[0]}; following the flow from rest (from_mass_flow=0) failed "
                               f"too: {e.args[0]}",)
