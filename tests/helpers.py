@@ -1,4 +1,5 @@
-"""Element-level helpers for the tests: build an element and evaluate it."""
+"""Helpers for the tests: build an element and evaluate it, small models, and an
+ulp-scaled comparison of two code paths."""
 import numpy as np
 
 import pipeflex as pf
@@ -22,6 +23,32 @@ def element(kind="straight", *, shear=False, rotary=False, fluid_end_terms=True)
     x = model.positions
     q = np.concatenate([x[0], np.zeros(3), x[1], np.zeros(3)])
     return model.core.pipe(0), q
+
+
+def assert_close_ulps(a, b, *, ulps=4, scale=0.0, what=""):
+    """Assert |a - b| <= ulps * eps * max(|a|, |b|, scale) entry by entry (eps = 2.2e-16,
+    float64), with the same shape and NaNs at the same places.
+
+    For two code paths that compute the same numbers but may round differently: numpy's
+    vectorised and scalar transcendental functions (SVML on AVX-512 CPUs, libm elsewhere),
+    another BLAS thread count or kernel, another process (array alignment), C against
+    Python (FMA contraction). ``scale`` [unit of a, b] is the magnitude below which the
+    tolerance stops shrinking: an entry that cancelled to ~0 inherits the round-off of
+    the larger terms it came from (e.g. the largest entry of the array, or 1 for unit
+    vectors). ``what`` names the compared quantity in the message."""
+    a = np.asarray(a, dtype=complex if np.iscomplexobj(a) or np.iscomplexobj(b) else float)
+    b = np.asarray(b, dtype=a.dtype)
+    assert a.shape == b.shape, f"{what}: shapes {a.shape} != {b.shape}"
+    nan_a, nan_b = np.isnan(a), np.isnan(b)
+    assert np.array_equal(nan_a, nan_b), f"{what}: NaN at different places"
+    a, b = np.where(nan_a, 0.0, a), np.where(nan_b, 0.0, b)
+    tol = ulps * np.finfo(float).eps * np.maximum(np.maximum(np.abs(a), np.abs(b)), scale)
+    with np.errstate(invalid="ignore"):  # inf - inf: equal infinities pass through a == b
+        err = np.where(a == b, 0.0, np.abs(a - b))
+    if not np.all(err <= tol):
+        k = np.unravel_index(np.argmax(np.where(err <= tol, -np.inf, err)), err.shape)
+        raise AssertionError(f"{what}: differ by more than {ulps} ulps: at {k} {a[k]!r} vs {b[k]!r} "
+                             f"(|difference| {err[k]:.3g}, allowed {tol[k]:.3g})")
 
 
 def load(mass_flow=0.0, mass_flow_rate=0.0, gravity=(0.0, 0.0, 0.0)):

@@ -130,6 +130,7 @@ def test_an_ordinary_problem_is_unchanged():
     model, tip = cantilever()
     load = pf.static_equilibrium(model, path="load", load_steps=4)
     auto = pf.static_equilibrium(model, load_steps=4)
+    # exact: "auto" runs the load path's solves first, the same code on the same inputs
     assert np.array_equal(auto.state.q, load.state.q) and auto.iterations == load.iterations
     assert auto.limit_points == ()
     arc = pf.static_equilibrium(model, path="arclength", load_steps=4)
@@ -193,7 +194,7 @@ def test_a_load_step_that_changes_the_tangents_inertia_is_rejected():
     equilibrium just below the limit point (lambda = 0.30765625) with its displacements
     doubled, a shape past the limit (one negative eigenvalue); at lambda = 0.3 Newton
     converges from it onto a stable equilibrium (none). (Newton from the stable state
-    itself just past the limit point no longer converges at all: the mixed Newton of the
+    itself just past the limit point does not converge at all: the mixed Newton of the
     statics does not wander onto the unstable branch.)"""
     from pipeflex.analysis.static import _newton
 

@@ -1,9 +1,11 @@
 """The builder's bulk path: a line or arc of elements equals the same elements added one by
-one, bit for bit, and a bad element in the middle of a line is named (nothing is added)."""
+one (the same structure, the same numbers to a few ulps), and a bad element in the middle of
+a line is named (nothing is added)."""
 import numpy as np
 import pytest
 
 import pipeflex as pf
+from helpers import assert_close_ulps
 from pipeflex import _core
 from pipeflex.rotation import skew
 
@@ -11,27 +13,42 @@ SEC = pf.PipeSection(EI=7.0, EIz=11.0, EA=3e3, GJ=5.0, GAy=900.0, GAz=700.0, pip
                      kv=1.1, rotary_inertia=(0.02, 0.01, 0.015))
 FIELDS = ("l0", "EA", "GJ", "EIy", "EIz", "Phi_y", "Phi_z", "strain0", "offset_p", "offset_q", "pipe_mass",
           "fluid_mass", "kv", "rotary_inertia", "flow_factor", "end_terms_p", "end_terms_q")
-
-
-def _bits(x):
-    x = np.asarray(x)
-    return x.dtype, x.shape, x.tobytes()
+# what the core derives from l0, Ep, Eq (strain0, Phi, r, J) amplifies their ulps: 4 ulps in
+# them gave up to 17 ulps (of the array's largest entry) in strain0 and the residual (measured)
+ULPS_DERIVED = 64
 
 
 def assert_same_model(a, b):
-    """Positions, element records, the core's element data and matrices: equal bit for bit."""
-    assert _bits(a.positions) == _bits(b.positions)
+    """Nodes, element records, the core's element data and matrices: the same structure
+    exactly, the same numbers to a few ulps.
+
+    Not bit for bit: the bulk path computes the triads and lengths on (n, 3) arrays, the
+    one-by-one path on (1, 3) arrays and the test's geometry with scalar formulas, and
+    numpy's loops may round these differently by CPU and version (on AVX-512 CPUs its SVML
+    loops for the transcendental functions: 1-2 ulps in l0, Ep, Eq reported)."""
+    def close(x, y, what, ulps=4):
+        x, y = np.asarray(x), np.asarray(y)
+        assert x.dtype == y.dtype, what
+        if x.dtype.kind in "biu":  # indices and flags: exact
+            assert np.array_equal(x, y), what
+            return
+        # entries that cancel to ~0 (triad components, residual entries) carry the round-off
+        # of the array's largest ones
+        assert_close_ulps(x, y, ulps=ulps, scale=np.abs(x).max(initial=0.0), what=what)
+
+    close(a.positions, b.positions, "positions")
     assert a.dof_labels == b.dof_labels
     ea, eb = a._description["_elements"], b._description["_elements"]
     assert len(ea) == len(eb)
     for x, y in zip(ea, eb):
         assert (x["p"], x["q"], x["flow_factor"], x["fluid_end_terms"]) == (y["p"], y["q"], y["flow_factor"],
                                                                          y["fluid_end_terms"])
-        assert all(_bits(x[key]) == _bits(y[key]) for key in ("l0", "Ep", "Eq"))
+        for key in ("l0", "Ep", "Eq"):
+            close(x[key], y[key], key)
     for i in range(len(ea)):
         da, db = a.core.pipe(i), b.core.pipe(i)
         for f in FIELDS:
-            assert _bits(getattr(da, f)) == _bits(getattr(db, f)), f
+            close(getattr(da, f), getattr(db, f), f"element {i}: {f}", ULPS_DERIVED)
     rng = np.random.default_rng(0)
     sa, sb = a.initial_state(), b.initial_state()
     dq = 1e-3 * rng.standard_normal(sa.q.shape)
@@ -40,8 +57,10 @@ def assert_same_model(a, b):
         s.v = np.full(s.v.shape, 0.1)
     ra, ta = _core.assemble(a.core, sa, a.load_state(), 1.0, 1.0, 0.3, 0.7)
     rb, tb = _core.assemble(b.core, sb, b.load_state(), 1.0, 1.0, 0.3, 0.7)
-    assert _bits(ra) == _bits(rb)
-    assert all(_bits(x) == _bits(y) for x, y in zip(ta, tb))
+    close(ra, rb, "residual", ULPS_DERIVED)
+    assert len(ta) == len(tb)
+    for k, (x, y) in enumerate(zip(ta, tb)):
+        close(x, y, f"tangent triplets[{k}]", ULPS_DERIVED)
 
 
 def _finish(b, n0):

@@ -1,6 +1,6 @@
 """One linearisation for constrained systems (pipeflex.analysis.constrained): bodies and
 coupled element + body models, from the core's linear_matrices on the equations
-interface (issue "One engine": one null-space linearisation)."""
+interface: one null-space linearisation."""
 import numpy as np
 import pytest
 

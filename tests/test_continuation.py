@@ -44,8 +44,8 @@ def test_equal_steps_when_every_solve_converges():
 
 
 def test_the_last_step_lands_on_the_end_exactly():
-    """Ten steps of 0.1 add up to 0.9999999999999999: the last solve is at 1.0 itself
-    (it stopped at the sum before, one rounding short of the full load)."""
+    """Ten steps of 0.1 add up to 0.9999999999999999: the last solve is at 1.0 itself,
+    not at the sum (one rounding short of the full load)."""
     solve, calls = solver(lambda t, t0: True)
     way = follow(solve, Box(), start=0.0, end=1.0, steps=10, halving="step", max_failures=0)
     assert calls[-1][0] == 1.0 and way.t == 1.0 and len(calls) == 10
@@ -110,10 +110,10 @@ def test_bad_halving():
         follow(lambda s, t: (True, None), Box(), start=1.0, end=0.0, steps=1, halving="step", max_failures=1)
 
 
-def test_static_load_stepping_halves_as_before(monkeypatch):
+def test_static_load_stepping_halves_a_failed_step(monkeypatch):
     """The cantilever under 50 N in one load step: the step to 1 diverges, 0.5 and 1
-    converge; the targets, the iterations and the equilibrium are those of the loop
-    static_equilibrium had before the driver (main at 0c8307a)."""
+    converge; the targets, the iterations and the equilibrium are pinned (the load
+    stepping's schedule on the package's one continuation driver)."""
     calls = []
     newton = static._newton
 
@@ -128,11 +128,10 @@ def test_static_load_stepping_halves_as_before(monkeypatch):
     assert float(np.asarray(r.state.q).sum()) == pytest.approx(49.75776239627016, rel=1e-12)
 
 
-def test_rotating_state_halves_as_before(monkeypatch):
+def test_rotating_state_halves_a_failed_step(monkeypatch):
     """rotating_cantilever (10 elements) at Omega = 400 rad/s in two steps of Omega^2:
-    the rates tried and the iterations are those of rotating_state's loop before the
-    driver (main at 0c8307a): each failed target bisected in Omega^2, then reached, then
-    the schedule resumed."""
+    the rates tried and the iterations are pinned: each failed target bisected in
+    Omega^2, then reached, then the schedule resumed."""
     calls = []
     newton = _core.rotating_state
 
@@ -152,7 +151,7 @@ def test_rotating_state_halves_as_before(monkeypatch):
 
 def test_rotating_state_gives_up_near_a_fold():
     """More than MAX_CONTINUATION_FAILURES failed steps (Newton allowed 2 iterations a
-    step creeps on): the message names the rate and the last steady state, as before."""
+    step creeps on): the message names the rate and the last steady state."""
     with pytest.raises(pf.ConvergenceError, match=r"Omega = 6.20098 rad/s \(60 failed steps; the last steady "
                                                   r"state at Omega = 5.74099 rad/s\): a fold") as info:
         pf.rotating_state(scenes.rotating_cantilever(n_elements=10), 300.0, max_iterations=2)
@@ -169,9 +168,9 @@ def test_the_min_step_holds_either_way():
 
 def test_rotating_state_continues_down():
     """From the steady state at 600 rad/s down to 300, 100 and 0 rad/s in one step: each
-    fails at once and is halved (before the driver a step down was never halved: its
-    negative interval was below the min step), and lands on the state found from rest.
-    Down to 0 the rates on the way have the start's sense (they were all 0 before)."""
+    fails at once and is halved (a step down is halved too: the interval's length, not its
+    sign, is held against the min step), and lands on the state found from rest. Down to
+    0 the rates on the way have the start's sense (not 0)."""
     m = scenes.rotating_cantilever(n_elements=10)
     high = pf.rotating_state(m, 600.0, continuation_steps=3)
     for w in (300.0, 100.0, 0.0):

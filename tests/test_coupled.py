@@ -1,5 +1,5 @@
-"""Element models and floating-frame bodies in one system (issue "One engine", item 5a):
-the coupled equations integrated by the one generalised-alpha integrator."""
+"""Element models and floating-frame bodies in one system: the coupled equations
+integrated by the one generalised-alpha integrator."""
 import numpy as np
 import pytest
 
@@ -123,6 +123,7 @@ def test_pf_simulate_takes_a_coupled_system():
     cs.rigid(n0, j, "end")
     a = pf.simulate(cs, 0.05, step=1e-3, n_outputs=3, rho_inf=0.8)
     b = simulate(cs, 0.05, step=1e-3, n_outputs=3, rho_inf=0.8)
+    # exact: pf.simulate calls the same integrator with the same options
     assert np.array_equal(a.elements.x, b.elements.x) and np.array_equal(a.bodies.r, b.bodies.r)
     with pytest.raises(ValueError, match="generalised-alpha"):
         pf.simulate(cs, 0.05, integrator="ida")
@@ -175,7 +176,7 @@ def test_pf_simulate_takes_a_multibody_system():
     s = scenes.ffrf_cantilever_pipe(n_bodies=2, elements_per_body=4, tip_force=1.5)
     a = pf.simulate(s, 0.02, step=1e-3, n_outputs=3, mass_flow=30.0, rho_inf=0.8)
     b = mb_simulate(s, 0.02, step=1e-3, n_outputs=3, mass_flow=30.0, rho_inf=0.8)
-    assert np.array_equal(a.r, b.r) and np.array_equal(a.eta, b.eta)
+    assert np.array_equal(a.r, b.r) and np.array_equal(a.eta, b.eta)  # exact: one integrator, one call
     with pytest.raises(ValueError, match="generalised-alpha"):
         pf.simulate(s, 0.02, integrator="ida")
 
@@ -214,9 +215,9 @@ def test_coupled_statics_take_the_mixed_newton():
 def test_a_failed_coupled_load_step_is_halved(monkeypatch):
     """The coupled statics step the load on the package's one continuation driver (as
     element models): the 8-element cantilever on a clamped hub under a 50 N tip force
-    (tip at 0.61 m, 0.72 m) diverges in one load step (main before this test raised
-    there); the step is halved, 0.5 and 1 converge, and the equilibrium is the one of two
-    load steps, bit for bit."""
+    (tip at 0.61 m, 0.72 m) diverges in one load step; the step is halved, 0.5 and 1
+    converge, and the equilibrium is the one of two load steps, bit for bit (the same two
+    solves from the same state, in one process)."""
     calls = []
     solve = coupled._core.coupled_static
 

@@ -95,8 +95,8 @@ def test_table2_cantilever_128_elements_converges_with_order_four():
 def test_sparse_tracking_at_256_elements_agrees_with_128():
     """The crossing eigenpair followed by Newton on the sparse blocks (no Arnoldi per
     step), its residual compensated (refine_eigenpair): 256 elements give 128's flow to
-    the discretisation error between them, ~2e-9 relative (order 4; before the
-    compensated residual Brent stopped in a +-6e-8 round-off band at 256 elements)."""
+    the discretisation error between them, ~2e-9 relative (order 4; without the
+    compensated residual the crossing's round-off band at 256 elements is +-6e-8)."""
     r128 = pf.critical_mass_flow(pf.scenes.cantilever_pipe(n_elements=128))
     r256 = pf.critical_mass_flow(pf.scenes.cantilever_pipe(n_elements=256))
     assert r256.kind == "flutter"
@@ -260,8 +260,9 @@ def test_scan_reuses_unchanged_blocks_and_the_band_lu_solves_as_superlu():
 
 @pytest.mark.slow
 def test_critical_flow_of_8192_elements_agrees_with_4096():
-    """The brief's size (49152 coordinates, ~15-20 s): formerly a ConvergenceError or, on
-    the same machine, 28.096 kg/s (12 % off: the crossing eigenvalue was good to 0.3 1/s)."""
+    """A large model (49152 coordinates, ~15-20 s): the critical flow converges and agrees
+    with 4096 elements' (an eigenvalue good to only 0.3 1/s at the crossing would put it
+    12 % off)."""
     f4096 = pf.critical_mass_flow(pf.scenes.cantilever_pipe(n_elements=4096)).mass_flow
     r = pf.critical_mass_flow(pf.scenes.cantilever_pipe(n_elements=8192))
     assert r.kind == "flutter"
@@ -299,8 +300,8 @@ def test_static_flow_continuation_equals_hand_steps():
 
 
 def test_u_tube_static_path_ends_in_a_fold():
-    """The scan used to stop at 296.84 kg/s (no static solve in one quarter flow unit).
-    With the flow continuation it follows the path to its fold at ~461.7227 kg/s, where
+    """The scan follows the static path with the flow continuation (one static solve per
+    quarter flow unit would stop at 296.84 kg/s) to its fold at ~461.7227 kg/s, where
     the tube's free end has swung round: the stiffness turns singular (k_min^2 linear in
     mdot), a real eigenvalue goes through 0 and there is no equilibrium beyond: a static
     instability, reported as divergence at the fold flow, independent of the scan step."""
@@ -320,9 +321,9 @@ def test_u_tube_static_path_ends_in_a_fold():
 
 def test_round_off_damping_coupling_gives_no_infinite_eigenvalue():
     """Without rotary inertia (PipeSection.tube) the rotations are massless; on the
-    deformed U-tube C's coupling to them is round-off (~1e-12 of |C|). It used to send
-    the block to QZ, which returned infinite eigenvalues as finite (lambda ~ 9e11 at
-    420 kg/s: a spurious divergence); now the massless coordinates are condensed out."""
+    deformed U-tube C's coupling to them is round-off (~1e-12 of |C|). The massless
+    coordinates are condensed out, not sent to QZ, which would return infinite eigenvalues
+    as finite (lambda ~ 9e11 at 420 kg/s: a spurious divergence)."""
     m = u_tube()
     st = pf.static_equilibrium(m, mass_flow=420.0, from_mass_flow=0.0).state
     eig = pf.eigenvalues(pf.linearize(m, st, mass_flow=420.0))

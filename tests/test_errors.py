@@ -86,7 +86,7 @@ def test_singular_tangent_is_a_singular_matrix_error():
 
 
 def test_critical_flow_names_the_flow_of_a_failed_static_solve(monkeypatch):
-    """The U-tube's static path now ends in a fold that critical_mass_flow reports
+    """The U-tube's static path ends in a fold that critical_mass_flow reports
     (tests/test_critical_flow.py); a static solve failing where the stiffness does not
     vanish (here forced above 200 kg/s) is still an error naming the flow."""
     from pipeflex.analysis import critical

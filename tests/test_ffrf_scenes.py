@@ -201,9 +201,9 @@ def test_32_bodies_equal_64_elements():
 def test_a_chain_of_many_short_bodies_is_as_large_as_the_chain():
     """The Newton tests' scale is the assembly's extent, not the longest body: a 192-body
     cantilever (5.2 mm bodies) deflects 75 mm in its first Newton correction, which the
-    body length's divergence limit (10 body lengths) took for a singular tangent, sending
-    the static solve to the dense null-space step (37 s; now the sparse KKT Newton, a
-    tenth of a second). The constraint check at build is sparse too."""
+    body length's divergence limit (10 body lengths) would take for a singular tangent
+    (and fall back to the dense null-space step, 37 s); it stays on the sparse KKT Newton,
+    a tenth of a second. The constraint check at build is sparse too."""
     s = pf.scenes.ffrf_cantilever_pipe(n_bodies=192, elements_per_body=4, tip_force=1.5)
     assert s.length_scale == pytest.approx(1.0, rel=1e-12)  # the 1 m cantilever
     assert s.length_scale > 100 * max(b.length for b in s.bodies)

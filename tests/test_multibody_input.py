@@ -43,7 +43,8 @@ def test_curved_scene_rejects(kwargs, match):
 
 
 def test_node_and_body_indices_are_checked(cantilever):
-    """A node past the body's end used to read out of bounds in C++ (segfault)."""
+    """A node or body index out of range, or a state of the wrong size, is a ValueError
+    naming the rule (the C++ core would read out of bounds)."""
     st = cantilever.initial_state()
     with pytest.raises(ValueError, match="node must be an index 0..4"):
         cantilever.node_kinematics(st, 0, 10**5)

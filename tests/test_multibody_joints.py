@@ -157,10 +157,10 @@ def test_driven_spherical_chain_is_not_walked_to_a_far_equilibrium():
     """The fuzz's case 220 (seed 0, 300 multibody cases): three soft bodies (EI 1 N m^2) on
     spherical joints from a clamp, a tip load across them; it drives the joints (0.29 of the
     applied level). With the mechanism's fast filter gated only by the force on the free
-    motions, the safe filter walked the chain round until that force had fallen, the fast
-    one finished the walk within 30 iterations and the last body's frame turned by more than
-    a radian was returned; the fast filter is used only while the frames stay near the
-    solve's start, so it is refused, as before the fast filter."""
+    motions, the safe filter would walk the chain round until that force had fallen, the
+    fast one would finish the walk within 30 iterations and return the last body's frame
+    turned by more than a radian; the fast filter is used only while the frames stay near
+    the solve's start, so the load is refused as driving the mechanism."""
     sec = pf.PipeSection(EI=1.0, GJ=1.0, pipe_mass=1.0, fluid_mass=1.0)
     length = 0.4641588833612779
     body = flexible_body(length=length, n_elements=6, section=sec, internal_modes=1)

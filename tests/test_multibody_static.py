@@ -81,8 +81,8 @@ def test_static_newton_reports_the_free_motions_of_its_end_state():
 def test_negligible_load_on_a_hinge_converges(F):
     """A load that turns a free hinge but would bend the body by less than FORCE_FLOOR
     (1e3 eps) of its length (F < 1e3 eps EI / L^2 = 1.7e-11 N) is round-off: the hinge keeps
-    its assembly angle. Before, 1e-307..1e-17 N raised as driving the mechanism (0.8 of
-    the applied level: the relative rule alone)."""
+    its assembly angle (the relative rule alone, 0.8 of the applied level, would call
+    1e-307..1e-17 N a load driving the mechanism)."""
     s = _one_body("hinge", (0.0, F, 0.0))
     res = static_equilibrium(s)
     np.testing.assert_array_equal(res.state.R[0], np.eye(3))
@@ -98,10 +98,10 @@ def test_soft_cantilever_stretched_beyond_the_floating_frame_is_refused():
     """A clamped body under a tip force of 4000 N (64 EI / L^2, a linear tip deflection of
     17 body lengths): Newton converges at the full load (30 iterations) to a root of the
     floating-frame equations whose elastic deformation reaches 1.06 body lengths in the
-    body's frame (main returned that state). The step acceptance test rejects every step
-    beyond DEFORMATION_LIMIT (0.5) of the length; the halved steps stop at load factor 0.2
-    (0.51): a ConvergenceError that names the body and the assumption. A tenth of the force
-    (0.28 of the length) is accepted, as before."""
+    body's frame. The step acceptance test rejects every step beyond DEFORMATION_LIMIT
+    (0.5) of the length; the halved steps stop at load factor 0.2 (0.51): a
+    ConvergenceError that names the body and the assumption. A tenth of the force (0.28 of
+    the length) is accepted."""
     with pytest.raises(pf.ConvergenceError, match=r"stretches body 0 elastically by [\d.]+ of its length .*"
                                                   r"small elastic deformation assumption is violated"):
         static_equilibrium(_one_body("fix", (0.0, 4000.0, 0.0)))
@@ -112,8 +112,9 @@ def test_soft_cantilever_stretched_beyond_the_floating_frame_is_refused():
 
 def test_soft_pipe_under_its_weight_from_the_fuzz_is_refused():
     """The fuzz's soft pipe (seed 0, multibody case 107: EI 0.01 N m^2, 2 kg/m, 1 m, clamped,
-    gravity 20 m/s^2 across it): main's halved steps converged after 536 iterations to a
-    state stretched 31.8 times the body's length (residual 5e-13 N)."""
+    gravity 20 m/s^2 across it): halved steps without the acceptance test converge after
+    536 iterations to a state stretched 31.8 times the body's length (residual 5e-13 N);
+    it is refused, naming the body."""
     b = MultibodyBuilder()
     j = b.add_body(flexible_body(length=1.0, n_elements=6, section=pf.PipeSection(EI=0.01, pipe_mass=1.0,
                                                                                    fluid_mass=1.0)),
@@ -128,7 +129,7 @@ def test_one_max_iterations_default_passed_through():
     """30 iterations per load step by default on every static path (the multibody
     mechanisms' penalised Newton converges linearly in a free motion stiffer than the
     penalty; 25 cut some of them short), and pf.static_equilibrium passes the value on
-    (it used to raise a multibody system's to at least 30)."""
+    unchanged to a multibody system (max_iterations=2 stops after 2)."""
     for f in (element_static.static_equilibrium, coupled.static_equilibrium, static_equilibrium):
         assert inspect.signature(f).parameters["max_iterations"].default == 30
     s = _one_body("fix", (0.0, 40.0, 0.0))  # 4 iterations from the assembly

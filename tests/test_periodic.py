@@ -74,6 +74,7 @@ def test_stored_tangent_applies_the_monodromy(planar4):
     assert np.abs(out["tangent"].apply(D) - Phi @ D).max() <= 1e-10 * np.abs(Phi @ D).max()
     lean = _core.generalized_alpha_flow_map(m.core, base.copy(), m.load_state(), z0, v0, 0.2, 200, True, opt,
                                             monodromy=False)
+    # exact: the same integration; monodromy=False only skips applying the tangent map
     assert "monodromy" not in lean and np.array_equal(lean["v"], out["v"])
     with pytest.raises(ValueError, match="rows"):
         out["tangent"].apply(np.zeros((n, 1)))

@@ -1,4 +1,4 @@
-"""Property-based tests (issue "Reliability", item 6), a fast deterministic slice of
+"""Property-based tests, a fast deterministic slice of
 ``make fuzz`` (tests/fuzz/): hypothesis draws models through the public builder and the
 analyses, with a fixed number of examples and derandomised (the same examples on every
 run, so CI is deterministic; the "ci" profile of conftest.py).

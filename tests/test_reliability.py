@@ -1,7 +1,6 @@
-"""Reliability (issue "Reliability", items 1-3): a state of another model, vectors of the
-wrong size and bad indices are refused at the C++ boundary (ValueError naming the
-parameter); singular or non-finite problems are named instead of answered; work is
-bounded (size and step limits, Ctrl-C)."""
+"""Reliability: a state of another model, vectors of the wrong size and bad indices are
+refused at the C++ boundary (ValueError naming the parameter); singular or non-finite
+problems are named instead of answered; work is bounded (size and step limits, Ctrl-C)."""
 import json
 
 import numpy as np
@@ -39,7 +38,8 @@ def test_state_of_another_model_is_refused(analysis, m2, m8):
 
 
 def test_short_q_is_refused_when_set(m4):
-    """The issue's SIGABRT: st.q = np.zeros(3) then simulate on a 4-element cantilever."""
+    """st.q = np.zeros(3) on a 4-element cantilever is refused when set, naming the size
+    (the C++ core would abort on it in simulate)."""
     st = m4.initial_state()
     with pytest.raises(ValueError, match=r"State.q must have 6 entries per node \(30 for 5 nodes\), got 3"):
         st.q = np.zeros(3)
@@ -131,7 +131,7 @@ def test_multibody_max_steps_is_honoured(ffrf):
         simulate(ffrf, 0.1, step=1e-3, max_steps=10)
     with pytest.raises(ValueError, match="max_steps must be a positive integer"):
         simulate(ffrf, 0.1, step=1e-3, max_steps=2.5)
-    with pytest.raises(ValueError, match="max_steps = 10000000"):  # the issue's "1e7 s with 1 us steps"
+    with pytest.raises(ValueError, match="max_steps = 10000000"):  # 1e7 s in 1 us steps: 1e13 steps
         simulate(ffrf, 1e7, step=1e-6)
 
 
@@ -174,7 +174,8 @@ def _beam(n=4, **build):
 
 
 def test_mechanism_is_named_not_called_divergence():
-    """Only ux fixed: the issue's stability() == "divergence" from a round-off eigenvalue."""
+    """Only ux fixed: a mechanism, named as such, not "divergence" from a round-off
+    eigenvalue."""
     b, nodes = _beam()
     b.fix(nodes[0], ("ux",))
     lin = pf.linearize(b.build())
@@ -332,7 +333,7 @@ def test_scene_magnitudes(kwargs, match):
 
 def test_fix_takes_one_component_name():
     b, nodes = _beam()
-    b.fix(nodes[0], "ux")  # was iterated: "unknown component 'u'"
+    b.fix(nodes[0], "ux")  # one name, not its letters ("unknown component 'u'")
     b.clamp(nodes[0])
     assert b.build().n_dofs == 24
     with pytest.raises(ValueError, match="unknown component 'ur'"):
@@ -377,7 +378,7 @@ def test_canonical_modes_depend_on_the_subspace_only():
 
 def test_craig_bampton_basis_is_the_same_on_1_and_2_threads():
     """The two bending planes of a round section are a degenerate group whose LAPACK
-    eigenvectors change with the number of BLAS threads (by O(1) before the canonical
+    eigenvectors change with the number of BLAS threads (by O(1) without a canonical
     basis); internal_modes = 5 also cuts one such pair."""
     from threadpoolctl import threadpool_limits
 
@@ -415,11 +416,11 @@ def test_generalized_alpha_counts_failed_steps_against_max_steps():
                     newton_tol=1e-300, max_steps=30, n_outputs=2, progress=False)  # 25 planned; all fail
 
 
-# The fuzz run's case (make sanitize, 2026-11-23, session 4): a clamped line-arc-line pipe
+# A case from the fuzz run (make sanitize): a clamped line-arc-line pipe
 # with a point mass of no rotary inertia, near-massless rotations (rotary inertia 5e-7),
 # dead forces and moments, linearised at the reference configuration. No flow, no follower
 # load: conservative but for a skew part of 8e-12 |K| (the dead moments). The companion
-# form's round-off gave its high modes real parts up to 1.44 1/s, called flutter.
+# form's round-off gives its high modes real parts up to 1.44 1/s, which must not be called flutter.
 FUZZ_CONSERVATIVE = json.loads('{"sections": [{"EI": 1.0, "pipe_mass": 1.0000000000000004, "fluid_mass": 0.0, "GJ": 1.0, "rotary_inertia": [0.019999539488283265, 0.009999769744141632, 0.009999769744141632]}, {"EI": 0.999999999999892, "pipe_mass": 0.049999999999999996, "fluid_mass": 0.0, "EIz": 0.9998594712340544, "GJ": 0.999999999999892, "rotary_inertia": [1e-06, 5e-07, 5e-07]}], "segments": [{"kind": "line", "direction": [0.0, 0.99999, -5.844284049919781e-191], "length": 0.9999997255105045, "n": 1}, {"kind": "arc", "normal": [-0.9283641952950237, -0.5883199776877347, 1.192092896e-07], "radial": [0.99999, 0.0, 0.2886654263760818], "radius": 1.0, "angle": -5.283185307179586, "n": 2}, {"kind": "line", "direction": [0.0, -1.1125369292536007e-308, 0.3333333333333333], "length": 1.0, "n": 3}], "support": "clamp", "loads": [{"node": 6, "force": [1.175494351e-38, 6.103515625e-05, -5.960464477539063e-08], "moment": [0.40823822427678713, -6.103515625e-05, -1.1125369292536007e-308], "follower": false, "level": 0.4641588833612779}, {"node": 10, "force": [-0.9319007138477817, 2.225073858507e-311, 0.99999], "moment": [1.0, 2.225073858507203e-309, -2.225073858507e-311], "follower": false, "level": 0.4641588833612779}], "gravity": null, "point_masses": [{"node": 6, "mass": 1.0, "inertia": [0.0, 1.401298464324817e-45, 1.401298464324817e-45]}], "flow": 0.0}')
 
 

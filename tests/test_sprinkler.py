@@ -73,8 +73,8 @@ def test_steady_rotation_sparse_and_dense_solves_agree(monkeypatch):
 
 def test_steady_rotation_accepts_round_off_stall():
     """A tolerance below round-off (1e-17) is met as the static solvers meet it: the
-    correction stops halving within 1e3 tolerances (the core's static_newton). Before, omega's last digits
-    wandered and the 4096-element sprinkler failed to converge."""
+    correction stops halving within 1e3 tolerances (the core's static_newton), rather than
+    omega's last digits wandering (which left the 4096-element sprinkler unconverged)."""
     model = pf.scenes.sprinkler(EI=100.0)
     usual = pf.steady_rotation(model)
     strict = pf.steady_rotation(model, tol=1e-17)

@@ -64,7 +64,7 @@ def test_a_flow_without_equilibrium_near_rest_is_followed_from_rest():
     b.clamp(n0)
     m = b.build(mass_flow=10.0)
     with pytest.raises(pf.ConvergenceError, match="load factor .*Newton diverged"):
-        pf.static_equilibrium(m, path="load")  # the full flow at once, as before
+        pf.static_equilibrium(m, path="load")  # the full flow at once, without the fallback
     direct = pf.static_equilibrium(m, from_mass_flow=0.0)
     ramped = direct.state.q
     for steps in (1, 4):

@@ -48,8 +48,8 @@ def test_a_guess_far_from_the_first_steps_rate_converges():
 
 def test_a_jump_to_another_branch_is_bisected():
     """Seed 004's semicircular pipe of only two elements: in 4 (or 2) equal flow steps
-    Newton used to land on other branches of steady states (0.11 and -6.1 rad/s; 6 or more
-    steps: 4.92 rad/s, beside the finer meshes' 5.1-5.2). A step whose omega falls more
+    unchecked Newton lands on other branches of steady states (0.11 and -6.1 rad/s; 6 or
+    more steps: 4.92 rad/s, beside the finer meshes' 5.1-5.2). A step whose omega falls more
     than half its prediction away is bisected, so these step counts give the one path. (The
     first step has no prediction to be checked against: in one or two steps, from the rigid
     balance at the full or half flow, Newton still lands elsewhere.)"""

@@ -177,11 +177,11 @@ def test_coupled_steady_rotation_options():
 
 
 def test_bordered_newton_converges_only_with_the_joints_held():
-    """The bordered Newton (omega the border) took a small correction as convergence even
-    where the constraints did not hold (the plain Newton requires them): from the
-    solution with body 1 moved 1e-5 model sizes off its rigid joint, a loose tol (1e-2)
-    accepted the first correction, made at the open joint. Now a second iteration confirms
-    it at the closed one (measured: 1 iteration before, 2 now; the joint closed to 1e-17)."""
+    """The bordered Newton (omega the border) takes a small correction as convergence only
+    where the constraints hold (as the plain Newton does): from the solution with body 1
+    moved 1e-5 model sizes off its rigid joint, with a loose tol (1e-2), the first
+    correction, made at the open joint, is not accepted; a second iteration confirms it at
+    the closed one (the joint closed to 1e-17)."""
     system = l_sprinkler(1e4)
     got = pf.steady_rotation(system)
     r = np.array(got.body_state.r)

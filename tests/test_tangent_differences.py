@@ -1,6 +1,5 @@
 """The tangent of every element, body, joint and coupling against central differences of
-the residual (issue "One engine": tangent vs finite differences for every element and
-joint). One route for all: the core's linear_matrices on the equations interface gives
+the residual. One route for all: the core's linear_matrices on the equations interface gives
 [K; C_q] at a state, residual_differences the (n + nc) x n central differences of
 [R + C_q^T lambda; c] over the same coordinates (step 1e-6), at loaded, deformed states
 with non-zero multipliers."""

@@ -39,7 +39,7 @@ def test_energy_conserved_without_flow(integrator, opts, tol):
 def test_generalized_alpha_is_second_order():
     """Start in the first mode shape (0.05 m/s at its largest); against a tight IDA run the
     error falls as h^2 (rates 2.00 and 2.01 measured). The vector's phase is normalised
-    away: Re(1j x) of an undamped mode is round-off, and was what this test started from."""
+    away (Re(1j x) of an undamped mode is round-off, no start for the run)."""
     m, st, tip = swinging_cantilever()
     e = pf.eigenvalues(pf.linearize(m), vectors=True)
     i = np.argmin(np.abs(e.values - 1j * e.frequencies.min()))
@@ -110,8 +110,9 @@ def test_auto_step_skips_rigid_modes():
 
 
 def test_auto_follows_the_options():
-    """An IDA-only option selects IDA (the former default's calls run as before); a step
-    selects generalised-alpha at that step; an explicit integrator is run as asked."""
+    """An IDA-only option selects IDA (the same run as integrator="ida", exactly: one code
+    path); a step selects generalised-alpha at that step (the same run as asked for by
+    name); an explicit integrator is run as asked."""
     m, st, _ = swinging_cantilever(2)
     run = lambda **kw: pf.simulate(m, 0.05, state=st, n_outputs=6, progress=False, **kw)
     ida, by_rtol = run(integrator="ida"), run(rtol=1e-6, atol=1e-8)  # IDA's defaults

@@ -1,4 +1,4 @@
-"""Random valid pipeflex models and the analyses run on them (issue "Reliability", item 6).
+"""Random valid pipeflex models and the analyses run on them.
 
 A *case* is a plain dict (JSON-serialisable, so a failure is reproduced from its
 printout with :func:`run_case`): the model description and the analysis to run.
@@ -32,7 +32,7 @@ FAMILIES = ("static", "eigen", "critical", "simulate", "ancf", "multibody")
 
 
 class Bug(AssertionError):
-    """An outcome the issue calls a bug (see the module docstring)."""
+    """An outcome that is a bug (see the module docstring)."""
 
 
 # -- building blocks ------------------------------------------------------------------

@@ -1,4 +1,4 @@
-"""The long fuzz run (``make fuzz``; issue "Reliability", item 6): hypothesis-generated
+"""The long fuzz run (``make fuzz``): hypothesis-generated
 models through static, eigen, critical flow, simulate (generalised-alpha and IDA),
 ANCF (static, simulate, rotating frequencies) and multibody (static, eigen, critical
 flow, simulate) analyses.
@@ -18,8 +18,8 @@ from numpy/scipy, a crash, a hang). Exit status 1 if there was any bug.
     .venv/bin/python tests/fuzz/run_fuzz.py --examples 10000 [--jobs 2] [--seed 0]
     .venv/bin/python tests/fuzz/run_fuzz.py --replay case.json   # rerun one case
     .venv/bin/python tests/fuzz/run_fuzz.py --replay tests/fuzz/open_bugs.json
-        # the open bugs the 10 000-case run found, one reproducer per kind (the last,
-        # the IDA crash, ends the process with a segmentation fault)
+        # one reproducer per kind of bug a 10 000-case run found (tests/test_properties.py
+        # replays those that are fixed)
 """
 from __future__ import annotations
 
