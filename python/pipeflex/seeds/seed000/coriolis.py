@@ -368,18 +368,23 @@ def geometry_figure(model: Model):
     draw_model(model, ax=ax, plane="xy", show_flow=False, legend=False)
     x = model.positions
     s1, s2 = sensors(model)
+    centre = x.mean(axis=0)
     for n, name in ((s1, "S1 (inlet side)"), (s2, "S2 (outlet side)")):
-        ax.plot(*x[n, :2], "o", ms=9, mfc="none", mec="C3")
-        ax.annotate(name, x[n, :2], textcoords="offset points", xytext=(-10, -16 if x[n, 1] < 0 else 8),
-                    ha="right", color="C3")
+        # a sensor is a position, not a value: a filled diamond, its name outside the U
+        ax.plot(*x[n, :2], "D", ms=7, color="C3", zorder=5)
+        below = x[n, 1] < centre[1]
+        ax.annotate(name, x[n, :2], textcoords="offset points", xytext=(0, -10 if below else 10), ha="center",
+                    va="top" if below else "bottom", color="C3")
     ends = (model.elements[0].nodes[0], model.elements[-1].nodes[1])
     for e in (model.elements[0], model.elements[-1]):
         p, q = e.nodes
         mid = 0.5 * (x[p] + x[q])
         ax.annotate("", mid[:2] + 0.06 * (x[q, :2] - x[p, :2]) / np.linalg.norm(x[q] - x[p]), mid[:2],
                     arrowprops=dict(arrowstyle="->", color="C0", lw=1.5))
-    ax.text(x[ends[0], 0], x[ends[0], 1] - 0.05, "inlet", color="C0")
-    ax.text(x[ends[1], 0], x[ends[1], 1] + 0.03, "outlet", color="C0")
+    # inlet and outlet beside the clamps, on the side away from the tube
+    for n, name in ((ends[0], "inlet"), (ends[1], "outlet")):
+        ax.annotate(name, x[n, :2], textcoords="offset points", xytext=(-12, 0), ha="right", va="center",
+                    color="C0")
     ax.set_title("U-tube in the $xy$ plane; vibration along $z$", fontsize=10)
     ax.margins(0.15)
     fig.tight_layout()
@@ -403,11 +408,15 @@ def frequency_figure(*curves: FrequencyCurve, labels: Sequence[str] = ()):
 
 
 def time_lag_figure(*curves: TimeLagCurve, labels: Sequence[str] = ()):
-    """Time lag [us] versus mdot/mdot0 (Fig. 8 of seed 000), points and fitted lines
-    (:func:`pipeflex.plot.parameter_curves`)."""
+    """Time lag [us] versus mdot/mdot0 (Fig. 8 of seed 000): the computed points (filled
+    markers, :data:`pipeflex.plot.STYLES` ["computed points"]) and their fitted lines
+    (:func:`pipeflex.plot.parameter_curves`). The curves of different fluids nearly
+    coincide, so each has its own marker, line style and width (the first widest, drawn
+    below), so that every one stays visible."""
     import matplotlib.pyplot as plt
+    from matplotlib.lines import Line2D
 
-    from ...plot import parameter_curves
+    from ...plot import STYLES, parameter_curves
 
     fig, ax = plt.subplots(figsize=(6, 4))
     names = [labels[i] if i < len(labels) else f"$\\rho_f$ = {c.fluid_density:g} kg/m$^3$"
@@ -415,12 +424,20 @@ def time_lag_figure(*curves: TimeLagCurve, labels: Sequence[str] = ()):
     x = [c.flows_scaled for c in curves]
     ylabel = r"time lag $\Delta t = t_{S1} - t_{S2}$ [$\mu$s]"
     xlabel = r"mass flow $\dot m/\dot m_0$ [-]"
-    parameter_curves(x, [c.time_lag for c in curves], scale=1e6, xlabel=xlabel, ylabel=ylabel,
-                     labels=[f"{n}: {1e6 * c.sensitivity:.5f} $\\mu$s/(kg/s)" for n, c in zip(names, curves)],
-                     styles=[dict(ls="none", marker="o", ms=4, mfc="none", color=f"C{i}") for i in range(len(curves))],
+    markers, dashes = ("s", "^", "D", "v"), ("-", "--", ":", "-.")
+    n = len(curves)
+    # first curve widest and largest at the bottom, later ones narrower on top
+    lines = [dict(color=f"C{i}", ls=dashes[i % 4], lw=2.6 - 1.6 * i / max(n - 1, 1), zorder=2 + i) for i in range(n)]
+    points = [dict(STYLES["computed points"], ls="none", color=f"C{i}", marker=markers[i % 4],
+                   ms=8 - 3.5 * i / max(n - 1, 1), zorder=2.5 + i) for i in range(n)]
+    parameter_curves(x, [c.time_lag for c in curves], scale=1e6, xlabel=xlabel, ylabel=ylabel, styles=points,
                      ax=ax, legend=False)
     parameter_curves(x, [c.sensitivity * c.mass_flow + c.intercept for c in curves], scale=1e6, xlabel=xlabel,
-                     ylabel=ylabel, styles=[dict(lw=0.8, color=f"C{i}") for i in range(len(curves))], ax=ax)
+                     ylabel=ylabel, styles=lines, ax=ax, legend=False)
+    handles = [Line2D([], [], **dict(ln, marker=pt["marker"], ms=pt["ms"]),
+                      label=f"{name}: {1e6 * c.sensitivity:.5f} $\\mu$s/(kg/s)")
+               for ln, pt, name, c in zip(lines, points, names, curves)]
+    ax.legend(handles=handles, fontsize=8, title="computed points, fitted lines", title_fontsize=8)
     c = curves[0]
     nz = np.nonzero(c.flows_scaled)[0]
     if len(nz) and all(np.allclose(d.mass_flow[d.flows_scaled != 0] / d.flows_scaled[d.flows_scaled != 0],

@@ -7,6 +7,7 @@ import numpy as np
 from ...analysis import simulate
 from ...convergence import critical_flow_convergence, richardson
 from . import scenes
+from .references import SPRINKLER
 
 
 def convergence_figure():
@@ -36,25 +37,36 @@ def convergence_figure():
 def sprinkler_figure(*, step: float = 1e-3, t_end: float = 1.0):
     """Fig. 5: the angular velocity [rad/s] of the semicircular rotating pipe as the flow
     spins it up, for EI = 10, 100, 1000 N m^2 and the rigid pipe (generalised-alpha, ``step``
-    [s]); left, the pipe drawn by :func:`pipeflex.plot.model` (hinge, flow direction); right,
-    :func:`pipeflex.plot.time_history`."""
+    [s]; the seed's line styles: dotted, dash-dotted, dashed, solid); the published final
+    angular velocities (sec. 3.3, :data:`~pipeflex.seeds.seed000.references.SPRINKLER`) as
+    open circles at ``t_end`` [s]. Left, the pipe drawn by :func:`pipeflex.plot.model`
+    (hinge, flow direction); right, :func:`pipeflex.plot.time_history`."""
     import matplotlib.pyplot as plt
+    from matplotlib.lines import Line2D
 
-    from ...plot import model as draw_model, time_history
+    from ...plot import STYLES, model as draw_model, published_points, time_history
 
     fig, (ax0, ax) = plt.subplots(1, 2, figsize=(10, 4), gridspec_kw={"width_ratios": [1, 1.6]})
     draw_model(scenes.sprinkler(EI=10.0), ax=ax0, plane="xy")
     ax0.set_title("the pipe: hinge about $z$ at the inlet", fontsize=10)
-    t, omega, labels = [], [], []
-    for label, model in (("$EI$ = 10 N m$^2$", scenes.sprinkler(EI=10.0)),
-                         ("$EI$ = 100 N m$^2$", scenes.sprinkler(EI=100.0)),
-                         ("$EI$ = 1000 N m$^2$", scenes.sprinkler(EI=1000.0)),
-                         ("rigid", scenes.sprinkler(EI=1.0, rigid=True))):
+    t, omega, labels, styles, finals = [], [], [], [], []
+    for k, (label, EI, ls) in enumerate((("$EI$ = 10 N m$^2$", 10.0, ":"), ("$EI$ = 100 N m$^2$", 100.0, "-."),
+                                         ("$EI$ = 1000 N m$^2$", 1000.0, "--"), ("rigid", "rigid", "-"))):
+        model = scenes.sprinkler(EI=1.0, rigid=True) if EI == "rigid" else scenes.sprinkler(EI=EI)
         r = simulate(model, t_end, integrator="generalized_alpha", step=step, n_outputs=201, progress=False)
         t.append(r.t)
         omega.append(r.omega[:, 0, 2])
         labels.append(label)
-    time_history(t, omega, quantity=r"angular velocity $\omega_z$", unit="rad/s", labels=labels, ax=ax,
-                 title="seed 000, Fig. 5: semicircular rotating pipe")
+        styles.append(dict(color=f"C{k}", ls=ls, lw=1.6))
+        finals.append(SPRINKLER[EI])
+    time_history(t, omega, quantity=r"angular velocity $\omega_z$", unit="rad/s", labels=labels, styles=styles,
+                 ax=ax, title="seed 000, Fig. 5: semicircular rotating pipe", legend=False)
+    for k, w in enumerate(finals):
+        published_points([t_end], [w], ax=ax, color=f"C{k}")
+    ax.set_xlim(-0.02 * t_end, 1.05 * t_end)
+    handles, _ = ax.get_legend_handles_labels()
+    handles.append(Line2D([], [], **dict(STYLES["published"], color="0.3"),
+                          label="published final value (sec. 3.3)"))
+    ax.legend(handles=handles, fontsize=8, loc="lower right")
     fig.tight_layout()
     return fig

@@ -149,26 +149,53 @@ def mode_shape_figure(*, gammas: Sequence[float] = (0.0, 50.0), n_modes: int = 3
 def spin_up_figure(*, omega: float = 10.0, t_end: float = 20.0,
                    cases=((2, "A"), (1, "0"), (2, "0"), (10, "0"))):
     """Fig. 6: spin-up to ``omega`` [rad/s] of the ref. 21 beam, Models A and 0 (``cases``:
-    (elements, elastic model)); a diverging run is listed in the legend. Drawn by
-    :func:`pipeflex.plot.time_history`. Returns the figure."""
+    (elements, elastic model)); a diverging run is drawn up to shortly before it failed,
+    the failure marked by a cross and named in the legend. Drawn by
+    :func:`pipeflex.plot.time_history` (Model A solid, Model 0 dashed and dotted, so that
+    curves lying on one another stay visible). Returns the figure."""
     import matplotlib.pyplot as plt
 
     from ...plot import time_history
 
     fig, ax = plt.subplots(figsize=(7, 4))
-    ts, ys, labels = [], [], []
-    for n, model in cases:
+    ts, ys, labels, styles, failures = [], [], [], [], []
+    dashes = ("--", ":", "-.", (0, (5, 1, 1, 1, 1, 1)))
+    for k, (n, model) in enumerate(cases):
         label = f"Model {model}, {n} element{'s' * (n > 1)}"
+        style = dict(color=f"C{k}", lw=2.4 if model == "A" else 1.4,
+                     ls="-" if model == "A" else dashes[k % len(dashes)], zorder=2 if model == "A" else 3)
         try:
             t, y = spin_up(n_elements=n, elastic=model, omega=omega, t_end=t_end)
         except ConvergenceError as e:
-            t, y = np.zeros(0), np.zeros(0)
-            label += ": diverged" + (f" at $t$ = {e.time:.2f} s" if e.time is not None else "")
+            if e.time is None:
+                raise
+            t, y = _until_failure(n, model, omega, e.time)
+            label += f": diverged at $t$ = {e.time:.2f} s"
+            failures.append((k, e.time))
         ts.append(t)
         ys.append(y)
         labels.append(label)
-    time_history(ts, ys, quantity="tip deflection", unit="m", labels=labels, ax=ax,
+        styles.append(style)
+    time_history(ts, ys, quantity="tip deflection", unit="m", labels=labels, styles=styles, ax=ax, legend=False,
                  title=f"seed 002, Fig. 6: spin-up to {omega:g} rad/s (ref. 21 beam)")
     ax.set_ylim(-1.5, 1.5)
+    for k, t_fail in failures:
+        # where the run failed: a cross on the axes' edge the diverging curve leaves by
+        y_end = ys[k][-1] if len(ys[k]) else 0.0
+        ax.plot([t_fail], [float(np.clip(y_end, -1.45, 1.45))], "x", color=f"C{k}", ms=9, mew=2, zorder=4)
+    ax.legend(fontsize=8)
     fig.tight_layout()
     return fig
+
+
+def _until_failure(n_elements: int, elastic: str, omega: float, t_fail: float):
+    """(times [s], tip deflection [m]) of a diverging spin-up up to shortly before it
+    failed at ``t_fail`` [s] (the last margin whose run completes)."""
+    for margin in (0.05, 0.25, 1.0):
+        if t_fail - margin <= 0.0:
+            break
+        try:
+            return spin_up(n_elements=n_elements, elastic=elastic, omega=omega, t_end=t_fail - margin)
+        except ConvergenceError:
+            continue
+    return np.zeros(0), np.zeros(0)

@@ -21,7 +21,7 @@ from ...sections import PipeSection
 from ...signals import cycle_metrics
 from ..seed000.limit_cycle import limit_cycle_model
 from . import scenes
-from .references import TABLE1_SPACAR
+from .references import TABLE1_FFRF, TABLE1_SPACAR
 
 #: Seed 004, sec. 8.1: the cantilever's flow speed [m/s] and tip force [N].
 CANTILEVER_FLOW_SPEED = 15.0
@@ -255,14 +255,18 @@ def element_curved_run(E: float, *, n_elements: int = 8, t_end: float = 4.0, ste
     return r.t, r.omega[:, 0, 2]
 
 
-def printer_run(flow_speed: float, *, step: float = 2e-4, t_end: float = PRINTER_DURATION, n_outputs: int = 69,
-                junction_forces: bool = True):
+def printer_run(flow_speed: float, *, step: float = 2e-4, t_end: float = PRINTER_DURATION,
+                n_outputs: Optional[int] = None, junction_forces: bool = True):
     """Seed 004, sec. 8.3: static equilibrium under gravity and M_A(0) = -5000 N m (with the
     flow of ``flow_speed`` [m/s] running), then the driven motion to ``t_end`` [s] with
     ``step`` [s]. Returns (system, result, nozzle path (n, 3) [m]).
+    ``n_outputs``: evenly spaced output times; default one per step, so that the path is
+    drawn from the computed points themselves (every 0.2 ms: a smooth curve).
     ``junction_forces=False``: without the flow's kink forces (the seed's formulation)."""
     s = scenes.concrete_printer(flow_speed=flow_speed, junction_forces=junction_forces)
     st = mb_static(s, load_steps=4).state
+    if n_outputs is None:
+        n_outputs = int(round(_checks.positive("t_end", t_end) / _checks.positive("step", step))) + 1
     res = mb_simulate(s, t_end, step=step, state=st, n_outputs=n_outputs, rho_inf=0.8)
     return s, res, res.node_position(*s.info["nozzle"])
 
@@ -299,18 +303,23 @@ def tip_figure(traces: Sequence[Trace], reference: Optional[Trace], title: str):
 
 def fig7_figure(data: Dict[str, np.ndarray], table2: Dict[int, float]):
     """Fig. 7: critical mass flow against the state size (:func:`pipeflex.plot.parameter_curves`);
-    filled: bodies, open: modes; crosses: seed 000's Table 2."""
-    from ...plot import parameter_curves
+    filled squares: bodies, open squares: internal modes (the seed's filled and unfilled
+    markers); open circles (the published style): seed 000's Table 2."""
+    from ...plot import parameter_curves, published_points
+    from ...plot.curves import readable_log_ticks
 
     fig, ax = _figure()
     n = np.array(sorted(table2))
-    parameter_curves([data["bodies_size"], data["modes_size"], 2 * 6 * n],
-                     [data["bodies_flow"], data["modes_flow"], [table2[k] for k in n]],
+    parameter_curves([data["bodies_size"], data["modes_size"]], [data["bodies_flow"], data["modes_flow"]],
                      xlabel="size of the state vector [-]", ylabel=r"critical mass flow $\dot m_{cr}$ [kg/s]",
-                     labels=["n bodies, boundary modes", "1 body, internal modes", "seed 000 Table 2 (n elements)"],
-                     styles=["ko-", dict(color="k", marker="o", ls="--", mfc="none"), dict(ls="none", marker="x",
-                                                                                         color="tab:red")],
-                     xscale="log", ax=ax, title="seed 004, Fig. 7: critical flow vs state size")
+                     labels=["n bodies, boundary modes", "1 body, internal modes"],
+                     styles=["ks-", dict(color="k", marker="s", ls="--", mfc="none")],
+                     xscale="log", ax=ax, title="seed 004, Fig. 7: critical flow vs state size", legend=False)
+    published_points(2 * 6 * n, [table2[k] for k in n], ax=ax, color="tab:red", ms=10,
+                     label="published: seed 000 Table 2 (n elements)")
+    readable_log_ticks(ax)   # the state sizes span 1.5 decades: label 20, 30, 50, 100, ...
+    ax.legend(fontsize=8)
+    fig.tight_layout()
     return fig
 
 
@@ -318,12 +327,16 @@ def curved_figures(runs: Dict[float, tuple], element_runs: Optional[Dict[float, 
     """Figs. 9 (base angular velocity, :func:`pipeflex.plot.time_history`) and 10 (final
     shapes, :func:`pipeflex.plot.paths`) from :func:`curved_pipe_run`; ``element_runs`` (per
     E, the (t, omega) of :func:`element_curved_run`) adds seed 000's transient in grey, as
-    the seed draws Spacar's."""
+    the seed draws Spacar's. Fig. 9 also shows the seed's Table 1 (its final angular
+    velocities, floating frame and Spacar) as open circles at the last time, in the colour
+    of the computed curve each belongs to, and an inset of the last 1.5 s where they can
+    be told apart."""
     import matplotlib.pyplot as plt
+    from matplotlib.lines import Line2D
 
-    from ...plot import paths, time_history
+    from ...plot import STYLES, paths, published_points, time_history
 
-    fig9, axes = plt.subplots(1, len(runs), figsize=(11, 3.5), sharey=True)
+    fig9, axes = plt.subplots(1, len(runs), figsize=(11, 3.8), sharey=True)
     fig10, ax10 = _figure((6, 4.5))
     shapes, labels = [], []
     for k, (ax, (E, (s, res, w))) in enumerate(zip(np.atleast_1d(axes), runs.items())):
@@ -333,10 +346,32 @@ def curved_figures(runs: Dict[float, tuple], element_runs: Optional[Dict[float, 
             ts.append(te), ys.append(np.abs(we)), names.append("seed-000 element, 8 el.")
             styles.append(dict(color="0.6", lw=2.5))
         ts.append(res.t), ys.append(np.abs(w)), names.append("FFRF"), styles.append(dict(color="k", lw=1))
-        ax.axhline(TABLE1_SPACAR[E], color="0.6", lw=0.8, ls=":", label="Spacar (Table 1)")
         time_history(ts, ys, quantity=r"$|\omega_y|$ at the base", unit="rad/s", labels=names, styles=styles,
-                     ax=ax, title=f"$E$ = {E / 1e9:g} GPa", legend=k == 0)
-        if k:
+                     ax=ax, title=f"$E$ = {E / 1e9:g} GPa", legend=False)
+        t_last = float(res.t[-1])
+        table1 = ((TABLE1_SPACAR[E], "0.6"), (TABLE1_FFRF[E], "k"))
+        inset = ax.inset_axes([0.42, 0.08, 0.54, 0.32])  # below the final values
+        window = t_last - 1.5
+        for t_i, y_i, st in zip(ts, ys, styles):
+            sel = np.asarray(t_i) >= window
+            inset.plot(np.asarray(t_i)[sel], np.asarray(y_i)[sel], **st)
+        for value, colour in table1:
+            for a in (ax, inset):
+                published_points([t_last], [value], ax=a, color=colour)
+        shown = np.concatenate([np.asarray(y_i)[np.asarray(t_i) >= window] for t_i, y_i in zip(ts, ys)]
+                               + [np.array([v for v, _ in table1])])
+        pad = 0.25 * max(float(np.ptp(shown)), 1e-3)
+        inset.set_ylim(shown.min() - pad, shown.max() + pad)
+        inset.set_xlim(window, t_last + 0.1)
+        inset.tick_params(labelsize=7)
+        inset.grid(lw=0.3)
+        inset.set_title(f"last 1.5 s (Table 1: {TABLE1_FFRF[E]:.3f}, {TABLE1_SPACAR[E]:.3f} rad/s)", fontsize=7)
+        if k == 0:
+            handles, _ = ax.get_legend_handles_labels()
+            handles += [Line2D([], [], **dict(STYLES["published"], color="k"), label="published: Table 1, FFRF"),
+                        Line2D([], [], **dict(STYLES["published"], color="0.6"), label="published: Table 1, Spacar")]
+            ax.legend(handles=handles, fontsize=7, loc="upper right")
+        else:
             ax.set_ylabel("")
         shapes.append(np.vstack(s.centre_line(res.state(len(res.t) - 1))))
         labels.append(f"$E$ = {E / 1e9:g} GPa")
@@ -350,13 +385,34 @@ def curved_figures(runs: Dict[float, tuple], element_runs: Optional[Dict[float, 
     return fig9, fig10
 
 
-def printer_figure(paths: Dict[float, np.ndarray]):
-    """Fig. 12: nozzle trajectories in the x-y plane for the flow speeds (:func:`pipeflex.plot.paths`)."""
-    from ...plot import paths as draw_paths
+def printer_figure(paths: Dict[float, np.ndarray], *, t_end: float = PRINTER_DURATION):
+    """Fig. 12: left, the nozzle's trajectories in the x-y plane for the flow speeds, to
+    scale (equal axes; :func:`pipeflex.plot.paths`); right, the distance [mm] of each
+    trajectory with flow from the one without (the entry 0.0 of ``paths``) against time,
+    the outputs taken evenly spaced over [0, ``t_end``] [s] (as :func:`printer_run` gives
+    them). ``paths``: flow speed [m/s] -> (n, 3) nozzle path [m]."""
+    import matplotlib.pyplot as plt
 
-    fig, ax = _figure((6, 4.5))
-    draw_paths(list(paths.values()), plane="xy", labels=[f"{v:g} m/s" for v in paths], equal=False, ax=ax,
-               legend_title="concrete flow", title="seed 004, Fig. 12: nozzle D in the x-y plane, 0-0.34 s")
+    from ...plot import parameter_curves, paths as draw_paths
+
+    fig, (ax, ax2) = plt.subplots(1, 2, figsize=(9, 5), gridspec_kw={"width_ratios": [1, 1.6]})
+    colours = [f"C{k}" for k in range(len(paths))]
+    draw_paths(list(paths.values()), plane="xy", labels=[f"{v:g} m/s" for v in paths], equal=True, ax=ax,
+               styles=[dict(color=c, lw=1.2) for c in colours], legend_title="concrete flow",
+               title="trajectories to scale (equal axes)")
+    ax.set_aspect("equal", adjustable="datalim")  # equal scales; the panel keeps its size
+    if 0.0 in paths:
+        ref = paths[0.0]
+        keys = [v for v in paths if v != 0.0 and len(paths[v]) == len(ref)]
+        t = np.linspace(0.0, _checks.positive("t_end", t_end), len(ref))
+        parameter_curves(t, [1e3 * np.linalg.norm(paths[v] - ref, axis=1) for v in keys], xlabel="time $t$ [s]",
+                         ylabel="distance from the path without flow [mm]", labels=[f"{v:g} m/s" for v in keys],
+                         styles=[dict(color=colours[list(paths).index(v)], lw=1.2) for v in keys], ax=ax2,
+                         title="the flow's effect", legend_title="concrete flow")
+    else:
+        ax2.set_visible(False)
+    fig.suptitle("seed 004, Fig. 12: nozzle D in the x-y plane, 0-0.34 s", fontsize=10)
+    fig.tight_layout()
     return fig
 
 
