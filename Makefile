@@ -35,14 +35,16 @@ notebooks: setup
 	  echo "(no writable home directory: start Jupyter with JUPYTER_PATH=$(CURDIR)/$(VENV)/share/jupyter)"; \
 	else echo "warning: the Jupyter kernel could not be registered ($(PY) -m ipykernel install --user says why)"; fi
 	@echo "Notebooks: notebooks/*.ipynb, committed with their outputs. Open them with Jupyter"
-	@echo "('jupyter notebook notebooks/'; Debian: apt-get install jupyter-notebook) or VS Code,"
+	@echo "('jupyter notebook notebooks/', from tools/install_system_deps.sh) or VS Code,"
 	@echo "kernel 'Python (pipeflex)'. Re-run one in fast mode: PIPEFLEX_FAST=1 in Jupyter's environment."
 
 demo: notebooks
 	$(VENV)/bin/pipeflex validate --out out
 
+# the suite, then the manual (`make docs`: a docstring that is not valid RST fails)
 test: setup
 	MPLBACKEND=Agg PIPEFLEX_FAST=1 $(PY) -m pytest -q
+	$(MAKE) --no-print-directory docs
 
 # The C++ core built with AddressSanitizer + UndefinedBehaviorSanitizer in build/asan-<tag>
 # (the normal build and python/pipeflex/_core*.so are not touched), then the tests that
@@ -62,8 +64,10 @@ validate-all: setup
 	MPLBACKEND=Agg $(PY) -m pytest -q -m "slow or not slow"
 	$(VENV)/bin/pipeflex validate --out out
 
+# warnings are errors; -E reads every source again: autodoc's docstrings live in .py files,
+# whose changes an incremental build would not see
 docs: setup
-	$(PY) -m sphinx -W -q -b html docs docs/_build/html
+	$(PY) -m sphinx -E -W -q -b html docs docs/_build/html
 
 bench: setup
 	@for f in benchmarks/bench_*.py; do echo "== $$f"; $(PY) $$f; done

@@ -1,5 +1,5 @@
-"""Benchmark: every analysis against the model size (issue "One engine": log-log slope
-<= 1.1 from 8 to 8192 elements).
+"""Benchmark: every analysis against the model size (the aim: log-log slope <= 1.1 from
+8 to 8192 elements).
 
 The cantilever pipe of Meijaard & Hakvoort's Table 2 (pf.scenes.cantilever_pipe, polar inertia 1e-4 kg m) with N
 elements: build; static equilibrium at 10 kg/s; linearisation; 6 eigenvalues nearest 0
@@ -142,7 +142,7 @@ def pipe(args, ap):
         if want("critical flow") and n <= args.max_critical:
             try:
                 r["critical flow"], _ = best(lambda: pf.critical_mass_flow(m), 1)
-            except pf.ConvergenceError as e:  # was round-off at 8192 elements: docs/performance.md, session 8
+            except pf.ConvergenceError as e:  # round-off of large models: docs/performance.md, "Critical flow at 8192 elements"
                 print(f"  N = {n}: critical_mass_flow failed: {str(e)[:110]}...")
         sw = swinging(m)
 

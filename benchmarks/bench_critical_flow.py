@@ -1,6 +1,6 @@
 """Benchmark: critical mass flows of seed 000 Table 2 (cantilever, 2..32 elements).
 
-Targets (issue 2): the five flows together < 1 s; one 32-element flow < 0.2 s.
+Targets: the five flows together < 1 s; one 32-element flow < 0.2 s.
 Prints the median of repeated runs and the ratio to the target.
 Run: .venv/bin/python benchmarks/bench_critical_flow.py [--repeat N]
 """

@@ -57,7 +57,7 @@ def main():
         try:
             t_cr, cr = best_of(lambda: pf.critical_mass_flow(model), rep)
             evals, mc = cr.evaluations, cr.mass_flow
-        except pf.ConvergenceError as e:  # was round-off at 8192 elements: docs/performance.md, session 8
+        except pf.ConvergenceError as e:  # round-off of large models: docs/performance.md, "Critical flow at 8192 elements"
             t_cr, evals, mc = float("nan"), 0, float("nan")
             print(f"  N = {n}: critical_mass_flow failed: {str(e)[:110]}...")
         err = (mc - ref000.TABLE2_EXTRAPOLATED) / ref000.TABLE2_EXTRAPOLATED

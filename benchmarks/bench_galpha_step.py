@@ -1,5 +1,5 @@
-"""Benchmark: one generalised-alpha step of the swinging cantilever against its size (issue
-11: "one generalised-alpha step of an 8192-element cantilever < 0.1 s").
+"""Benchmark: one generalised-alpha step of the swinging cantilever against its size (target:
+under 0.1 s at 8192 elements).
 
 The scene and the measure of bench_analyses_scaling.py's "gen-alpha step" row: the
 cantilever pipe (pf.scenes.cantilever_pipe, polar inertia 1e-4 kg m) with N elements,

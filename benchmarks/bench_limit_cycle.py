@@ -1,4 +1,4 @@
-"""Benchmark: work-precision on the peer's own scene (issue "One engine", "Peer figures").
+"""Benchmark: work-precision on the peer's own scene (docs/performance.md).
 
 The cantilever of Meijaard & Hakvoort's Fig. 3 as the peer comparison fixes it: 8 elements,
 L = 1 m, EI = 10 N m^2, EA = 1e5 N, 8 + 2 kg/m, a 1.5 N lateral tip force, 30 kg/s from
@@ -9,7 +9,7 @@ extrapolated; the two extrapolations agree to ~1e-13 m).
 
 For each accuracy target the cheapest run meeting it is reported, solve time (simulate
 only, best of `--repeat`) and process time (a fresh interpreter: import, build, static
-solve, simulate). Without `--peer` the peer's figures are those the issue measured on another
+solve, simulate). Without `--peer` the peer's figures are those measured on another
 machine (Exudyn 1.11, -O3, its 2D ALE-ANCF pipe, trapezoidal rule, dense LU, modified Newton,
 relTol 1e-4 / 1e-6).
 
@@ -36,7 +36,7 @@ import numpy as np
 import pipeflex as pf
 
 T_END = 2.0
-# Peer (issue "One engine", Peer figures): best solve [s] and process [s] per target [m].
+# Peer (measured on another machine, see the docstring): best solve [s] and process [s] per target [m].
 PEER = {1e-4: (0.115, 0.32), 1e-6: (0.92, 1.17)}
 
 

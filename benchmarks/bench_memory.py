@@ -1,5 +1,5 @@
-"""Benchmark: peak memory of every analysis against the model size (issue "One engine":
-peak memory linear in the model size).
+"""Benchmark: peak memory of every analysis against the model size (the aim: linear in
+the model size).
 
 Each (analysis, N) runs in a fresh interpreter; its peak resident set (ru_maxrss) is
 compared with the same interpreter's peak just before the analysis (after importing

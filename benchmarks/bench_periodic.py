@@ -1,5 +1,4 @@
-"""Benchmark: the flutter limit cycle by shooting against the long transient (issue
-"Continuation of the flutter limit cycles", item 4).
+"""Benchmark: the flutter limit cycle by shooting against the long transient.
 
 The cantilever of Meijaard & Hakvoort's Fig. 3 (8 elements, 3D: 48 coordinates, 96
 states; EA = 1e5 N, tip force 1.5 N), the same integrator and step in both:

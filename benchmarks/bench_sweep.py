@@ -7,7 +7,7 @@ the overhead per point of a trivial fn (the wall time of a sweep of it / points)
 three executors take turns, round after round, so that a changing load on the machine
 falls on all of them alike.
 
-Targets (issue "Parameter studies at scale"): 2 workers >= 1.8x faster than serial on 2
+Targets: 2 workers >= 1.8x faster than serial on 2
 cores; overhead < 5 ms per point; the LocalCluster within 1.3x of the process pool.
 Timings are the best of --repeat runs (the median in brackets); the load average before
 and after says how busy the machine was (other work on the cores lowers the speed-up).

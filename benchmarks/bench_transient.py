@@ -1,4 +1,4 @@
-"""Benchmark: time integration (issue 3).
+"""Benchmark: time integration.
 
 1. Sprinkler (seed 000 sec. 3.3, EI = 100 N m^2, 8 elements), 1 s of motion: error of
    the mean angular velocity over [0.5, 1] s against wall time for generalised-alpha

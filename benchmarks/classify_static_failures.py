@@ -3,7 +3,7 @@
 Random pipe models (lines and arcs of 1-2 sections, five kinds of supports, dead and
 follower loads, gravity, a point mass, a mass flow) and planar ANCF beams are described
 by a seeded numpy generator, with parameters within and slightly outside physical ranges
-(as the "Reliability" issue's fuzzing: EI 1e-2 ... 1e4 N m^2, EA/EI 10 ... 1e7 1/m^2,
+(as the fuzz tests': EI 1e-2 ... 1e4 N m^2, EA/EI 10 ... 1e7 1/m^2,
 loads up to 10 x the stiffness level EI [N], gravity up to 20 m/s^2 a component, flows
 up to 3 flow units), and built by the fuzz tests' builders (tests/fuzz/models.py). Each
 model is solved by ``pf.static_equilibrium``:

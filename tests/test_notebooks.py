@@ -1,12 +1,19 @@
 """Execute every notebook in fast mode (PIPEFLEX_FAST=1) with the venv's interpreter, then
 evaluate numbers it computed in its kernel and compare them with their references.
 
+Each notebook runs from a copy in a temporary folder outside the repository, with that
+folder as its working directory: it must need nothing but the installed package (no
+``..`` paths into the checkout), write only into its ``out/`` folder (git-ignored), and
+leave the checkout as it found it (``git status`` and every file's modification time).
+
 The notebooks ask for the Jupyter kernel "pipeflex" (``make notebooks`` registers it). The
 tests do not rely on that registration: they write a temporary kernelspec of that name
 running this interpreter and put it first on JUPYTER_PATH.
 """
 import json
 import os
+import shutil
+import subprocess
 import sys
 from dataclasses import dataclass
 from pathlib import Path
@@ -19,8 +26,10 @@ from pipeflex.seeds.seed000 import references as ref000, validation as val000
 from pipeflex.seeds.seed002 import references as ref002
 from pipeflex.seeds.seed004 import references as ref004
 
-NOTEBOOKS = sorted((Path(__file__).parent.parent / "notebooks").glob("*.ipynb"))
+REPO = Path(__file__).resolve().parent.parent
+NOTEBOOKS = sorted((REPO / "notebooks").glob("*.ipynb"))
 KERNEL = "pipeflex"
+OUTPUT_FOLDER = "out"     # where a notebook may write (relative to its working directory)
 
 
 @dataclass(frozen=True)
@@ -153,7 +162,8 @@ CHECKS = {
         near("u_cr_02", 5.6, 0.06, "Gregory & Paidoussis (1966): u_cr = 5.6 at beta = 0.2 without gravity "
              "(read from their figure, ~1 %)"),
         near("u_cr_05", 9.32242, 1e-3, "ours, not a paper's: the continuous beam's characteristic determinant, "
-             "beta = 0.5 (tests/continuous_pipe.py: u_cr = 9.3224184; 16 elements are 7e-5 relative above)"),
+             "beta = 0.5 (pipeflex.references.continuous_pipe: u_cr = 9.3224184; 16 elements are 7e-5 "
+             "relative above)"),
         within("first_jump", 0.28, 0.31, "Gregory & Paidoussis (1966): the first S-shaped jump of the critical "
                "flow speed near beta = 0.3 (0.29-0.30 at 16 elements, 0.2925 at 32)"),
     ],
@@ -193,15 +203,75 @@ def test_notebook_committed_executed(path):
     assert counts == list(range(1, len(counts) + 1))
 
 
+def _checkout_state():
+    """The checkout's ``git status --porcelain`` (untracked files listed one by one) and the
+    modification time [ns] of every tracked file and every untracked file outside the
+    ignored folders, or None outside a git checkout. The times catch a tracked file that is
+    rewritten, even with the bytes it had."""
+    def git(*args):
+        return subprocess.run(["git", "-C", str(REPO), *args], capture_output=True, text=True,
+                              check=True).stdout
+    try:
+        status = git("status", "--porcelain", "--untracked-files=all")
+        files = git("ls-files", "-z", "--cached", "--others", "--exclude-standard").split("\0")
+    except (OSError, subprocess.CalledProcessError):
+        return None
+    times = {}
+    for name in filter(None, files):
+        try:
+            times[name] = (REPO / name).stat().st_mtime_ns
+        except FileNotFoundError:      # a deleted tracked file: git status shows it
+            times[name] = None
+    return status, times
+
+
+def _changes(before, after):
+    """What differs between two _checkout_state() snapshots, as readable lines."""
+    (status0, times0), (status1, times1) = before, after
+    lines = [f"git status: {line}" for line in sorted(set(status0.splitlines()) ^ set(status1.splitlines()))]
+    lines += [f"written: {name}" for name in sorted(times0.keys() | times1.keys())
+              if times0.get(name, "absent") != times1.get(name, "absent")]
+    return lines
+
+
+def test_the_checkout_watch_sees_a_change():
+    """The watch must see tracked files, or the checkout test in test_notebook_runs passes
+    vacuously; a rewrite with the same bytes (same status, new time) must count."""
+    state = _checkout_state()
+    if state is None:
+        pytest.skip("not a git checkout")
+    status, times = state
+    assert "tests/test_notebooks.py" in times and "notebooks/stability_map.ipynb" in times
+    name = "docs/stability_map.md"
+    rewritten = dict(times, **{name: (times[name] or 0) + 1})
+    assert _changes(state, (status, rewritten)) == [f"written: {name}"]
+    assert _changes(state, (status + "?? new.png\n", dict(times, **{"new.png": 1}))) == [
+        "git status: ?? new.png", "written: new.png"]
+
+
 @pytest.mark.parametrize("path", NOTEBOOKS, ids=[p.name for p in NOTEBOOKS])
-def test_notebook_runs(path, kernel_env):
-    nb = nbformat.read(path, as_version=4)
+def test_notebook_runs(path, kernel_env, tmp_path):
+    """Run from a copy outside the checkout: no path into the repository, output only under
+    out/, the checkout untouched; then its numbers against their references."""
+    work = tmp_path / "run"     # the working directory; its parent holds nothing else
+    work.mkdir()
+    shutil.copy(path, work / path.name)
+    nb = nbformat.read(work / path.name, as_version=4)
     checks = CHECKS[path.name]
     # one extra cell, run in the same kernel after the notebook's own cells
     nb.cells.append(nbformat.v4.new_code_cell("\n".join(f"print(repr(float({c.expression})))" for c in checks)))
-    NotebookClient(nb, timeout=600, kernel_name=KERNEL, resources={"metadata": {"path": str(path.parent)}}).execute()
+    before = _checkout_state()
+    NotebookClient(nb, timeout=600, kernel_name=KERNEL, resources={"metadata": {"path": str(work)}}).execute()
+    after = _checkout_state()
     errors = [o for c in nb.cells if c.cell_type == "code" for o in c.get("outputs", []) if o.output_type == "error"]
-    assert not errors
+    assert not errors, "\n".join(f"{e.ename}: {e.evalue}" for e in errors)
+    if before is not None:
+        changed = _changes(before, after)
+        assert not changed, "the notebook changed the checkout:\n" + "\n".join(changed)
+    # the folder above the working directory too: a notebook's "../x" must not escape the check
+    written = sorted(str(f.relative_to(tmp_path)) for f in tmp_path.rglob("*")
+                     if f.is_file() and f != work / path.name and not f.is_relative_to(work / OUTPUT_FOLDER))
+    assert not written, f"written outside {OUTPUT_FOLDER}/: {written}"
     text = "".join(o.text for o in nb.cells[-1].outputs if o.output_type == "stream" and o.name == "stdout")
     values = [float(v) for v in text.split()]
     assert len(values) == len(checks)

@@ -1,6 +1,6 @@
 """pipeflex.stability_map: the cantilevered pipe's critical flow speed and frequency against
-the mass ratio, against the continuous beam's characteristic determinant solved here
-(tests/continuous_pipe.py, no pipeflex code), and the jumps of the map.
+the mass ratio, against the continuous beam's characteristic determinant
+(pipeflex.references.continuous_pipe, no pipeflex finite-element code), and the jumps of the map.
 
 Cost (~15 s on a busy 2-core machine): the determinant solver ~1-1.5 s per point (6 points);
 the element model 0.1-0.5 s per point. All sweeps run in this process (executor="serial":
@@ -10,8 +10,8 @@ notebooks/stability_map.ipynb runs the map on both.
 import numpy as np
 import pytest
 
-import continuous_pipe as cp
 import pipeflex as pf
+from pipeflex.references import continuous_pipe as cp
 from pipeflex.analysis.stability_map import cantilever, critical_point
 
 pytest.importorskip("xarray")

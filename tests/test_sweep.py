@@ -17,11 +17,28 @@ import sweep_functions as sf
 from pipeflex.sweeps import SweepIncomplete
 
 xr = pytest.importorskip("xarray")
+# critical flows computed in two places: 10 x critical_mass_flow's tol (1 ulp in EI moves
+# the flow, frequency and mode by ~1e-13 relative, measured; the root search stops within tol)
+RTOL_CRITICAL = 1e-9
 
 
 def sweep(fn, **kwargs):
     kwargs.setdefault("progress", False)
     return pf.sweep(fn, **kwargs)
+
+
+def assert_same_to_round_off(a, b, *, rtol):
+    """Two sweeps of the same points run in different places (processes, a loop): the same
+    variables, coordinates, strings, ints and attrs exactly; float variables to ``rtol``
+    [-] of each variable's largest value. Not bit for bit: another process aligns its
+    arrays differently, and BLAS and numpy's vectorised loops then sum in another order."""
+    numeric = [k for k, v in a.data_vars.items() if v.dtype.kind in "fc"]
+    xr.testing.assert_identical(a.drop_vars(numeric), b.drop_vars(numeric))
+    for k in numeric:
+        assert a[k].dims == b[k].dims and b[k].dtype.kind in "fc", k
+        x, y = a[k].values, b[k].values
+        scale = np.abs(x[np.isfinite(x)]).max(initial=0.0)
+        np.testing.assert_allclose(x, y, rtol=rtol, atol=rtol * scale, err_msg=k)
 
 
 # ---------------------------------------------------------------------------------------
@@ -57,7 +74,7 @@ def test_a_scalar_is_the_variable_value_and_threads_take_local_functions():
     with ThreadPoolExecutor(2) as pool:
         threaded = sweep(local, x=[3.0, 5.0], y=[4.0, 12.0], executor=pool)
     serial = sweep(local, x=[3.0, 5.0], y=[4.0, 12.0], executor="serial")
-    xr.testing.assert_identical(threaded, serial)
+    xr.testing.assert_identical(threaded, serial)  # exact: scalar Python arithmetic, the same on any thread
     np.testing.assert_allclose(serial.value, [[5.5, math.hypot(3, 12) + 0.5], [math.hypot(5, 4) + 0.5, 13.5]])
 
 
@@ -69,20 +86,22 @@ def test_the_default_pool_runs_one_blas_thread_per_worker():
 # ---------------------------------------------------------------------------------------
 # a physics point
 
-def test_critical_flow_sweep_matches_the_serial_loop_exactly():
+def test_critical_flow_sweep_matches_the_serial_loop():
     EI = [5.0, 10.0, 20.0]
     ds = sweep(sf.critical_flow, EI=EI, workers=2)
-    # The workers run BLAS on one thread; a threaded BLAS differs in the last bits (~1e-14).
     from threadpoolctl import threadpool_limits
     with threadpool_limits(limits=1):
         loop = [sf.critical_flow(e) for e in EI]
-    xr.testing.assert_identical(sweep(sf.critical_flow, EI=EI, executor="serial"), ds)
-    np.testing.assert_array_equal(ds.mass_flow, [r.mass_flow for r in loop])
-    np.testing.assert_array_equal(ds.frequency, [r.frequency for r in loop])
-    np.testing.assert_array_equal(ds.eigenvalue_imag, [r.eigenvalue.imag for r in loop])
-    np.testing.assert_array_equal(ds.mode_real, [r.mode.real for r in loop])
+    # worker processes against this one and the loop: round-off apart (array alignment,
+    # BLAS kernels), which the root search (tol = 1e-10) may move by up to its tolerance
+    assert_same_to_round_off(sweep(sf.critical_flow, EI=EI, executor="serial"), ds, rtol=RTOL_CRITICAL)
+    for name, values in (("mass_flow", [r.mass_flow for r in loop]), ("frequency", [r.frequency for r in loop]),
+                         ("eigenvalue_imag", [r.eigenvalue.imag for r in loop]),
+                         ("mode_real", [r.mode.real for r in loop])):
+        np.testing.assert_allclose(ds[name], values, rtol=RTOL_CRITICAL,
+                                   atol=RTOL_CRITICAL * np.abs(values).max(), err_msg=name)
     assert list(ds.kind.values) == ["flutter"] * 3
-    assert ds.mode_real.dims == ("EI", "mode_dim_0")
+    assert ds.mode_real.dims == ("EI", "dof")  # the axes of a result field are named (pipeflex.results.FIELDS)
     # mdot_cr = u_cr sqrt(M_f EI) / L, M_f = 2 kg/m: the cantilever's u_cr(beta = 0.2) ~ 5.59
     # (Gregory & Paidoussis), the same for every EI
     u_cr = ds.mass_flow / np.sqrt(2.0 * ds.EI)
@@ -156,7 +175,7 @@ def test_resume_after_keyboard_interrupt_recomputes_nothing(tmp_path):
     whole_log = tmp_path / "whole"
     whole_log.mkdir()
     whole = sweep(functools.partial(sf.logged, log=str(whole_log)), a=A, executor="serial")
-    xr.testing.assert_identical(resumed, whole)
+    xr.testing.assert_identical(resumed, whole)  # exact: stored points read back, a + 1 of small integers
 
 
 def test_resume_in_process_continues_where_it_stopped(tmp_path):
@@ -231,7 +250,7 @@ def test_a_dask_local_cluster_gives_the_process_pool_dataset():
         on_dask = sweep(sf.critical_flow, EI=[5.0, 10.0, 20.0], client=client)
         failing = sweep(sf.fails_on_negative, a=[-1.0, 2.0], client=client)
     pooled = sweep(sf.critical_flow, EI=[5.0, 10.0, 20.0], workers=2)
-    xr.testing.assert_identical(on_dask, pooled)
+    assert_same_to_round_off(on_dask, pooled, rtol=RTOL_CRITICAL)
     assert failing.attrs["n_failed"] == 1 and failing.error.values[0] == "ValueError: a = -1.0 < 0"
 
 

@@ -1,4 +1,4 @@
-"""The peer's side of the peer scene (issue 11, "Peer figures"): Exudyn 1.11 with its 2D ALE-ANCF pipe.
+"""The peer's side of the peer scene (docs/performance.md): Exudyn 1.11 with its 2D ALE-ANCF pipe.
 
 The scene of `bench_limit_cycle.scene()`: the seed-000 Fig. 3 cantilever, L = 1 m, 8 elements,
 EI = 10 N m^2, EA = 1e5 N, pipe 8 kg/m + fluid 2 kg/m, a 1.5 N lateral tip force, 30 kg/s

@@ -72,7 +72,8 @@ void bind_assembly(py::module_& m) {
                  changed(md);
                  md.positions.push_back(to_vec3(x));
                  return md.n_nodes() - 1;
-             })
+             },
+             py::arg("position"), "A frame node at position (3) [m]; its index.")
         .def("add_nodes",
              [](Model& md, const Doubles& x) {
                  if (x.ndim() != 2 || x.shape(1) != 3)
@@ -88,7 +89,8 @@ void bind_assembly(py::module_& m) {
                  changed(md);
                  md.pipes.push_back({node_index(md, p, "p"), node_index(md, q, "q"), d});
                  return static_cast<int>(md.pipes.size()) - 1;
-             })
+             },
+             py::arg("p"), py::arg("q"), py::arg("data"), "A pipe element from node p to node q; its index.")
         .def("add_pipes",
              // The fields of PipeElementData as one array per field (a row per element): a
              // model's elements cross in one call instead of one object each.
@@ -148,12 +150,16 @@ void bind_assembly(py::module_& m) {
                 const Eigen::Vector3d& ff, const Eigen::Vector3d& fm) {
                  changed(md);
                  md.loads.push_back({node_index(md, node, "node"), to_vec3(f), to_vec3(mo), to_vec3(ff), to_vec3(fm)});
-             })
+             },
+             py::arg("node"), py::arg("force"), py::arg("moment"), py::arg("follower_force"), py::arg("follower_moment"),
+             "Dead force [N] and moment [N m], and follower force and moment in the node frame, at node.")
         .def("add_mass",
              [](Model& md, int node, double mass, const Eigen::Vector3d& inertia) {
                  changed(md);
                  md.masses.push_back({node_index(md, node, "node"), mass, to_vec3(inertia)});
-             })
+             },
+             py::arg("node"), py::arg("mass"), py::arg("inertia"),
+             "Concentrated mass [kg] and rotary inertia (3) [kg m^2] in the node frame at node.")
         .def("add_ancf_node",
              [](Model& md, const Eigen::Vector3d& x, const Eigen::Vector3d& slope) {
                  changed(md);
@@ -163,13 +169,15 @@ void bind_assembly(py::module_& m) {
                  md.slopes.resize(md.positions.size() - 1, Vec3<double>{{1.0, 0.0, 0.0}});
                  md.slopes.push_back(to_vec3(slope));
                  return md.n_nodes() - 1;
-             })
+             },
+             py::arg("position"), py::arg("slope"), "A planar ANCF node at position (3) [m] with slope (3); its index.")
         .def("add_ancf",
              [](Model& md, int p, int q, const AncfElementData& d) {
                  changed(md);
                  md.ancf.push_back({node_index(md, p, "p"), node_index(md, q, "q"), d});
                  return static_cast<int>(md.ancf.size()) - 1;
-             })
+             },
+             py::arg("p"), py::arg("q"), py::arg("data"), "An ANCF element from node p to node q; its index.")
         .def("set_hub",
              [](Model& md, const std::vector<int>& nodes, const Eigen::Vector3d& axis, const Eigen::Vector3d& center,
                 double omega, double spin_up_time) {
@@ -187,19 +195,22 @@ void bind_assembly(py::module_& m) {
                  double a, b, c;
                  md.hub.angle(t, &a, &b, &c);
                  return py::make_tuple(a, b, c);
-             })
+             },
+             py::arg("t"), "The hub's angle [rad], rate [rad/s] and acceleration [rad/s^2] at time t [s].")
         .def("ancf_nodes",
              [](const Model& md, int i) {
                  if (i < 0 || i >= static_cast<int>(md.ancf.size()))
                      throw std::invalid_argument("ANCF element index must be in [0, " + std::to_string(md.ancf.size()) +
                                                  "), got " + std::to_string(i));
                  return py::make_tuple(md.ancf[i].p, md.ancf[i].q);
-             })
+             },
+             py::arg("element"), "The nodes (p, q) of ANCF element number element.")
         .def("set_bases",
              [](Model& md, const std::vector<Eigen::MatrixXd>& b) {
                  changed(md);
                  md.bases = b;
-             })
+             },
+             py::arg("bases"), "Each node's basis of its reduced coordinates (6 x n_i).")
         .def("set_shared_bases",
              [](Model& md, const std::vector<Eigen::MatrixXd>& distinct, const Ints& index) {
                  const int* k = index.data();
@@ -214,7 +225,7 @@ void bind_assembly(py::module_& m) {
              },
              py::arg("distinct"), py::arg("index"),
              "The bases of set_bases given once each: node i gets distinct[index[i]] (most nodes share one).")
-        .def("finalize", &Model::finalize)
+        .def("finalize", &Model::finalize, "Numbers the reduced coordinates; checks consistency.")
         .def_property_readonly("n_nodes", &Model::n_nodes)
         .def_readonly("n_dofs", &Model::n_dofs)
         .def_readonly("first_dof", &Model::first_dof)
@@ -223,10 +234,11 @@ void bind_assembly(py::module_& m) {
                 throw std::invalid_argument("pipe element index must be in [0, " + std::to_string(md.pipes.size()) +
                                             "), got " + std::to_string(i));
             return md.pipes[i].data;
-        });
+        },
+        py::arg("element"), "The data of pipe element number element (a copy).");
 
     py::class_<State>(m, "State")
-        .def(py::init<const Model&>())
+        .def(py::init<const Model&>(), py::arg("model"), "The reference state of a finalized model.")
         .def_property(
             "q", [](State& s) -> Eigen::Ref<Eigen::VectorXd> { return s.q; },
             [](State& s, const Eigen::VectorXd& x) { set_coordinates(s, s.q, x, "q"); }, py::return_value_policy::reference_internal)
@@ -236,8 +248,10 @@ void bind_assembly(py::module_& m) {
         .def_property(
             "a", [](State& s) -> Eigen::Ref<Eigen::VectorXd> { return s.a; },
             [](State& s, const Eigen::VectorXd& x) { set_coordinates(s, s.a, x, "a"); }, py::return_value_policy::reference_internal)
-        .def("frame", [](const State& s, int i) { return from_mat3<RowMat3>(s.frames[frame_index(s, i)]); })
-        .def("set_frame", [](State& s, int i, const RowMat3& R) { s.frames[frame_index(s, i)] = to_mat3(R); })
+        .def("frame", [](const State& s, int i) { return from_mat3<RowMat3>(s.frames[frame_index(s, i)]); },
+             py::arg("node"), "The reference rotation (3, 3) of node.")
+        .def("set_frame", [](State& s, int i, const RowMat3& R) { s.frames[frame_index(s, i)] = to_mat3(R); },
+             py::arg("node"), py::arg("R"), "Sets the reference rotation (3, 3) of node.")
         .def_property(
             "frames",
             [](const State& s) {
@@ -259,7 +273,8 @@ void bind_assembly(py::module_& m) {
                         for (int c = 0; c < 3; ++c) s.frames[i](r, c) = x(i, r, c);
             },
             "Every node's reference rotation, (n_nodes, 3, 3), copied (one call where frame(i) is one per node).")
-        .def("rotation", [](const State& s, int i) { return from_mat3<RowMat3>(s.rotation(frame_index(s, i))); })
+        .def("rotation", [](const State& s, int i) { return from_mat3<RowMat3>(s.rotation(frame_index(s, i))); },
+             py::arg("node"), "The rotation (3, 3) of node: exp(phi) R_ref (ANCF node: e1 along the slope, e3 = z).")
         .def("rebase", &State::rebase, py::arg("max_angle"))
         .def("copy", [](const State& s) { return State(s); });
 
@@ -321,12 +336,18 @@ void bind_assembly(py::module_& m) {
         },
         py::arg("model"), py::arg("state"), py::arg("dq"),
         "Prestress stiffness triplets of the first-order strains of the full displacement dq.");
-    m.def("external_forces", &external_forces);
-    m.def("add_increment", [](const Model& md, State& s, const Eigen::VectorXd& dz, const std::string& which) {
-        if (which != "q" && which != "v" && which != "a")
-            throw std::invalid_argument("add_increment: which must be \"q\", \"v\" or \"a\", got \"" + which + "\"");
-        Eigen::VectorXd& x = which == "q" ? s.q : which == "v" ? s.v : s.a;
-        add_increment(md, x, dz);
-    });
-    m.def("reduce", &reduce);
+    m.def("external_forces", &external_forces, py::arg("model"), py::arg("state"),
+          "The nodal loads at the state, 6 per node [N, N m] (load factor 1).");
+    m.def(
+        "add_increment",
+        [](const Model& md, State& s, const Eigen::VectorXd& dz, const std::string& which) {
+            if (which != "q" && which != "v" && which != "a")
+                throw std::invalid_argument("add_increment: which must be \"q\", \"v\" or \"a\", got \"" + which + "\"");
+            Eigen::VectorXd& x = which == "q" ? s.q : which == "v" ? s.v : s.a;
+            add_increment(md, x, dz);
+        },
+        py::arg("model"), py::arg("state"), py::arg("dz"), py::arg("which"),
+        "Adds the reduced increment dz to the state's coordinates which (\"q\", \"v\" or \"a\"), in place.");
+    m.def("reduce", &reduce, py::arg("model"), py::arg("full"),
+          "T^T full: a vector of 6 entries per node on the reduced coordinates.");
 }

@@ -141,7 +141,7 @@ void bind_multibody(py::module_& m) {
                 sys.add_load(l);
             },
             py::arg("body"), py::arg("node"), py::arg("force"), py::arg("moment"))
-        .def("set_gravity", &MultibodySystemCore::set_gravity)
+        .def("set_gravity", &MultibodySystemCore::set_gravity, py::arg("gravity"), "Gravity (3) [m/s^2].")
         .def("finalize", &MultibodySystemCore::finalize)
         .def("set_length_scale", &MultibodySystemCore::set_length_scale, py::arg("length"),
              "Set the model's size [m] for the Newton tests (at least the longest body).")

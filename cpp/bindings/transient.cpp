@@ -197,8 +197,8 @@ void bind_transient(py::module_& m) {
         .def_readwrite("value", &TimeTable::value)
         .def_readwrite("omega", &TimeTable::omega)
         .def_readwrite("phase", &TimeTable::phase)
-        .def("at", &TimeTable::at)
-        .def("rate", &TimeTable::rate);
+        .def("at", &TimeTable::at, py::arg("time"), "The function's value at time [s].")
+        .def("rate", &TimeTable::rate, py::arg("time"), "The function's derivative at time [s] (per second).");
     py::class_<TransientOptions>(m, "TransientOptions")
         .def(py::init<>())
         .def_readwrite("rtol", &TransientOptions::rtol)
@@ -218,7 +218,11 @@ void bind_transient(py::module_& m) {
                                            std::pair{"integrate_generalized_alpha", &integrate_generalized_alpha}}) {
         m.def(name, [f = integrator](const Model& md, State& s, const LoadState& l, const TimeTable& flow,
                                      const TimeTable& lf, const std::vector<double>& t, const TransientOptions& o,
-                                     py::object p) { return run(f, md, s, l, flow, lf, t, o, p); });
+                                     py::object p) { return run(f, md, s, l, flow, lf, t, o, p); },
+              py::arg("model"), py::arg("state"), py::arg("load"), py::arg("mass_flow"), py::arg("load_factor"),
+              py::arg("times"), py::arg("options"), py::arg("progress"),
+              "A transient run from the state (updated in place) with the mass flow [kg/s] and load factor as "
+              "functions of time, output at times [s]; progress: None or a callable of the time [s].");
     }
     m.def(
         "integrate_coupled",
@@ -469,8 +473,11 @@ void bind_transient(py::module_& m) {
         py::arg("model"), py::arg("free"), py::arg("state"), py::arg("load"), py::arg("centre"), py::arg("axis"),
         py::arg("omega"), py::arg("length_scale"), py::arg("tol"), py::arg("max_iterations"), py::arg("divergence"));
     m.attr("DENSE_LU_BELOW") = kDenseLuBelow;
-    m.def("gravity_potential", [](const Model& md, const State& s, const LoadState& l) {
-        check_state(md, s);
-        return gravity_potential(md, s, l);
-    });
+    m.def(
+        "gravity_potential",
+        [](const Model& md, const State& s, const LoadState& l) {
+            check_state(md, s);
+            return gravity_potential(md, s, l);
+        },
+        py::arg("model"), py::arg("state"), py::arg("load"), "Potential energy of gravity at the state [J].");
 }

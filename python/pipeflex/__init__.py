@@ -5,9 +5,12 @@ library (models, sections, elements, bodies and joints, analyses, plotting) is
 importable without the seed studies; ``pf.scenes`` (the seeds' test problems) and
 :mod:`pipeflex.seeds` (their published numbers, studies and figures) load on first use.
 """
+from typing import TYPE_CHECKING
+
 from . import analysis
 from . import _lazy
-from .errors import ConvergenceError, LimitPointError, SingularMatrixError
+from . import _progress  # noqa: F401 (the "pipeflex" logger's NullHandler, from the first import)
+from .errors import ConvergenceError, LimitPointError, SingularMatrixError, UnitWarning
 from .model import Model, ModelBuilder
 from .results import Result
 from .sections import PipeSection
@@ -28,11 +31,23 @@ _LAZY = {"scenes": "pipeflex.scenes", "seeds": "pipeflex.seeds", "work_precision
          **{name: f"pipeflex.analysis:{name}" for name in analysis.__all__ if name != "Sine"}}
 __getattr__, __dir__ = _lazy.attach(__name__, _LAZY)
 
+if TYPE_CHECKING:  # the lazy names, spelt out for editors and type checkers (tests/test_static_api.py)
+    from . import coupled, multibody, plot, plotting, scenes, seeds, work_precision  # noqa: F401 (namespaces)
+    from .analysis import (Campbell, CriticalFlow, EigenResult, Linearization, OrbitBranch, OrbitGuess,
+                           PeriodicOrbit, RotatingFrequencies, StaticResult, SteadyRotation, SystemSteadyRotation,
+                           TransientResult, campbell, continue_orbits, critical_mass_flow, eigenvalues, linearize,
+                           orbit_guess, periodic_orbit, resonance_speed, rotating_frequencies, rotating_state,
+                           simulate, stability, static_equilibrium, steady_rotation)
+    from .analysis.stability_map import stability_map
+    from .coupled import CoupledSystem
+    from .seeds.seed000 import coriolis, limit_cycle  # noqa: F401 (namespaces)
+    from .sweeps import sweep
+
 
 __all__ = ["CriticalFlow", "EigenResult", "Linearization", "StaticResult",
            "critical_mass_flow", "eigenvalues", "linearize", "simulate", "stability", "static_equilibrium",
            "Sine", "TransientResult", "SteadyRotation", "SystemSteadyRotation", "steady_rotation",
            "RotatingFrequencies", "resonance_speed", "rotating_frequencies", "rotating_state",
            "OrbitBranch", "OrbitGuess", "PeriodicOrbit", "continue_orbits", "orbit_guess", "periodic_orbit",
-           "Campbell", "campbell",
-           "ConvergenceError", "LimitPointError", "SingularMatrixError", "Model", "ModelBuilder", "PipeSection", "Result", "State", "CoupledSystem", "__version__"]
+           "Campbell", "campbell", "stability_map", "sweep",
+           "ConvergenceError", "LimitPointError", "SingularMatrixError", "UnitWarning", "Model", "ModelBuilder", "PipeSection", "Result", "State", "CoupledSystem", "__version__"]

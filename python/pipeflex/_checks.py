@@ -53,9 +53,10 @@ def unit_vector(name: str, value) -> np.ndarray:
 
 
 def row_norms(v: np.ndarray) -> np.ndarray:
-    """Euclidean norms of the rows of ``v`` (n, 3), summed in order x, y, z: those of
-    np.linalg.norm of each row alone, bit for bit (the element data of a line or arc are
-    those of its elements one by one)."""
+    """Euclidean norms of the rows of ``v`` (n, 3), summed in order x, y, z, as the scalar
+    formula of one element (a line's or an arc's element data then agree with those of
+    its elements added one by one to round-off; bit for bit only where numpy's
+    vectorised and scalar paths round alike, which depends on the CPU and numpy)."""
     return np.sqrt(v[:, 0] * v[:, 0] + v[:, 1] * v[:, 1] + v[:, 2] * v[:, 2])
 
 
@@ -130,6 +131,7 @@ def gravity(name: str, value) -> np.ndarray:
     g = vector3(name, value)
     if np.abs(g).max() > MAX_GRAVITY:
         raise ValueError(f"{name} must have components of at most {MAX_GRAVITY:g} m/s^2 (SI units), got {g}")
+    unit_slip(f"|{name}|", float(np.linalg.norm(g)), "m/s^2", "gravity")
     return g
 
 
@@ -153,3 +155,50 @@ def rho_inf_with_multipliers(value) -> float:
     if rho >= 1:
         raise ValueError(f"rho_inf must be in [0, 1) (index-3 constraints need numerical damping), got {rho}")
     return rho
+
+
+#: Plausible ranges [SI] of inputs where a unit slip is common: outside them a
+#: :class:`~pipeflex.errors.UnitWarning` names the likely slip (the value is used as
+#: given). Wide on purpose (docs/conventions.md, Units): (low, high, hint below, hint above).
+PLAUSIBLE = {
+    "diameter": (None, 5.0, "", "did you give millimetres? ({x:g} mm = {milli:g} m)"),
+    "modulus": (1e5, 1e13, "did you give GPa or MPa? ({x:g} GPa = {giga:g} Pa)",
+                "stiffer than any solid (diamond: 1.2e12 Pa): check the units"),
+    "density": (50.0, 25000.0, "did you give g/cm^3? ({x:g} g/cm^3 = {kilo:g} kg/m^3)",
+                "denser than any solid (osmium: 22590 kg/m^3): check the units"),
+    "fluid_density": (None, 25000.0, "", "denser than any liquid (mercury: 13546 kg/m^3): check the units"),
+    "bulk_modulus": (1e4, 1e12, "did you give GPa or MPa? ({x:g} GPa = {giga:g} Pa; water: 2.2e9 Pa)",
+                     "stiffer than any fluid (water: 2.2e9 Pa): check the units"),
+    "gravity": (None, 100.0, "", "did you give mm/s^2? ({x:g} mm/s^2 = {milli:g} m/s^2)"),
+}
+
+
+def _stacklevel_outside_package() -> int:
+    """The ``stacklevel`` of ``warnings.warn`` called from the caller of this function
+    that points at the first frame outside pipeflex (the user's line)."""
+    import os
+    import sys
+
+    root = os.path.dirname(os.path.abspath(__file__))
+    frame, level = sys._getframe(1), 1
+    while frame is not None and frame.f_code.co_filename.startswith(root):
+        frame, level = frame.f_back, level + 1
+    return level
+
+
+def unit_slip(name: str, value: float, unit: str, kind: str) -> float:
+    """``value`` [unit], with a :class:`~pipeflex.errors.UnitWarning` if it lies outside
+    :data:`PLAUSIBLE` ``[kind]``, naming the parameter, the value and the likely slip."""
+    import warnings
+
+    from .errors import UnitWarning
+
+    low, high, below, above = PLAUSIBLE[kind]
+    x = abs(value)
+    small, large = low is not None and 0 < x < low, high is not None and x > high
+    if small or large:
+        bound, hint = (f"below {low:g}", below) if small else (f"above {high:g}", above)
+        advice = hint.format(x=x, milli=x * 1e-3, kilo=x * 1e3, giga=x * 1e9)
+        warnings.warn(f"{name} = {value:g} {unit} is {bound} {unit}, implausible in SI units: {advice}",
+                      UnitWarning, stacklevel=_stacklevel_outside_package())
+    return value

@@ -25,6 +25,12 @@ class _Package(types.ModuleType):
             value = getattr(value, attribute)
         super().__setattr__(name, value)
 
+    def __reduce__(self):
+        # By reference, as a module: pickle refuses modules and cloudpickle (Dask) finds its
+        # module reducer by exact type, which this subclass is not; a function of __main__
+        # that Dask sends by value carries the package (``pf``) among its globals.
+        return importlib.import_module, (self.__name__,)
+
 
 def attach(package: str, table: dict):
     """``__getattr__`` and ``__dir__`` for the package ``package`` (its ``__name__``):

@@ -1,4 +1,4 @@
-"""Element models and floating-frame bodies in one system (issue "One engine").
+"""Element models and floating-frame bodies in one system.
 
 A :class:`CoupledSystem` joins a :class:`~pipeflex.Model` (pipe elements) and a
 :class:`~pipeflex.multibody.MultibodySystem` (floating-frame bodies and their joints) by
@@ -28,10 +28,10 @@ from typing import List, Optional, Sequence, Tuple
 
 import numpy as np
 
-from . import _checks, _core
+from . import _checks, _core, _progress
 from .analysis import constrained
 from .analysis._continuation import follow
-from .analysis.transient import TransientResult
+from .analysis.transient import TransientResult, _step_used
 from .model import Model
 from .multibody.analysis import MAX_STEPS, MultibodyResult
 from .multibody.system import MultibodyState, MultibodySystem
@@ -151,7 +151,7 @@ class CoupledSystem:
             raise ValueError("a CoupledSystem is integrated by generalised-alpha from t_start = 0 with n_outputs "
                              "equally spaced outputs (pipeflex.coupled.simulate)")
         return simulate(self, t_end, n_outputs=n_outputs, state=state, mass_flow=mass_flow, load_factor=load_factor,
-                        progress=bool(progress), **{"step": 1e-3, **options})
+                        progress=progress, **{"step": 1e-3, **options})
 
     @property
     def n_coordinates(self) -> int:
@@ -356,11 +356,13 @@ def simulate(system: CoupledSystem, t_end: float, *, step: float, n_outputs: int
              state: Optional[State] = None, body_state: Optional[MultibodyState] = None,
              mass_flow=None, load_factor=1.0, rho_inf: float = 0.8, newton_tol: float = 1e-9,
              max_newton: int = 12, max_steps: int = MAX_STEPS, work: bool = True,
-             progress: bool = False) -> CoupledResult:
+             progress: Optional[bool] = None) -> CoupledResult:
     """Integrate a :class:`CoupledSystem` from t = 0 to ``t_end`` [s] with generalised-alpha.
 
     Args:
-        step: h [s], the largest step (halved where Newton fails, restored after).
+        step: h [s], the largest step (halved where Newton fails, restored after); each
+            output interval is split into equal steps no longer than h, and the result's
+            ``elements.metadata["step"]`` is the step taken (``["requested_step"]``: h).
         n_outputs: equally spaced output times.
         state, body_state: initial states of the element model and of the bodies (default:
             their assembly configurations at rest); they must satisfy the couplings.
@@ -373,6 +375,8 @@ def simulate(system: CoupledSystem, t_end: float, *, step: float, n_outputs: int
         newton_tol: Newton tolerance on the position error left, relative to the model size.
         max_newton, max_steps: Newton iterations per step; steps (failed ones included).
         work: integrate the work of the fluid forces and loads on the elements.
+        progress: None (a bar in a notebook or on a terminal once the run is long, else
+            log lines), True (always) or False (nothing); as :func:`pipeflex.simulate`.
 
     Raises:
         ValueError: bad options or states; ConvergenceError: where and why Newton failed.
@@ -399,9 +403,12 @@ def simulate(system: CoupledSystem, t_end: float, *, step: float, n_outputs: int
     flow = time_function("mass_flow", model.mass_flow if mass_flow is None else mass_flow)
     loads = time_function("load_factor", load_factor)
     times = list(np.linspace(0.0, t1, max(n_out, 2)))
+    bar = _progress.Progress(progress, t1, desc="simulate (coupled)", unit="s", leave=False)
     wall = _time.perf_counter()
-    out = _core.integrate_coupled(model.core, st, model.load_state(), flow, loads, bodies.core, bs.r, bs.R, bs.eta,
-                                  bs.v, system.core_couplings(), times, opt, None)
+    with bar:
+        out = _core.integrate_coupled(model.core, st, model.load_state(), flow, loads, bodies.core, bs.r, bs.R,
+                                      bs.eta, bs.v, system.core_couplings(), times, opt,
+                                      None if bar.mode == "off" else bar.update)
     wall = _time.perf_counter() - wall
     stats = {k: int(out.pop(k)) for k in ("steps", "newton_iterations", "jacobians", "rebases", "failed_steps",
                                                "convergence_failures")}
@@ -411,8 +418,10 @@ def simulate(system: CoupledSystem, t_end: float, *, step: float, n_outputs: int
     if not opt.work:
         out["fluid_work"][:] = np.nan
         out["load_work"][:] = np.nan
-    elements = TransientResult(**out, stats=stats, metadata={"integrator": "generalized_alpha", "step": opt.step,
-                                                              "coupled": True},
+    # the step taken (each output interval in equal steps, as simulate reports it) and the one asked for
+    meta = {"integrator": "generalized_alpha", "step": _step_used(opt.step, np.asarray(times)),
+            "requested_step": float(opt.step), "coupled": True}
+    elements = TransientResult(**out, stats=stats, metadata=meta,
                                final_state=State.from_core(st, model))
     t = np.array([s[6] for s in states])
     body_res = MultibodyResult(t, np.array([s[0] for s in states]), np.array([s[1] for s in states]),

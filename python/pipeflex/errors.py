@@ -69,3 +69,12 @@ class LimitPointError(ConvergenceError):
     def __init__(self, message: str, *, limit_points=(), **kwargs):
         super().__init__(message, **kwargs)
         self.limit_points = tuple(limit_points)
+
+
+class UnitWarning(UserWarning):
+    """An input far outside the plausible range of its quantity in SI units, as a unit
+    slip gives (a diameter in millimetres, a modulus in GPa, gravity in mm/s^2); the
+    message names the parameter, the value and the likely slip. The value is used as
+    given. The ranges are wide (docs/conventions.md, Units); to silence the warning for a
+    deliberate value: ``warnings.simplefilter("ignore", pipeflex.errors.UnitWarning)``.
+    """

@@ -33,7 +33,7 @@ def _triads(tangents: np.ndarray, up: Optional[np.ndarray], where=lambda k: "") 
     """Orthonormal triads (n, 3, 3), each [e_x, e_y, e_z] (columns): e_x along a row of
     ``tangents`` (n, 3), e_z towards ``up`` (default global z, global y for a vertical
     e_x). Component by component, in the order of the scalar formulas: a line's triads
-    are those of its elements one by one, bit for bit. ``where(k)`` names element k in
+    are those of its elements one by one to round-off (a few ulps). ``where(k)`` names element k in
     the message if ``up`` is parallel to its axis."""
     T = np.asarray(tangents, dtype=float)
     T2 = T * T
@@ -66,7 +66,8 @@ def _triad(tangent: np.ndarray, up: Optional[np.ndarray]) -> np.ndarray:
 def _squares(x: np.ndarray) -> np.ndarray:
     """x**2 by libm's pow, as Python's and numpy's scalar ``x**2`` (an array's ``x**2`` is
     x*x, which differs from pow in the last bit for ~0.1 % of x): the element data stay
-    those of the scalar formulas."""
+    those of the scalar formulas (to the last bit where numpy's array and scalar paths
+    agree, which depends on the CPU and numpy)."""
     return np.power(x, 2.0)
 
 
@@ -371,7 +372,7 @@ class ModelBuilder:
                 n_elements: int, section: PipeSection, **options) -> List[int]:
         """A circular arc of curved elements from node ``start`` about ``center`` [m],
         turning by ``angle`` [rad] about the unit ``normal`` (right-hand rule). The local z
-        axes are set along the normal; |angle| <= 2 pi (one turn at most). Returns the node
+        axes are set along the normal; ``|angle| <= 2 pi`` (one turn at most). Returns the node
         indices (``start`` first)."""
         start = self._node("start", start)
         n = _checks.element_count("n_elements", n_elements, self._n_elements())
@@ -771,6 +772,43 @@ class Model:
         if self._description is None:
             raise TypeError("this Model was not built by ModelBuilder.build: it cannot be pickled")
         return _rebuild_model, (self._description, self.mass_flow, self._is_free), {"info": self.info}
+
+    def _summary(self) -> list:
+        """(label, text) rows of the model's summary: counts, flow, mass, supports, loads."""
+        kinds: dict = {}
+        for e in self.elements:
+            kinds[e.kind] = kinds.get(e.kind, 0) + 1
+        d = self._description or {}
+        rows = [("nodes", self.n_nodes), ("elements", ", ".join(f"{n} {k}" for k, n in kinds.items())),
+                ("dofs", self.n_dofs), ("fixed_coordinates", 6 * self.n_nodes - self.n_dofs)]
+        if self._is_free:
+            rows.append(("supports", "none (free_model)"))
+        elif "_constraints" in d:
+            held = sorted(d["_constraints"])  # supports, and the planar constraints of ANCF nodes
+            rows.append(("constrained_nodes", f"[{', '.join(map(str, held))}]" if len(held) <= 8
+                         else f"{len(held)} nodes"))
+        rows += [("mass_flow", f"{self.mass_flow:.6g} kg/s"), ("total_mass", f"{self.total_mass:.6g} kg"),
+                 ("total_length", f"{self.total_length:.6g} m")]
+        if np.any(self.gravity):
+            rows.append(("gravity", f"({', '.join(f'{g:.6g}' for g in self.gravity)}) m/s^2"))
+        for key, label in (("_loads", "nodal_loads"), ("_masses", "point_masses")):
+            if d.get(key):
+                rows.append((label, len(d[key])))
+        if self.ancf_nodes:
+            rows.append(("ancf_nodes", len(self.ancf_nodes)))
+        if self.hub is not None:
+            rows.append(("hub", f"(omega {self.hub.omega:.6g} rad/s, nodes {list(self.hub.nodes)})"))
+        if self.info:
+            rows.append(("info", f"[{', '.join(map(str, self.info))}]"))
+        return rows
+
+    def __repr__(self) -> str:
+        return f"Model({', '.join(f'{k}={v}' for k, v in self._summary())})"
+
+    def _repr_html_(self) -> str:
+        from .results import _html_table
+
+        return _html_table("Model", self._summary())
 
     @property
     def core(self):

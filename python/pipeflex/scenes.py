@@ -9,6 +9,8 @@ One vocabulary across them (all keyword-only): every scene that carries fluid ta
 the ANCF elastic force model is ``elastic`` (``"A"`` or ``"0"``; ``model=`` still works
 with a DeprecationWarning). The seed-002 beams carry no fluid and take no flow.
 """
+from typing import TYPE_CHECKING
+
 from . import _lazy
 
 # each seed's scenes load on first use: an element scene does not import the floating-frame
@@ -31,6 +33,13 @@ _LAZY = {
     "sprinkler_on_hub": "pipeflex.seeds.seed004.coupled_scenes:sprinkler_on_hub",
 }
 __getattr__, __dir__ = _lazy.attach(__name__, _LAZY)
+
+if TYPE_CHECKING:  # the lazy names, spelt out for editors and type checkers (tests/test_static_api.py)
+    from .seeds.seed000.scenes import (RIGID_EI, SPRINKLER_EA, cantilever_pipe, coriolis_meter, simply_supported_pipe,
+                                       sprinkler)
+    from .seeds.seed002.scenes import SPIN_UP_BEAMS, rotating_cantilever, spin_up_beam
+    from .seeds.seed004.coupled_scenes import beam_on_free_hub, sprinkler_on_hub
+    from .seeds.seed004.scenes import PRINTER_POINTS, concrete_printer, ffrf_cantilever_pipe, ffrf_curved_pipe
 
 __all__ = ["RIGID_EI", "SPRINKLER_EA", "cantilever_pipe", "coriolis_meter", "simply_supported_pipe", "sprinkler",
            "SPIN_UP_BEAMS", "rotating_cantilever", "spin_up_beam", "PRINTER_POINTS", "concrete_printer",

@@ -106,6 +106,12 @@ class PipeSection:
                 the bore, which stiffens the pipe axially to
                 EA / (1 - (1 - 2 nu)^2 / (5 - 4 nu + 2 E t / (K r))),
                 nu = E/(2G) - 1, t the wall thickness, r the mean radius.
+
+        Warns:
+            UnitWarning: a value far outside its plausible SI range, as a unit slip
+                gives (``outer_diameter`` > 5 m: millimetres?; ``E`` or ``G`` < 1e5 Pa:
+                GPa?; ``density`` < 50 kg/m^3: g/cm^3?; see ``_checks.PLAUSIBLE`` and
+                docs/conventions.md, Units). The value is used as given.
         """
         Do = _checks.positive("outer_diameter", outer_diameter)
         Di = _checks.non_negative("inner_diameter", inner_diameter)
@@ -115,6 +121,15 @@ class PipeSection:
         G = _checks.positive("G", G)
         rho = _checks.positive("density", density)
         rho_f = _checks.non_negative("fluid_density", fluid_density)
+        # a unit slip (mm, GPa, g/cm^3) gives a valid but absurd section: warn, naming it
+        _checks.unit_slip("outer_diameter", Do, "m", "diameter")
+        for name, x in (("E", E), ("G", G)):
+            _checks.unit_slip(name, x, "Pa", "modulus")
+        _checks.unit_slip("density", rho, "kg/m^3", "density")
+        _checks.unit_slip("fluid_density", rho_f, "kg/m^3", "fluid_density")
+        if fluid_bulk_modulus is not None:
+            _checks.unit_slip("fluid_bulk_modulus", _checks.positive("fluid_bulk_modulus", fluid_bulk_modulus), "Pa",
+                              "bulk_modulus")
         A = math.pi / 4 * (Do**2 - Di**2)
         Af = math.pi / 4 * Di**2
         I = math.pi / 64 * (Do**4 - Di**4)

@@ -3,6 +3,8 @@
 Each name imports its module on first use (:mod:`pipeflex._lazy`): the transient and
 static analyses need neither scipy nor the eigen-analysis modules.
 """
+from typing import TYPE_CHECKING
+
 from .. import _lazy
 
 #: the public names of each analysis module
@@ -18,6 +20,17 @@ _MODULES = {"campbell": ["Campbell", "campbell"],
             "transient": ["Sine", "TransientResult", "simulate"]}
 _LAZY = {name: f"{__name__}.{module}:{name}" for module, names in _MODULES.items() for name in names}
 __getattr__, __dir__ = _lazy.attach(__name__, _LAZY)
+
+if TYPE_CHECKING:  # the lazy names, spelt out for editors and type checkers (tests/test_static_api.py)
+    from .campbell import Campbell, campbell
+    from .critical import CriticalFlow, critical_mass_flow
+    from .eigen import EigenResult, eigenvalues, stability
+    from .linearize import Linearization, linearize
+    from .periodic import OrbitBranch, OrbitGuess, PeriodicOrbit, continue_orbits, orbit_guess, periodic_orbit
+    from .rotating import RotatingFrequencies, resonance_speed, rotating_frequencies, rotating_state
+    from .static import StaticResult, static_equilibrium
+    from .steady import SteadyRotation, SystemSteadyRotation, steady_rotation
+    from .transient import Sine, TransientResult, simulate
 
 __all__ = ["CriticalFlow", "critical_mass_flow", "EigenResult", "eigenvalues", "stability",
            "Linearization", "linearize", "OrbitBranch", "OrbitGuess", "PeriodicOrbit", "continue_orbits", "orbit_guess", "periodic_orbit",

@@ -2,7 +2,7 @@
 
 The equilibrium path R(q, t) = 0 is followed in (q, t), t the path parameter of
 :func:`~pipeflex.static_equilibrium` (the load factor, or the flow-ramp parameter), with
-the spherical constraint
+the spherical constraint::
 
     |W dq|^2 + psi^2 dt^2 = ds^2
 

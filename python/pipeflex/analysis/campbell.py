@@ -10,7 +10,7 @@ seen from the turning frame,
 are solved for their frequencies omega and complex mode shapes. Sorting the frequencies
 at each speed mixes branches where two of them cross (or veer); here each branch is
 followed from speed to speed by the modal assurance criterion of the nodal translations
-u (complex, in the rotating frame),
+u (complex, in the rotating frame)::
 
     MAC(u_a, u_b) = |u_a^H u_b|^2 / ((u_a^H u_a) (u_b^H u_b)),
 
@@ -105,6 +105,31 @@ class Campbell(Result):
         """Omega [rad/s] of the (first) crossing of ``branch`` with omega = k Omega; NaN if none."""
         hit = np.flatnonzero((self.crossing_k == k) & (self.crossing_branch == branch))
         return float(self.crossing_speed[hit[0]]) if len(hit) else float("nan")
+
+    def to_xarray(self):
+        """The diagram as an ``xarray.Dataset``: ``frequencies`` over (speed, branch) with
+        the coordinates ``speed`` (= ``speeds`` [rad/s]), ``gamma`` (on ``speed``, if
+        given), ``branch`` (indices) and ``family`` (on ``branch``); ``mac`` over
+        (speed_interval, branch), ``share`` over (speed, branch, direction: radial,
+        tangential, axial), the complex ``modes`` as ``modes_real`` and ``modes_imag``
+        over (speed, branch, dof), ``growth`` over speed, the crossings over
+        ``crossing``, ``harmonics`` over ``harmonic`` and ``omega0``; every variable with
+        ``units`` (where it has one) and ``long_name``; ``attrs["linearization"]``.
+        xarray loads here."""
+        from ..results import field_info, to_dataset
+
+        n_branches = self.frequencies.shape[1]
+        coords = {"speed": ("speed", self.speeds, field_info("Campbell", "speeds")[0]),
+                  "branch": ("branch", np.arange(n_branches), {"long_name": "branch index"}),
+                  "family": ("branch", np.asarray(self.family, dtype=object), field_info("Campbell", "family")[0]),
+                  "direction": ("direction", np.array(["radial", "tangential", "axial"], dtype=object),
+                                {"long_name": "direction of the nodal translations"})}
+        if self.gamma is not None:
+            coords["gamma"] = ("speed", self.gamma, field_info("Campbell", "gamma")[0])
+        names = ("omega0", "frequencies", "mac", "share", "modes", "growth", "harmonics", "crossing_k",
+                 "crossing_branch", "crossing_speed", "crossing_frequency")
+        return to_dataset("Campbell", {n: getattr(self, n) for n in names}, coords,
+                          {"linearization": self.linearization})
 
 
 @small_problems_single_threaded
@@ -284,7 +309,7 @@ def _swept(model, speeds, linearization, executor, client, workers, count=None):
 
 def mac(a, b) -> np.ndarray:
     """Modal assurance criterion [-] between the columns of ``a`` (n, p) and ``b`` (n, r):
-    |a_i^H b_j|^2 / ((a_i^H a_i)(b_j^H b_j)), a (p, r) array (1-D inputs: one column)."""
+    ``|a_i^H b_j|^2 / ((a_i^H a_i)(b_j^H b_j))``, a (p, r) array (1-D inputs: one column)."""
     a = np.asarray(a)
     b = np.asarray(b)
     a = a[:, None] if a.ndim == 1 else a

@@ -1,18 +1,20 @@
 """Linearisation of constrained systems (bodies, coupled element + body models).
 
-The core's ``linear_matrices`` gives, about a state with its multipliers, the sparse
+The core's ``linear_matrices`` gives, about a state with its multipliers, the sparse::
+
     M dq'' + C dq' + K dq + C_q^T dlam = 0,   C_q dq = 0
+
 in the system's coordinates q (K with the constraint forces' geometric stiffness). The
 motions the constraints allow are q = T z with C_q T = 0, T a basis of the null space:
 the reduced matrices T^T X T are what :func:`pipeflex.eigenvalues` and
 :func:`pipeflex.stability` analyse, one linearisation for every kind of system.
 
-The basis is orthonormal in the metric of K's diagonal, D T with D = |diag K|^(1/2)
+The basis is orthonormal in the metric of K's diagonal, D T with ``D = |diag K|^(1/2)``
 (:func:`null_space_basis`), not in the coordinates' own: a basis orthonormal in q mixes
 the few coordinates a joint ties (a stiff hub body's axial coordinate, EA/l ~ 1e20 N/m,
 with a pipe's bending at its root, ~1e3 N/m) into several columns, so that the reduced
 stiffness carries the hub's 1e20 in every one of them and the pipe's stiffness only in
-their differences: round-off eps |K| ~ 3e4 N/m there, a reduced stiffness singular to
+their differences: round-off ``eps |K|`` ~ 3e4 N/m there, a reduced stiffness singular to
 round-off after any diagonal scaling (conditioning 3e-15: :func:`pipeflex.stability`
 called the cantilever on a stiff clamped hub a mechanism) and the bending planes split
 by 1e-7. In the metric each column carries stiffness of its own scale: the cantilever's
@@ -76,7 +78,7 @@ def from_core(out: dict):
 
 def null_space_basis(Cq, K=None) -> np.ndarray:
     """Basis T (N x N - rank) of the null space of the constraint Jacobian, C_q T = 0,
-    with D T orthonormal, D = |diag K|^(1/2) (the identity without K; coordinates without
+    with D T orthonormal, ``D = |diag K|^(1/2)`` (the identity without K; coordinates without
     stiffness, e.g. the frame of a free body, take the median of the others): see the
     module doc. The rank is that of C_q itself (singular values above 1e-10 of the
     largest): in the metric a constraint on a stiff coordinate has a column of 1/sqrt(K_ii)

@@ -56,6 +56,7 @@ from .linearize import linearize
 from ._roots import brentq
 from .static import static_equilibrium
 from .._blas import small_problems_single_threaded
+from .._progress import logger
 
 #: Eigenvalues per block (nearest 0) in the scan of a large model (sparse path).
 SCAN_MODES = 16
@@ -236,11 +237,14 @@ def critical_mass_flow(model, *, tol: float = 1e-10, mass_flow_max: Optional[flo
         else:
             lo, eig_lo = m, eig
             ev.accept(m, st)
+            logger.debug("critical_mass_flow: stable at %.6g kg/s", m)
             if m >= mmax:
                 raise ConvergenceError(f"no instability found in the searched bracket of mass flows [0, {mmax:.6g}] "
                                        "kg/s (raise mass_flow_max)", mass_flow=mmax)
     eig_hi = eig
     xtol = 0.25 * rtol * hi
+    logger.info("critical_mass_flow: %s bracketed in [%.6g, %.6g] kg/s (%d eigen-analyses)", classify(eig_hi), lo, hi,
+                ev.count)
     if classify(eig_hi) == "flutter":
         # Track the crossing eigenvalue over the scan bracket; bisect only if that fails.
         try:
@@ -257,6 +261,7 @@ def critical_mass_flow(model, *, tol: float = 1e-10, mass_flow_max: Optional[flo
         else:
             lo, eig_lo = mid, eig
             ev.accept(mid, st)
+        logger.debug("critical_mass_flow: bisection bracket [%.8g, %.8g] kg/s", lo, hi)
     kind, crossing = classify(eig_hi), None
 
     if kind == "flutter":
@@ -281,7 +286,9 @@ def critical_mass_flow(model, *, tol: float = 1e-10, mass_flow_max: Optional[flo
     else:
         def kmin(m):
             e, _ = ev(m)
-            return _kmin(e, ev.sparse)
+            k = _kmin(e, ev.sparse)
+            logger.debug("critical_mass_flow: Brent at %.12g kg/s: relative k_min = %.3g", m, k)
+            return k
 
         try:
             try:
@@ -585,6 +592,7 @@ def _track_root(ev, lo, hi, eig_hi, xtol, eig_lo=None):
     def f(m):
         if m not in values:
             values[m] = re_lambda(m)
+            logger.debug("critical_mass_flow: Brent at %.12g kg/s: Re(lambda) = %.3g 1/s", m, values[m])
         return values[m]
 
     def re_lambda(m):
@@ -722,4 +730,6 @@ def _result(ev, mc, kind, eig_c=None, crossing=None):
         lam_c, freq = 0j, 0.0
     mode = np.zeros(ev.model.n_dofs, complex)
     mode[block.dofs] = x / x[np.argmax(np.abs(x))]
+    logger.info("critical_mass_flow: %s at %.10g kg/s, omega = %.6g rad/s (%d eigen-analyses)", kind, mc, freq,
+                ev.count)
     return CriticalFlow(float(mc), kind, float(freq), complex(lam_c), mode, ev.count)

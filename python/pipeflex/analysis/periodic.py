@@ -39,6 +39,7 @@ from ..errors import ConvergenceError
 from ..results import Result
 from ..state import State, as_core
 from .._blas import small_problems_single_threaded
+from .._progress import logger
 from ._assembly import require_model
 
 #: steps of the integrator per period unless given
@@ -77,7 +78,7 @@ class PeriodicOrbit(Result):
             orbit); -1 without multipliers.
         stable: all other multipliers inside the unit circle (or on it, to NEUTRAL);
             None without multipliers.
-        residual: max |phi_T(x0) - x0| at the solution [m, m/s].
+        residual: ``max |phi_T(x0) - x0|`` at the solution [m, m/s].
         iterations: Newton iterations of the shooting.
         steps: N, integrator steps per period.
     """
@@ -102,6 +103,20 @@ class PeriodicOrbit(Result):
     def node_amplitude(self, node: int, component: int) -> float:
         """Half peak-to-peak of one coordinate (0, 1, 2 = x, y, z) of a node [m]."""
         return float(self.amplitude[node, component])
+
+    def to_xarray(self):
+        """The orbit as an ``xarray.Dataset``: ``x`` over (time, node, component) with the
+        coordinate ``time`` (= ``t`` [s], one period), ``amplitude`` over (node,
+        component), ``z0``, ``v0`` over ``dof``, the multipliers (``multipliers_real``,
+        ``multipliers_imag``) over ``multiplier``, and the scalars (``mass_flow``,
+        ``period``, ``stable`` (left out without multipliers), ``residual`` ...); every
+        variable with ``units`` (where it has one) and ``long_name``. xarray loads here."""
+        from ..results import field_info, node_coords, to_dataset
+
+        coords = {"time": ("time", self.t, field_info("PeriodicOrbit", "t")[0]), **node_coords(self.x.shape[1])}
+        names = ("mass_flow", "period", "z0", "v0", "x", "amplitude", "multipliers", "trivial", "stable", "residual",
+                 "iterations", "steps")
+        return to_dataset("PeriodicOrbit", {n: getattr(self, n) for n in names}, coords)
 
 
 @dataclass(frozen=True)
@@ -129,6 +144,22 @@ class OrbitBranch(Result):
     hopf: tuple
     starts: tuple = ()
     stats: dict = field(default_factory=dict)
+
+    def to_xarray(self):
+        """The branch as an ``xarray.Dataset``: ``mass_flow``, ``period``, ``stable``,
+        ``max_multiplier`` over ``orbit`` (the orbits in the order continued; the mass
+        flow turns back at a fold), ``amplitude`` over (orbit, node, component),
+        ``folds`` over ``fold``, and the Hopf point (``hopf_mass_flow`` [kg/s],
+        ``hopf_frequency`` [rad/s]); every variable with ``units`` (where it has one)
+        and ``long_name``. xarray loads here."""
+        from ..results import node_coords, to_dataset
+
+        names = ("mass_flow", "period", "amplitude", "stable", "max_multiplier", "folds")
+        values = {n: getattr(self, n) for n in names}
+        values["hopf_mass_flow"], values["hopf_frequency"] = (float(v) for v in self.hopf)
+        coords = {"orbit": ("orbit", np.arange(len(self.mass_flow)), {"long_name": "orbit index along the branch"}),
+                  **node_coords(np.shape(self.amplitude)[1])}
+        return to_dataset("OrbitBranch", values, coords)
 
 
 @dataclass(frozen=True)
@@ -278,6 +309,8 @@ def _solve(shooter, y, mass_flow, *, tol, max_iterations, phase=None, arclength=
             raise ConvergenceError(f"periodic orbit: the shooting residual is not finite at mdot = {mdot:.6g} kg/s "
                                    f"(iteration {it})", iteration=it, mass_flow=mdot)
         g = float(xdot_ref @ (y[:2 * n] - y_ref[:2 * n]))
+        logger.debug("periodic orbit: shooting iteration %d at mdot = %.8g kg/s: T = %.10g s, defect %.3g, "
+                     "phase %.3g", it, mdot, T, residual, g)
         done = residual <= tol and abs(g) <= tol * max(1.0, np.abs(xdot_ref).max())
         if arclength is not None:
             y_prev, m_prev, tangent, ds = arclength
@@ -359,7 +392,7 @@ def periodic_orbit(model, *, period: float, state=None, base=None, mass_flow: Op
             from); default ``state`` itself.
         mass_flow: mdot [kg/s] (default the model's).
         steps: N, generalised-alpha steps per period (h = T / N) [-].
-        tol: Newton tolerance on the periodicity defect max |phi_T(x0) - x0| [m, m/s].
+        tol: Newton tolerance on the periodicity defect ``max |phi_T(x0) - x0|`` [m, m/s].
         max_iterations: Newton iterations of the shooting.
         newton_tol, rho_inf: the integrator's options (as in :func:`pipeflex.simulate`);
             far from the orbit the flow maps use a looser Newton tolerance (at most
@@ -395,6 +428,8 @@ def periodic_orbit(model, *, period: float, state=None, base=None, mass_flow: Op
     # 6 flow maps instead of 10 from the 2.5 s guess of bench_periodic.py).
     y, mdot, out, it, res = _solve(shooter, y, mdot, tol=tol, max_iterations=max_iterations,
                                    coarse=not multipliers, monodromy=bool(multipliers))
+    logger.info("periodic_orbit: converged in %d iterations at mdot = %.8g kg/s: T = %.10g s, defect %.3g "
+                "(%d flow maps)", it, mdot, y[-1], res, shooter.calls)
     n = model.n_dofs
     return _finish(shooter, y[:n], y[n:2 * n], y[-1], mdot, out, it, res)
 
@@ -547,12 +582,15 @@ def continue_orbits(model, *, start, mass_flow_end: float, amplitude: float = 1e
             y, mdot, out, it, res = _solve(shooter, y_pred, m_pred, tol=tol, max_iterations=max_iterations,
                                            phase=(y_pred, xdot_prev), arclength=(y_prev, m_prev, tangent, h),
                                            jacobian=Phi_prev)
-        except (ConvergenceError, np.linalg.LinAlgError):
+        except (ConvergenceError, np.linalg.LinAlgError) as exc:
             h *= 0.5
+            logger.info("continue_orbits: no orbit at step %.3g (%s); halving the step", 2 * h, exc)
             if h < 1e-6 * ds:
                 break
             continue
         orbit = _finish(shooter, y[:n], y[n:2 * n], y[-1], mdot, out, it, res)
+        logger.info("continue_orbits: orbit %d at mdot = %.8g kg/s: T = %.8g s, amplitude %.4g, %s (%d iterations)",
+                    len(flows) + 1, mdot, y[-1], orbit.amplitude, "stable" if orbit.stable else "unstable", it)
         Phi_prev = out["monodromy"]
         new_tangent = np.concatenate([y - y_prev, [mdot - m_prev]])
         new_tangent /= np.linalg.norm(new_tangent)

@@ -27,6 +27,7 @@ from typing import Optional, Sequence, Union
 import numpy as np
 
 from .. import _checks
+from .._progress import logger
 from .critical import critical_mass_flow
 
 
@@ -80,7 +81,7 @@ def critical_point(mass_ratio: float, gravity: float = 0.0, *, n_elements: int =
 
 def stability_map(mass_ratio: Sequence[float], *, gravity: Union[float, Sequence[float]] = 0.0,
                   n_elements: int = 32, tol: float = 1e-10, executor=None, client=None,
-                  workers: Optional[int] = None, store=None, progress: bool = True):
+                  workers: Optional[int] = None, store=None, progress: Optional[bool] = None):
     """Critical flow speed and frequency of the cantilevered pipe against the mass ratio.
 
     Args:
@@ -97,7 +98,8 @@ def stability_map(mass_ratio: Sequence[float], *, gravity: Union[float, Sequence
     Returns:
         ``xarray.Dataset`` with the coordinate ``mass_ratio`` (and ``gravity`` if a list was
         given, the first dimension) and the variables of :func:`critical_point`: ``u_cr``
-        [-], ``omega_cr`` [-], ``kind``, ``mass_flow`` [kg/s], ``evaluations``, and
+        [-], ``omega_cr`` [-], ``kind``, ``mass_flow`` [kg/s], ``evaluations`` (each with
+        ``units`` where it has one, "1" for the dimensionless ones, and ``long_name``), and
         ``error`` ("" where the point succeeded; a failed point, e.g. a standing pipe
         that buckles under its weight, has NaN numbers). ``attrs``: ``n_elements`` and,
         for one gravity, ``gravity``.
@@ -112,6 +114,7 @@ def stability_map(mass_ratio: Sequence[float], *, gravity: Union[float, Sequence
     n = _checks.positive_int("n_elements", n_elements)
     _checks.positive("tol", tol)
     run = dict(executor=executor, client=client, workers=workers, store=store, progress=progress)
+    logger.info("stability_map: %d mass ratios x %d gravities, %d elements", len(betas), np.size(gravity), n)
     if np.ndim(gravity) == 0:
         g = _checks.finite("gravity", gravity)
         fn = functools.partial(critical_point, gravity=g, n_elements=n, tol=tol)
@@ -122,6 +125,11 @@ def stability_map(mass_ratio: Sequence[float], *, gravity: Union[float, Sequence
         fn = functools.partial(critical_point, n_elements=n, tol=tol)
         ds = sweep(fn, gravity=gs, mass_ratio=betas, **run)
     ds.attrs["n_elements"] = n
+    from ..results import field_info
+    for name in ds.variables:  # the dimensionless groups: units and long names of the table FIELDS
+        if name != "error":
+            ds.variables[name].attrs.update(field_info("stability_map", name)[0])
+    logger.info("stability_map: done, %s of %s points failed", ds.attrs.get("n_failed"), ds.attrs.get("n_points"))
     return ds
 
 

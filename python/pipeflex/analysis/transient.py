@@ -14,7 +14,8 @@ from typing import Optional, Sequence, Tuple, Union
 
 import numpy as np
 
-from .. import _checks, _core
+from .. import _checks, _core, _progress
+from .._progress import logger
 from .._lazy import loaded_instance
 from ..results import Result
 from ..rotation import rotation_exp, rotation_log
@@ -96,6 +97,38 @@ def default_step(model, times: Sequence[float], state=None, mass_flow: Optional[
     return dt / np.ceil(dt / h_max - 1e-9)
 
 
+def _step_used(step: float, times: np.ndarray) -> float:
+    """The largest step [s] generalised-alpha takes for ``step`` h: each output interval
+    dt is split into ceil(dt / h) equal steps (the core's rule), so a step longer than the
+    output spacing becomes that spacing. ``step`` itself where every interval is a whole
+    number of steps (to round-off)."""
+    times = np.asarray(times, float)
+    gaps = np.diff(times)
+    if gaps.max() - gaps.min() <= 1e-9 * gaps.min():  # equally spaced: the exact spacing (as default_step)
+        gaps = np.array([(times[-1] - times[0]) / len(gaps)])
+    used = float(np.max(gaps / np.ceil(gaps / step - 1e-9)))
+    return step if abs(used - step) <= 1e-9 * step else used
+
+
+def _inertia_hint(model) -> str:
+    """Why the mass matrix is singular and what to do, if pipe sections lack the polar
+    rotary inertia rho I_p (their rotation about the pipe axis then has no inertia);
+    "" if none does."""
+    pipes = [i for i, e in enumerate(model.elements) if e.kind == "pipe"]
+    bare = [i for i in pipes if model.elements[i].section.rotary_inertia[0] == 0]
+    if not bare:
+        return ""
+    which = f"{bare[0]}..{bare[-1]}" if len(bare) > 3 and bare[-1] - bare[0] == len(bare) - 1 else \
+        ", ".join(map(str, bare[:8])) + (", ..." if len(bare) > 8 else "")
+    return (f"time integration needs the polar rotary inertia rho I_p [kg m] of the pipe sections (the inertia of "
+            f"the rotation about the pipe axis), and it is 0 in {len(bare)} of the {len(pipes)} pipe elements "
+            f"({which}). Give it as PipeSection(..., rotary_inertia=(rho_Ip, rho_Iy, rho_Iz)), "
+            "PipeSection.tube(..., rotary_inertia=True), or a scene's polar_inertia= (e.g. "
+            "pf.scenes.cantilever_pipe(n_elements=8, polar_inertia=1e-4): a small value leaves the bending motion "
+            "alone); or constrain the axial rotation (ModelBuilder.fix_rotation). The static, eigen and "
+            "critical-flow analyses do not need it.")
+
+
 @dataclass(frozen=True)
 class TransientResult(Result):
     """Motion at the output times; arrays are numpy, SI units.
@@ -113,8 +146,9 @@ class TransientResult(Result):
         stats: integrator statistics (steps, Newton iterations, Jacobians, re-basings,
             failed steps, wall time [s]).
         metadata: ``integrator`` (the one that ran), ``requested`` (e.g. ``"auto"``),
-            ``step`` (generalised-alpha's step [s], None for IDA), options and model
-            description.
+            ``step`` (the largest step [s] generalised-alpha took, None for IDA),
+            ``requested_step`` (the step asked for or chosen, before it was fitted to
+            the output spacing), options and model description.
     """
 
     t: np.ndarray
@@ -151,6 +185,19 @@ class TransientResult(Result):
         ang = np.arctan2(np.einsum("j,ij->i", k, np.cross(ref, rot)), rot @ ref)
         return np.unwrap(ang)
 
+    def to_xarray(self):
+        """The motion as an ``xarray.Dataset``: ``x``, ``xd``, ``omega`` over (time, node,
+        component), ``R`` over (time, node, row, column), the energies and works over
+        time; coordinates ``time`` (= ``t`` [s]), ``node`` (indices) and ``component``
+        (x, y, z); every variable with ``units`` and ``long_name``; ``attrs``: the
+        integrator and its step [s] (None for IDA: left out). xarray loads here."""
+        from ..results import field_info, node_coords, to_dataset
+
+        coords = {"time": ("time", self.t, field_info("TransientResult", "t")[0]), **node_coords(self.x.shape[1])}
+        attrs = {k: self.metadata[k] for k in ("integrator", "requested", "step")
+                 if isinstance(self.metadata.get(k), (str, int, float))}
+        return to_dataset("TransientResult", {name: getattr(self, name) for name in self._ARRAYS[1:]}, coords, attrs)
+
     @classmethod
     def _load_legacy(cls, f) -> "TransientResult":
         """A file of the earlier format: the arrays, stats and metadata as JSON."""
@@ -180,12 +227,17 @@ def simulate(model, t_end: float, *, integrator: str = "auto", state=None, t_sta
             ``"auto"`` runs IDA if an IDA-only option (``rtol``, ``atol``,
             ``rebase_angle``, ``max_order``) is given, else generalised-alpha, with the
             ``step`` given or else :func:`default_step`: 400 steps per period
-            2 pi/|lambda_1| of the slowest non-rigid eigenvalue of the model linearised
+            ``2 pi/|lambda_1|`` of the slowest non-rigid eigenvalue of the model linearised
             about ``state`` (at the largest ``mass_flow`` of the run), shortened to divide
             the output spacing (e.g. 1.67 ms for the sprinkler with EI = 100 N m^2 over 1 s).
             Options of both integrators together are an error with ``"auto"``.
             ``result.metadata["integrator"]`` and ``["step"]`` [s] (None for IDA) say
-            what ran.
+            what ran. The step actually taken: each output interval dt is split into
+            ceil(dt / h) equal steps, so a ``step`` h longer than the output spacing
+            runs at that spacing (``step=0.05`` with 5 ms between outputs steps 5 ms),
+            and ``metadata["step"]`` is the largest step taken (``["requested_step"]``
+            the h asked for); steps halved after a failed Newton iteration are counted
+            in ``stats["failed_steps"]``.
         state: initial state (a :class:`~pipeflex.state.State` or ``_core.State``;
             default: the reference configuration at rest); not modified.
         t_start: initial time [s].
@@ -196,8 +248,11 @@ def simulate(model, t_end: float, *, integrator: str = "auto", state=None, t_sta
             relative-acceleration term). Default: the model's.
         load_factor: [-] multiplier of the model's nodal loads: a number, a table
             ``(times [s], values)`` or a :class:`Sine` (a harmonic drive).
-        progress: show a progress bar (default: only when the run is expected to take
-            more than a few seconds — i.e. when tqdm is available and t_end is long).
+        progress: None (default): a progress bar in a notebook or on a terminal once the
+            run has taken 3 s of wall time, else (a log, CI) a line on the logger
+            ``"pipeflex"`` every 15 s; True: the bar from the start (or the lines on
+            stderr); False: nothing (:mod:`pipeflex._progress`; docs/user_guide.md,
+            Progress and logging).
         **options: for ``ida``: ``rtol`` (1e-6), ``atol`` (1e-8), ``rebase_angle`` [rad]
             (1.0), ``max_steps``; for ``generalized_alpha``: ``step`` [s] (1e-3 with
             ``integrator="generalized_alpha"``, :func:`default_step` with ``"auto"``),
@@ -313,36 +368,34 @@ def simulate(model, t_end: float, *, integrator: str = "auto", state=None, t_sta
                    load_factor=load_factor, progress=progress)
         return richardson(*(simulate(model, t_end, **run, **{**options, "step": step}) for step in (h, 0.5 * h)))
 
-    bar = None
-    if progress or (progress is None and (t1 - t0) > 5.0):
-        try:
-            from tqdm.auto import tqdm
-
-            bar = tqdm(total=t1 - t0, unit="s", desc=f"simulate ({integrator})", leave=False)
-        except ImportError:
-            bar = None
-    last = [t0]
-
-    def tick(t):
-        bar.update(t - last[0])
-        last[0] = t
-
+    step = _step_used(float(opt.step), times) if integrator == "generalized_alpha" else None
+    logger.info("simulate: %s from t = %.6g to %.6g s, %d outputs, %s nodes%s", integrator, t0, t1, len(times),
+                model.n_nodes, "" if step is None else f", step {step:.6g} s")
+    bar = _progress.Progress(progress, t1 - t0, desc=f"simulate ({integrator})", unit="s", leave=False)
     run = _core.integrate_ida if integrator == "ida" else _core.integrate_generalized_alpha
     wall = _time.perf_counter()
     try:
-        out = run(model.core, st, load, flow, loads, list(times), opt, tick if bar is not None else None)
-    finally:
-        if bar is not None:
-            bar.close()
+        with bar:
+            out = run(model.core, st, load, flow, loads, list(times), opt,
+                      None if bar.mode == "off" else (lambda t: bar.update(t - t0)))
+    except Exception as exc:
+        logger.info("simulate: %s failed after %.3g s of wall time: %s", integrator, _time.perf_counter() - wall, exc)
+        if isinstance(exc, ValueError) and str(exc).startswith("the mass matrix is singular"):
+            hint = _inertia_hint(model)
+            if hint:
+                raise ValueError(f"the mass matrix is singular: {hint}") from None
+        raise
     wall = _time.perf_counter() - wall
     stats = {k: int(out.pop(k)) for k in ("steps", "newton_iterations", "jacobians", "rebases", "failed_steps",
                                                "convergence_failures")}
     stats["wall_time"] = wall
+    logger.info("simulate: %s done in %.3g s: %d steps (%d failed), %d Newton iterations", integrator, wall,
+                stats["steps"], stats["failed_steps"], stats["newton_iterations"])
     if not opt.work:
         out["fluid_work"][:] = np.nan
         out["load_work"][:] = np.nan
     meta = {"integrator": integrator, "requested": requested,
-            "step": float(opt.step) if integrator == "generalized_alpha" else None, "options": {k: float(v) for k, v in options.items()},
+            "step": step, "requested_step": float(opt.step) if step is not None else None, "options": {k: float(v) for k, v in options.items()},
             "t_start": t0, "t_end": t1, "n_nodes": model.n_nodes, "n_dofs": model.n_dofs,
             "mass_flow": [list(flow.t), list(flow.value), flow.omega, flow.phase],
             "load_factor": [list(loads.t), list(loads.value), loads.omega, loads.phase]}

@@ -171,14 +171,14 @@ def deviation_map(deviations, *, row_labels: Optional[Sequence[str]] = None,
                   vmin: float = -7.0, vmax: float = -1.0, floor: float = 1e-8, flag: Optional[float] = None,
                   flag_mask=None, divider: Optional[float] = None, ax=None, title: Optional[str] = None,
                   colorbar: bool = True, colorbar_label: str = r"$\log_{10}|\delta|$ [-]"):
-    """A table of relative deviations as a colour map of log10 |deviation| (e.g. computed
+    """A table of relative deviations as a colour map of ``log10 |deviation|`` (e.g. computed
     against published values, one row per configuration, one column per parameter value).
 
     Args:
-        deviations: (rows, columns) relative deviations [-]; |values| below ``floor`` are drawn at it.
+        deviations: (rows, columns) relative deviations [-]; values of magnitude below ``floor`` are drawn at it.
         row_labels, column_labels: tick labels. xlabel, ylabel: axis labels.
         vmin, vmax: colour range in log10 [-].
-        flag: cells with |deviation| above it are outlined in red (within ``flag_mask``,
+        flag: cells whose deviation exceeds it in magnitude are outlined in red (within ``flag_mask``,
             a boolean (rows, columns) array, if given).
         divider: a column position (e.g. 5.5) to draw a white vertical line at.
         ax: axes to draw on; default new ones. title: of the axes.

@@ -28,7 +28,7 @@ def mode_shape(model, mode, *, state=None, scale: Optional[float] = None, compon
             (6 n_nodes,) nodal.
         state: the state the mode belongs to (default the reference configuration).
         scale: [m] largest nodal translation drawn; default 0.15 of the model's size (3D or
-            ``plane``). With ``component``: the largest nodal |u . d|, default 1.
+            ``plane``). With ``component``: the largest nodal ``|u . d|``, default 1.
         component: a direction d [-] (3,): draw instead the displacement along d, u . d,
             against the arc length s [m] of the elements (in the order of
             ``model.elements``), on 2D axes.

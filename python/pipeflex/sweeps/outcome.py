@@ -17,6 +17,9 @@ from ..results import Result
 Outcome = Tuple[str, Dict[str, np.ndarray]]
 
 _KINDS = "biufcU"  # bool, int, unsigned, float, complex, str
+#: the field naming the class of a pipeflex result fn returned (its fields' units and
+#: dimensions: pipeflex.results.FIELDS); not a variable of the Dataset
+RESULT_CLASS = "__result__"
 _pinned_pid = None
 
 
@@ -59,7 +62,7 @@ def fields_of(value: Any) -> Dict[str, np.ndarray]:
     """The named arrays of what fn returned: a dict, a scalar (named "value") or array, or a
     pipeflex :class:`~pipeflex.results.Result` (its number, string and array fields)."""
     if isinstance(value, Result):
-        out = {}
+        out = {RESULT_CLASS: np.array(type(value).__name__)}
         for name, v in value.to_dict().items():
             if isinstance(v, (numbers.Number, str, np.generic)) or (
                     isinstance(v, np.ndarray) and v.dtype.kind in _KINDS):
@@ -70,6 +73,9 @@ def fields_of(value: Any) -> Dict[str, np.ndarray]:
         for name, v in value.items():
             if not isinstance(name, str):
                 raise TypeError(f"fn returned a dict with the key {name!r}: field names must be strings")
+            if name == RESULT_CLASS:
+                raise ValueError(f"fn returned a dict with the key {name!r}, which a sweep keeps for the class of "
+                                 "a pipeflex result; rename the field")
             if v is not None:
                 out[name] = as_array(name, v)
         return out

@@ -4,7 +4,6 @@ from __future__ import annotations
 import contextlib
 import os
 import pickle
-import sys
 from concurrent.futures import Executor, ProcessPoolExecutor
 from typing import TYPE_CHECKING, Any, Callable, Dict, List, Optional, Sequence, Union
 
@@ -12,6 +11,7 @@ from . import executors
 from .grid import check_values, function_identity, function_name, point_key, points
 from .outcome import Outcome, one_blas_thread
 from .store import PointStore
+from .._progress import Progress, logger
 
 if TYPE_CHECKING:  # imported lazily: `import pipeflex` loads neither
     import distributed
@@ -44,7 +44,7 @@ class SweepIncomplete(RuntimeError):
 
 
 def sweep(fn: Callable[..., Any], /, *, grid: str = "product", executor: Union[None, str, Executor] = None,
-          client: Optional["distributed.Client"] = None, workers: Optional[int] = None, progress: bool = True,
+          client: Optional["distributed.Client"] = None, workers: Optional[int] = None, progress: Optional[bool] = None,
           store: Union[None, str, os.PathLike] = None, retry_failed: bool = False,
           **parameters: Sequence) -> "xarray.Dataset":
     """Run ``fn(**point)`` at every point of a grid of parameter values; an ``xarray.Dataset``.
@@ -65,7 +65,11 @@ def sweep(fn: Callable[..., Any], /, *, grid: str = "product", executor: Union[N
             ThreadPoolExecutor, a pool of yours; it is not shut down).
         client: a ``dask.distributed.Client``: the points run on its cluster.
         workers: processes of the default pool (default: the cores available).
-        progress: a progress bar (tqdm) on stderr if it is a terminal.
+        progress: None (default): a progress bar in a notebook or on a terminal once the
+            sweep has taken 3 s, else (a log, CI) a line on the logger ``"pipeflex"``
+            every 15 s; True: the bar from the start (or the lines on stderr); False:
+            nothing (docs/user_guide.md, Progress and logging). Each point done or failed
+            is logged at DEBUG, the sweep's start and end at INFO.
         store: a folder: each finished point is written to it at once, and a re-run with
             the same store computes only the points not in it (an interrupted sweep loses
             no finished point; the grid may grow between runs). It belongs to one ``fn``
@@ -131,18 +135,22 @@ def sweep(fn: Callable[..., Any], /, *, grid: str = "product", executor: Union[N
     n_failed = sum(1 for o in outcomes if o is not None and o[0])
     with contextlib.ExitStack() as stack:
         bar = stack.enter_context(_progress_bar(progress, len(first), len(first) - len(todo)))
+        logger.info("sweep %s: %d points to compute, %d from the store", fn_name, len(todo), len(first) - len(todo))
         reports = stack.enter_context(_runner(fn, todo, executor, client, workers))
         for i, outcome, reason in reports:
             if outcome is None:
                 unfinished[i] = reason
+                logger.debug("sweep %s: point %s not computed: %s", fn_name, pts[i], reason)
             else:
                 outcomes[i] = outcome
                 if points_store:
                     points_store.save(keys[i], pts[i], outcome)
                 if outcome[0]:
                     n_failed += 1
-                    bar.set_postfix(failed=n_failed, refresh=False)
-            bar.update()
+                    bar.note(failed=n_failed)
+                logger.debug("sweep %s: point %s %s%s", fn_name, pts[i], "failed: " if outcome[0] else "done", outcome[0])
+            bar.advance()
+    logger.info("sweep %s: %d points, %d failed, %d not computed", fn_name, len(first), n_failed, len(unfinished))
     for i, k in enumerate(keys):
         j = first[k]
         outcomes[i] = outcomes[j]
@@ -193,30 +201,29 @@ def _check_picklable(fn, executor, client) -> None:
     Dask (cloudpickle, which also takes lambdas and local functions)."""
     if executor is None and client is None or isinstance(executor, ProcessPoolExecutor):
         dumps, where = pickle.dumps, "worker processes"
+        # pickle sends a function by name: the workers import it
+        advice = ("pickle sends a function by its name, so define it at module level of a script or module "
+                  "(fixed arguments with functools.partial, which must pickle too)")
     elif client is not None:
         from distributed.protocol.pickle import dumps
         where = "Dask workers"
+        # cloudpickle sends a function of __main__ (a script, a notebook), a lambda or a local
+        # function by value, with the globals, defaults and closure values it uses
+        advice = ("Dask sends a function of a script or notebook by value, with the globals and arguments it "
+                  "uses: one of them cannot be pickled (create it inside fn, or import fn from a module)")
     else:
         return
     try:
         dumps(fn)
     except Exception as exc:  # noqa: BLE001 -- PicklingError, AttributeError (local object), TypeError
         raise TypeError(
-            f"fn ({function_name(fn)}) cannot be pickled for the {where} ({type(exc).__name__}: {exc}); define it "
-            "at module level (fixed arguments with functools.partial), or use executor='serial' or a "
-            "ThreadPoolExecutor") from None
+            f"fn ({function_name(fn)}) cannot be pickled for the {where} ({type(exc).__name__}: {exc}); {advice}; "
+            "or use executor='serial' or a ThreadPoolExecutor") from None
 
 
-@contextlib.contextmanager
-def _progress_bar(progress: bool, total: int, done: int):
-    from tqdm import tqdm
-
-    quiet = not progress or not (hasattr(sys.stderr, "isatty") and sys.stderr.isatty())
-    bar = tqdm(total=total, initial=done, disable=quiet, unit="point", desc="sweep", file=sys.stderr)
-    try:
-        yield bar
-    finally:
-        bar.close()
+def _progress_bar(progress: Optional[bool], total: int, done: int) -> Progress:
+    """The sweep's progress under the package's policy (:mod:`pipeflex._progress`)."""
+    return Progress(progress, total, initial=done, unit="point", desc="sweep")
 
 
 @contextlib.contextmanager

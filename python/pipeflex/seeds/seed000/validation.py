@@ -12,12 +12,12 @@ from ..checks import Group, Row
 from . import coriolis, figures, scenes
 from .references import SPRINKLER, TABLE1, TABLE1_EXACT, TABLE2, TABLE2_EXTRAPOLATED
 
-# Tolerances: Table 1 prints 10 significant digits, the issue asks for 8 (half a unit of
+# Tolerances: Table 1 prints 10 significant digits, checked to 8 (half a unit of
 # the 8th digit); Table 2 within 2e-7, its extrapolation within 2e-6.
 TOL_TABLE1 = 5e-8
 TOL_TABLE2 = 2e-7
 TOL_TABLE2_EXTRAPOLATED = 2e-6
-# The seed prints 7 digits (6 after the point for the flexible pipes); the issue asks for 6
+# The seed prints 7 digits (6 after the point for the flexible pipes), checked to 6
 # significant digits. Our EI = 10 value differs by 3e-6 relative (see docs/validation.md).
 TOL_SPRINKLER = 5e-6
 

@@ -13,7 +13,7 @@ from ..seed000.validation import TOL_TABLE2
 from . import scenes, studies
 from .references import TABLE1_FFRF, TABLE1_SPACAR
 
-# Table 1 prints 3 decimals; the issue asks for the FFRF column within 1%.
+# Table 1 prints 3 decimals; the FFRF column is checked within 1 %.
 TOL_TABLE1 = 1e-2
 
 

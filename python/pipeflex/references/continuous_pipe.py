@@ -1,5 +1,9 @@
-"""An independent solver for the cantilevered pipe conveying fluid as a continuous beam,
-for tests/test_stability_map.py (no pipeflex code).
+"""An independent solver for the cantilevered pipe conveying fluid as a continuous beam: the
+reference against which tests/test_stability_map.py and notebooks/stability_map.ipynb check
+:func:`pipeflex.stability_map`.
+
+It imports no pipeflex code (only numpy and scipy): no finite element, assembly or solver of
+the package enters its numbers, so an agreement is evidence, not a tautology.
 
 The Euler-Bernoulli pipe of Gregory & Paidoussis (1966), plug flow, no dissipation,
 clamped at x = 0 and free at x = L, optionally under gravity along its axis (Paidoussis,
@@ -34,7 +38,10 @@ from scipy.optimize import brentq
 
 
 def delta_roots(omega, u, beta):
-    """The boundary determinant from the four exponentials (gamma = 0)."""
+    """The boundary determinant from the four exponentials (gamma = 0).
+
+    omega [-] complex dimensionless frequency omega_bar; u [-] flow speed; beta [-] mass ratio
+    M / (M + m), in [0, 1]."""
     s = np.sqrt(beta)
     k = np.roots([1.0, 0.0, -u * u, -2.0 * s * u * omega, -omega * omega])
     e = np.exp(1j * k)
@@ -55,7 +62,10 @@ def _system(omega, u, beta, gamma, xi):
 
 
 def delta_transfer(omega, u, beta, gamma=0.0, n_steps=1):
-    """det of the (W'', W''') at xi = 1 of the solutions with W''(0) = 1 and W'''(0) = 1."""
+    """det of the (W'', W''') at xi = 1 of the solutions with W''(0) = 1 and W'''(0) = 1.
+
+    omega [-], u [-], beta [-] as :func:`delta_roots`; gamma [-] gravity (M + m) g L^3 / EI,
+    > 0 hanging; n_steps [-] slices of the transfer matrix when gamma != 0."""
     Phi = np.eye(4, dtype=complex)
     n = 1 if gamma == 0.0 else n_steps
     for i in range(n):
@@ -64,7 +74,10 @@ def delta_transfer(omega, u, beta, gamma=0.0, n_steps=1):
 
 
 def eigenvalue(delta, guess, *, tol=1e-12, max_iterations=60):
-    """A root omega of delta(omega) near ``guess`` (secant method in the complex plane)."""
+    """A root omega of delta(omega) near ``guess`` (secant method in the complex plane).
+
+    delta: a function of the complex omega [-]; guess [-] the starting omega; tol [-] relative
+    step at which to stop; max_iterations [-] before RuntimeError."""
     x0, x1 = complex(guess), complex(guess) * (1 + 1e-4) + 1e-4
     f0, f1 = delta(x0), delta(x1)
     for _ in range(max_iterations):
@@ -128,9 +141,20 @@ def _unstable(u, beta, gamma, omega_max):
 
 def critical(beta, *, gamma=0.0, u_max=30.0, du=0.05, omega_max=150.0, n_steps=256):
     """(u_cr, omega_cr): the lowest u at which an oscillating mode's Im omega_bar goes through 0
-    (flutter). The scan in steps of du uses the collocation; the crossing is located by
+    (flutter).
+
+    beta [-] mass ratio M / (M + m), in [0, 1]; gamma [-] gravity (M + m) g L^3 / EI, > 0
+    hanging; u_max [-] highest u scanned; du [-] step of the scan, > 0; omega_max [-] modes
+    above ``|omega_bar| = omega_max`` are ignored; n_steps [-] slices of the transfer matrix
+    (gamma != 0).
+
+    The scan in steps of du uses the collocation; the crossing is located by
     Brent's method on Im of the root of the boundary determinant (secant method from the
     collocation eigenvalue), to 1e-12. Divergence (a real eigenvalue through 0) is not sought."""
+    if not 0.0 <= beta <= 1.0:
+        raise ValueError(f"beta must lie in [0, 1] (the mass ratio M / (M + m)), got {beta!r}")
+    if not (du > 0.0 and u_max > du):
+        raise ValueError(f"du must be > 0 and u_max > du, got du = {du!r}, u_max = {u_max!r}")
     delta = _solver(beta, gamma, n_steps)
     lo, w_lo = 0.0, _unstable(0.0, beta, gamma, omega_max)
     while True:
