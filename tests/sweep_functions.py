@@ -42,13 +42,17 @@ def logged(a: float, *, log: str, fail_at: float = None) -> float:
 
     ``log/plan.json`` (see :func:`plan`), if present, stops the sweep: {"interrupt_at": a}
     raises KeyboardInterrupt at that point, {"exit_at": a} ends the worker process there
-    (os._exit). A plan is outside the function's arguments, as a Ctrl-C is outside a sweep.
+    (os._exit), {"exit_once_at": a} too, the first time only. A plan is outside the
+    function's arguments, as a Ctrl-C is outside a sweep.
     """
     path = Path(log, "plan.json")
     todo = json.loads(path.read_text()) if path.exists() else {}
     if a == todo.get("interrupt_at"):
         raise KeyboardInterrupt
     if a == todo.get("exit_at"):
+        os._exit(3)
+    if a == todo.get("exit_once_at"):  # the plan goes with the process: a point that runs again succeeds
+        path.unlink()
         os._exit(3)
     Path(log, f"call_{a!r}_{os.getpid()}_{np.random.default_rng().integers(1 << 62)}").touch()
     if a == fail_at:
@@ -80,3 +84,24 @@ def blas_threads(a: float) -> int:
 def ragged(a: int) -> dict:
     """A field whose shape changes with a (not allowed in a sweep)."""
     return {"v": np.zeros(a)}
+
+
+def dies_at(a: float, *, at: float, how: str = "segfault") -> float:
+    """a + 1, except at ``a == at``, where the process dies: "segfault" (SIGSEGV, as a
+    crash in compiled code) or "exit" (os._exit(3))."""
+    if a == at:
+        if how == "exit":
+            os._exit(3)
+        import faulthandler
+        faulthandler.disable()  # no traceback dump on the test's output
+        import signal
+        os.kill(os.getpid(), signal.SIGSEGV)
+    return a + 1.0
+
+
+def sleeps(a: float, *, log: str) -> float:
+    """a, after writing this process's id into the folder ``log`` and sleeping 60 s."""
+    import time
+    Path(log, f"pid_{os.getpid()}").touch()
+    time.sleep(60.0)
+    return a

@@ -91,22 +91,24 @@ def test_every_public_name_resolves_and_keeps_its_meaning_when_a_namesake_submod
         pf.no_such_name
 
 
-def test_one_thread_sets_and_restores_openblas_threads():
+def test_pin_sets_each_openblas_to_one_thread_once_and_never_back():
     functions = _blas._openblas_functions()
     if not functions:
         pytest.skip("no OpenBLAS found by its own API here (threadpoolctl's path)")
-    get, put = functions[0]
-    before = get()
-    put(2)
+    if _blas.user_setting():
+        pytest.skip(f"the BLAS thread count is the user's ({_blas.user_setting()})")
+    _blas.pin()
+    assert [get() for _, get, _ in functions] == [1] * len(functions)
+    _, get, put = functions[0]
+    put(2)  # a count the user sets after the pin
     try:
-        with _blas.one_thread():
-            assert [g() for g, _ in functions] == [1] * len(functions)
-            with _blas.one_thread():
-                assert get() == 1
-            assert get() == 1
+        _blas.pin()
         assert get() == 2
+        _blas._looked = -1  # as after an import: the libraries are looked for again
+        _blas.pin()
+        assert get() == 2  # each library is set once
     finally:
-        put(before)
+        put(1)
 
 
 def test_a_critical_flow_does_not_import_scipy_optimize():

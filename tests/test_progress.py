@@ -6,6 +6,7 @@ BAR_DELAY s; elsewhere log lines every LOG_INTERVAL s, never a carriage return;
 """
 import json
 import logging
+import re
 import os
 import subprocess
 import sys
@@ -44,14 +45,15 @@ def test_the_package_logger_is_pipeflex_with_a_null_handler():
 
 
 def test_simulate_off_a_terminal_logs_progress_lines_without_carriage_returns(model, monkeypatch, caplog, capfd):
-    monkeypatch.setattr(_progress, "LOG_INTERVAL", 0.0)  # a line at every output
+    monkeypatch.setattr(_progress, "LOG_INTERVAL", 0.0)  # a line at every report
     with caplog.at_level(logging.INFO, logger="pipeflex"):
         r = pf.simulate(model, 0.02, integrator="generalized_alpha", step=1e-3, n_outputs=5)
     messages = [rec.getMessage() for rec in caplog.records if rec.name == "pipeflex"]
     lines = [m for m in messages if m.startswith("simulate (generalized_alpha): t = ")]
-    assert len(lines) == 4
+    # the core reports at most every 0.1 s of wall time (this run is shorter), simulate the end
+    assert 1 <= len(lines) <= 4
     # rounded simulated time and a percentage, not the sum of the steps
-    assert lines[0].startswith("simulate (generalized_alpha): t = 0.005/0.02 s (25%)")
+    assert all(re.match(r"simulate \(generalized_alpha\): t = 0\.0\d*/0\.02 s \(\d+%\)", m) for m in lines)
     assert lines[-1].startswith("simulate (generalized_alpha): t = 0.02/0.02 s (100%)")
     # the milestones: start (with the step) and end (with the step count)
     assert any(m.startswith("simulate: generalized_alpha from t = 0 to 0.02 s, 5 outputs") and "step 0.001 s" in m
@@ -101,7 +103,7 @@ def test_without_tqdm_a_forced_bar_becomes_lines_on_stderr(model, monkeypatch, c
     monkeypatch.setattr(_progress, "LOG_INTERVAL", 0.0)
     pf.simulate(model, 0.02, integrator="generalized_alpha", step=1e-3, n_outputs=3, progress=True)
     err = capfd.readouterr().err
-    assert "simulate (generalized_alpha): t = 0.01/0.02 s (50%)" in err
+    assert "simulate (generalized_alpha): t = 0.02/0.02 s (100%)" in err  # the end (the core reports at most every 0.1 s)
     assert "\r" not in err
 
 

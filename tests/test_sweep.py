@@ -191,12 +191,27 @@ def test_resume_in_process_continues_where_it_stopped(tmp_path):
     np.testing.assert_array_equal(ds.value, np.array(A) + 1)
 
 
-def test_a_dead_worker_keeps_the_finished_points_and_says_which_are_missing(tmp_path):
+def test_a_dead_worker_of_the_default_pool_costs_no_point(tmp_path):
+    """The points queued on the broken pool run again, each alone (tests/test_sweep_faults.py:
+    a point that dies again fails with its cause)."""
+    log, store = tmp_path / "log", tmp_path / "store"
+    log.mkdir()
+    sf.plan(log, exit_once_at=4.0)
+    ds = sweep(functools.partial(sf.logged, log=str(log)), a=A, store=store, workers=2)
+    np.testing.assert_array_equal(ds.value, np.array(A) + 1)
+    assert ds.attrs["n_failed"] == 0 and "n_unfinished" not in ds.attrs
+    assert set(sf.calls(log)) == set(A) and stored(store, A) == set(A)
+
+
+def test_a_dead_worker_of_a_pool_of_yours_keeps_the_finished_points_and_says_which_are_missing(tmp_path):
+    from concurrent.futures import ProcessPoolExecutor
+
     log, store = tmp_path / "log", tmp_path / "store"
     log.mkdir()
     sf.plan(log, exit_at=4.0)
-    with pytest.raises(SweepIncomplete, match="not computed.*BrokenProcessPool") as info:
-        sweep(functools.partial(sf.logged, log=str(log)), a=A, store=store, workers=2)
+    with pytest.raises(SweepIncomplete, match="not computed.*BrokenProcessPool") as info, \
+            ProcessPoolExecutor(2) as pool:
+        sweep(functools.partial(sf.logged, log=str(log)), a=A, store=store, executor=pool)
     sf.plan(log)
     err = info.value
     assert {"a": 4.0} in err.unfinished and "BrokenProcessPool" in err.reasons[0]

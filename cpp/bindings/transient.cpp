@@ -12,7 +12,9 @@
 #include <pybind11/functional.h>
 #include <pybind11/stl.h>
 
+#include <chrono>
 #include <cmath>
+#include <memory>
 #include <string>
 
 namespace py = pybind11;
@@ -105,10 +107,17 @@ std::vector<Coupling> couplings_from(const py::list& couplings) {
     return cp;
 }
 
-// A Python callable (or None) as the integrators' progress callback, taking the GIL.
+// A Python callable (or None) as the integrators' progress callback, taking the GIL, called
+// at most every 0.1 s of wall time: a progress bar needs no more, and a call with the GIL
+// costs about 1 us, which every output time paid (the callers report the end themselves).
 ProgressFn progress_callback(py::object progress) {
     if (progress.is_none()) return {};
-    return [progress](double t) {
+    using clock = std::chrono::steady_clock;
+    auto last = std::make_shared<clock::time_point>(clock::now());
+    return [progress, last](double t) {
+        const clock::time_point now = clock::now();
+        if (now - *last < std::chrono::milliseconds(100)) return;
+        *last = now;
         py::gil_scoped_acquire gil;
         progress(t);
     };

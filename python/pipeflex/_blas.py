@@ -1,11 +1,19 @@
-"""One BLAS thread for small problems.
+"""One BLAS thread per process, set once.
 
 The analyses factorise and solve many small dense matrices (tens to hundreds of
-coordinates). A threaded BLAS splits each call over its threads, whose start-up and
-spin-waits cost more than the arithmetic: with OpenBLAS's two threads the steady rotation
-of the sprinkler took 70-110 ms on a busy 2-core machine, and 21-25 ms with one
-(docs/performance.md). Public analyses of models below SMALL_MODEL coordinates therefore
-run with one BLAS thread; larger ones keep the user's setting.
+coordinates) and run ARPACK on Krylov vectors of a few thousand entries. A threaded BLAS
+splits each call over its threads, whose start-up and spin-waits cost more than the
+arithmetic: with OpenBLAS's two threads the steady rotation of the sprinkler took
+70-110 ms on a busy 2-core machine, and 21-25 ms with one; ARPACK ran twice as slow
+(docs/performance.md). Large models gain nothing from more threads either (the sparse
+and band factorisations call no threaded BLAS).
+
+So the first public analysis of a process pins BLAS to one thread for the rest of the
+process (:func:`pin`), and nothing changes it back. The thread count is process-global:
+saving and restoring it around each call raced between threads (one thread's restore
+let another's BLAS run threaded, whose results then varied in the last bits from run to
+run). A user who sets the count (``OPENBLAS_NUM_THREADS``, ``OMP_NUM_THREADS``, ... in
+the environment) keeps it.
 
 Where the process's only threaded BLAS is OpenBLAS (found in /proc/self/maps on Linux),
 its own ``openblas_set_num_threads`` sets the count: threadpoolctl's import and scan of
@@ -14,14 +22,16 @@ Elsewhere threadpoolctl does it; without threadpoolctl nothing changes.
 """
 from __future__ import annotations
 
-import contextlib
 import ctypes
 import functools
 import os
 import sys
+import threading
+from typing import Optional
 
-#: models with fewer reduced coordinates than this run their analyses on one BLAS thread
-SMALL_MODEL = 500
+#: environment variables by which a user sets the BLAS thread count (pipeflex then keeps it)
+USER_SETTINGS = ("OPENBLAS_NUM_THREADS", "GOTO_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS",
+                 "BLIS_NUM_THREADS", "VECLIB_MAXIMUM_THREADS")
 
 # threaded BLAS libraries other than OpenBLAS (their names in the process's mappings)
 _OTHER_BLAS = ("mkl", "blis", "flexiblas", "accelerate")
@@ -30,8 +40,12 @@ _OTHER_BLAS = ("mkl", "blis", "flexiblas", "accelerate")
 _PREFIXES = ("openblas_", "scipy_openblas_")
 _SUFFIXES = ("", "64_")
 
+_lock = threading.Lock()
 _controller = None
-_openblas = None  # (len(sys.modules) when looked, [(get, set) of each OpenBLAS] or None: threadpoolctl's task)
+_openblas = None  # (len(sys.modules) when looked, [(path, get, set) of each OpenBLAS] or None: threadpoolctl's)
+_looked = -1  # len(sys.modules) when pin last looked for libraries (a library comes with a module)
+_pinned = set()  # the paths of the OpenBLAS libraries set to one thread ("threadpoolctl": all by it)
+_forced = False  # pinned by a sweep's worker: also over a user's setting
 
 
 def _get_controller():
@@ -60,7 +74,7 @@ def _thread_functions(path):
 
 
 def _find_openblas():
-    """[(get, set)] of each OpenBLAS mapped into this process, or None where only
+    """[(path, get, set)] of each OpenBLAS mapped into this process, or None where only
     threadpoolctl can tell (no /proc/self/maps, another threaded BLAS, an unknown build)."""
     try:
         with open("/proc/self/maps") as maps:
@@ -80,7 +94,7 @@ def _find_openblas():
                 return None
             if functions is None:
                 return None
-            found.append(functions)
+            found.append((path,) + functions)
     return found or None
 
 
@@ -93,68 +107,43 @@ def _openblas_functions():
     return _openblas[1]
 
 
-@contextlib.contextmanager
-def _openblas_one_thread(functions):
-    before = [get() for get, _ in functions]
-    try:
-        for (_, put), n in zip(functions, before):
-            if n != 1:
-                put(1)
-        yield
-    finally:
-        for (_, put), n in zip(functions, before):
-            if n != 1:
-                put(n)
+def user_setting() -> Optional[str]:
+    """The environment variable by which the user set the BLAS thread count, or None."""
+    return next((name for name in USER_SETTINGS if os.environ.get(name, "").strip()), None)
 
 
-def _size(obj):
-    for get in (lambda o: o.n_dofs, lambda o: o.K.shape[0], lambda o: o.model.n_dofs):
-        try:
-            return int(get(obj))
-        except (AttributeError, TypeError, IndexError):
-            continue
-    return None
-
-
-def limited(size):
-    """A context in which BLAS runs on one thread if ``size`` (coordinates) is small."""
-    if size is None or size >= SMALL_MODEL:
-        return contextlib.nullcontext()
-    return one_thread()
-
-
-def one_thread():
-    """A context in which BLAS runs on one thread, e.g. around ARPACK: its level-2 BLAS
-    on Krylov vectors of a few thousand entries took twice as long on two threads
-    (shift-invert Arnoldi of a 1024-element pipe's block: 54 against 27 ms), and no
-    slower up to 8192 elements."""
-    functions = _openblas_functions()
-    if functions:
-        return _openblas_one_thread(functions)
-    controller = _get_controller()
-    if not controller:
-        return contextlib.nullcontext()
-    return controller.limit(limits=1, user_api="blas")
-
-
-def pin_one_thread() -> None:
-    """BLAS on one thread in this process from now on (a sweep's worker: one per core), by
-    OpenBLAS's own call where it can, else threadpoolctl; nothing without either."""
-    functions = _openblas_functions()
-    if functions:
-        for _, put in functions:
-            put(1)
+def pin(*, force: bool = False) -> None:
+    """BLAS on one thread in this process from now on, unless the user set the thread
+    count in the environment (:func:`user_setting`) and ``force`` is False (``force``: a
+    sweep's worker process, one per core). Cheap after the first call: the libraries are
+    looked for again only when modules were imported since (scipy, loaded on first use,
+    may bring its own OpenBLAS), and each is set once, never restored."""
+    global _looked, _forced
+    if _looked == len(sys.modules) and (_forced or not force):
         return
-    controller = _get_controller()
-    if controller:
-        controller.limit(limits=1, user_api="blas")
+    with _lock:
+        _forced = _forced or force
+        if not _forced and user_setting():
+            _looked = len(sys.modules)
+            return
+        functions = _openblas_functions()
+        if functions:
+            for path, _, put in functions:
+                if path not in _pinned:  # once: a count the user sets later stays
+                    put(1)
+                    _pinned.add(path)
+        elif "threadpoolctl" not in _pinned:
+            controller = _get_controller()
+            if controller:
+                controller.limit(limits=1, user_api="blas")
+                _pinned.add("threadpoolctl")
+        _looked = len(sys.modules)
 
 
-def small_problems_single_threaded(func):
-    """Decorator of a public analysis whose first argument is a model (or a result with
-    ``K``): one BLAS thread below SMALL_MODEL coordinates."""
+def pinned(func):
+    """Decorator of a public analysis: :func:`pin` before it runs."""
     @functools.wraps(func)
     def wrapper(*args, **kwargs):
-        with limited(_size(args[0]) if args else None):
-            return func(*args, **kwargs)
+        pin()
+        return func(*args, **kwargs)
     return wrapper

@@ -149,6 +149,37 @@ def output_count(name: str, value, n_nodes: int) -> int:
     return n
 
 
+def flow_map_bytes(n_steps: float, n_dofs: int) -> float:
+    """About the memory [bytes] one generalised-alpha flow map with its tangent keeps:
+    the trajectory (n_dofs doubles per step) and each step's linearisation, dense K and C
+    below ``_core.DENSE_LU_BELOW`` coordinates (16 n^2 bytes per step), else sparse (about
+    720 n bytes per step for a chain of elements; measured)."""
+    from . import _core
+
+    n = float(n_dofs)
+    tangent = 16.0 * n * n if n_dofs < _core.DENSE_LU_BELOW else 720.0 * n
+    return float(n_steps) * (8.0 * n + tangent) + 8.0 * n
+
+
+def flow_map_steps(name: str, value, n_dofs: int) -> int:
+    """A positive number of flow-map (shooting) steps per period whose trajectory and
+    tangent (:func:`flow_map_bytes`) fit in the core's ``MAX_OUTPUT_BYTES``; checked
+    before the run (beyond it the core fails with a bare ``std::bad_alloc``)."""
+    from . import _core
+
+    n = positive_int(name, value)
+    size = flow_map_bytes(n, n_dofs)
+    if size > _core.MAX_OUTPUT_BYTES:
+        most = int((_core.MAX_OUTPUT_BYTES - flow_map_bytes(0, n_dofs)) // (flow_map_bytes(1, n_dofs)
+                                                                            - flow_map_bytes(0, n_dofs)))
+        raise ValueError(f"{name} = {n} steps per period of {n_dofs} coordinates would keep about "
+                         f"{size / 2**30:.6g} GiB in memory (the trajectory and each step's linearisation, for "
+                         f"the Newton iteration and the multipliers); at most {_core.MAX_OUTPUT_BYTES / 2**30:g} GiB, "
+                         f"i.e. {name} <= {most} here: use fewer steps (a few hundred per period resolve a "
+                         f"smooth cycle)")
+    return n
+
+
 def rho_inf_with_multipliers(value) -> float:
     """rho_inf of generalised-alpha for equations with multipliers (index 3): in [0, 1)."""
     rho = non_negative("rho_inf", value)

@@ -29,6 +29,40 @@ def _parser() -> argparse.ArgumentParser:
     return parser
 
 
+def _folder_problem(folder: Path):
+    """None if ``folder`` exists or can be made and takes a new file, else why not. The
+    folder is made if missing (the run would make it)."""
+    import tempfile
+
+    try:
+        if folder.exists() and not folder.is_dir():
+            return f"{folder} is a file, not a folder"
+        folder.mkdir(parents=True, exist_ok=True)
+        with tempfile.TemporaryFile(dir=folder):
+            pass
+    except OSError as exc:
+        return f"cannot write in the folder {folder} ({exc.strerror or exc})"
+    return None
+
+
+def _output_problem(path: Path, option: str, *, folder: bool):
+    """None if the run can write its output ``path`` (a folder, or a file whose folder is
+    made if missing; an existing file is left as it is), else a message naming ``option``."""
+    if folder:
+        why = _folder_problem(path)
+    elif path.is_dir():
+        why = f"{path} is a folder; give a file path, e.g. {path / 'validation.json'}"
+    else:
+        why = _folder_problem(path.parent)
+        if why is None and path.exists():
+            try:
+                with open(path, "r+b"):  # opened for writing, not truncated
+                    pass
+            except OSError as exc:
+                why = f"cannot write the file {path} ({exc.strerror or exc})"
+    return None if why is None else f"{option} {path}: {why} (checked before the run; give a writable path)"
+
+
 def main(argv=None) -> int:
     parser = _parser()
     args = parser.parse_args(argv)
@@ -44,6 +78,12 @@ def main(argv=None) -> int:
         unknown = [g for g in args.only if g not in validate.GROUPS]
         if unknown:
             parser.error(f"unknown validation group {', '.join(unknown)} (pipeflex validate --list shows them)")
+    # the run takes minutes: refuse an output it could not write before it, not after
+    problem = _output_problem(args.json, "--json", folder=False) if args.json else None
+    if problem is None and not args.no_figures:
+        problem = _output_problem(args.out, "--out", folder=True)
+    if problem:
+        parser.error(problem)
     rows = validate.run(args.only)
     print(validate.format_rows(rows))
     if args.json:

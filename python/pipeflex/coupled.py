@@ -409,6 +409,7 @@ def simulate(system: CoupledSystem, t_end: float, *, step: float, n_outputs: int
         out = _core.integrate_coupled(model.core, st, model.load_state(), flow, loads, bodies.core, bs.r, bs.R,
                                       bs.eta, bs.v, system.core_couplings(), times, opt,
                                       None if bar.mode == "off" else bar.update)
+        bar.update(t1)  # the core reports at most every 0.1 s, not the end
     wall = _time.perf_counter() - wall
     stats = {k: int(out.pop(k)) for k in ("steps", "newton_iterations", "jacobians", "rebases", "failed_steps",
                                                "convergence_failures")}

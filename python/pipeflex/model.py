@@ -19,7 +19,7 @@ import numpy as np
 
 from . import _checks, _core
 from .rotation import skew
-from .sections import PipeSection, refuse_unsupported
+from .sections import PipeSection, refuse_unsupported, require_section
 
 COMPONENTS = ("ux", "uy", "uz", "rx", "ry", "rz")
 ANCF_COMPONENTS = ("ux", "uy", "uz", "dx", "dy", "dz")  # position, slope dr/dx
@@ -195,8 +195,7 @@ class ModelBuilder:
         """
         if elastic not in ELASTIC_MODELS:
             raise ValueError(f"elastic must be one of {ELASTIC_MODELS}, got {elastic!r}")
-        if not isinstance(section, PipeSection):
-            raise ValueError("section must be a pipeflex.PipeSection")
+        section = require_section(section)
         if section.fluid_mass != 0.0:
             raise ValueError("ANCF beams carry no fluid: section.fluid_mass must be 0")
         refuse_unsupported(section, {"kv": "the ANCF beam carries no fluid",
@@ -304,8 +303,7 @@ class ModelBuilder:
             ancf = [i for i in np.column_stack((p, q)).ravel().tolist() if i in self._ancf_nodes]
             if ancf:
                 raise ValueError(f"node {ancf[0]} is an ANCF node; pipe elements need frame nodes (add_node)")
-        if not isinstance(section, PipeSection):
-            raise ValueError("section must be a pipeflex.PipeSection")
+        section = require_section(section)
         x = self._positions
         chords = np.array([x[i] for i in q.tolist()]) - np.array([x[i] for i in p.tolist()])
         lc = _checks.row_norms(chords)
@@ -473,9 +471,25 @@ class ModelBuilder:
                                 ff=f if follower else z, fm=m if follower else z))
 
     def add_point_mass(self, node: int, mass: float, inertia: Sequence[float] = (0.0, 0.0, 0.0)) -> None:
-        """Concentrated mass [kg] and principal rotary inertia [kg m^2] (node frame)."""
+        """Concentrated mass [kg] and principal rotary inertia [kg m^2] (node frame).
+
+        Args:
+            node: the node [-].
+            mass: m [kg] >= 0.
+            inertia: (I_x, I_y, I_z) [kg m^2] >= 0, the principal moments of inertia about
+                the node frame's axes (three numbers, not a 3 x 3 tensor).
+        """
         node = self._node("node", node)
-        self._masses.append(dict(node=node, mass=_checks.non_negative("mass", mass),
+        mass = _checks.non_negative("mass", mass)
+        try:
+            shape = np.shape(inertia) if not isinstance(inertia, (str, bytes)) else ()
+        except ValueError:  # ragged
+            shape = ()
+        if shape != (3,):  # else the core's binding refuses it as 'incompatible function arguments'
+            raise ValueError(f"inertia must be 3 principal moments (I_x, I_y, I_z) [kg m^2] about the node frame's "
+                             f"axes, got {inertia!r}" + (" (a 3 x 3 tensor: pass its diagonal in the principal axes)"
+                                                         if shape == (3, 3) else ""))
+        self._masses.append(dict(node=node, mass=mass,
                                  inertia=np.array([_checks.non_negative(f"inertia[{i}]", x)
                                                    for i, x in enumerate(inertia)])))
 

@@ -17,6 +17,8 @@ import dataclasses
 import importlib
 import json
 import os
+import zipfile
+import zlib
 from pathlib import Path
 from typing import Any, Dict, Optional, Tuple, Union
 
@@ -77,28 +79,61 @@ class Result:
 
     @classmethod
     def load(cls, path: Union[str, Path]):
-        """Read a result written by :meth:`save` (of this class or a subclass)."""
+        """Read a result written by :meth:`save` (of this class or a subclass).
+
+        Raises:
+            FileNotFoundError: no file ``path`` (nor ``path`` + ``.npz``).
+            ValueError: the file is not a pipeflex result file or is damaged (truncated,
+                garbled, not an ``.npz`` archive); the message names the file.
+            TypeError: the file holds a result of another class.
+        """
         path = Path(path)
         if not path.exists() and path.suffix != ".npz" and path.with_name(path.name + ".npz").exists():
             path = path.with_name(path.name + ".npz")
-        with np.load(path, allow_pickle=False) as f:
-            if _META not in f.files:
-                obj = cls._load_legacy(f)
-            else:
-                meta = json.loads(str(f[_META][()]))
-                if meta.get("format") != FORMAT:
-                    raise ValueError(f"{path}: unknown result file format {meta.get('format')!r}")
-                try:
-                    obj = _decode(meta["root"], f)
-                except ValueError as exc:
-                    raise ValueError(f"{path}: {exc}") from None
+        try:
+            f = np.load(path, allow_pickle=False)
+        except _DAMAGED as exc:  # numpy says "pickled data" of any file that is not .npy/.npz
+            raise _damaged(path, "not an .npz archive" if isinstance(exc, ValueError) else exc) from None
+        if not isinstance(f, np.lib.npyio.NpzFile):
+            raise _damaged(path, "a single .npy array, not an .npz archive")
+        with f:
+            try:
+                obj = cls._read(f)
+            except _DAMAGED as exc:
+                raise _damaged(path, exc) from exc
         if not isinstance(obj, cls):
             raise TypeError(f"{path} holds a {type(obj).__name__}, not a {cls.__name__}")
         return obj
 
     @classmethod
+    def _read(cls, f):
+        if _META not in f.files:
+            return cls._load_legacy(f)
+        meta = json.loads(str(f[_META][()]))
+        if not isinstance(meta, dict) or "root" not in meta:
+            raise ValueError(f"its {_META!r} entry is not a result description")
+        if meta.get("format") != FORMAT:
+            raise ValueError(f"unknown result file format {meta.get('format')!r}")
+        return _decode(meta["root"], f)
+
+    @classmethod
     def _load_legacy(cls, f):
-        raise ValueError(f"not a pipeflex result file (no {_META!r} entry)")
+        raise ValueError(f"no {_META!r} entry")
+
+
+# what reading a damaged or foreign file raises: zip, deflate, JSON (a ValueError) and
+# numpy errors, and a missing entry (KeyError)
+_DAMAGED = (zipfile.BadZipFile, zlib.error, EOFError, ValueError, KeyError)
+
+
+def _damaged(path: Path, why) -> ValueError:
+    if isinstance(why, KeyError):
+        why = f"missing entry: {why.args[0] if why.args else why}"
+    why = str(why)
+    if len(why) > 200:  # zipfile quotes garbled headers in full
+        why = why[:200] + " ..."
+    return ValueError(f"{path}: not a pipeflex result file, or a damaged one ({why}); a result file is the "
+                      ".npz archive Result.save writes: save the result again, or re-run its analysis")
 
 
 def _plain(x):

@@ -81,9 +81,11 @@ class PipeSection:
             raise ValueError(f"kv must be in (0, {KV_MAX:g}] (momentum-flux factor: 1 plug flow, 4/3 laminar), "
                              f"got {kv:g}")
         object.__setattr__(self, "kv", kv)
+        if isinstance(self.rotary_inertia, (str, bytes)) or not hasattr(self.rotary_inertia, "__len__") \
+                or len(self.rotary_inertia) != 3:
+            raise ValueError(f"rotary_inertia must be 3 numbers (rho I_p, rho I_y, rho I_z) [kg m] about local x, y, "
+                             f"z, got {self.rotary_inertia!r} (leave it out for none: (0, 0, 0))")
         ri = tuple(ok.non_negative(f"rotary_inertia[{i}]", x) for i, x in enumerate(self.rotary_inertia))
-        if len(ri) != 3:
-            raise ValueError("rotary_inertia must have 3 entries (about local x, y, z) [kg m]")
         object.__setattr__(self, "rotary_inertia", ri)
 
     @classmethod
@@ -105,7 +107,8 @@ class PipeSection:
                 accumulates, eps_7 = 0) the enclosed fluid resists the Poisson change of
                 the bore, which stiffens the pipe axially to
                 EA / (1 - (1 - 2 nu)^2 / (5 - 4 nu + 2 E t / (K r))),
-                nu = E/(2G) - 1, t the wall thickness, r the mean radius.
+                nu = E/(2G) - 1, t the wall thickness, r the mean radius; this needs an
+                isotropic wall, -1 < nu <= 0.5 (else ValueError naming Poisson's ratio).
 
         Warns:
             UnitWarning: a value far outside its plausible SI range, as a unit slip
@@ -145,6 +148,16 @@ class PipeSection:
                    rotary_inertia=(2 * rho * I, rho * I, rho * I) if rotary_inertia else (0.0, 0.0, 0.0))
 
 
+def require_section(section, name: str = "section") -> PipeSection:
+    """``section`` itself if it is a :class:`PipeSection`, else a TypeError naming
+    ``name``, the type given and the remedy (a dict of fields: ``PipeSection(**d)``)."""
+    if isinstance(section, PipeSection):
+        return section
+    hint = (f"make one from the dict: pipeflex.PipeSection(**{name})" if isinstance(section, dict)
+            else "e.g. pipeflex.PipeSection(EI=..., pipe_mass=...) or pipeflex.PipeSection.tube(...)")
+    raise TypeError(f"{name} must be a pipeflex.PipeSection, got {type(section).__name__} ({hint})")
+
+
 def refuse_unsupported(section: PipeSection, reasons: Dict[str, str], where: str) -> None:
     """Raise ValueError naming every field in ``reasons`` that ``section`` sets to other
     than its default (``GAy``/``GAz`` None, ``kv`` 1, ``rotary_inertia`` zero, ``GJ``
@@ -170,6 +183,12 @@ def pressure_coupling_factor(*, E: float, G: float, wall: float, radius: float, 
         bulk_modulus: K [Pa] of the fluid.
     """
     nu = E / (2.0 * G) - 1.0
+    # an isotropic wall has -1 < nu <= 0.5; outside, 1 - c^2/d may vanish or change sign
+    # (EA <= 0 or infinite) although the user gave no EA
+    if not -1.0 < nu <= 0.5:
+        raise ValueError(f"Poisson's ratio nu = E / (2 G) - 1 = {nu:.6g} (E = {E:g} Pa, G = {G:g} Pa) must be in "
+                         f"(-1, 0.5] for the fluid pressure coupling of fluid_bulk_modulus (an isotropic wall): "
+                         f"check E and G (G = E / (2 (1 + nu)), steel: E = 2.1e11 Pa, G = 8.1e10 Pa)")
     c = 1.0 - 2.0 * nu
     d = 5.0 - 4.0 * nu + 2.0 * E * wall / (bulk_modulus * radius)
     return 1.0 / (1.0 - c * c / d)

@@ -12,6 +12,9 @@ from typing import Any, Callable, Optional
 
 import numpy as np
 
+#: A failed step shorter than this many ulps of the path's largest |t| stops the path.
+RESOLUTION = 64
+
 #: How a failed step is halved (see :func:`follow`).
 HALVINGS = ("step", "interval")
 
@@ -57,14 +60,20 @@ def follow(solve: Callable[[Any, float], tuple], state, *, start: float, end: fl
       resumes (its step is the schedule's again).
 
     It stops short after more than ``max_failures`` failed solves, or (``min_step``) when a
-    failed step, |target - t|, is below ``min_step`` (either way along the path).
+    failed step, |target - t|, is below ``min_step`` or below the resolution of t itself
+    (RESOLUTION ulps of the path's largest |t|: a smaller step would not move t, and the
+    halving would go on without end whatever ``max_failures``), either way along the path.
     """
     if halving not in HALVINGS:
         raise ValueError(f"halving must be one of {HALVINGS}, got {halving!r}")
     if halving == "step" and not start < end:
         raise ValueError(f"halving='step' needs start < end, got start = {start!r}, end = {end!r}")
     way = Continuation(state, start)
+    floor = max(min_step or 0.0, RESOLUTION * np.spacing(max(abs(start), abs(end))))
     h = (end - start) / steps
+    if halving == "step" and h < floor:  # t + h would not move t: the loop would never end
+        raise ValueError(f"steps = {steps} over [{start:g}, {end:g}]: a step of {h:.3g} is below the resolution "
+                         f"{floor:.3g} of the parameter; use fewer steps")
     pending = list(np.linspace(start, end, steps + 1)[1:]) if halving == "interval" else None
     last = end - 1e-14 * (end - start)
     while (bool(pending) if pending is not None else way.t < last):
@@ -84,7 +93,7 @@ def follow(solve: Callable[[Any, float], tuple], state, *, start: float, end: fl
         if way.failures > max_failures:
             way.stop = "failures"
             return way
-        if min_step is not None and abs(target - way.t) < min_step:
+        if abs(target - way.t) < floor:
             way.stop = "min_step"
             return way
         if pending is not None:

@@ -203,7 +203,7 @@ def follow(model, state, t0, *, at, newton, size, tol, max_iterations, max_steps
         nxt, why = step(here, ds)
         if nxt is None:
             ds /= 2
-            if ds < ds_min:
+            if not ds >= ds_min or ds == 0.0:  # (ds_min itself may underflow to 0)
                 out.why = f"the arc-length step fell below {ds_min:.3g} at t = {here.t:.6g}: {why}"
                 return out
             continue

@@ -31,7 +31,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from .. import _checks
-from .._blas import small_problems_single_threaded
+from .._blas import pinned as blas_pinned
 from ..results import Result
 from ..state import State
 from .eigen import GROWTH_TOL, eigenvalues
@@ -132,7 +132,7 @@ class Campbell(Result):
                           {"linearization": self.linearization})
 
 
-@small_problems_single_threaded
+@blas_pinned
 def campbell(model, *, gamma: Optional[Sequence[float]] = None, omega: Optional[Sequence[float]] = None,
              n_modes: int = 6, linearization: Optional[str] = None, harmonics: Sequence[int] = (1, 2, 3),
              executor="serial", client=None, workers: Optional[int] = None) -> Campbell:

@@ -55,7 +55,7 @@ from .._lazy import loaded_instance
 from .linearize import linearize
 from ._roots import brentq
 from .static import static_equilibrium
-from .._blas import small_problems_single_threaded
+from .._blas import pinned as blas_pinned
 from .._progress import logger
 
 #: Eigenvalues per block (nearest 0) in the scan of a large model (sparse path).
@@ -63,6 +63,30 @@ SCAN_MODES = 16
 
 #: Halvings of a scan step allowed to the static flow continuation (down to 1/64 of it).
 FLOW_BISECTIONS = 6
+
+#: A crossing below this many flow units (:meth:`Model.flow_scale`) is at zero flow: the
+#: equilibrium is only marginally stable without flow (:func:`_check_not_at_zero`). It is
+#: also the absolute floor of the bisection's tolerance (1e-3 relative alone underflows
+#: as the bracket shrinks towards 0).
+AT_ZERO_FLOW = 1e-6
+
+#: Halvings of the bisection at most: from a scan step (at most one flow unit) down to
+#: AT_ZERO_FLOW take about 20.
+MAX_BISECTIONS = 64
+
+#: Scan points (eigen-analyses) at most (the default bracket takes 20 steps_per_unit).
+MAX_SCAN_POINTS = 10_000
+
+#: The stored matrices' own rounding moves an eigenvalue by up to this fraction of its
+#: double round-off level eigen_noise (measured 2-9 % on copies of the cantilever's block
+#: with each entry rounded once more, docs/performance.md, "Critical flow at 8192
+#: elements"; ~20 % at 10 000 elements, whose flow is 0.57 % low).
+ROUNDOFF_SHIFT = 0.2
+
+#: A flutter flow whose round-off estimate (:attr:`CriticalFlow.roundoff`) exceeds this
+#: fraction of it is returned with a warning: round-off, not the discretisation, limits
+#: it (the cantilever: from about 6000 elements on; 2e-5 at 2048).
+ROUNDOFF_LIMIT = 1e-3
 
 #: Large models: the followed eigenvalue's Newton refinement is trusted within this
 #: fraction of |lambda| of its prediction (the eigenvalues of a pipe's lowest modes lie
@@ -82,6 +106,9 @@ class CriticalFlow(Result):
         eigenvalue: lambda [1/s] the critical eigenvalue (Re ~ 0).
         mode: (n_dofs,) critical mode shape [-] (complex, reduced coordinates, largest entry 1).
         evaluations: number of eigen-analyses used.
+        roundoff: [kg/s] estimated error of ``mass_flow`` from the round-off of the stored
+            matrices (flutter: :func:`_roundoff_estimate`; 0 for divergence); above
+            ROUNDOFF_LIMIT relative, critical_mass_flow warns (a RuntimeWarning).
     """
 
     mass_flow: float
@@ -90,6 +117,7 @@ class CriticalFlow(Result):
     eigenvalue: complex
     mode: np.ndarray
     evaluations: int
+    roundoff: float = 0.0
 
 
 class _Evaluator:
@@ -162,7 +190,7 @@ class _Evaluator:
         return (eig if vectors else replace(eig, vectors=None)), st
 
 
-@small_problems_single_threaded
+@blas_pinned
 @renamed(rtol="tol")
 def critical_mass_flow(model, *, tol: float = 1e-10, mass_flow_max: Optional[float] = None,
                        steps_per_unit: int = 4, state=None) -> CriticalFlow:
@@ -177,7 +205,8 @@ def critical_mass_flow(model, *, tol: float = 1e-10, mass_flow_max: Optional[flo
         tol: relative tolerance on the critical mass flow [-] (``rtol=`` is its
             deprecated name; ``tol`` as in the static solvers, ``rtol`` is IDA's).
         mass_flow_max: mdot [kg/s] up to which to search (default 20 flow units).
-        steps_per_unit: scan points per flow unit (:meth:`Model.flow_scale`).
+        steps_per_unit: scan points per flow unit (:meth:`Model.flow_scale`); the scan
+            stops after :data:`MAX_SCAN_POINTS` points.
         state: starting guess for the static solves (of a CoupledSystem: a
             :class:`~pipeflex.coupled.CoupledStatic`).
 
@@ -188,11 +217,19 @@ def critical_mass_flow(model, *, tol: float = 1e-10, mass_flow_max: Optional[flo
     to about the static solver's tolerance (~1e-9 relative); ``eigenvalue`` is 0 and
     ``mode`` the stiffness null vector at the last equilibrium before the fold.
 
+    Round-off: a flutter flow carries the estimate ``roundoff`` [kg/s] of its error from
+    the stored matrices' rounding (it grows like N^3.5 with a beam's N elements: 2e-5
+    relative at 2048 elements of the cantilever, 3e-3 at 8192, 6e-3 at 10 000, where the
+    flow is 0.57 % low); above ROUNDOFF_LIMIT relative a RuntimeWarning gives it, the same
+    rule at every size.
+
     Raises:
         ValueError: bad options, or the model is unstable already without flow.
         ConvergenceError: no instability up to ``mass_flow_max`` (``mass_flow`` is that
-            end of the bracket), or a static solve failed at a trial flow even with the
-            flow continuation, and not at a fold (``mass_flow`` is that flow; the static
+            end of the bracket) or within MAX_SCAN_POINTS scan points (``mass_flow``: the
+            last stable flow), or an instability from the first flow on (a crossing below
+            AT_ZERO_FLOW flow units: the equilibrium is only marginally stable), or a
+            static solve failed at a trial flow even with the flow continuation, and not at a fold (``mass_flow`` is that flow; the static
             solver's error is chained), or the crossing could
             not be located (``mass_flow``: the lowest unstable flow found).
     """
@@ -218,7 +255,15 @@ def critical_mass_flow(model, *, tol: float = 1e-10, mass_flow_max: Optional[flo
     eig0 = eig_lo = eig
     h = unit / steps
     lo, hi = 0.0, None
+    points = 0
     while hi is None:
+        points += 1
+        if points > MAX_SCAN_POINTS:  # each point is an eigen-analysis
+            raise ConvergenceError(
+                f"no instability found up to {lo:.6g} kg/s in MAX_SCAN_POINTS = {MAX_SCAN_POINTS} scan points of "
+                f"{h:.3g} kg/s (the flow unit {unit:.6g} kg/s / steps_per_unit = {steps}); mass_flow_max = "
+                f"{mmax:.6g} kg/s would take {mmax / h:.3g}: lower mass_flow_max or steps_per_unit",
+                mass_flow=lo)
         m = min(lo + h, mmax)
         try:
             eig, st = ev(m)
@@ -253,7 +298,12 @@ def critical_mass_flow(model, *, tol: float = 1e-10, mass_flow_max: Optional[flo
             return _result(ev, mc, "flutter", crossing=crossing)
         except (ValueError, ConvergenceError):
             pass  # tracking lost: fall back to bisection on full eigen-analyses
-    while hi - lo > 1e-3 * hi:
+    # to 1e-3 relative, but not below AT_ZERO_FLOW: towards a crossing at zero flow the
+    # relative width alone never shrinks (1e-3 hi underflows with hi; the midpoint rounds to 0)
+    floor = AT_ZERO_FLOW * unit
+    for _ in range(MAX_BISECTIONS):
+        if hi - lo <= max(1e-3 * hi, floor):
+            break
         mid = 0.5 * (lo + hi)
         eig, st = ev(mid)
         if classify(eig) != "stable":
@@ -262,6 +312,12 @@ def critical_mass_flow(model, *, tol: float = 1e-10, mass_flow_max: Optional[flo
             lo, eig_lo = mid, eig
             ev.accept(mid, st)
         logger.debug("critical_mass_flow: bisection bracket [%.8g, %.8g] kg/s", lo, hi)
+    else:
+        raise ConvergenceError(f"critical_mass_flow: the bisection did not narrow the bracket [{lo:.6g}, {hi:.6g}] "
+                               f"kg/s to 1e-3 relative (or {floor:.3g} kg/s) in MAX_BISECTIONS = {MAX_BISECTIONS} "
+                               "halvings", mass_flow=hi)
+    if hi <= floor:  # unstable down to zero flow, to the floor: no critical flow (raises)
+        _check_not_at_zero(hi, unit, hi, eig_hi, ev.model)
     kind, crossing = classify(eig_hi), None
 
     if kind == "flutter":
@@ -300,10 +356,14 @@ def critical_mass_flow(model, *, tol: float = 1e-10, mass_flow_max: Optional[flo
                 # is within its round-off bound, so a flow just past the crossing may have been
                 # called stable: widen the bracket downward until the stiffness changes sign.
                 k_hi, a = kmin(hi), lo
-                while np.sign(kmin(a)) == np.sign(k_hi):
+                for _ in range(MAX_BISECTIONS):  # the width doubles: 0 is reached long before
+                    if np.sign(kmin(a)) != np.sign(k_hi):
+                        break
                     if a <= 0.0:
                         raise
-                    a = max(0.0, hi - 2.0 * (hi - a))
+                    a = max(0.0, hi - 2.0 * max(hi - a, floor))
+                else:
+                    raise
                 mc = brentq(kmin, a, hi, xtol=xtol, rtol=4 * np.finfo(float).eps)
         except ValueError:
             raise ConvergenceError(f"divergence between {lo:.6g} and {hi:.6g} kg/s, but no stiffness eigenvalue "
@@ -410,7 +470,7 @@ def _check_not_at_zero(mc, unit, hi, eig_hi, model):
     marginally stable without flow and the first flow destabilises it (e.g. a weakly
     growing mode of a loaded floating-frame body, docs/theory.md). Say so instead of
     returning ~0 kg/s."""
-    if mc <= 1e-6 * unit:
+    if mc <= AT_ZERO_FLOW * unit:
         lam = eig_hi.values
         worst = lam[np.argmax(lam.real)]
         raise ConvergenceError(
@@ -634,11 +694,16 @@ def _track_root(ev, lo, hi, eig_hi, xtol, eig_lo=None):
         # The scan called lo stable by Arnoldi's eigenvalues in double, whose level grows
         # like N^4 (0.2-0.3 1/s at 8192 elements, ~0.5 kg/s of flow here): refined, the
         # crossing eigenvalue may already grow there. Step lo down by the bracket's width.
+        # (after 4 steps the step doubles: a bounded count whatever the width)
         width = hi - lo
-        while f(lo) > 0.0:
+        for k in range(MAX_BISECTIONS):
+            if not f(lo) > 0.0:
+                break
             if lo <= 0.0:
                 raise ValueError("the crossing eigenvalue grows down to zero flow")
-            lo = max(0.0, lo - width)
+            lo = max(0.0, lo - width * 2.0 ** max(0, k - 3))
+        else:
+            raise ValueError(f"the crossing eigenvalue still grows at {lo:.6g} kg/s after {MAX_BISECTIONS} steps down")
     rtol = 4 * np.finfo(float).eps
     mc = brentq(f, lo, hi, xtol=xtol, rtol=rtol)
     f(mc)  # (Brent returns a flow it evaluated: nothing is computed again)
@@ -712,6 +777,8 @@ def _result(ev, mc, kind, eig_c=None, crossing=None):
                                    f"to its resolution {bound:.2g} 1/s: the flow is not the crossing",
                                    mass_flow=mc)
         freq = abs(lam_c.imag)
+        roundoff = _roundoff_estimate(block, lam_c, x, crossing.slope)
+        _check_roundoff(mc, roundoff, ev.model.n_dofs)
     else:
         # null vector of the stiffness block through zero
         best = None
@@ -727,9 +794,31 @@ def _result(ev, mc, kind, eig_c=None, crossing=None):
             if best is None or ratio < best[0]:
                 best = (ratio, b, vec)
         _, block, x = best
-        lam_c, freq = 0j, 0.0
+        lam_c, freq, roundoff = 0j, 0.0, 0.0
     mode = np.zeros(ev.model.n_dofs, complex)
     mode[block.dofs] = x / x[np.argmax(np.abs(x))]
     logger.info("critical_mass_flow: %s at %.10g kg/s, omega = %.6g rad/s (%d eigen-analyses)", kind, mc, freq,
                 ev.count)
-    return CriticalFlow(float(mc), kind, float(freq), complex(lam_c), mode, ev.count)
+    return CriticalFlow(float(mc), kind, float(freq), complex(lam_c), mode, ev.count, float(roundoff))
+
+
+def _roundoff_estimate(block, lam, x, slope) -> float:
+    """Error [kg/s] of a flutter flow from the stored matrices' rounding: it moves the
+    crossing eigenvalue by about ROUNDOFF_SHIFT * eigen_noise (eps kappa |lambda| / sqrt(n),
+    kappa ~ N^4 for a beam of N elements; the refinement's compensated residual does not
+    remove it: it is the eigenvalue of the rounded matrices), and Re(lambda) moves with the
+    flow at ``slope`` = dRe(lambda)/dmdot [1/kg]. The same estimate at every size."""
+    noise = float(eigen_noise(block.K, block.C, block.M, lam, x)[0])
+    return ROUNDOFF_SHIFT * noise / max(abs(slope), 1e-300)
+
+
+def _check_roundoff(mc, roundoff, n_dofs):
+    """The one rule for a flow limited by round-off: above ROUNDOFF_LIMIT relative, warn
+    with the estimate (the same whatever the model's size)."""
+    if roundoff > ROUNDOFF_LIMIT * abs(mc):
+        warnings.warn(f"critical_mass_flow: the flutter flow {mc:.10g} kg/s is limited by round-off: at {n_dofs} "
+                      f"coordinates the stored matrices' rounding alone can move it by about {roundoff:.2g} kg/s "
+                      f"({roundoff / abs(mc):.1g} relative, above ROUNDOFF_LIMIT = {ROUNDOFF_LIMIT:g}; a beam's "
+                      "eigenvalue conditioning grows like N^4 with its N elements); use fewer elements "
+                      "(the discretisation error falls like N^-4)", RuntimeWarning,
+                      stacklevel=_checks._stacklevel_outside_package())

@@ -35,7 +35,7 @@ from scipy.sparse.csgraph import breadth_first_order, connected_components
 
 from .. import _checks
 from ..results import Result
-from .._blas import one_thread, small_problems_single_threaded
+from .._blas import pin as pin_blas, pinned as blas_pinned
 
 #: An eigenvalue counts as growing when Re(lambda) exceeds GROWTH_TOL * |lambda| and
 #: its round-off bound (see :func:`block_eigenvalues`).
@@ -490,7 +490,7 @@ def _generalized(K, C, M, vectors):
     return lam, noise, (V[:n, finite] if vectors else None)
 
 
-@small_problems_single_threaded
+@blas_pinned
 def eigenvalues(lin, *, vectors: bool = False, n_modes: Optional[int] = None,
                 sigma: Optional[complex] = None, method: str = "auto") -> EigenResult:
     """Finite eigenvalues lambda [1/s] of a :class:`~pipeflex.analysis.Linearization`.
@@ -699,8 +699,7 @@ def sparse_block_eigenvalues(b: Block, k: int, sigma: complex, *, vectors: bool 
     if scale is not None and scale > 0.0:
         tau = float(scale)
     else:
-        with one_thread():
-            tau = _velocity_scale(operator(1.0), v0, kk)
+        tau = _velocity_scale(operator(1.0), v0, kk)
     ops = _Operator(operator(tau), 2 * n, dtype)
     if guess is not None:
         lam_g, x_g = guess
@@ -710,8 +709,8 @@ def sparse_block_eigenvalues(b: Block, k: int, sigma: complex, *, vectors: bool 
     ncv = max(2 * kk + 1, 40)
     while True:  # a too small Krylov space can stall on undamped (+-i omega) spectra
         try:
-            with one_thread():
-                nu, Z = spla.eigs(ops, k=kk, which="LM", tol=0.0, v0=v0, ncv=min(2 * n - 1, ncv))
+            pin_blas()  # ARPACK's level-2 BLAS is twice as slow on two threads (docs/performance.md)
+            nu, Z = spla.eigs(ops, k=kk, which="LM", tol=0.0, v0=v0, ncv=min(2 * n - 1, ncv))
             break
         except spla.ArpackNoConvergence as e:
             if ncv >= 2 * n - 1 or ncv > 8 * kk + 100:

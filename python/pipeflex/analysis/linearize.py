@@ -11,7 +11,7 @@ from .._lazy import loaded_instance
 from ..results import Result
 from ..state import State, as_core
 from ._assembly import KCM, require_model, tangents
-from .._blas import small_problems_single_threaded
+from .._blas import pinned as blas_pinned
 
 
 @dataclass(frozen=True)
@@ -34,7 +34,7 @@ class Linearization(Result):
     dof_labels: Optional[tuple] = None
 
 
-@small_problems_single_threaded
+@blas_pinned
 def linearize(model, state=None, *, mass_flow: Optional[float] = None) -> Linearization:
     """Linearise the equations of motion about ``state`` (default: reference configuration).
 

@@ -38,7 +38,7 @@ from .. import _checks, _core
 from ..errors import ConvergenceError
 from ..results import Result
 from ..state import State, as_core
-from .._blas import small_problems_single_threaded
+from .._blas import pinned as blas_pinned
 from .._progress import logger
 from ._assembly import require_model
 
@@ -49,6 +49,21 @@ STEPS_PER_PERIOD = 512
 #: turn of a planar orbit of an axisymmetric pipe about its axis), which round-off puts
 #: on either side
 NEUTRAL = 1e-6
+#: a periodic orbit's amplitude (the largest half peak-to-peak excursion of a node
+#: coordinate) must exceed this fraction of the model's size (the largest extent of its
+#: node positions, at least 1 mm; orbit_guess's rule for an oscillation of round-off
+#: size) and the shooting's tolerance ``tol``: a smaller one is the equilibrium itself
+MIN_ORBIT_AMPLITUDE = 1e-9
+#: the multiplier of the shift along a periodic orbit is 1; the one closest to 1 must lie
+#: within this distance of it (the discrete flow map's: 1.3e-5 at 64 steps per period of
+#: the cantilever's flutter cycle (Meijaard & Hakvoort's Fig. 3), falling like h^2 to 8e-8 at 800; an equilibrium's
+#: multipliers are exp(lambda T), none of them 1)
+TRIVIAL_MULTIPLIER_TOL = 1e-3
+#: a period guess beyond this many times the model's slowest natural period (the
+#: linearisation's smallest |lambda| at the start) is refused when the shooting fails
+MAX_PERIOD_RATIO = 1e3
+#: orbit_guess integrates t_max / step steps at most this many
+MAX_GUESS_STEPS = 10**8
 #: the shooting's first monodromy comes from a flow map in this many times fewer steps
 #: (when that leaves at least MIN_COARSE_STEPS)
 COARSE = 8
@@ -376,7 +391,7 @@ def _flow_derivative(shooter, z0, v0, T, mdot, rel=1e-6):
     return (shooter.defect(hi, z0, v0) - shooter.defect(lo, z0, v0)) / (2 * d)
 
 
-@small_problems_single_threaded
+@blas_pinned
 def periodic_orbit(model, *, period: float, state=None, base=None, mass_flow: Optional[float] = None,
                    steps: int = STEPS_PER_PERIOD, tol: float = 1e-8, max_iterations: int = 20,
                    newton_tol: float = 1e-12, rho_inf: float = 0.9, multipliers: bool = True) -> PeriodicOrbit:
@@ -406,12 +421,20 @@ def periodic_orbit(model, *, period: float, state=None, base=None, mass_flow: Op
         :class:`PeriodicOrbit` with the orbit over one period, its amplitude and its
         Floquet multipliers.
 
+    A converged shooting is returned only if it is a periodic orbit: its amplitude above
+    MIN_ORBIT_AMPLITUDE of the model's size (and ``tol``) and, with multipliers, one
+    within TRIVIAL_MULTIPLIER_TOL of 1; else it is the equilibrium the start decays to.
+
     Raises:
-        ConvergenceError: the shooting did not converge (``iteration``, ``residual``).
+        ConvergenceError: the shooting did not converge (``iteration``, ``residual``), or
+            it converged on an equilibrium (the start decays to it, e.g. below the flutter
+            flow; the message gives the flow and the amplitude).
+        ValueError: bad options; or the shooting failed with ``period`` above
+            MAX_PERIOD_RATIO times the model's slowest natural period.
     """
     require_model(model)
     T = _checks.positive("period", period)
-    steps = _checks.positive_int("steps", steps)
+    steps = _checks.flow_map_steps("steps", steps, model.n_dofs)
     tol = _checks.positive("tol", tol)
     max_iterations = _checks.positive_int("max_iterations", max_iterations)
     mdot = model.mass_flow if mass_flow is None else _checks.finite("mass_flow", mass_flow)
@@ -426,12 +449,60 @@ def periodic_orbit(model, *, period: float, state=None, base=None, mass_flow: Op
     # The coarse start pays where no exact monodromy is needed: with multipliers one is
     # computed anyway, and an exact first one then serves the whole chord (measured:
     # 6 flow maps instead of 10 from the 2.5 s guess of bench_periodic.py).
-    y, mdot, out, it, res = _solve(shooter, y, mdot, tol=tol, max_iterations=max_iterations,
-                                   coarse=not multipliers, monodromy=bool(multipliers))
+    try:
+        y, mdot, out, it, res = _solve(shooter, y, mdot, tol=tol, max_iterations=max_iterations,
+                                       coarse=not multipliers, monodromy=bool(multipliers))
+    except ConvergenceError as e:
+        _refuse_period(model, T, start, mdot, e)
+        raise
     logger.info("periodic_orbit: converged in %d iterations at mdot = %.8g kg/s: T = %.10g s, defect %.3g "
                 "(%d flow maps)", it, mdot, y[-1], res, shooter.calls)
     n = model.n_dofs
-    return _finish(shooter, y[:n], y[n:2 * n], y[-1], mdot, out, it, res)
+    return _nontrivial(_finish(shooter, y[:n], y[n:2 * n], y[-1], mdot, out, it, res), shooter.opt.length_scale, tol)
+
+
+def _nontrivial(orbit, size, tol):
+    """The orbit, or ConvergenceError when it is an equilibrium: an amplitude below
+    MIN_ORBIT_AMPLITUDE * size (and tol), or (with multipliers) none within
+    TRIVIAL_MULTIPLIER_TOL of 1. Shooting converges on an equilibrium too (x0 a fixed
+    point of every flow map), e.g. from a start that decays below the flutter flow."""
+    amp = float(np.max(orbit.amplitude, initial=0.0))
+    floor = max(MIN_ORBIT_AMPLITUDE * size, tol)
+    mu = orbit.multipliers[orbit.trivial] if orbit.trivial >= 0 else None
+    if amp > floor and (mu is None or abs(mu - 1.0) <= TRIVIAL_MULTIPLIER_TOL):
+        return orbit
+    why = (f"its amplitude {amp:.3g} m is below {floor:.3g} m (MIN_ORBIT_AMPLITUDE = {MIN_ORBIT_AMPLITUDE:g} of the "
+           f"model's size {size:.3g} m, or tol)" if amp <= floor else f"its amplitude is {amp:.3g} m")
+    if mu is not None:
+        why += (f"; no Floquet multiplier is 1 (the closest, {mu.real:.6g} {mu.imag:+.3g}j, is {abs(mu - 1.0):.3g} "
+                f"away; TRIVIAL_MULTIPLIER_TOL = {TRIVIAL_MULTIPLIER_TOL:g})")
+    raise ConvergenceError(
+        f"periodic_orbit: the start decays to an equilibrium at mdot = {orbit.mass_flow:.6g} kg/s, not to a periodic "
+        f"orbit (or is one): the shooting converged (defect {orbit.residual:.3g}) but {why}. Below the flutter flow "
+        f"(critical_mass_flow) there is no cycle to find; above it, start from a state on the cycle "
+        f"(orbit_guess)", iteration=orbit.iterations, residual=orbit.residual, mass_flow=orbit.mass_flow)
+
+
+def _refuse_period(model, period, start, mdot, err):
+    """After a failed shooting: ValueError if ``period`` exceeds MAX_PERIOD_RATIO times the
+    model's slowest natural period (then the integrator's failure, e.g. a singular
+    iteration matrix at a huge step, is about the period, not the model); else nothing."""
+    from .eigen import SPARSE_MIN_DOFS, eigenvalues
+    from .linearize import linearize
+
+    try:
+        lin = linearize(model, start, mass_flow=mdot)
+        n = model.n_dofs
+        lam = eigenvalues(lin).values if n < SPARSE_MIN_DOFS else eigenvalues(lin, n_modes=6).values
+        lam = np.abs(lam[np.abs(lam) > 0.0])
+        slowest = 2.0 * np.pi / float(lam.min())
+    except (ValueError, RuntimeError, np.linalg.LinAlgError):  # (ConvergenceError too) no verdict:
+        return  # the shooting's own error stands
+    if period > MAX_PERIOD_RATIO * slowest:
+        raise ValueError(f"period = {period:.6g} s is {period / slowest:.3g} times the model's slowest natural period "
+                         f"{slowest:.6g} s (2 pi / the smallest |lambda| of its linearisation at mdot = {mdot:.6g} "
+                         f"kg/s); at most MAX_PERIOD_RATIO = {MAX_PERIOD_RATIO:g} times it: give the period of the "
+                         "cycle (orbit_guess's, or 2 pi / critical_mass_flow's frequency near the Hopf point)") from err
 
 
 def orbit_guess(model, *, node: int, step: float, component: int = 1, state=None,
@@ -458,9 +529,10 @@ def orbit_guess(model, *, node: int, step: float, component: int = 1, state=None
         settle: relative change of the amplitude between the last two cycles at which
             the transient stops [-].
         chunk: motion integrated between checks [s].
-        t_max: most motion integrated [s].
+        t_max: most motion integrated [s]; at most MAX_GUESS_STEPS steps (t_max / step).
 
     Raises:
+        ValueError: bad options, e.g. t_max / step above MAX_GUESS_STEPS.
         ConvergenceError: fewer than two cycles by ``t_max`` (no oscillation, or one that
             died out).
     """
@@ -477,10 +549,15 @@ def orbit_guess(model, *, node: int, step: float, component: int = 1, state=None
     settle = _checks.positive("settle", settle)
     chunk = max(_checks.positive("chunk", chunk), 4.0 * h)
     t_max = _checks.positive("t_max", t_max)
+    if t_max / h > MAX_GUESS_STEPS:
+        raise ValueError(f"t_max = {t_max:g} s is {t_max / h:.3g} steps of step = {h:g} s; at most MAX_GUESS_STEPS = "
+                         f"{MAX_GUESS_STEPS:.0e}: lower t_max (a cycle that attracts settles within some hundred "
+                         "periods) or raise step")
     size = max(float(np.ptp(model.positions, axis=0).max()), 1e-3)
     t, st = 0.0, state
     ts, ys = [np.zeros(0)], [np.zeros(0)]
-    while True:
+    # each chunk ends at t + chunk >= t + 4 step (or t_max): a bounded count
+    for _ in range(int(np.ceil(t_max / chunk)) + 2):
         t_end = min(t + chunk, t_max)
         run = simulate(model, t_end, t_start=t, state=st, step=h, n_outputs=max(2, int(round((t_end - t) / h)) + 1),
                        mass_flow=mass_flow, progress=False, integrator="generalized_alpha")
@@ -500,8 +577,9 @@ def orbit_guess(model, *, node: int, step: float, component: int = 1, state=None
                 return OrbitGuess(state=st, period=period, amplitude=float(amps[1]), time=float(t),
                                   settled=bool(settled))
         if t >= t_max:
-            raise ConvergenceError(f"orbit_guess: fewer than two cycles of node {node}'s coordinate {component} "
-                                   f"by t_max = {t_max:g} s (no oscillation to settle on)", mass_flow=mass_flow)
+            break
+    raise ConvergenceError(f"orbit_guess: fewer than two cycles of node {node}'s coordinate {component} "
+                           f"by t_max = {t_max:g} s (no oscillation to settle on)", mass_flow=mass_flow)
 
 
 def _reduced(basis, full, chart, start):
@@ -514,7 +592,7 @@ def _reduced(basis, full, chart, start):
     return np.atleast_1d(spla.spsolve((B.T @ B).tocsc(), B.T @ full))
 
 
-@small_problems_single_threaded
+@blas_pinned
 def continue_orbits(model, *, start, mass_flow_end: float, amplitude: float = 1e-3, ds: Optional[float] = None,
                     max_step: Optional[float] = None, max_points: int = 40, steps: int = STEPS_PER_PERIOD, tol: float = 1e-8,
                     max_iterations: int = 12, newton_tol: float = 1e-12, rho_inf: float = 0.9,
@@ -548,6 +626,7 @@ def continue_orbits(model, *, start, mass_flow_end: float, amplitude: float = 1e
     m_end = _checks.finite("mass_flow_end", mass_flow_end)
     amp = _checks.positive("amplitude", amplitude)
     max_points = _checks.positive_int("max_points", max_points)
+    steps = _checks.flow_map_steps("steps", steps, model.n_dofs)
     mc, wc = float(start.mass_flow), float(start.frequency)
     eq = static_equilibrium(model, mass_flow=mc, state=state).state
     shooter = _Shooter(model, eq, steps, _options(model, newton_tol, rho_inf))
@@ -585,7 +664,7 @@ def continue_orbits(model, *, start, mass_flow_end: float, amplitude: float = 1e
         except (ConvergenceError, np.linalg.LinAlgError) as exc:
             h *= 0.5
             logger.info("continue_orbits: no orbit at step %.3g (%s); halving the step", 2 * h, exc)
-            if h < 1e-6 * ds:
+            if h < 1e-6 * ds or h == 0.0:  # (1e-6 ds underflows for a subnormal ds)
                 break
             continue
         orbit = _finish(shooter, y[:n], y[n:2 * n], y[-1], mdot, out, it, res)

@@ -40,7 +40,7 @@ from ._continuation import follow
 from .eigen import GROWTH_TOL, SPARSE_MIN_DOFS, eigenvalues
 from .linearize import Linearization
 from ..rotation import skew
-from .._blas import small_problems_single_threaded
+from .._blas import pinned as blas_pinned
 
 LINEARIZATIONS = ("small_deformation", "steady_state")
 
@@ -270,7 +270,7 @@ def _axial_strains(model, state) -> float:
 MAX_CONTINUATION_FAILURES = 60
 
 
-@small_problems_single_threaded
+@blas_pinned
 @renamed(steps="continuation_steps")
 def rotating_state(model, omega: float, *, state=None, state_omega: float = 0.0, continuation_steps: int = 1,
                    tol: float = 1e-10, max_iterations: int = 30):
@@ -387,7 +387,7 @@ def _modes(fr, M, C, K, state, n_modes, k=None):
     return out, growth, shapes, k
 
 
-@small_problems_single_threaded
+@blas_pinned
 def rotating_frequencies(model, *, gamma, linearization: str = "small_deformation",
                          n_modes: int = 3) -> RotatingFrequencies:
     """Natural frequencies of a rotating model, dimensionless as in Berzeri & Shabana (Tables 3-5).
@@ -419,9 +419,7 @@ def rotating_frequencies(model, *, gamma, linearization: str = "small_deformatio
         raise ValueError("model.info has no 'omega0' (reference rate); build the model with "
                          "scenes.rotating_cantilever or set model.info['omega0'] [rad/s]")
     n_modes = _checks.positive_int("n_modes", n_modes)
-    g = np.atleast_1d(np.asarray(gamma, dtype=float))
-    if g.ndim != 1 or not np.all(np.isfinite(g)) or np.any(g < 0):
-        raise ValueError("gamma must be a finite non-negative number or 1-D sequence")
+    g = _gammas(gamma)
     w0 = float(model.info["omega0"])
     s0 = model.initial_state()
     # the first-order strain check, before any solve, for both linearisations
@@ -512,13 +510,31 @@ def _unit_prestress(model, fr, s0, u):
     return G.toarray() if fr.dense else G
 
 
+def _gammas(gamma) -> np.ndarray:
+    """``gamma`` [-] as a non-empty 1-D array of finite values >= 0, else a ValueError
+    naming gamma, the rule and what was given (not numpy's message)."""
+    rule = "gamma (Omega / omega0 [-]) must be a number >= 0 or a non-empty 1-D sequence of them"
+    if isinstance(gamma, (str, bytes)):  # numpy would try to parse text as a number
+        raise ValueError(f"{rule}, got {gamma!r}")
+    try:
+        g = np.atleast_1d(np.asarray(gamma, dtype=float))
+    except (TypeError, ValueError):
+        raise ValueError(f"{rule}, got {gamma!r}") from None
+    if g.ndim != 1 or g.size == 0:
+        raise ValueError(f"{rule}, got {gamma!r}" + (" (empty: give at least one gamma)" if g.size == 0 else ""))
+    bad = np.flatnonzero(~(np.isfinite(g) & (g >= 0)))
+    if bad.size:
+        raise ValueError(f"{rule}, got gamma[{bad[0]}] = {g[bad[0]]}")
+    return g
+
+
 def _check_strain(gamma, strain, kind):
     if not strain <= MAX_STRAIN:
         raise ValueError(f"gamma = {gamma:g} gives a {kind}axial strain of {strain:.3g}, above MAX_STRAIN = "
                          f"{MAX_STRAIN:g}: outside the elements' validity; lower gamma")
 
 
-@small_problems_single_threaded
+@blas_pinned
 def resonance_speed(model, *, mode: int = 1, gamma_range: Sequence[float] = (0.5, 20.0),
                     linearization: str = "small_deformation") -> float:
     """gamma at which the ``mode``-th transverse frequency equals the rotation rate

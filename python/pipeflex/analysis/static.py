@@ -13,7 +13,7 @@ from ..results import Result
 from ..state import State, as_core
 from ._assembly import require_model, residual_and_tangent
 from ._continuation import follow
-from .._blas import small_problems_single_threaded
+from .._blas import pinned as blas_pinned
 
 
 @dataclass(frozen=True)
@@ -38,7 +38,7 @@ class StaticResult(Result):
     limit_points: tuple = ()
 
 
-@small_problems_single_threaded
+@blas_pinned
 def static_equilibrium(model, *, state=None, mass_flow: Optional[float] = None, load_steps: int = 1,
                        tol: float = 1e-10, max_iterations: int = 30, max_bisections: int = 8,
                        from_mass_flow: Optional[float] = None, path: str = "auto",

@@ -39,7 +39,7 @@ from ..results import Result
 from ..state import State, as_core
 from ._assembly import require_model
 from ._continuation import follow
-from .._blas import small_problems_single_threaded
+from .._blas import pinned as blas_pinned
 from .._lazy import loaded_instance
 
 
@@ -122,7 +122,7 @@ def _hinge(model):
     return found[0]
 
 
-@small_problems_single_threaded
+@blas_pinned
 def steady_rotation(model, *, omega_guess: Optional[float] = None, mass_flow: Optional[float] = None,
                     state=None, continuation_steps: int = 4, tol: float = 1e-12,
                     max_iterations: int = 30):
@@ -159,7 +159,8 @@ def steady_rotation(model, *, omega_guess: Optional[float] = None, mass_flow: Op
 
     Raises:
         ValueError: no or several hinges (named), or only hinges between two bodies (no
-            steady rotation in general: see the module doc); bad options.
+            steady rotation in general: see the module doc); mass_flow = 0 (no flow, no
+            rotation); bad options.
         ConvergenceError: Newton failed (the message gives the step and the residual;
             attributes ``mass_flow`` of the continuation step, ``iteration``, ``residual``).
     """
@@ -264,6 +265,11 @@ def _options(model, omega_guess, mass_flow, continuation_steps, tol, max_iterati
     tol = _checks.positive("tol", tol)
     max_iterations = _checks.positive_int("max_iterations", max_iterations)
     mdot = model.mass_flow if mass_flow is None else _checks.finite("mass_flow", mass_flow)
+    if mdot == 0.0:  # omega's column of the Jacobian vanishes: a singular matrix, not an answer
+        hint = f" (the model's is {model.mass_flow:g} kg/s: leave mass_flow out)" if model.mass_flow != 0.0 else ""
+        raise ValueError("mass_flow = 0 kg/s: no flow, no rotation. steady_rotation finds the rate at which the "
+                         "flow's reaction moment about the hinge balances; without flow the structure rests "
+                         f"(omega = 0) or spins freely at any rate: give mass_flow != 0 [kg/s]{hint}")
     omega = np.nan if omega_guess is None else _checks.finite("omega_guess", omega_guess)
     return steps, tol, max_iterations, mdot, omega
 

@@ -36,7 +36,18 @@ IDA_ONLY = frozenset(_OPTIONS["ida"] - _OPTIONS["generalized_alpha"])
 #: slowest non-rigid eigenvalue lambda_1 of the linearised model (i.e. >= 40 steps per
 #: period of every mode up to 10 |lambda_1|).
 STEPS_PER_SLOWEST_PERIOD = 400
+#: ... and at most this h |lambda_g| for the fastest growing eigenvalue lambda_g (flutter,
+#: divergence). Generalised-alpha's discrete rate is lambda (1 + O((h lambda)^2)): its
+#: relative error is (h |lambda|)^2 / 12 (the period error; 2.1e-4 at 0.05), while its
+#: numerical damping at rho_inf = 0.9 is a damping ratio of 9e-9 there (it acts on the
+#: unresolved modes, h |lambda| >> 1). A growing motion is followed over some 20-30
+#: e-foldings before it turns nonlinear or diverges: by this estimate its amplitude errs
+#: by ~0.5 %; measured, 1.7 % (the 8-element cantilever at 1e6 kg/s over 25 e-foldings,
+#: against h/4; 5-7 % at 0.1, 17-23 % at 0.2).
+GROWING_STEP_FACTOR = 0.05
 _MODES_FOR_STEP = 12  # eigenvalues nearest 0 examined for lambda_1 (sparse path on large models)
+_MAX_MODES_FOR_GROWTH = 192  # sparse path: eigenvalues nearest 0 examined at most for lambda_g
+_DENSE_MAX_DOFS = 2000  # sparse path: all eigenvalues (dense) up to this size for lambda_g
 
 
 def choose_integrator(integrator: str, options) -> str:
@@ -59,37 +70,104 @@ def choose_integrator(integrator: str, options) -> str:
     return "ida" if ida else "generalized_alpha"
 
 
-def slowest_rate(model, state=None, mass_flow: Optional[float] = None) -> float:
-    """|lambda_1| [1/s]: the smallest magnitude of the non-rigid eigenvalues of the model
-    linearised about ``state`` (an angular frequency or, for a real eigenvalue, a growth or
-    decay rate) among the 12 nearest 0. An eigenvalue within 1e4 times its round-off bound
-    (``EigenResult.noise``) of 0 counts as rigid (a free hinge without flow: round-off
-    splits its double zero to ~1e2 noise; the elastic ones lie > 1e6 noise away). NaN if
-    there is none."""
-    from .eigen import eigenvalues
+def step_rates(model, state=None, mass_flow: Optional[float] = None, *,
+               duration: float = np.inf) -> Tuple[float, float]:
+    """(|lambda_1|, |lambda_g|) [1/s] of the model linearised about ``state``, the two rates
+    :func:`default_step` follows; ``duration`` T [s] is the run's length.
+
+    |lambda_1|: the smallest magnitude of the non-rigid eigenvalues among the 12 nearest 0
+    (an angular frequency or, for a real eigenvalue, a growth or decay rate). An
+    eigenvalue within 1e4 times its round-off bound (``EigenResult.noise``) of 0 counts
+    as rigid (a free hinge without flow: round-off splits its double zero to ~1e2 noise;
+    the elastic ones lie > 1e6 noise away). NaN if there is none.
+
+    |lambda_g|: the largest magnitude of the non-rigid eigenvalues that grow (real part
+    above its round-off bound, the test of :func:`pipeflex.stability`: flutter,
+    divergence) by at least a factor e over the run, Re(lambda) T >= 1 (a slower growth
+    is an oscillation like the stable ones: the sucking sprinkler's bending modes grow at
+    Re(lambda) ~ 1e-4 1/s); NaN if none does. Below
+    :data:`~pipeflex.analysis.eigen.SPARSE_MIN_DOFS` coordinates every eigenvalue is
+    examined (the dense solve finds them all anyway); above, the 12 nearest 0 (shift-invert),
+    and all of them (dense, up to 2,000 coordinates: 0.6 s at 960) where the fastest
+    growing one lies in the outer half of those or the shift-invert fails (far above a
+    critical flow, K(mdot) turns nearly singular); beyond 2,000 coordinates the 12 are
+    doubled, up to 192, instead.
+    """
+    from .eigen import SPARSE_MIN_DOFS, _growing, _select, eigenvalues
     from .linearize import linearize
 
-    e = eigenvalues(linearize(model, state, mass_flow=mass_flow), n_modes=_MODES_FOR_STEP)
-    lam = np.abs(e.values)
-    noise = np.zeros_like(lam) if e.noise is None else np.asarray(e.noise, float)
-    lam = lam[np.isfinite(lam) & (lam > 1e4 * noise)]
-    return float(lam.min()) if len(lam) else float("nan")
+    def rates(e):
+        lam = np.abs(e.values)
+        noise = np.zeros_like(lam) if e.noise is None else np.asarray(e.noise, float)
+        elastic = np.isfinite(lam) & (lam > 1e4 * noise)
+        return lam, elastic, elastic & _growing(e) & (e.values.real >= 1.0 / duration)  # e-fold in T
+
+    def beyond(lam, elastic, grows):  # growing eigenvalues may lie beyond those examined
+        return grows.any() and lam[grows].max() > 0.5 * lam[elastic].max()
+
+    lin = linearize(model, state, mass_flow=mass_flow)
+    n = lin.K.shape[0]
+    if n < SPARSE_MIN_DOFS:
+        near = full = eigenvalues(lin)
+    else:
+        full = None
+        try:
+            near = eigenvalues(lin, n_modes=_MODES_FOR_STEP)
+        except np.linalg.LinAlgError:
+            if n > _DENSE_MAX_DOFS:
+                raise
+            near = None
+        if (near is None or beyond(*rates(near))) and n <= _DENSE_MAX_DOFS:
+            full = eigenvalues(lin, method="dense")
+    lam, elastic, grows = rates(_select(near if near is not None else full, _MODES_FOR_STEP, 0.0))
+    slowest = float(lam[elastic].min()) if elastic.any() else float("nan")
+    if full is not None:
+        lam, elastic, grows = rates(full)
+    k = _MODES_FOR_STEP
+    while full is None and beyond(lam, elastic, grows) and k < _MAX_MODES_FOR_GROWTH:
+        k *= 2
+        lam, elastic, grows = rates(eigenvalues(lin, n_modes=k))
+    return slowest, float(lam[grows].max()) if grows.any() else float("nan")
+
+
+def slowest_rate(model, state=None, mass_flow: Optional[float] = None) -> float:
+    """|lambda_1| [1/s] of :func:`step_rates`: the smallest magnitude of the non-rigid
+    eigenvalues of the model linearised about ``state`` among the 12 nearest 0; NaN if
+    there is none."""
+    return step_rates(model, state, mass_flow)[0]
 
 
 def default_step(model, times: Sequence[float], state=None, mass_flow: Optional[float] = None) -> float:
     """The generalised-alpha step [s] of ``simulate(..., integrator="auto")`` without ``step``:
-    h_max = 2 pi / (STEPS_PER_SLOWEST_PERIOD |lambda_1|) (:func:`slowest_rate`, about the
-    initial state), shortened to divide the smallest output spacing dt into whole steps:
-    h = dt / ceil(dt / h_max). Without a non-rigid eigenvalue, h_max = 1e-3 s.
+    h_max = min(2 pi / (STEPS_PER_SLOWEST_PERIOD |lambda_1|), GROWING_STEP_FACTOR / |lambda_g|)
+    (:func:`step_rates`, about the initial state at ``mass_flow``; the growing modes that
+    grow by a factor e or more over the run), shortened to divide the smallest output
+    spacing dt into whole steps: h = dt / ceil(dt / h_max). Without a non-rigid
+    eigenvalue, h_max = 1e-3 s.
+
+    The first bound resolves the slow motion, the second the fastest growing mode (400
+    and >= 126 steps per period 2 pi/|lambda|). The second binds only where a growing
+    eigenvalue exceeds 3.2 |lambda_1| in magnitude: far above a critical flow, or the
+    soft sprinkler (EI = 1 N m^2) over 1 s, whose bending flutters at 6.7 +- 29.6j 1/s
+    against |lambda_1| = 0.39 1/s. Below a critical flow and just above it (the
+    8-element cantilever at 30 kg/s: |lambda_g| = 14.4 against |lambda_1| = 12.0 1/s)
+    the step is the slow motion's alone.
 
     For the rotating sprinkler (``scenes.sprinkler``, EI = 100 N m^2, |lambda_1| = 7.9 1/s)
     a 1 s run with 201 outputs gets h = 5 ms / 3 = 1.67 ms: its mean hinge speed over
     0.5-1 s is within 3e-6 (relative) of a 25 us run; 5 ms steps (dt alone) err by 2e-4
-    (docs/performance.md).
+    (docs/performance.md). The 8-element cantilever at 1e6 kg/s (|lambda_g| = 8.6e6 1/s
+    against |lambda_1| = 435 1/s, a torsion mode), started with a 1 mm/s tip velocity,
+    gets h = 5.8 ns: its tip motion over 3 us agrees within 2 % of its largest deflection
+    (5.6 mm) with a run at h/4, while the slow motion's step (the 3 us in one step) ends
+    at 1.4e-8 m for 4.1e-4 m.
     """
-    rate = slowest_rate(model, state, mass_flow)
-    h_max = 2 * np.pi / (STEPS_PER_SLOWEST_PERIOD * rate) if np.isfinite(rate) and rate > 0 else 1e-3
     times = np.asarray(times, float)
+    rate, growth = step_rates(model, state, mass_flow, duration=float(times[-1] - times[0]))
+    h_max = 2 * np.pi / (STEPS_PER_SLOWEST_PERIOD * rate) if np.isfinite(rate) and rate > 0 else 1e-3
+    if np.isfinite(growth) and growth > 0 and GROWING_STEP_FACTOR / growth < h_max:
+        h_max = GROWING_STEP_FACTOR / growth
+        logger.info("simulate: step %.6g s from the fastest growing eigenvalue, |lambda| = %.6g 1/s", h_max, growth)
     gaps = np.diff(times)
     dt = float(gaps.min())
     if gaps.max() - dt <= 1e-9 * dt:  # equally spaced: the exact spacing, not a rounded difference
@@ -228,8 +306,14 @@ def simulate(model, t_end: float, *, integrator: str = "auto", state=None, t_sta
             ``rebase_angle``, ``max_order``) is given, else generalised-alpha, with the
             ``step`` given or else :func:`default_step`: 400 steps per period
             ``2 pi/|lambda_1|`` of the slowest non-rigid eigenvalue of the model linearised
-            about ``state`` (at the largest ``mass_flow`` of the run), shortened to divide
-            the output spacing (e.g. 1.67 ms for the sprinkler with EI = 100 N m^2 over 1 s).
+            about ``state`` (at the largest ``mass_flow`` of the run), and at most
+            ``h |lambda_g| = 0.05`` for the fastest eigenvalue lambda_g that grows by a
+            factor e or more over the run (flutter or divergence; generalised-alpha's rate
+            error is ``(h |lambda|)^2 / 12``, 2.1e-4 there, and its numerical damping at
+            ``rho_inf = 0.9`` negligible), shortened to divide the output spacing (e.g.
+            1.67 ms for the sprinkler with EI = 100 N m^2 over 1 s, from the slow motion;
+            5.8 ns for the 8-element cantilever at 1e6 kg/s, 40,000 times its critical
+            flow, whose flutter grows at 8.6e6 1/s).
             Options of both integrators together are an error with ``"auto"``.
             ``result.metadata["integrator"]`` and ``["step"]`` [s] (None for IDA) say
             what ran. The step actually taken: each output interval dt is split into
@@ -378,6 +462,7 @@ def simulate(model, t_end: float, *, integrator: str = "auto", state=None, t_sta
         with bar:
             out = run(model.core, st, load, flow, loads, list(times), opt,
                       None if bar.mode == "off" else (lambda t: bar.update(t - t0)))
+            bar.update(t1 - t0)  # the core reports at most every 0.1 s, not the end
     except Exception as exc:
         logger.info("simulate: %s failed after %.3g s of wall time: %s", integrator, _time.perf_counter() - wall, exc)
         if isinstance(exc, ValueError) and str(exc).startswith("the mass matrix is singular"):

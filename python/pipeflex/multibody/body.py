@@ -21,7 +21,7 @@ import scipy.linalg as sla
 
 from .. import _checks, _core
 from ..rotation import skew
-from ..sections import PipeSection, refuse_unsupported
+from ..sections import PipeSection, refuse_unsupported, require_section
 
 REDUCTIONS = ("craig_bampton", "full")
 
@@ -257,8 +257,7 @@ def flexible_body(*, length: float, n_elements: int, section: PipeSection, inter
                          f"are dense, 6 (n_elements + 1) square), got {n_el}")
     if n_el % 2:
         raise ValueError(f"n_elements must be even (the floating frame sits at the centre node), got {n_el}")
-    if not isinstance(section, PipeSection):
-        raise ValueError("section must be a pipeflex.PipeSection")
+    section = require_section(section)
     refuse_unsupported(section, {
         "kv": "the FFRF body does not support a momentum-flux factor kv != 1 yet (its fluid forces are plug flow's)",
         "GAy": "the FFRF body does not support shear flexibility yet (Euler-Bernoulli elements)",

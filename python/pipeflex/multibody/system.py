@@ -85,6 +85,14 @@ def _plain_time_function(name, f):
     return f
 
 
+def _require_body(body) -> None:
+    """A TypeError naming ``body``'s type unless it is a FlexibleBody (a section or a dict
+    of section fields is the common slip: the body is made from the section)."""
+    if not isinstance(body, FlexibleBody):
+        raise TypeError(f"body must be a FlexibleBody, got {type(body).__name__}: make one with pipeflex.multibody."
+                        "flexible_body(length=..., n_elements=..., section=pipeflex.PipeSection(...))")
+
+
 class MultibodyBuilder:
     """Collects bodies, joints and loads; :meth:`build` checks them and returns a
     :class:`MultibodySystem`.
@@ -114,6 +122,7 @@ class MultibodyBuilder:
         match), local z towards ``up`` (default global z, or y for a vertical body)."""
         from ..model import _triad
 
+        _require_body(body)
         x0, x1 = _checks.vector3("start", start), _checks.vector3("end", end)
         d = float(np.linalg.norm(x1 - x0))
         if abs(d - body.length) > 1e-9 * body.length or not np.allclose(body.eta0, 0.0):
@@ -127,8 +136,7 @@ class MultibodyBuilder:
         """Place ``body`` with its frame origin (centre node) at ``position`` [m] and its
         axes rotated by ``rotation`` (3 x 3, body -> global; default identity). The fluid
         runs along +s (local x) with sdot = flow_factor mdot / mu_f. Returns its index."""
-        if not isinstance(body, FlexibleBody):
-            raise ValueError("body must be a FlexibleBody (pipeflex.multibody.flexible_body)")
+        _require_body(body)
         R = np.eye(3) if rotation is None else np.asarray(rotation, float)
         if R.shape != (3, 3) or not np.all(np.isfinite(R)) or not np.allclose(R.T @ R, np.eye(3), atol=1e-9) \
                 or np.linalg.det(R) <= 0:

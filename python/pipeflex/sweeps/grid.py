@@ -60,12 +60,17 @@ def points(grid: str, parameters: Mapping[str, list]) -> List[Dict[str, Any]]:
                              + ", ".join(f"{n}: {k}" for n, k in lengths.items()))
         return [dict(zip(names, vals)) for vals in zip(*parameters.values())]
     for n, v in parameters.items():
-        seen = set()
+        seen: Dict[Any, Any] = {}
         for x in v:
-            k = json.dumps(key_value(n, x))
-            if k in seen:
-                raise ValueError(f"parameter {n!r} repeats the value {x!r} (grid='product' needs distinct values)")
-            seen.add(k)
+            k = key_value(n, x)
+            # a coordinate value: 1, 1.0 and True are one (equal, and equal hashes); NaN is one
+            same = "NaN" if isinstance(k, float) and k != k else k
+            if same in seen:
+                first = seen[same]
+                also = "" if repr(first) == repr(x) else f" (as {first!r} and {x!r}, equal as coordinates)"
+                raise ValueError(f"parameter {n!r} repeats the value {x!r}{also}: grid='product' needs distinct "
+                                 "values; remove the repeat")
+            seen[same] = x
     return [dict(zip(names, vals)) for vals in itertools.product(*parameters.values())]
 
 

@@ -2,10 +2,14 @@
 named numpy arrays, an exception into its text."""
 from __future__ import annotations
 
+import ctypes
 import numbers
 import os
 import signal
-from typing import Any, Callable, Dict, Mapping, Tuple
+import sys
+import threading
+import time
+from typing import Any, Callable, Dict, Mapping, Optional, Tuple
 
 import numpy as np
 
@@ -20,32 +24,65 @@ _KINDS = "biufcU"  # bool, int, unsigned, float, complex, str
 #: the field naming the class of a pipeflex result fn returned (its fields' units and
 #: dimensions: pipeflex.results.FIELDS); not a variable of the Dataset
 RESULT_CLASS = "__result__"
-_pinned_pid = None
+_PR_SET_PDEATHSIG = 1  # linux/prctl.h
+
+
+class WorkerDied(RuntimeError):
+    """The failure of a point whose process died when it ran alone, retried after a
+    worker of the pool died with it queued (a crash in compiled code, os._exit, out of
+    memory): the point's error reads "WorkerDied: worker died: exit code -11 (SIGSEGV), ..."."""
 
 
 def limit_blas_threads() -> None:
-    """Pin this process's BLAS to one thread (pipeflex._blas.pin_one_thread), so that one
-    worker per core does not oversubscribe the cores. A no-op without OpenBLAS's own call
-    and without threadpoolctl. Usable as the ``initializer`` of a user's
-    ProcessPoolExecutor."""
-    global _pinned_pid
-    if _pinned_pid == os.getpid():
-        return
-    _blas.pin_one_thread()
-    _pinned_pid = os.getpid()
+    """Pin this process's BLAS to one thread from now on (:func:`pipeflex._blas.pin`, also
+    over a thread count set in the environment), so that one worker per core does not
+    oversubscribe the cores. A no-op without OpenBLAS's own call and without threadpoolctl.
+    Usable as the ``initializer`` of a user's ProcessPoolExecutor."""
+    _blas.pin(force=True)
 
 
-def one_blas_thread():
-    """A context in which this process's BLAS runs one thread (restored after; threads of
-    a ThreadPoolExecutor and the serial executor run in it): pipeflex._blas.one_thread."""
-    return _blas.one_thread()
-
-
-def init_pool_worker() -> None:
+def init_pool_worker(parent: Optional[int] = None) -> None:
     """Initializer of the default process pool: one BLAS thread; Ctrl-C is handled by the
-    parent (which stops the pool), not by each worker."""
+    parent (which stops the pool), not by each worker; the worker dies with ``parent``
+    (the sweep's process id), even when that is killed (``kill -9``)."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)
+    if parent is not None:
+        die_with_parent(parent)
     limit_blas_threads()
+
+
+def die_with_parent(parent: int) -> None:
+    """End this process when the process ``parent`` ends: on Linux, when ``parent`` is
+    the direct parent (the fork start method), by the kernel's parent-death signal
+    (SIGKILL); else a daemon thread that looks for ``parent`` every 0.5 s."""
+    direct = os.getppid() == parent
+    if direct and sys.platform.startswith("linux"):
+        try:
+            libc = ctypes.CDLL(None, use_errno=True)
+            if libc.prctl(_PR_SET_PDEATHSIG, signal.SIGKILL, 0, 0, 0) == 0:
+                if os.getppid() != parent:  # the parent died before prctl took effect
+                    os._exit(1)
+                return
+        except (OSError, AttributeError):
+            pass
+
+    def alive() -> bool:
+        if direct:
+            return os.getppid() == parent  # an orphan is reparented
+        try:
+            os.kill(parent, 0)
+        except ProcessLookupError:
+            return False
+        except PermissionError:
+            pass
+        return True
+
+    def watch():
+        while alive():
+            time.sleep(0.5)
+        os._exit(1)
+
+    threading.Thread(target=watch, name="pipeflex-parent-watch", daemon=True).start()
 
 
 def as_array(name: str, value: Any) -> np.ndarray:

@@ -9,8 +9,9 @@ from typing import TYPE_CHECKING, Any, Callable, Dict, List, Optional, Sequence,
 
 from . import executors
 from .grid import check_values, function_identity, function_name, point_key, points
-from .outcome import Outcome, one_blas_thread
+from .outcome import Outcome
 from .store import PointStore
+from .._blas import pin as pin_blas
 from .._progress import Progress, logger
 
 if TYPE_CHECKING:  # imported lazily: `import pipeflex` loads neither
@@ -23,7 +24,10 @@ SERIAL = ("serial",)
 
 class SweepIncomplete(RuntimeError):
     """Some points of a sweep could not be run: the executor failed, not ``fn`` (a worker
-    process died: BrokenProcessPool; a Dask task killed its workers: KilledWorker).
+    process of a pool of yours died: BrokenProcessPool; a Dask task killed its workers:
+    KilledWorker). A worker of the default pool that dies does not make it: the points
+    queued on that pool run again, each alone, and one whose process dies again fails
+    with "WorkerDied: worker died: exit code ...".
 
     The finished points are kept (in the store, if one was given: re-running the sweep
     computes only the rest).
@@ -60,7 +64,10 @@ def sweep(fn: Callable[..., Any], /, *, grid: str = "product", executor: Union[N
             in the order given) or "zip" (the i-th values together; one dimension "point",
             the parameters its coordinates).
         executor: None: a local process pool, one worker per core (``workers``), one BLAS
-            thread per worker. "serial": in this process, one point after another
+            thread per worker; the workers die with this process, and the points queued on
+            a worker that died run again, each alone (a point that dies again fails with
+            "WorkerDied: worker died: exit code -11 (SIGSEGV), ..."). "serial": in this
+            process, one point after another
             (debugging, baselines). Or any ``concurrent.futures.Executor`` (a
             ThreadPoolExecutor, a pool of yours; it is not shut down).
         client: a ``dask.distributed.Client``: the points run on its cluster.
@@ -88,11 +95,13 @@ def sweep(fn: Callable[..., Any], /, *, grid: str = "product", executor: Union[N
 
     Raises:
         ValueError: an unknown ``grid``; "zip" with lists of unequal lengths; no parameter,
-            an empty list or (product) a repeated value; both ``executor`` and ``client``.
+            an empty list or (product) a repeated value (also 1, 1.0 and True: equal as
+            coordinates); both ``executor`` and ``client``; a damaged ``sweep.json`` in
+            ``store``.
         TypeError: ``fn`` not callable, or not picklable for worker processes; a parameter
             that is not a list of numbers/strings/bools; an unknown ``executor``.
-        SweepIncomplete: points the executor could not run (a worker process died); the
-            finished ones are kept (attribute ``dataset``, and the store).
+        SweepIncomplete: points an executor of yours or Dask could not run (a worker
+            process died); the finished ones are kept (attribute ``dataset``, and the store).
         KeyboardInterrupt: Ctrl-C (or raised by ``fn``): the sweep stops; finished points
             are in the store.
 
@@ -233,7 +242,8 @@ def _runner(fn, todo, executor, client, workers):
     if not todo:
         yield iter(())
     elif isinstance(executor, str):
-        with one_blas_thread(), contextlib.closing(executors.run_serial(fn, todo)) as reports:
+        pin_blas()
+        with contextlib.closing(executors.run_serial(fn, todo)) as reports:
             yield reports
     elif client is not None:
         window = max(64, 4 * sum(client.nthreads().values()))
@@ -241,16 +251,11 @@ def _runner(fn, todo, executor, client, workers):
             yield reports
     elif executor is not None:
         window = 4 * (getattr(executor, "_max_workers", None) or executors.cores())
-        pin = contextlib.nullcontext() if isinstance(executor, ProcessPoolExecutor) else one_blas_thread()
-        with pin, contextlib.closing(executors.run_executor(executor, fn, todo, window)) as reports:
+        if not isinstance(executor, ProcessPoolExecutor):
+            pin_blas()  # its threads run in this process
+        with contextlib.closing(executors.run_executor(executor, fn, todo, window)) as reports:
             yield reports
     else:
         n = min(workers or executors.cores(), len(todo))
-        pool = executors.default_pool(n)
-        try:
-            with contextlib.closing(executors.run_executor(pool, fn, todo, 4 * n)) as reports:
-                yield reports
-        except BaseException:
-            executors.stop_pool(pool)
-            raise
-        pool.shutdown(wait=True)
+        with contextlib.closing(executors.run_pool(fn, todo, n)) as reports:
+            yield reports

@@ -34,7 +34,7 @@ class PointStore:
         self.path.mkdir(parents=True, exist_ok=True)
         meta = self.path / _META
         if meta.exists():
-            info = json.loads(meta.read_text())
+            info = _read_meta(meta)
             if info.get("format") != FORMAT:
                 raise ValueError(f"store={str(path)!r}: unknown sweep store format {info.get('format')!r}")
             if info.get("fn") != fn_name:
@@ -53,13 +53,14 @@ class PointStore:
         if not path.exists():
             return None
         try:
-            with np.load(path, allow_pickle=False) as f:
+            with open(path, "rb") as fh, np.load(fh, allow_pickle=False) as f:  # fh: closed also on BadZipFile
                 meta = json.loads(str(f["__point__"][()]))
                 if meta["parameters"] != _parameters(point):
                     return None  # another point with the same hash prefix: recompute
                 return meta["error"], {name: f[f"f{i}"] for i, name in enumerate(meta["fields"])}
         except Exception as exc:  # noqa: BLE001 -- a damaged file is recomputed, not fatal
-            warnings.warn(f"sweep store: {path} is unreadable ({exc}); the point is computed again", stacklevel=3)
+            warnings.warn(f"sweep store: the point file {str(path)!r} is damaged ({type(exc).__name__}: {exc}); "
+                          "the point is computed again and the file replaced", stacklevel=3)
             return None
 
     def save(self, key: str, point: Mapping[str, Any], outcome: Outcome) -> None:
@@ -75,6 +76,21 @@ class PointStore:
         finally:
             if tmp.exists():
                 tmp.unlink()
+
+
+def _read_meta(meta: Path) -> dict:
+    """The description ``sweep.json`` of a store; a ValueError naming it if it is damaged."""
+    try:
+        info = json.loads(meta.read_bytes().decode("utf-8"))
+    except (OSError, ValueError) as exc:  # JSONDecodeError, UnicodeDecodeError are ValueErrors
+        info = exc
+    if not isinstance(info, dict):
+        why = f"{type(info).__name__}: {info}" if isinstance(info, Exception) else f"a JSON {type(info).__name__}"
+        raise ValueError(
+            f"the sweep store's description {str(meta)!r} is damaged ({why}; it should hold the format and the "
+            f"function's name): give the sweep another store folder, or delete the file to keep the folder's "
+            f"points (they are then taken as the points of this sweep's fn)") from None
+    return info
 
 
 def _parameters(point: Mapping[str, Any]) -> dict:

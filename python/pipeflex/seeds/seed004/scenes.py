@@ -9,7 +9,7 @@ import numpy as np
 from ... import _checks
 from ..._options import scene_mass_flow
 from ...multibody import MultibodyBuilder, flexible_body
-from ...sections import PipeSection
+from ...sections import PipeSection, require_section
 from ...time_functions import Sine
 
 
@@ -71,6 +71,7 @@ def ffrf_cantilever_pipe(*, n_bodies: int, elements_per_body: int = 20, internal
                      fluid_density=1000.0)
         section = PipeSection(EI=10.0, pipe_mass=8.0, fluid_mass=2.0, EA=tube.EA, GJ=tube.GJ,
                               rotary_inertia=tube.rotary_inertia)
+    section = require_section(section)
     mdot = scene_mass_flow(mass_flow, flow_speed, section.fluid_mass)
     body = flexible_body(length=L / nb, n_elements=_elements_per_body(elements_per_body), section=section,
                          internal_modes=internal_modes, reduction=reduction)
