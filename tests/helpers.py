@@ -108,3 +108,13 @@ def on_clamped_hub(arm, root, *, stiffness_ratio, rotary_inertia=(1.0, 0.0, 0.0)
     system = pf.CoupledSystem(arm, mb.build())
     system.rigid(root, hub, "end")
     return system
+
+
+def imported_module(package: str, node) -> str:
+    """The absolute module an ``ast.ImportFrom`` in ``package`` names (its relative
+    levels resolved)."""
+    if not node.level:
+        return node.module
+    base = package.split(".")
+    base = ".".join(base[:len(base) - node.level + 1])
+    return f"{base}.{node.module}" if node.module else base

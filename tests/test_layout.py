@@ -11,6 +11,8 @@ from pathlib import Path
 
 import pipeflex
 
+from helpers import imported_module
+
 PACKAGE = Path(pipeflex.__file__).parent
 APPLICATION = ("pipeflex.seeds", "pipeflex.scenes", "pipeflex.cli")
 
@@ -36,12 +38,7 @@ def _imports(name, path, modules):
         if isinstance(node, ast.Import):
             found.update(a.name for a in node.names)
         elif isinstance(node, ast.ImportFrom):
-            if node.level:
-                base = package.split(".")
-                base = ".".join(base[:len(base) - node.level + 1])
-                target = f"{base}.{node.module}" if node.module else base
-            else:
-                target = node.module
+            target = imported_module(package, node)
             for a in node.names:
                 sub = f"{target}.{a.name}"
                 found.add(sub if sub in modules else target)

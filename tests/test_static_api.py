@@ -20,6 +20,8 @@ import pytest
 import pipeflex
 from pipeflex import _core
 
+from helpers import imported_module
+
 PACKAGE = Path(pipeflex.__file__).parent
 # the packages known to have lazy names: the search below must find at least these
 KNOWN_LAZY = {"pipeflex", "pipeflex.analysis", "pipeflex.scenes", "pipeflex.seeds.seed000",
@@ -58,12 +60,7 @@ def _type_checking_imports(name, is_package, tree):
             continue
         for stmt in node.body:
             if isinstance(stmt, ast.ImportFrom):
-                if stmt.level:
-                    base = package.split(".")
-                    base = ".".join(base[:len(base) - stmt.level + 1])
-                    module = f"{base}.{stmt.module}" if stmt.module else base
-                else:
-                    module = stmt.module
+                module = imported_module(package, stmt)
                 for alias in stmt.names:
                     bound = alias.asname or alias.name
                     assert bound not in out, f"{name}: {bound} imported twice under TYPE_CHECKING"
