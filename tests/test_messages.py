@@ -150,3 +150,12 @@ def test_steady_rotation_without_flow_says_so():
     sprinkler = scenes.sprinkler(EI=100.0, n_elements=2)
     with pytest.raises(ValueError, match="mass_flow = 0 kg/s: no flow, no rotation.*give mass_flow != 0"):
         pf.steady_rotation(sprinkler, mass_flow=0.0)
+
+
+def test_shooting_without_polar_inertia_names_it():
+    """The shooting integrates as simulate does: a model whose pipe sections lack the polar
+    rotary inertia gets simulate's message (what is missing and how to give it), not the
+    core's generic one."""
+    m = pf.scenes.cantilever_pipe(n_elements=4)
+    with pytest.raises(ValueError, match=r"polar rotary inertia rho I_p .* 0 in 4 of the 4 pipe elements"):
+        pf.periodic_orbit(m, mass_flow=30.0, period=0.44)

@@ -41,6 +41,7 @@ from ..state import State, as_core
 from .._blas import pinned as blas_pinned
 from .._progress import logger
 from ._assembly import require_model
+from .transient import explained_singular_mass
 
 #: steps of the integrator per period unless given
 STEPS_PER_PERIOD = 512
@@ -226,9 +227,11 @@ class _Shooter:
         if newton_tol is not None and newton_tol != opt.newton_tol:
             opt = _options(self.model, newton_tol, opt.rho_inf)
         self.calls += 1
-        out = _core.generalized_alpha_flow_map(self.model.core, self.base.to_core(self.model), load,
-                                               np.asarray(z0, float), np.asarray(v0, float), float(period),
-                                               self.steps if steps is None else int(steps), bool(sensitivity), opt)
+        with explained_singular_mass(self.model):
+            out = _core.generalized_alpha_flow_map(self.model.core, self.base.to_core(self.model), load,
+                                                   np.asarray(z0, float), np.asarray(v0, float), float(period),
+                                                   self.steps if steps is None else int(steps), bool(sensitivity),
+                                                   opt)
         self.newton_iterations += int(out["newton_iterations"])
         return out
 

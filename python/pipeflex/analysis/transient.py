@@ -7,6 +7,7 @@ step from the model (:func:`default_step`).
 """
 from __future__ import annotations
 
+import contextlib
 import json
 import time as _time
 from dataclasses import dataclass, field
@@ -205,6 +206,20 @@ def _inertia_hint(model) -> str:
             "pf.scenes.cantilever_pipe(n_elements=8, polar_inertia=1e-4): a small value leaves the bending motion "
             "alone); or constrain the axial rotation (ModelBuilder.fix_rotation). The static, eigen and "
             "critical-flow analyses do not need it.")
+
+
+@contextlib.contextmanager
+def explained_singular_mass(model):
+    """The core's "the mass matrix is singular" ValueError raised again with the reason and
+    the remedy (:func:`_inertia_hint`) where pipe sections lack the polar rotary inertia:
+    every time integration of an element model (``simulate``, the shooting's flow map)."""
+    try:
+        yield
+    except ValueError as exc:
+        hint = _inertia_hint(model) if str(exc).startswith("the mass matrix is singular") else ""
+        if not hint:
+            raise
+        raise ValueError(f"the mass matrix is singular: {hint}") from None
 
 
 @dataclass(frozen=True)
@@ -459,16 +474,12 @@ def simulate(model, t_end: float, *, integrator: str = "auto", state=None, t_sta
     run = _core.integrate_ida if integrator == "ida" else _core.integrate_generalized_alpha
     wall = _time.perf_counter()
     try:
-        with bar:
+        with bar, explained_singular_mass(model):
             out = run(model.core, st, load, flow, loads, list(times), opt,
                       None if bar.mode == "off" else (lambda t: bar.update(t - t0)))
             bar.update(t1 - t0)  # the core reports at most every 0.1 s, not the end
     except Exception as exc:
         logger.info("simulate: %s failed after %.3g s of wall time: %s", integrator, _time.perf_counter() - wall, exc)
-        if isinstance(exc, ValueError) and str(exc).startswith("the mass matrix is singular"):
-            hint = _inertia_hint(model)
-            if hint:
-                raise ValueError(f"the mass matrix is singular: {hint}") from None
         raise
     wall = _time.perf_counter() - wall
     stats = {k: int(out.pop(k)) for k in ("steps", "newton_iterations", "jacobians", "rebases", "failed_steps",
