@@ -118,3 +118,17 @@ def imported_module(package: str, node) -> str:
     base = package.split(".")
     base = ".".join(base[:len(base) - node.level + 1])
     return f"{base}.{node.module}" if node.module else base
+
+
+def l_sprinkler(EI, mass_flow=2.0):
+    """Two straight bodies, (0, 0, 0)-(0.5, 0, 0) and on to (0.5, 0.3, 0), rigidly joined,
+    hinged to the ground about z at the inlet; fluid 1 kg/m."""
+    from pipeflex.multibody import MultibodyBuilder, flexible_body
+    sec = pf.PipeSection(EI=EI, EA=1e3 * EI, GJ=EI / 1.3, pipe_mass=0.5, fluid_mass=1.0,
+                         rotary_inertia=(1e-4, 0.0, 0.0))
+    b = MultibodyBuilder()
+    j0 = b.add_body_between(flexible_body(length=0.5, n_elements=4, section=sec), (0, 0, 0), (0.5, 0, 0))
+    j1 = b.add_body_between(flexible_body(length=0.3, n_elements=4, section=sec), (0.5, 0, 0), (0.5, 0.3, 0))
+    b.rigid(j0, "end", j1, "start")
+    b.hinge(j0, "start", (0, 0, 1))
+    return b.build(mass_flow=mass_flow)

@@ -17,6 +17,8 @@ from pipeflex.multibody import MultibodyBuilder, flexible_body
 from pipeflex.rotation import planar_triad
 from pipeflex.state import as_core
 
+from helpers import l_sprinkler
+
 SEC = pf.PipeSection(EI=10.0, pipe_mass=8.0, fluid_mass=2.0, EA=1e5, rotary_inertia=(1e-3, 1e-3, 1e-3))
 
 
@@ -61,14 +63,7 @@ def test_coupled_steady_rotation_turns_as_the_element_sprinkler():
 def test_bodies_steady_rotation_of_an_l_shaped_sprinkler():
     """Two bodies (a standing one and an arm), rigidly joined, hinged to the ground about
     z at the inlet: the flow turns them at a finite positive rate, the axis is z."""
-    sec = pf.PipeSection(EI=100.0, EA=1e5, GJ=100.0 / 1.3, pipe_mass=0.5, fluid_mass=1.0,
-                         rotary_inertia=(1e-4, 0.0, 0.0))
-    b = MultibodyBuilder()
-    stand = b.add_body_between(flexible_body(length=0.5, n_elements=2, section=sec), (0, 0, 0), (0.5, 0, 0))
-    arm = b.add_body_between(flexible_body(length=0.3, n_elements=2, section=sec), (0.5, 0, 0), (0.5, 0.3, 0))
-    b.rigid(stand, "end", arm, "start")
-    b.hinge(stand, "start", (0, 0, 1))
-    got = pf.steady_rotation(b.build(mass_flow=2.0))
+    got = pf.steady_rotation(l_sprinkler(100.0))  # 4 elements a body
     assert np.isfinite(got.omega) and abs(got.omega) > 0.0
     np.testing.assert_allclose(np.abs(got.axis), [0.0, 0.0, 1.0], atol=1e-12)
 

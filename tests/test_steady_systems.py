@@ -11,6 +11,8 @@ from pipeflex import scenes
 from pipeflex.coupled import simulate
 from pipeflex.multibody import MultibodyBuilder, flexible_body
 
+from helpers import l_sprinkler
+
 
 @pytest.fixture(scope="module")
 def alone():
@@ -50,19 +52,6 @@ def test_coupled_steady_rotation_is_a_steady_motion():
     assert np.abs(w / got.omega - 1.0).max() < 2e-5
     radius = np.linalg.norm(run.elements.x[:, -1], axis=1)
     assert np.abs(radius - np.linalg.norm(got.state.q[-6:-3])).max() < 1e-6
-
-
-def l_sprinkler(EI, mass_flow=2.0):
-    """Two straight bodies, (0, 0, 0)-(0.5, 0, 0) and on to (0.5, 0.3, 0), rigidly joined,
-    hinged to the ground about z at the inlet; fluid 1 kg/m."""
-    sec = pf.PipeSection(EI=EI, EA=1e3 * EI, GJ=EI / 1.3, pipe_mass=0.5, fluid_mass=1.0,
-                         rotary_inertia=(1e-4, 0.0, 0.0))
-    b = MultibodyBuilder()
-    j0 = b.add_body_between(flexible_body(length=0.5, n_elements=4, section=sec), (0, 0, 0), (0.5, 0, 0))
-    j1 = b.add_body_between(flexible_body(length=0.3, n_elements=4, section=sec), (0.5, 0, 0), (0.5, 0.3, 0))
-    b.rigid(j0, "end", j1, "start")
-    b.hinge(j0, "start", (0, 0, 1))
-    return b.build(mass_flow=mass_flow)
 
 
 def test_bodies_alone_reach_the_rigid_sprinklers_speed_as_they_stiffen():
