@@ -47,11 +47,11 @@ def run(repeat):
         res[f"FFRF cantilever {nb} bodies, tip [m]"] = [float(tr.y[-1]), w, None, None]
     w, (s, r, _) = timed(lambda: fs.curved_pipe_run(9.585e9, step=1e-3), repeat)
     omega = fs.final_angular_velocity(r.t, r.node_angular_velocity(*s.info["base"])[:, 1])
-    res["FFRF curved pipe, final omega [rad/s]"] = [float(omega), w, r.stats["iterations"], r.stats["factorizations"]]
+    res["FFRF curved pipe, final omega [rad/s]"] = [float(omega), w, r.stats["newton_iterations"], r.stats["jacobians"]]
     for v in (0.0, 3.0):
         w, (s, r, path) = timed(lambda: fs.printer_run(v), repeat)
-        res[f"FFRF printer {v:g} m/s, nozzle x [m]"] = [float(path[-1][0]), w, r.stats["iterations"],
-                                                       r.stats["factorizations"]]
+        res[f"FFRF printer {v:g} m/s, nozzle x [m]"] = [float(path[-1][0]), w, r.stats["newton_iterations"],
+                                                       r.stats["jacobians"]]
     return res
 
 

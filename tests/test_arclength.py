@@ -199,7 +199,6 @@ def test_a_load_step_that_changes_the_tangents_inertia_is_rejected():
     from pipeflex.analysis.static import _newton
 
     model, crown = arch(P)
-    size = 2 * 5.0 * np.sin(0.2)  # the span [m]: static_equilibrium's model size
     lam0, lam1 = 0.30765625, 0.3
     st = pf.static_equilibrium(arch(P * lam0)[0], path="load", load_steps=40).state.to_core(model)
     assert tangent_eigenvalues(model, st, lam0)[0] > 0
@@ -214,14 +213,14 @@ def test_a_load_step_that_changes_the_tangents_inertia_is_rejected():
     start = pushed(2.0)
     assert (tangent_eigenvalues(model, start, lam1) < 0).sum() == 1
     plain = start.copy()
-    ok, _, _, _, _ = _newton(model, plain, 0.0, lam1, 1e-10, size, 25)
+    ok, _, _, _, _ = _newton(model, plain, 0.0, lam1, 1e-10, 25)
     assert ok and (tangent_eigenvalues(model, plain, lam1) < 0).sum() == 0
     stepped = start.copy()
-    ok, _, _, why, singular = _newton(model, stepped, 0.0, lam1, 1e-10, size, 25, step=True)
+    ok, _, _, why, singular = _newton(model, stepped, 0.0, lam1, 1e-10, 25, step=True)
     assert not ok and not singular
     assert "crossed a critical point (the tangent's negative eigenvalues went from 1 to 0" in why
     # the same count at both ends (from 1.5 times the displacements: 1 and 1) is accepted
-    ok, _, _, why, _ = _newton(model, pushed(1.5), 0.0, lam1, 1e-10, size, 25, step=True)
+    ok, _, _, why, _ = _newton(model, pushed(1.5), 0.0, lam1, 1e-10, 25, step=True)
     assert ok, why
 
 
@@ -236,7 +235,7 @@ def test_the_core_corrector_lands_on_the_path_and_the_sphere():
     model, _ = cantilever()
     size = 1.0
     half = model.initial_state()
-    assert _newton(model, half, 0.0, 0.5, 1e-10, size, 25)[0]  # the equilibrium at t = 0.5
+    assert _newton(model, half, 0.0, 0.5, 1e-10, 25)[0]  # the equilibrium at t = 0.5
     w2 = arclength.weights(model, size)
     dq0 = np.full(model.n_dofs, 1e-3)  # a predictor off the path and off the sphere
     arc = arclength.Arc(lambda t: (0.0, t), w2, 1.0, 0.2, 0.6, dq0.copy(), 0.1)

@@ -2,6 +2,7 @@
 floor (a relative one alone underflows), each with a clear error at its bound; and no
 false success: a shooting that converges on an equilibrium is no periodic orbit, and a
 critical flow limited by round-off says so, by one rule whatever the model's size."""
+import re
 import warnings
 
 import numpy as np
@@ -176,3 +177,139 @@ def test_roundoff_rule_at_8192_and_10000_elements():
             r = pf.critical_mass_flow(pf.scenes.cantilever_pipe(n_elements=n))
         assert r.roundoff > critical.ROUNDOFF_LIMIT * r.mass_flow
         assert abs(r.mass_flow - 25.0055205570) <= 2.0 * r.roundoff
+
+
+def clamped_one_element_pipe():
+    """A clamped one-element pipe, 1 m along x: divergence at 91 kg/s (29 flow units)."""
+    sec = pf.PipeSection(EI=1.0, pipe_mass=1.0, fluid_mass=1.0, EA=1e4, GJ=1.0, GAy=1e3, GAz=1e3)
+    b = pf.ModelBuilder()
+    n0 = b.add_node((0.0, 0.0, 0.0))
+    b.add_line(n0, (1.0, 0.0, 0.0), 1, sec)
+    b.clamp(n0)
+    return b.build()
+
+
+@pytest.mark.timeout(60)
+def test_static_load_steps_below_the_resolution_are_named_as_the_user_wrote_them():
+    """The continuation refuses a load step below the resolution of the load factor; the
+    message names the static solver's parameter, load_steps (it named follow()'s own
+    "steps", which the user never passed)."""
+    model = clamped_one_element_pipe()
+    with pytest.raises(ValueError, match=r"^load_steps = 1000000000000000 over \[0, 1\]: a step of 1e-15 is below "
+                                         r"the resolution 1\.42e-14 of the parameter; use fewer steps \(lower "
+                                         r"load_steps\)$"):
+        pf.static_equilibrium(model, load_steps=10**15)
+    # the largest allowed schedule still runs (a dead-force-free model: every step converges at once)
+    assert pf.static_equilibrium(model, load_steps=10**3).state is not None
+
+
+@pytest.mark.timeout(60)
+def test_arclength_step_halved_to_zero_stops():
+    """The arc-length continuation halves a failing step down to ds_min = 2^-12 of its first
+    step; a first step below 2^-1063 (a subnormal dt0 from a huge load_steps and a flat
+    path) makes ds_min itself 0, and ds / 2 reaches 0: without the ds == 0 test the loop
+    would retry a zero step for ever. A corrector that always fails (a stand-in: no
+    physical model makes every step fail this cheaply) drives it there: the path ends
+    after the five halvings from 2^-1070 to 0, and says why."""
+    from pipeflex.analysis import arclength
+
+    model = clamped_one_element_pipe()
+    calls = []
+
+    def newton(state, arc):
+        calls.append(arc.ds)
+        return False, 1, 1.0, "Newton did not converge (a stand-in)", False
+
+    way = arclength.follow(model, model.initial_state(), 0.0, at=lambda t: (0.0, t), newton=newton, size=1.0,
+                           tol=1e-10, max_iterations=20, max_steps=10**6, dt0=2.0**-1070)
+    assert way.end is None and way.steps == 0
+    assert re.fullmatch(r"the arc-length step was halved to 0 from its first [0-9.e-]+ at t = 0: Newton did not "
+                        r"converge \(a stand-in\)", way.why), way.why
+    assert 0 < len(calls) <= 8 and calls[-1] > 0.0  # 2^-1070 .. 2^-1074, never a step of 0
+
+
+@pytest.mark.timeout(120)
+def test_continue_orbits_with_a_subnormal_ds_stops(planar4, monkeypatch):
+    """continue_orbits halves a failing step down to 1e-6 ds; for a subnormal ds that bound
+    underflows to 0 and h / 2 reaches 0 (then h < 0 never holds: a loop without end).
+    Every orbit solve failing (periodic._solve replaced: a real shooting cannot be made
+    to fail on every step cheaply) from ds = 2^-1070, the continuation stops after the
+    halvings to 0 and says that no orbit was found next to the Hopf point."""
+    m, _ = planar4
+    calls = []
+
+    def no_orbit(shooter, y, mdot, **kw):
+        calls.append(kw["arclength"][-1])
+        raise pf.ConvergenceError("no orbit (a stand-in)")
+
+    monkeypatch.setattr(periodic, "_solve", no_orbit)
+    start = critical.CriticalFlow(mass_flow=10.0, kind="flutter", frequency=12.0, eigenvalue=12.0j,
+                                  mode=np.ones(m.n_dofs, complex), evaluations=0)
+    with pytest.raises(pf.ConvergenceError, match=r"no orbit found next to the Hopf point at 10 kg/s"):
+        periodic.continue_orbits(m, start=start, mass_flow_end=11.0, ds=2.0**-1070)
+    assert 0 < len(calls) <= 8 and calls[-1] > 0.0
+
+
+@pytest.mark.timeout(120)
+def test_large_model_divergence_widening_ends_at_zero_flow(monkeypatch):
+    """Large models (sparse path): a divergence bracket whose smallest stiffness eigenvalue
+    does not change sign is widened downward, doubling, until it does; where it never
+    does the widening ends at zero flow with the ConvergenceError that names the bracket.
+    Driven by the one-element pipe taken as large (SPARSE_MIN_DOFS lowered) and k_min
+    replaced by its magnitude (no sign change: the Arnoldi round-off of ~10^4 elements
+    that makes this happen cannot be had cheaply). The widening costs about log2(hi /
+    width) + 2 stiffness eigen-analyses, here 13 (15 k_min in all)."""
+    model = clamped_one_element_pipe()
+    monkeypatch.setattr(critical, "SPARSE_MIN_DOFS", 1)
+    kmin, evaluate, calls, flows = critical._kmin, critical._Evaluator.__call__, [], []
+
+    def magnitude(eig, sparse):
+        calls.append(sparse)
+        return abs(kmin(eig, sparse))
+
+    def at(self, mdot, vectors=False):
+        flows.append(mdot)
+        return evaluate(self, mdot, vectors)
+
+    monkeypatch.setattr(critical, "_kmin", magnitude)
+    monkeypatch.setattr(critical._Evaluator, "__call__", at)
+    with pytest.raises(pf.ConvergenceError, match=r"divergence between 91\.\d+ and 91\.\d+ kg/s, but no stiffness "
+                                                  r"eigenvalue changes sign there") as err:
+        pf.critical_mass_flow(model, mass_flow_max=40 * model.flow_scale())
+    assert err.value.mass_flow == pytest.approx(91.3, abs=0.1)
+    assert all(calls)  # the sparse path's widening
+    assert flows[-1] == 0.0 and min(flows) == 0.0  # the widening's last flow: zero, and none below
+    width = 91.3025 - 91.2534  # the bisected bracket
+    assert len(calls) <= 5 + np.log2(91.3 / width)  # Brent's 2, k_min at hi, a doubling each to 0
+
+
+def _growing_everywhere(monkeypatch):
+    """_track_root's inputs for a sparse block whose crossing eigenvalue grows at every flow
+    (refine_eigenpair replaced; the real case is Arnoldi's round-off at ~10^4 elements)."""
+    import scipy.sparse as sp
+    from types import SimpleNamespace
+
+    block = SimpleNamespace(dofs=np.arange(2), K=sp.identity(2, format="csr"))
+    eig_hi = SimpleNamespace(values=np.array([0.5 + 10j, 0.5 - 10j]), blocks=[block], block_of=np.array([0, 0]))
+    ev = SimpleNamespace(sparse=True, count=0, blocks=lambda m: ([block], None, None))
+    monkeypatch.setattr(critical, "refine_eigenpair", lambda b, lam, x=None: (complex(1.0, 10.0), None))
+    return ev, eig_hi
+
+
+@pytest.mark.timeout(60)
+def test_track_root_steps_down_to_zero_flow_and_no_further(monkeypatch):
+    """Large models: _track_root moves the bracket's lower end down while the refined
+    crossing eigenvalue still grows there, by the bracket's width, doubling after 4
+    steps. Growing at every flow, it reaches zero flow after 13 steps here (width 1e-3 from
+    1 kg/s) and stops: "grows down to zero flow" (critical_mass_flow then bisects on
+    full eigen-analyses); with the count MAX_BISECTIONS lowered to 5 (the default, 64
+    doublings, reaches 0 from any bracket a double can hold) the count ends it."""
+    ev, eig_hi = _growing_everywhere(monkeypatch)
+    with pytest.raises(ValueError, match="the crossing eigenvalue grows down to zero flow"):
+        critical._track_root(ev, 1.0, 1.001, eig_hi, 1e-12)
+    assert ev.count == 14  # 13 steps down (4 of the width, then doubling) and the one at 0
+    ev.count = 0
+    monkeypatch.setattr(critical, "MAX_BISECTIONS", 5)
+    with pytest.raises(ValueError, match=r"the crossing eigenvalue still grows at 0\.994 kg/s after 5 steps down"):
+        critical._track_root(ev, 1.0, 1.001, eig_hi, 1e-12)
+    assert ev.count == 5

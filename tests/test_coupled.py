@@ -219,15 +219,15 @@ def test_a_failed_coupled_load_step_is_halved(monkeypatch):
     converge, and the equilibrium is the one of two load steps, bit for bit (the same two
     solves from the same state, in one process)."""
     calls = []
-    solve = coupled._core.coupled_static
+    solve = coupled._core.static_equilibrium
 
-    def recorded(*args):
+    def recorded(*args):  # (system, mass_flow, load_factor, tol, max_iterations)
         out = solve(*args)
-        calls.append((args[10], bool(out["converged"]), out["iterations"]))
+        calls.append((args[2], bool(out["converged"]), out["iterations"]))
         return out
     arm, root, tip = tip_loaded_arm(8, clamped=False, force=50.0)
     cs = on_clamped_hub(arm, root, stiffness_ratio=1e4)
-    monkeypatch.setattr(coupled._core, "coupled_static", recorded)
+    monkeypatch.setattr(coupled._core, "static_equilibrium", recorded)
     st = pf.static_equilibrium(cs, load_steps=1)
     assert [c[:2] for c in calls] == [(1.0, False), (0.5, True), (1.0, True)]
     assert st.iterations == sum(c[2] for c in calls)
@@ -287,14 +287,14 @@ def test_pf_static_equilibrium_passes_max_iterations_to_the_coupled_statics(monk
     """One default, 30 Newton iterations per load step (as the element and multibody
     statics), and pf.static_equilibrium passes a given count on to the core."""
     seen = []
-    solve = coupled._core.coupled_static
+    solve = coupled._core.static_equilibrium
 
-    def recorded(*args):
-        seen.append(args[-1])
+    def recorded(*args):  # (system, mass_flow, load_factor, tol, max_iterations)
+        seen.append(args[4])
         return solve(*args)
     arm, root, _ = tip_loaded_arm(8, clamped=False)
     cs = on_clamped_hub(arm, root, stiffness_ratio=1e4)
-    monkeypatch.setattr(coupled._core, "coupled_static", recorded)
+    monkeypatch.setattr(coupled._core, "static_equilibrium", recorded)
     pf.static_equilibrium(cs)
     pf.static_equilibrium(cs, max_iterations=7)
     assert seen == [30, 7]

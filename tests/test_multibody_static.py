@@ -64,13 +64,14 @@ def test_free_motion_force_is_the_projection_on_the_hinge_rotation():
 
 
 def test_static_newton_reports_the_free_motions_of_its_end_state():
-    """static_newton with the mechanism penalty reports the free motions of its converged
+    """The static solve with the mechanism penalty reports the free motions of its converged
     state (the Python driven check reads them); they agree with a fresh evaluation."""
     s = _one_body("hinge", (0.0, 0.0, -2.0))  # out of the hinge's plane: not driven
     st = s.initial_state()
-    out = s.core.static_newton(st.r, st.R, st.eta, st.lam, 0.0, 0.0, 1.0, 1e-10, 30, mechanism=True)
+    system = s.system(st)
+    out = pf._core.static_equilibrium(system, 0.0, 1.0, 1e-10, 30, mechanism=True)
     assert out["converged"] and out["free"]["count"] == 1
-    r, R, eta, _, _, lam, _ = out["state"]
+    r, R, eta, _, _, lam, _ = system.body_state
     fresh = s.core.free_motions(r, R, eta, lam, 0.0, 0.0)
     assert np.abs(out["free"]["force"]).max() < 1e-10 and np.abs(fresh["force"]).max() < 1e-10
     assert out["free"]["reaction"] == pytest.approx(fresh["reaction"], rel=1e-6)

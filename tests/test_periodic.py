@@ -48,7 +48,7 @@ def test_monodromy_equals_finite_differences(planar4):
     opt, base, rng, z0, v0 = flow_map_start(m, newton_tol=1e-14, seed=3, z_scale=1e-4)
 
     def flow(z, v, sens=False):
-        return _core.generalized_alpha_flow_map(m.core, base.copy(), m.load_state(), z, v, 0.1, 100, sens, opt)
+        return _core.flow_map(m.system(base.copy()), m.mass_flow, z, v, 0.1, 100, sens, opt)
 
     Phi = flow(z0, v0, True)["monodromy"]
     fd = np.zeros_like(Phi)
@@ -67,13 +67,12 @@ def test_stored_tangent_applies_the_monodromy(planar4):
     m, _ = planar4
     n = m.n_dofs
     opt, base, rng, z0, v0 = flow_map_start(m, newton_tol=1e-12, seed=5, z_scale=1e-3)
-    out = _core.generalized_alpha_flow_map(m.core, base.copy(), m.load_state(), z0, v0, 0.2, 200, True, opt)
+    out = _core.flow_map(m.system(base.copy()), m.mass_flow, z0, v0, 0.2, 200, True, opt)
     D = rng.standard_normal((2 * n, 3))
     Phi = out["monodromy"]
     assert out["tangent"].dimension == 2 * n
     assert np.abs(out["tangent"].apply(D) - Phi @ D).max() <= 1e-10 * np.abs(Phi @ D).max()
-    lean = _core.generalized_alpha_flow_map(m.core, base.copy(), m.load_state(), z0, v0, 0.2, 200, True, opt,
-                                            monodromy=False)
+    lean = _core.flow_map(m.system(base.copy()), m.mass_flow, z0, v0, 0.2, 200, True, opt, monodromy=False)
     # exact: the same integration; monodromy=False only skips applying the tangent map
     assert "monodromy" not in lean and np.array_equal(lean["v"], out["v"])
     with pytest.raises(ValueError, match="rows"):
@@ -156,7 +155,7 @@ def test_planar_cycle_of_the_3d_pipe_is_unstable_out_of_plane():
     assert not o.stable
     opt = _core.TransientOptions()
     opt.newton_tol, opt.max_newton = 1e-12, 30
-    out = _core.generalized_alpha_flow_map(m.core, o.base.to_core(m), m.load_state(), o.z0, o.v0, o.period,
+    out = _core.flow_map(m.system(o.base.to_core(m)), m.mass_flow, o.z0, o.v0, o.period,
                                            o.steps, True, opt)
     w, V = np.linalg.eig(out["monodromy"])
     k = int(np.argmax(np.abs(w)))

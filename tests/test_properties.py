@@ -39,9 +39,7 @@ INPUTS = settings(FAST, max_examples=60)
 # Open bugs found by the fuzz in files of other areas, reported with reproducers (see
 # docs/errors.md, "Fuzzing and sanitizers"): met here, they warn instead of failing, so
 # that a new kind of failure still fails. Remove an entry when its fix lands.
-KNOWN_OPEN = [
-    r"stability: 'flutter' of a conservative model",
-]
+KNOWN_OPEN: list = []
 
 
 def _check(case):

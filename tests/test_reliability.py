@@ -52,11 +52,8 @@ def test_short_q_is_refused_when_set(m4):
     lambda m, s: _core.assemble(m.core, s, m.load_state(), 1.0, 1.0, 0.0, 0.0, True),
     lambda m, s: _core.external_forces(m.core, s),
     lambda m, s: _core.gravity_potential(m.core, s, m.load_state()),
-    lambda m, s: _core.integrate_generalized_alpha(m.core, s, m.load_state(), _core.TimeTable(), _core.TimeTable(),
-                                                   [0.0, 0.01], _core.TransientOptions(), None),
-    lambda m, s: _core.integrate_ida(m.core, s, m.load_state(), _core.TimeTable(), _core.TimeTable(),
-                                     [0.0, 0.01], _core.TransientOptions(), None),
-], ids=["assemble", "external_forces", "gravity_potential", "generalized_alpha", "ida"])
+    lambda m, s: _core.element_system(m.core, s, m.load_state()),
+], ids=["assemble", "external_forces", "gravity_potential", "system"])
 def test_core_entry_points_check_the_state(call, m2, m8):
     """The C++ entry points themselves refuse a state of another model (they read
     6 coordinates per node of the model: past the end of a shorter state)."""
@@ -97,16 +94,14 @@ def ffrf():
 def test_multibody_core_checks_sizes_and_indices(ffrf):
     st, core = ffrf.initial_state(), ffrf.core
     with pytest.raises(ValueError, match="eta, v and a must have"):
-        core.integrate(st.r, st.R, st.eta[:-1], st.v, st.a, st.lam, 0.0, _core.TimeTable(), 0.01, [0, 1], 1e-3,
-                       0.8, 1e-8, 12)
-    with pytest.raises(ValueError, match="out_steps must be increasing step numbers"):
-        core.integrate(st.r, st.R, st.eta, st.v, st.a, st.lam, 0.0, _core.TimeTable(), 0.01, [0, 99], 1e-3,
-                       0.8, 1e-8, 12)
+        _core.body_system(core, st.r, st.R, st.eta[:-1], st.v, st.a, st.lam, 0.0)
+    with pytest.raises(ValueError, match="times must be strictly increasing"):
+        _core.integrate(ffrf.system(st), _core.TimeTable(), _core.TimeTable(), [0.0, 0.01, 0.01],
+                        _core.TransientOptions())
     nan = st.eta.copy()
     nan[0] = np.nan
     with pytest.raises(ValueError, match="state: all its numbers must be finite"):
-        core.integrate(st.r, st.R, nan, st.v, st.a, st.lam, 0.0, _core.TimeTable(), 0.01, [0, 1], 1e-3,
-                       0.8, 1e-8, 12)
+        _core.body_system(core, st.r, st.R, nan, st.v, st.a, st.lam, 0.0)
     with pytest.raises(ValueError, match="node must be in"):
         core.node(st.r, st.R, st.eta, 1, 99)
 
@@ -295,10 +290,10 @@ def test_simulate_step_count_is_bounded_before_it_starts(m4):
 
 def test_output_count_is_bounded():
     m = scenes.cantilever_pipe(n_elements=2000)
-    with pytest.raises(ValueError, match=r"n_outputs: 10000 output times of 2001 nodes need 2.68392 GiB; at most 2 GiB"):
-        _core.integrate_generalized_alpha(m.core, m.initial_state(), m.load_state(), _core.TimeTable(),
-                                          _core.TimeTable(), list(np.linspace(0.0, 1.0, 10**4)),
-                                          _core.TransientOptions(), None)
+    with pytest.raises(ValueError, match=r"n_outputs: 10000 output times of 36023 values each need 2.68392 GiB; "
+                                         r"at most 2 GiB"):
+        _core.integrate(m.system(), _core.TimeTable(), _core.TimeTable(), list(np.linspace(0.0, 1.0, 10**4)),
+                        _core.TransientOptions())
 
 
 def test_output_count_is_checked_before_the_times_are_laid_out():

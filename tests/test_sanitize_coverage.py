@@ -44,15 +44,15 @@ def test_the_sanitized_selection_calls_every_bound_function():
 
 def test_the_listing_has_module_functions_and_methods_and_no_constructor():
     names = set(core_calls.bound_functions(_core))
-    assert {"coupled_linear_matrices", "coupled_steady_rotation", "multibody_steady_rotation",
-            "static_newton", "Model.add_pipes", "MultibodySystemCore.integrate", "FlowMapTangent.apply",
+    assert {"linear_matrices", "steady_rotation", "rotating_state", "static_equilibrium",
+            "integrate", "flow_map", "Model.add_pipes", "MultibodySystemCore.free_motions", "FlowMapTangent.apply",
             "TimeTable.at"} <= names
     assert not any(n.endswith(".__init__") for n in names)
     assert "State.q" not in names  # a property, not a function
     assert "DENSE_LU_BELOW" not in names and "MAX_OUTPUT_BYTES" not in names
     assert len(uncalled([])) == len(names)
     assert uncalled(names) == []
-    assert uncalled(names - {"multibody_steady_rotation"}) == ["multibody_steady_rotation"]
+    assert uncalled(names - {"rotating_state"}) == ["rotating_state"]
 
 
 def test_the_trace_sees_module_functions_and_methods_called_through_pipeflex():
@@ -66,7 +66,7 @@ def test_the_trace_sees_module_functions_and_methods_called_through_pipeflex():
         _core.rotation_exp(np.array([0.1, 0.2, 0.3]))
     finally:
         called = rec.stop()
-    assert {"rotation_exp", "static_newton", "Model.finalize", "Model.add_pipes"} <= called
-    assert "multibody_steady_rotation" not in called
+    assert {"rotation_exp", "element_system", "static_equilibrium", "Model.finalize", "Model.add_pipes"} <= called
+    assert "rotating_state" not in called
     # the run is left as it was
     assert sys.getprofile() is None and vars(_core.Model)["add_pipes"] is original

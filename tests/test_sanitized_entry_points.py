@@ -1,7 +1,7 @@
 """Small runs through the C++ entry points that the rest of the sanitizer's test selection
 (tools/sanitize.sh) does not reach: the coupled element + body linearisation
-(``_core.coupled_linear_matrices``), the steady rotation of a coupled system
-(``_core.coupled_steady_rotation``) and of bodies alone (``_core.multibody_steady_rotation``),
+(``_core.linear_matrices`` of a coupled system), the steady rotation
+(``_core.steady_rotation``) of a coupled system and of bodies alone,
 and the bindings that serve tests, benchmarks and helpers (the generic linearisation with
 its differences, the fixed-pattern LU, the kernel timer, an FFRF body's forces, a time
 table, per-node bases, the ANCF element's nodes and triad). Each checks a property of its
@@ -69,14 +69,11 @@ def test_bodies_steady_rotation_of_an_l_shaped_sprinkler():
 
 
 def test_generic_linearization_agrees_with_its_differences():
-    """_core.element_linear_matrices: the element model's K by the generic route, against
-    its own central differences (relative 1e-6: the differences' truncation)."""
+    """_core.linear_matrices on an element model's system: its K by the generic route,
+    against its own central differences (relative 1e-6: the differences' truncation)."""
     model = scenes.cantilever_pipe(n_elements=2)
     st = pf.static_equilibrium(model)
-    opt = _core.TransientOptions()
-    opt.length_scale = 1.0
-    out = _core.element_linear_matrices(model.core, as_core(model, st.state), model.load_state(mass_flow=1.0),
-                                        opt, 1e-6)
+    out = _core.linear_matrices(model.system(as_core(model, st.state), mass_flow=1.0), 1.0, 1e-6)
     K = constrained.from_core(out)[0].toarray()
     assert np.abs(K - out["differences"]).max() <= 1e-6 * np.abs(K).max()
 

@@ -3,6 +3,8 @@ the residual. One route for all: the core's linear_matrices on the equations int
 [K; C_q] at a state, residual_differences the (n + nc) x n central differences of
 [R + C_q^T lambda; c] over the same coordinates (step 1e-6), at loaded, deformed states
 with non-zero multipliers."""
+from dataclasses import replace
+
 import numpy as np
 import pytest
 import scipy.sparse as sp
@@ -49,10 +51,7 @@ def error(out, unloaded=None):
 
 
 def element_error(model, state, mass_flow):
-    opt = _core.TransientOptions()
-    opt.length_scale = 1.0
-    out = _core.element_linear_matrices(model.core, as_core(model, state), model.load_state(mass_flow=mass_flow),
-                                        opt, H)
+    out = _core.linear_matrices(model.system(as_core(model, state), mass_flow=mass_flow), mass_flow, H)
     return error(out)
 
 
@@ -85,7 +84,7 @@ def bodies_error(system, mass_flow):
     assert np.abs(st.lam).max() > 0.0
 
     def matrices(lam):
-        return system.core.linear_matrices(st.r, st.R, st.eta, st.v, st.a, lam, st.t, mass_flow, differences_step=H)
+        return _core.linear_matrices(system.system(replace(st, lam=lam)), mass_flow, H)
     out = matrices(st.lam)
     return max(error(out), error(out, matrices(0.0 * st.lam)))
 
@@ -148,21 +147,18 @@ def coupled_error(cs, mass_flow, move=None):
     """The error at the static equilibrium, or at it with its element coordinates moved by
     move(q) (a state where the couplings' equations are not satisfied)."""
     st = pf.static_equilibrium(cs, mass_flow=mass_flow)
-    model, bodies, b = cs.model, cs.bodies, st.body_state
+    model, b = cs.model, st.body_state
     state = as_core(model, st.state)
     if move is not None:
         q = np.array(state.q)
         move(q)
         state.q = q
-    opt = _core.TransientOptions()
-    opt.length_scale = 1.0
     lam = np.asarray(st.coupling_forces, float)
     assert np.abs(lam).max() > 0.0
 
     def matrices(scale):
-        return _core.coupled_linear_matrices(model.core, state,
-                                             model.load_state(mass_flow=mass_flow), bodies.core, b.r, b.R, b.eta,
-                                             b.v, b.a, scale * b.lam, cs.core_couplings(), scale * lam, opt, H)
+        return _core.linear_matrices(cs.system(state, replace(b, lam=scale * b.lam), scale * lam, mass_flow=mass_flow),
+                                     mass_flow, H)
     out = matrices(1.0)
     return max(error(out), error(out, matrices(0.0)))
 

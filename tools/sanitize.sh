@@ -74,7 +74,7 @@ run() {
 # Tests covering every C++ entry point: element kernels (test_element*), assembly and
 # the size/index checks (test_reliability, test_bad_input), static, linearize/eigen,
 # critical flow, generalised-alpha and IDA (test_transient), the flow map
-# _core.generalized_alpha_flow_map (test_periodic), ANCF (test_ancf, test_rotating),
+# _core.flow_map (test_periodic), ANCF (test_ancf, test_rotating),
 # steady rotation (test_sprinkler), FFRF bodies and the multibody integrator and statics
 # (test_ffrf_*, test_multibody_*), and the property tests (hypothesis); then a short
 # fuzz run. About a fifth of the fast suite's tests, 4 min under the sanitizers

@@ -1,4 +1,5 @@
 #include "convert.hpp"
+#include "pipeflex/solvers/system.hpp"
 #include "pipeflex/assembly/model.hpp"
 
 #include <pybind11/stl.h>
@@ -228,6 +229,9 @@ void bind_assembly(py::module_& m) {
         .def("finalize", &Model::finalize, "Numbers the reduced coordinates; checks consistency.")
         .def_property_readonly("n_nodes", &Model::n_nodes)
         .def_readonly("n_dofs", &Model::n_dofs)
+        .def_property_readonly("length_scale", &model_length_scale,
+                               "The model's size [m] for Newton's tests: the largest extent of its reference node "
+                               "positions along x, y or z, at least 1 mm.")
         .def_readonly("first_dof", &Model::first_dof)
         .def("pipe", [](const Model& md, int i) {
             if (i < 0 || i >= static_cast<int>(md.pipes.size()))

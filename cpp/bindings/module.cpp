@@ -14,6 +14,7 @@ void bind_assembly(py::module_& m);
 void bind_transient(py::module_& m);
 void bind_ffrf(py::module_& m);
 void bind_multibody(py::module_& m);
+void bind_system(py::module_& m);
 
 namespace {
 
@@ -62,4 +63,5 @@ PYBIND11_MODULE(_core, m) {
     bind_transient(m);
     bind_ffrf(m);
     bind_multibody(m);
+    bind_system(m);
 }

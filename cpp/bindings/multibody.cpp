@@ -55,11 +55,9 @@ py::tuple pipeflex::from_state(const MbState& s) {
     return py::make_tuple(r, R, s.eta, s.v, s.a, s.lam, s.t);
 }
 
-namespace {
-
 // FreeMotions as a dict: the force per body (n_bodies, 6), its moments divided by the
 // length scale (arcs of the model's size: in N throughout).
-py::dict free_dict(const MultibodySystemCore& sys, const FreeMotions& f) {
+py::dict pipeflex::free_dict(const MultibodySystemCore& sys, const FreeMotions& f) {
     const double L = sys.length_scale();
     py::array_t<double> force({sys.n_bodies(), 6});
     auto F = force.mutable_unchecked<2>();
@@ -71,8 +69,6 @@ py::dict free_dict(const MultibodySystemCore& sys, const FreeMotions& f) {
     d["reaction"] = f.reaction;
     return d;
 }
-
-}  // namespace
 
 void bind_multibody(py::module_& m) {
     py::class_<MultibodySystemCore>(m, "MultibodySystemCore")
@@ -194,37 +190,6 @@ void bind_multibody(py::module_& m) {
             "(c, C_q): the constraint equations [m, rad] and their Jacobian, sparse (CSC).",
             py::arg("r"), py::arg("R"), py::arg("eta"), py::arg("t"))
         .def(
-            "linear_matrices",
-            [](const MultibodySystemCore& sys, const Arr& r, const Arr& R, const VecX& eta, const VecX& v,
-               const VecX& a, const VecX& lam, double t, double mass_flow, double differences_step) {
-                const MbState s = to_state(sys, r, R, eta, v, a, lam, t);
-                return linear_dict(multibody_linear_matrices(sys, s, mass_flow, differences_step));
-            },
-            "The linearised equations about the state: K, C, M (N x N) and C_q, as triplets (with "
-            "differences_step > 0 also the residual's central differences, 'differences').",
-            py::arg("r"), py::arg("R"), py::arg("eta"), py::arg("v"), py::arg("a"), py::arg("lam"), py::arg("t"),
-            py::arg("mass_flow"), py::arg("differences_step") = 0.0)
-        .def(
-            "static_newton",
-            [](const MultibodySystemCore& sys, const Arr& r, const Arr& R, const VecX& eta, const VecX& lam, double t,
-               double mass_flow, double load_factor, double tol, int max_iterations, bool mechanism) {
-                MbState s = to_state(sys, r, R, eta, VecX::Zero(eta.size()), VecX::Zero(eta.size()), lam, t);
-                StaticNewtonResult res;
-                {
-                    py::gil_scoped_release release;
-                    res = multibody_static(sys, s, mass_flow, load_factor, tol, max_iterations, mechanism);
-                }
-                py::dict d = static_dict(res);
-                d["state"] = from_state(s);
-                if (res.free.count >= 0) d["free"] = free_dict(sys, res.free);
-                return d;
-            },
-            "One load step's static equilibrium by the core's static_newton; mechanism: the joints leave a rigid "
-            "motion free (the frames' free motions penalised, StaticNewtonOptions::shift), and when converged "
-            "'free' is the end state's free_motions dict.",
-            py::arg("r"), py::arg("R"), py::arg("eta"), py::arg("lam"), py::arg("t"), py::arg("mass_flow"),
-            py::arg("load_factor"), py::arg("tol"), py::arg("max_iterations"), py::arg("mechanism") = false)
-        .def(
             "free_motions",
             [](const MultibodySystemCore& sys, const Arr& r, const Arr& R, const VecX& eta, const VecX& lam, double t,
                double mass_flow) {
@@ -240,30 +205,5 @@ void bind_multibody(py::module_& m) {
             "rigid motions the joints leave free, 'force' (n_bodies, 6) the residual's generalised force on them "
             "(projected off the range of the frames' constraint rows; moments divided by the length scale, so in "
             "N), 'reaction' the largest joint reaction on a frame coordinate [N, N m].",
-            py::arg("r"), py::arg("R"), py::arg("eta"), py::arg("lam"), py::arg("t"), py::arg("mass_flow"))
-        .def(
-            "integrate",
-            [](const MultibodySystemCore& sys, const Arr& r, const Arr& R, const VecX& eta, const VecX& v,
-               const VecX& a, const VecX& lam, double t, const TimeTable& flow, double t_end,
-               const std::vector<long>& out_steps, double step, double rho_inf, double tol, int max_newton,
-               long max_steps) {
-                MbState s = to_state(sys, r, R, eta, v, a, lam, t);
-                const MbOptions opt{step, rho_inf, tol, max_newton, max_steps};
-                MbOutput out;
-                {
-                    py::gil_scoped_release release;
-                    out = sys.integrate(s, flow, t_end, out_steps, opt);
-                }
-                py::list states;
-                for (const auto& st : out.states) states.append(from_state(st));
-                py::dict stats;
-                stats["steps"] = out.steps;
-                stats["iterations"] = out.iterations;
-                stats["factorizations"] = out.factorizations;
-                stats["retries"] = out.retries;
-                return py::make_tuple(out.t, states, out.drift, stats);
-            },
-            py::arg("r"), py::arg("R"), py::arg("eta"), py::arg("v"), py::arg("a"), py::arg("lam"), py::arg("t"),
-            py::arg("mass_flow"), py::arg("t_end"), py::arg("out_steps"), py::arg("step"), py::arg("rho_inf"),
-            py::arg("tol"), py::arg("max_newton"), py::arg("max_steps") = MbOptions().max_steps);
+            py::arg("r"), py::arg("R"), py::arg("eta"), py::arg("lam"), py::arg("t"), py::arg("mass_flow"));
 }

@@ -2,6 +2,7 @@
 #pragma once
 
 #include "pipeflex/multibody/multibody.hpp"
+#include "pipeflex/solvers/coupled.hpp"
 #include "pipeflex/solvers/equations.hpp"
 #include "pipeflex/solvers/linear_matrices.hpp"
 #include "pipeflex/solvers/transient.hpp"
@@ -13,13 +14,18 @@ namespace pipeflex {
 
 using Arr = pybind11::array_t<double, pybind11::array::c_style | pybind11::array::forcecast>;
 
-// An element run's outputs: t, x, R, xd, omega, energies, work counters.
-pybind11::dict transient_dict(const TransientOutput& out, pybind11::ssize_t n_nodes);
+// Couplings of element nodes to body nodes from Python: (element node, kind 0 rigid /
+// 1 hinge / 2 spherical, body, body node, C0, axis_b, perp0, perp1) tuples.
+std::vector<Coupling> couplings_from(const pybind11::list& couplings);
 
 // A body state from numpy arrays (sizes checked) and back: (r, R, eta, v, a, lam, t).
 MbState to_state(const MultibodySystemCore& sys, const Arr& r, const Arr& R, const VecX& eta, const VecX& v,
                  const VecX& a, const VecX& lam, double t);
 pybind11::tuple from_state(const MbState& s);
+
+// FreeMotions as a dict: count, the force per body (n_bodies, 6; moments divided by the
+// length scale: in N throughout), the largest reaction.
+pybind11::dict free_dict(const MultibodySystemCore& sys, const FreeMotions& f);
 
 // A static solve's outcome: converged, singular, iterations, residual [N], correction.
 inline pybind11::dict static_dict(const StaticNewtonResult& r) {

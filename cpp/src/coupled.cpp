@@ -251,120 +251,6 @@ class CoupledEquations final : public Equations {
 
 }  // namespace
 
-CoupledOutput integrate_coupled(const Model& model, State& state, const LoadState& load,
-                                const TimeFunctions& functions, const MultibodySystemCore& bodies,
-                                MbState& body_state, const std::vector<Coupling>& couplings,
-                                const std::vector<double>& times, const TransientOptions& opt,
-                                const ProgressFn& progress) {
-    CoupledOutput out;
-    if (times.empty()) return out;
-    check_state(model, state);
-    bodies.check_state(body_state);
-    ElementEquations el(model, state, load, functions, opt);
-    MultibodyEquations mb(bodies, body_state, functions.mass_flow);
-    CoupledEquations eq(el, mb, bodies, couplings);
-    const double t0 = times.front();
-    VecX v1 = reduce(model, state.v), a1;
-    el.rebase(0.0, v1, a1);
-    VecX v(eq.n_coordinates());
-    v << v1, body_state.v;
-    GeneralizedAlpha alpha(eq, alpha_options(opt), t0, v);
-    el.start_work(t0);
-    auto record = [&](double t) {
-        el.record(t, out.elements, el.fluid_work, el.load_work);
-        out.bodies.push_back(mb.state());
-        out.coupling_multipliers.push_back(eq.coupling_multipliers());
-    };
-    record(t0);
-    for (std::size_t next = 1; next < times.size(); ++next) {
-        alpha.advance_to(times[next]);
-        record(alpha.time());
-        if (progress) progress(alpha.time());
-    }
-    body_state = mb.state();
-    put_stats(alpha.stats(), out.elements);
-    return out;
-}
-
-namespace {
-// The coupled equations at a constant mass flow (the load's), loads at their full value
-// unless a static load factor is set: statics and linearisation.
-struct ConstantFlowSystem {
-    ConstantFlowSystem(const Model& model, State& state, const LoadState& load, const MultibodySystemCore& bodies,
-                       const MbState& body_state, const std::vector<Coupling>& couplings,
-                       const TransientOptions& opt)
-        : functions{TimeTable::constant(load.mass_flow), TimeTable::constant(1.0)},
-          el(model, state, load, functions, opt),
-          mb(bodies, body_state, functions.mass_flow),
-          eq(el, mb, bodies, couplings),
-          nc2(bodies.n_constraints()) {}
-
-    // [the bodies' multipliers; the couplings'] (zero if coupling_lam does not fit)
-    VecX multipliers(const MbState& body_state, const VecX& coupling_lam) const {
-        const int nc3 = eq.n_constraints() - nc2;
-        VecX lam(eq.n_constraints());
-        lam << body_state.lam, (coupling_lam.size() == nc3 ? coupling_lam : VecX::Zero(nc3));
-        return lam;
-    }
-
-    TimeFunctions functions;
-    ElementEquations el;
-    MultibodyEquations mb;
-    CoupledEquations eq;
-    int nc2;
-};
-}  // namespace
-
-LinearMatrices element_linear_matrices(const Model& model, State& state, const LoadState& load,
-                                       const TransientOptions& opt, double differences_step) {
-    check_state(model, state);
-    const TimeFunctions functions{TimeTable::constant(load.mass_flow), TimeTable::constant(1.0)};
-    ElementEquations el(model, state, load, functions, opt);
-    VecX v = reduce(model, state.v), a = reduce(model, state.a);
-    el.rebase(0.0, v, a);
-    return linear_matrices(el, v, a, VecX(), 0.0, differences_step);
-}
-
-LinearMatrices coupled_linear_matrices(const Model& model, State& state, const LoadState& load,
-                                       const MultibodySystemCore& bodies, const MbState& body_state,
-                                       const std::vector<Coupling>& couplings, const Eigen::VectorXd& coupling_lam,
-                                       const TransientOptions& opt, double differences_step) {
-    check_state(model, state);
-    bodies.check_state(body_state);
-    ConstantFlowSystem sys(model, state, load, bodies, body_state, couplings, opt);
-    VecX v1 = reduce(model, state.v), a1 = reduce(model, state.a);
-    sys.el.rebase(0.0, v1, a1);
-    const int n1 = model.n_dofs, n2 = bodies.n_coordinates();
-    VecX v(n1 + n2), a(n1 + n2);
-    v << v1, body_state.v;
-    a << a1, body_state.a;
-    return linear_matrices(sys.eq, v, a, sys.multipliers(body_state, coupling_lam), body_state.t, differences_step);
-}
-
-StaticNewtonResult coupled_static(const Model& model, State& state, const LoadState& load,
-                                  const MultibodySystemCore& bodies, MbState& body_state,
-                                  const std::vector<Coupling>& couplings, Eigen::VectorXd& coupling_lam,
-                                  double load_factor, const TransientOptions& opt, double tol, int max_iterations) {
-    check_state(model, state);
-    bodies.check_state(body_state);
-    ConstantFlowSystem sys(model, state, load, bodies, body_state, couplings, opt);
-    CoupledEquations& eq = sys.eq;
-    MultibodyEquations& mb = sys.mb;
-    eq.set_static_load_factor(load_factor);
-    VecX v1 = reduce(model, state.v), a1;
-    sys.el.rebase(0.0, v1, a1);
-    VecX lam = sys.multipliers(body_state, coupling_lam);
-    const StaticNewtonResult res = static_newton(eq, body_state.t, lam, tol, max_iterations);
-    body_state = mb.state();
-    body_state.lam = lam.head(bodies.n_constraints());
-    body_state.v.setZero();
-    body_state.a.setZero();
-    state.v.setZero();
-    state.a.setZero();
-    coupling_lam = lam.tail(eq.n_constraints() - bodies.n_constraints());
-    return res;
-}
-
 namespace {
 
 // The coupled system in rigid rotation: the element model's RigidRotationEquations and the
@@ -372,9 +258,10 @@ namespace {
 class RotatingCoupled final : public RotatingSystem {
    public:
     RotatingCoupled(const Model& model, State& state, const LoadState& load, const MultibodySystemCore& bodies,
-                    const MbState& body_state, const std::vector<Coupling>& couplings, const RotationHinge& h,
-                    double length_scale)
-        : el_(model, state, load, length_scale, Vec3<double>{{h.point[0], h.point[1], h.point[2]}},
+                    MbState& body_state, VecX& coupling_lam, const std::vector<Coupling>& couplings,
+                    const RotationHinge& h, double length_scale)
+        : body_state_(body_state), coupling_lam_(coupling_lam), nc2_(bodies.n_constraints()),
+          el_(model, state, load, length_scale, Vec3<double>{{h.point[0], h.point[1], h.point[2]}},
               Vec3<double>{{h.axis[0], h.axis[1], h.axis[2]}}),
           flow_(TimeTable::constant(load.mass_flow)),
           mb_(bodies, body_state, flow_),
@@ -395,9 +282,16 @@ class RotatingCoupled final : public RotatingSystem {
         v.resize(el.n + mb_.n_coordinates());
         v << reduce(el.model, el.state.v), mb_.state().v;
     }
-    const MbState& body_state() const { return mb_.state(); }
+    void finish(const VecX& lam) override {
+        body_state_ = mb_.state();
+        body_state_.lam = lam.head(nc2_);
+        coupling_lam_ = lam.tail(lam.size() - nc2_);
+    }
 
    private:
+    MbState& body_state_;
+    VecX& coupling_lam_;
+    int nc2_;
     RigidRotationEquations el_;
     TimeTable flow_;
     MultibodyEquations mb_;
@@ -407,35 +301,153 @@ class RotatingCoupled final : public RotatingSystem {
 
 }  // namespace
 
-SteadyRotationOutcome coupled_steady_rotation(const Model& model, State& state, const LoadState& load,
-                                              const MultibodySystemCore& bodies, MbState& body_state,
-                                              const std::vector<Coupling>& couplings, Eigen::VectorXd& coupling_lam,
-                                              const RotationHinge& hinge, double omega_guess, double length_scale,
-                                              const SteadyRotationOptions& opt) {
-    check_state(model, state);
-    bodies.check_state(body_state);
-    for (int i = 0; i < model.n_nodes(); ++i)
-        if (model.kinds[i] == NodeKind::ancf)
-            throw std::invalid_argument("steady_rotation: ANCF node " + std::to_string(i) +
-                                        ": the rigid rotation's rates are those of frame nodes");
-    const int n1 = model.n_dofs;
-    if (hinge.body < 0 ? hinge.element_dof < 0 || hinge.element_dof >= n1 : hinge.body >= bodies.n_bodies())
-        throw std::invalid_argument("steady_rotation: the hinge's body or element coordinate is out of range");
-    RotatingCoupled rot(model, state, load, bodies, body_state, couplings, hinge, length_scale);
-    Equations& eq = rot.equations();
-    VecX pin = VecX::Zero(eq.n_coordinates());
-    if (hinge.body >= 0)
-        pin.segment<3>(n1 + bodies.offset(hinge.body) + 3) = hinge.axis;
-    else
-        pin[hinge.element_dof] = 1.0;
-    const int nc2 = bodies.n_constraints(), nc3 = eq.n_constraints() - nc2;
-    VecX lam(eq.n_constraints());
-    lam << body_state.lam, (coupling_lam.size() == nc3 ? coupling_lam : VecX::Zero(nc3));
-    const SteadyRotationOutcome out = steady_rotation(rot, pin, load.mass_flow, omega_guess, opt, lam);
-    body_state = rot.body_state();
-    body_state.lam = lam.head(nc2);
-    coupling_lam = lam.tail(nc3);
-    return out;
+namespace {
+
+// A run of a coupled system: the element model's and the bodies' equations joined by the
+// couplings. The element part runs as in dynamics for statics too (hub frame applied,
+// loads and gravity times the static load factor).
+class CoupledRun final : public Run {
+   public:
+    CoupledRun(const Model& model, State& state, const LoadState& load, const MultibodySystemCore& bodies,
+               MbState& body_state, const std::vector<Coupling>& couplings, VecX& coupling_lam, const Drive& drive,
+               System::Mode mode)
+        : bodies_(bodies), body_state_(body_state), coupling_lam_(coupling_lam), drive_(drive),
+          functions_{drive_.mass_flow, drive_.load_factor}, statics_(mode == System::Mode::statics),
+          el_(model, state, load, functions_, drive_.options), mb_(bodies, body_state, functions_.mass_flow),
+          eq_(el_, mb_, bodies, couplings) {
+        VecX v1 = reduce(model, state.v), a1 = reduce(model, state.a);
+        if (mode != System::Mode::fixed_chart) el_.rebase(0.0, v1, a1);  // the chart of the state's frames: z = 0
+        const int n = eq_.n_coordinates(), nc2 = bodies.n_constraints(), nc3 = eq_.n_constraints() - nc2;
+        t0 = body_state.t;
+        v.resize(n);
+        a.resize(n);
+        lam.resize(eq_.n_constraints());
+        v << v1, body_state.v;
+        a << a1, body_state.a;
+        lam << body_state.lam, (coupling_lam.size() == nc3 ? coupling_lam : VecX::Zero(nc3));
+    }
+    Equations& equations() override { return eq_; }
+    void begin(double t) override { el_.start_work(t); }
+    void record(double t, Record& out) override {
+        TransientOutput o;
+        el_.record(t, o, el_.fluid_work, el_.load_work);
+        append_element_outputs(o, el_.model.n_nodes(), out);
+        append_body_outputs(bodies_, mb_.state(), functions_.mass_flow, t, ev_, out, "body_");
+        const VecX& lc = eq_.coupling_multipliers();
+        auto& series = out("coupling_multipliers", {static_cast<long>(lc.size())});
+        series.data.insert(series.data.end(), lc.data(), lc.data() + lc.size());
+    }
+    void finish() override {
+        const int nc2 = bodies_.n_constraints();
+        body_state_ = mb_.state();
+        if (!statics_) {
+            coupling_lam_ = eq_.coupling_multipliers();
+            return;
+        }
+        body_state_.lam = lam.head(nc2);
+        body_state_.v.setZero();
+        body_state_.a.setZero();
+        el_.state.v.setZero();
+        el_.state.a.setZero();
+        coupling_lam_ = lam.tail(eq_.n_constraints() - nc2);
+    }
+
+   private:
+    const MultibodySystemCore& bodies_;
+    MbState& body_state_;
+    VecX& coupling_lam_;
+    Drive drive_;
+    TimeFunctions functions_;
+    bool statics_;
+    ElementEquations el_;
+    MultibodyEquations mb_;
+    CoupledEquations eq_;
+    MbEvaluation ev_;
+};
+
+class CoupledSystem final : public System {
+   public:
+    CoupledSystem(const Model& model, State& state, const LoadState& load, const MultibodySystemCore& bodies,
+                  const MbState& body_state, std::vector<Coupling> couplings, VecX coupling_lam)
+        : model_(model), state_(state), load_(load), bodies_(bodies), body_state_(body_state),
+          couplings_(std::move(couplings)), coupling_lam_(std::move(coupling_lam)) {
+        check();
+    }
+    std::unique_ptr<Run> start(const Drive& drive, Mode mode) override {
+        check();
+        if (mode == Mode::fixed_chart) throw std::invalid_argument(fixed_chart_refusal());
+        Drive d = drive;
+        d.options.length_scale = model_length_scale(model_);
+        return std::make_unique<CoupledRun>(model_, state_, load_, bodies_, body_state_, couplings_, coupling_lam_, d,
+                                            mode);
+    }
+    double length_scale() const override { return std::max(model_length_scale(model_), bodies_.length_scale()); }
+    int n_coordinates() const override { return model_.n_dofs + bodies_.n_coordinates(); }
+    int n_constraints() const override {
+        int rows = bodies_.n_constraints();
+        for (const Coupling& c : couplings_)  // CoupledEquations::rows
+            rows += model_.kinds[c.element_node] == NodeKind::ancf ? 3 : c.joint.rows();
+        return rows;
+    }
+    double record_size() const override {
+        return 18.0 * model_.n_nodes() + 5.0 + 12.0 * bodies_.n_bodies() + 3.0 * bodies_.n_coordinates() +
+               n_constraints() + 1.0;
+    }
+    MbState* body_state() override { return &body_state_; }
+    const MultibodySystemCore* bodies() const override { return &bodies_; }
+    VecX* coupling_multipliers() override { return &coupling_lam_; }
+    std::unique_ptr<RotatingSystem> rotating(const RotationHinge& hinge, double mdot, VecX& pin, VecX& lam) override {
+        check();
+        for (int i = 0; i < model_.n_nodes(); ++i)
+            if (model_.kinds[i] == NodeKind::ancf)
+                throw std::invalid_argument("steady_rotation: ANCF node " + std::to_string(i) +
+                                            ": the rigid rotation's rates are those of frame nodes");
+        const int n1 = model_.n_dofs;
+        if (hinge.body < 0 ? hinge.element_dof < 0 || hinge.element_dof >= n1 : hinge.body >= bodies_.n_bodies())
+            throw std::invalid_argument("steady_rotation: the hinge's body or element coordinate is out of range");
+        LoadState load = load_;
+        load.mass_flow = mdot;
+        auto rot = std::make_unique<RotatingCoupled>(model_, state_, load, bodies_, body_state_, coupling_lam_,
+                                                     couplings_, hinge, model_length_scale(model_));
+        const int n = rot->equations().n_coordinates(), nc = rot->equations().n_constraints();
+        pin = VecX::Zero(n);
+        if (hinge.body >= 0)
+            pin.segment<3>(n1 + bodies_.offset(hinge.body) + 3) = hinge.axis;
+        else
+            pin[hinge.element_dof] = 1.0;
+        const int nc2 = bodies_.n_constraints(), nc3 = nc - nc2;
+        lam.resize(nc);
+        lam << body_state_.lam, (coupling_lam_.size() == nc3 ? coupling_lam_ : VecX::Zero(nc3));
+        return rot;
+    }
+
+   private:
+    void check() const {
+        check_state(model_, state_);
+        bodies_.check_state(body_state_);
+        for (const Coupling& c : couplings_)
+            if (c.element_node < 0 || c.element_node >= model_.n_nodes())
+                throw std::invalid_argument("coupling: element node " + std::to_string(c.element_node) +
+                                            " is not a node of the model (it has " +
+                                            std::to_string(model_.n_nodes()) + ")");
+    }
+    const Model& model_;
+    State& state_;
+    LoadState load_;
+    const MultibodySystemCore& bodies_;
+    MbState body_state_;
+    std::vector<Coupling> couplings_;
+    VecX coupling_lam_;
+};
+
+}  // namespace
+
+std::unique_ptr<System> coupled_system(const Model& model, State& state, const LoadState& load,
+                                       const MultibodySystemCore& bodies, const MbState& body_state,
+                                       std::vector<Coupling> couplings, Eigen::VectorXd coupling_lam) {
+    return std::make_unique<CoupledSystem>(model, state, load, bodies, body_state, std::move(couplings),
+                                           std::move(coupling_lam));
 }
+
 
 }  // namespace pipeflex

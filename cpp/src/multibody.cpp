@@ -499,14 +499,6 @@ double MultibodySystemCore::velocity_drift(const MbState& s, const MbEvaluation&
     return drift;
 }
 
-LinearMatrices multibody_linear_matrices(const MultibodySystemCore& sys, const MbState& s, double mdot,
-                                         double differences_step) {
-    sys.check_state(s);
-    const TimeTable flow = TimeTable::constant(mdot);
-    MultibodyEquations eq(sys, s, flow);
-    return linear_matrices(eq, s.v, s.a, s.lam, s.t, differences_step);
-}
-
 VecX multibody_frame_shift(const MultibodySystemCore& sys) {
     VecX w = VecX::Zero(sys.n_coordinates());
     for (int j = 0; j < sys.n_bodies(); ++j) w.segment<6>(sys.offset(j)).setConstant(kMechanismShift);
@@ -518,78 +510,6 @@ FreeMotions multibody_free_motions(const MultibodySystemCore& sys, const MbState
     const TimeTable flow = TimeTable::constant(mdot);
     MultibodyEquations eq(sys, s, flow);
     return free_motions(eq, s.t, s.lam, multibody_frame_shift(sys));
-}
-
-StaticNewtonResult multibody_static(const MultibodySystemCore& sys, MbState& s, double mdot, double load_factor,
-                                    double tol, int max_iterations, bool mechanism) {
-    sys.check_state(s);
-    const TimeTable flow = TimeTable::constant(mdot);
-    MultibodyEquations eq(sys, s, flow);
-    eq.set_static_load_factor(load_factor);
-    VecX lam = s.lam;
-    StaticNewtonOptions opt;
-    opt.tol = tol;
-    opt.max_iterations = max_iterations;
-    if (mechanism) opt.shift = multibody_frame_shift(sys);  // the free rigid motions are the frames'
-    const StaticNewtonResult res = static_newton(eq, s.t, lam, opt);
-    s = eq.state();
-    s.lam = lam;
-    s.v.setZero();
-    s.a.setZero();
-    return res;
-}
-
-MbOutput MultibodySystemCore::integrate(MbState& s, const TimeTable& mass_flow, double t_end,
-                                        const std::vector<long>& out_steps, const MbOptions& opt) const {
-    check_state(s);
-    if (!std::isfinite(t_end) || !(t_end > s.t))
-        throw std::invalid_argument("t_end = " + fmt(t_end) + " s must be finite and after the state's time " +
-                                    fmt(s.t) + " s");
-    if (!std::isfinite(opt.step) || !(opt.step > 0.0)) throw std::invalid_argument("step must be > 0 and finite");
-    if (!(opt.rho_inf >= 0.0 && opt.rho_inf < 1.0)) throw std::invalid_argument("rho_inf must be in [0, 1)");
-    if (!(opt.tol > 0.0)) throw std::invalid_argument("tol must be > 0");
-    if (opt.max_newton < 1) throw std::invalid_argument("max_newton must be >= 1");
-    const double steps_needed = std::ceil((t_end - s.t) / opt.step - 1e-9);
-    if (steps_needed > static_cast<double>(opt.max_steps))
-        throw std::invalid_argument("step = " + fmt(opt.step) + " s gives " + fmt(steps_needed) + " steps to t_end = " +
-                                    fmt(t_end) + " s; max_steps = " + std::to_string(opt.max_steps) +
-                                    " (raise step or max_steps, or shorten the run)");
-    for (size_t k = 0; k < out_steps.size(); ++k)
-        if (out_steps[k] < 0 || out_steps[k] > static_cast<long>(std::max(1.0, steps_needed)) ||
-            (k > 0 && out_steps[k] <= out_steps[k - 1]))
-            throw std::invalid_argument("out_steps must be increasing step numbers in [0, n_steps]");
-    const double t0 = s.t;
-    const long n_steps = std::max(1L, static_cast<long>(std::ceil((t_end - t0) / opt.step - 1e-9)));
-    const double h = (t_end - t0) / static_cast<double>(n_steps);
-    MultibodyEquations eq(*this, s, mass_flow);
-    AlphaOptions ao;
-    ao.step = h;
-    ao.rho_inf = opt.rho_inf;
-    ao.newton_tol = opt.tol;
-    ao.max_newton = opt.max_newton;
-    ao.max_steps = opt.max_steps;
-    GeneralizedAlpha alpha(eq, ao, t0, s.v);
-    MbOutput out;
-    auto save = [&]() {
-        const MbState& st = eq.state();
-        MbEvaluation& ev = eq.evaluation();
-        evaluate(st, mass_flow.at(st.t), mass_flow.rate(st.t), 1.0, 1.0, 0.0, 0.0, 0.0, false, ev);
-        out.t.push_back(st.t);
-        out.states.push_back(st);
-        out.drift.push_back(velocity_drift(st, ev));
-    };
-    for (long k : out_steps) {
-        if (k > 0) alpha.advance_to(k == n_steps ? t_end : t0 + static_cast<double>(k) * h);
-        save();
-    }
-    if (out_steps.empty() || out_steps.back() < n_steps) alpha.advance_to(t_end);
-    s = eq.state();
-    const AlphaStats& st = alpha.stats();
-    out.steps = st.steps;
-    out.iterations = st.newton_iterations;
-    out.factorizations = st.jacobians;
-    out.retries = st.failed_steps;
-    return out;
 }
 
 }  // namespace pipeflex

@@ -154,16 +154,20 @@ class RotatingElements final : public RotatingSystem {
 
 class RotatingBodies final : public RotatingSystem {
    public:
-    RotatingBodies(const MultibodySystemCore& sys, const MbState& s, double mdot, const RotationHinge& h)
-        : flow_(TimeTable::constant(mdot)), mb_(sys, s, flow_), eq_(mb_, sys, h.point, h.axis) {}
+    RotatingBodies(const MultibodySystemCore& sys, MbState& s, double mdot, const RotationHinge& h)
+        : target_(s), flow_(TimeTable::constant(mdot)), mb_(sys, s, flow_), eq_(mb_, sys, h.point, h.axis) {}
     Equations& equations() override { return eq_; }
     double omega() const override { return eq_.omega(); }
     void set_omega(double w) override { eq_.set_omega(w); }
     void set_mass_flow(double mdot) override { flow_ = TimeTable::constant(mdot); }
     void rates(Eigen::VectorXd& v) override { v = mb_.state().v; }
-    const MbState& state() const { return mb_.state(); }
+    void finish(const Eigen::VectorXd& lam) override {
+        target_ = mb_.state();
+        target_.lam = lam;
+    }
 
    private:
+    MbState& target_;
     TimeTable flow_;
     MultibodyEquations mb_;
     RigidRotationBodies eq_;
@@ -171,32 +175,28 @@ class RotatingBodies final : public RotatingSystem {
 
 }  // namespace
 
-SteadyRotationOutcome steady_rotation(const Model& model, State& state, const LoadState& load, int hinge_node,
-                                      int hinge_dof, const Vec3<double>& axis, double omega_guess,
-                                      double length_scale, const SteadyRotationOptions& opt) {
-    if (hinge_node < 0 || hinge_node >= model.n_nodes() || hinge_dof < 0 || hinge_dof >= model.n_dofs)
+std::unique_ptr<RotatingSystem> rotating_elements(const Model& model, State& state, const LoadState& load,
+                                                  double length_scale, const RotationHinge& hinge,
+                                                  Eigen::VectorXd& pin) {
+    if (hinge.node < 0 || hinge.node >= model.n_nodes() || hinge.element_dof < 0 || hinge.element_dof >= model.n_dofs)
         throw std::invalid_argument("steady_rotation: the hinge node or coordinate is out of range");
-    RotatingElements rot(model, state, load, length_scale, hinge_node, hinge_dof, axis);
-    Eigen::VectorXd pin = Eigen::VectorXd::Zero(model.n_dofs), lam;
-    pin[hinge_dof] = 1.0;
-    return steady_rotation(rot, pin, load.mass_flow, omega_guess, opt, lam);
+    pin = Eigen::VectorXd::Zero(model.n_dofs);
+    pin[hinge.element_dof] = 1.0;
+    return std::make_unique<RotatingElements>(model, state, load, length_scale, hinge.node, hinge.element_dof,
+                                              Vec3<double>{{hinge.axis[0], hinge.axis[1], hinge.axis[2]}});
 }
 
-SteadyRotationOutcome multibody_steady_rotation(const MultibodySystemCore& sys, MbState& s, double mdot,
-                                                const RotationHinge& hinge, double omega_guess,
-                                                const SteadyRotationOptions& opt) {
+std::unique_ptr<RotatingSystem> rotating_bodies(const MultibodySystemCore& sys, MbState& s, double mdot,
+                                                const RotationHinge& hinge, Eigen::VectorXd& pin,
+                                                Eigen::VectorXd& lam) {
     sys.check_state(s);
     if (hinge.body < 0 || hinge.body >= sys.n_bodies())
         throw std::invalid_argument("steady_rotation: the hinged body " + std::to_string(hinge.body) +
                                     " is not a body of the system");
-    RotatingBodies rot(sys, s, mdot, hinge);
-    Eigen::VectorXd pin = Eigen::VectorXd::Zero(sys.n_coordinates());
+    pin = Eigen::VectorXd::Zero(sys.n_coordinates());
     pin.segment<3>(sys.offset(hinge.body) + 3) = hinge.axis;
-    Eigen::VectorXd lam = s.lam;
-    const SteadyRotationOutcome out = steady_rotation(rot, pin, mdot, omega_guess, opt, lam);
-    s = rot.state();
-    s.lam = lam;
-    return out;
+    lam = s.lam;
+    return std::make_unique<RotatingBodies>(sys, s, mdot, hinge);
 }
 
 }  // namespace pipeflex

@@ -36,7 +36,7 @@ from .model import Model
 from .multibody.analysis import MAX_STEPS, MultibodyResult
 from .multibody.system import MultibodyState, MultibodySystem
 from .errors import ConvergenceError, SingularMatrixError
-from .results import Result
+from .results import COUNTERS, Result
 from .state import State, as_core
 from .time_functions import time_function
 
@@ -157,6 +157,20 @@ class CoupledSystem:
     def n_coordinates(self) -> int:
         return self.model.n_dofs + self.bodies.n_coordinates
 
+    def system(self, state=None, body_state: Optional[MultibodyState] = None, coupling_forces=None, *,
+               mass_flow: Optional[float] = None) -> "_core.System":
+        """The coupled system as the core's one system object (``pipeflex._core.System``):
+        the element model on ``state`` (a core State, updated in place by the analyses run
+        on it; default the reference configuration), the bodies on a copy of ``body_state``
+        (default their assembly configuration at rest) and the couplings' multipliers
+        ``coupling_forces`` (a guess; default zero), with mdot [kg/s] ``mass_flow`` (default
+        the element model's) for the loads that depend on it."""
+        bs = self.bodies.initial_state() if body_state is None else body_state
+        lam_c = np.zeros(0) if coupling_forces is None else np.asarray(coupling_forces, float)
+        return _core.coupled_system(self.model.core, self.model.initial_state() if state is None else state,
+                                    self.model.load_state(mass_flow=mass_flow), self.bodies.core, bs.r, bs.R, bs.eta,
+                                    bs.v, bs.a, bs.lam, bs.t, self.core_couplings(), lam_c)
+
     @property
     def n_dofs(self) -> int:
         """Independent coordinates: coordinates less constraints (the joints and couplings
@@ -273,8 +287,6 @@ def static_equilibrium(system: CoupledSystem, *, state: Optional["CoupledStatic"
     max_bisections = _checks.non_negative_int("max_bisections", max_bisections)
     model, bodies = system.model, system.bodies
     mdot = model.mass_flow if mass_flow is None else _checks.finite("mass_flow", mass_flow)
-    opt = _core.TransientOptions()
-    opt.length_scale = max(float(np.ptp(model.positions, axis=0).max()), bodies.length_scale, 1e-3)
     if state is None:
         bs = bodies.initial_state()
         start = _Iterate(as_core(model, None), bs.r, bs.R, bs.eta, bs.lam,
@@ -286,19 +298,21 @@ def static_equilibrium(system: CoupledSystem, *, state: Optional["CoupledStatic"
     else:
         raise TypeError(f"state must be a CoupledStatic (pipeflex.static_equilibrium(system)), "
                         f"got {type(state).__name__}")
-    load, couplings = model.load_state(mass_flow=mdot), system.core_couplings()
     total = 0
 
     def solve(trial, lf):
         nonlocal total
-        out = _core.coupled_static(model.core, trial.elements, load, bodies.core, trial.r, trial.R, trial.eta,
-                                   trial.lam, couplings, trial.lam_c, lf, opt, tol, max_iterations)
+        zero = np.zeros_like(trial.eta)
+        sys = system.system(trial.elements, MultibodyState(trial.r, trial.R, trial.eta, zero, zero, trial.lam, 0.0),
+                            trial.lam_c, mass_flow=mdot)
+        out = _core.static_equilibrium(sys, mdot, lf, tol, max_iterations)
         total += out["iterations"]
-        trial.r, trial.R, trial.eta, _, _, trial.lam, _ = out["bodies"]
-        trial.lam_c = np.array(out["coupling_multipliers"])
+        trial.r, trial.R, trial.eta, _, _, trial.lam, _ = sys.body_state
+        trial.lam_c = np.array(sys.coupling_multipliers)
         return bool(out["converged"]), out
 
-    way = follow(solve, start, start=0.0, end=1.0, steps=steps, halving="step", max_failures=max_bisections)
+    way = follow(solve, start, start=0.0, end=1.0, steps=steps, halving="step", max_failures=max_bisections,
+                 steps_name="load_steps")
     out = way.outcome
     if not way.done:
         lf = way.target
@@ -338,17 +352,12 @@ def linearize(system: CoupledSystem, state: Optional[CoupledStatic] = None, *,
     if state is not None and not isinstance(state, CoupledStatic):
         raise TypeError(f"state must be a CoupledStatic (pipeflex.static_equilibrium(system)), "
                         f"got {type(state).__name__}")
-    model, bodies = system.model, system.bodies
+    model = system.model
     mdot = (model.mass_flow if state is None else state.mass_flow) if mass_flow is None else \
         _checks.finite("mass_flow", mass_flow)
     st = static_equilibrium(system, mass_flow=mdot) if state is None else state
-    core_state = as_core(model, st.state)
-    b = st.body_state
-    opt = _core.TransientOptions()
-    opt.length_scale = max(float(np.ptp(model.positions, axis=0).max()), bodies.length_scale, 1e-3)
-    out = _core.coupled_linear_matrices(model.core, core_state, model.load_state(mass_flow=mdot), bodies.core, b.r,
-                                        b.R, b.eta, b.v, b.a, b.lam, system.core_couplings(),
-                                        np.asarray(st.coupling_forces, float), opt)
+    out = _core.linear_matrices(system.system(as_core(model, st.state), st.body_state, st.coupling_forces,
+                                              mass_flow=mdot), mdot)
     return constrained.linearization(CoupledLinearization, out, mdot, st)
 
 
@@ -395,7 +404,6 @@ def simulate(system: CoupledSystem, t_end: float, *, step: float, n_outputs: int
     opt.max_newton = _checks.positive_int("max_newton", max_newton)
     opt.max_steps = _checks.positive_int("max_steps", max_steps)
     opt.work = bool(work)
-    opt.length_scale = max(float(np.ptp(model.positions, axis=0).max()), bodies.length_scale, 1e-3)
     st = as_core(model, state)
     if body_state is not None:
         bodies.check_state(body_state, "body_state")
@@ -406,15 +414,15 @@ def simulate(system: CoupledSystem, t_end: float, *, step: float, n_outputs: int
     bar = _progress.Progress(progress, t1, desc="simulate (coupled)", unit="s", leave=False)
     wall = _time.perf_counter()
     with bar:
-        out = _core.integrate_coupled(model.core, st, model.load_state(), flow, loads, bodies.core, bs.r, bs.R,
-                                      bs.eta, bs.v, system.core_couplings(), times, opt,
-                                      None if bar.mode == "off" else bar.update)
+        # from t = 0 with the bodies' rates (consistent accelerations and multipliers: the integrator's)
+        zero = np.zeros_like(bs.eta)
+        sys = system.system(st, MultibodyState(bs.r, bs.R, bs.eta, bs.v, zero, np.zeros_like(bs.lam), 0.0))
+        out = _core.integrate(sys, flow, loads, times, opt, None if bar.mode == "off" else bar.update)
         bar.update(t1)  # the core reports at most every 0.1 s, not the end
     wall = _time.perf_counter() - wall
-    stats = {k: int(out.pop(k)) for k in ("steps", "newton_iterations", "jacobians", "rebases", "failed_steps",
-                                               "convergence_failures")}
+    stats = {k: int(out.pop(k)) for k in COUNTERS}
     stats["wall_time"] = wall
-    states = out.pop("bodies")
+    body = {k: out.pop("body_" + k) for k in ("r", "R", "eta", "v", "a", "lam", "drift")}
     lams = out.pop("coupling_multipliers")
     if not opt.work:
         out["fluid_work"][:] = np.nan
@@ -424,10 +432,8 @@ def simulate(system: CoupledSystem, t_end: float, *, step: float, n_outputs: int
             "requested_step": float(opt.step), "coupled": True}
     elements = TransientResult(**out, stats=stats, metadata=meta,
                                final_state=State.from_core(st, model))
-    t = np.array([s[6] for s in states])
-    body_res = MultibodyResult(t, np.array([s[0] for s in states]), np.array([s[1] for s in states]),
-                               np.array([s[2] for s in states]), np.array([s[3] for s in states]),
-                               np.full(len(states), np.nan), np.array(bodies.offsets), bodies.n_constraints,
+    body_res = MultibodyResult(out["t"].copy(), body["r"], body["R"], body["eta"], body["v"], body["drift"],
+                               np.array(bodies.offsets), bodies.n_constraints,
                                tuple(np.array(b.nodes_s) for b in bodies.bodies),
                                tuple(np.array(b.basis) for b in bodies.bodies), stats)
     return CoupledResult(elements, body_res, np.array(lams), stats)

@@ -855,6 +855,22 @@ class Model:
         raise ValueError(f"node {node} has no free coordinate {component!r}")
 
     @property
+    def length_scale(self) -> float:
+        """The model's size [m] for Newton's tests: the core's one definition (the largest
+        extent of the reference node positions along x, y or z, at least 1 mm)."""
+        return float(self._core.length_scale)
+
+    def system(self, state: Optional["_core.State"] = None, *, mass_flow: Optional[float] = None,
+               gravity_factor: float = 1.0) -> "_core.System":
+        """The model as the core's one system object (``pipeflex._core.System``) on
+        ``state`` (default: the reference configuration at rest; updated in place by the
+        analyses run on it), with gravity and the hub as the model's and mdot [kg/s]
+        ``mass_flow`` (default the model's) for the loads that depend on it."""
+        state = self.initial_state() if state is None else state
+        return _core.element_system(self._core, state, self.load_state(mass_flow=mass_flow,
+                                                                        gravity_factor=gravity_factor))
+
+    @property
     def total_length(self) -> float:
         """Sum of the elements' reference lengths [m]."""
         return float(sum(e.length for e in self.elements))

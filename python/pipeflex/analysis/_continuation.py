@@ -46,7 +46,8 @@ class Continuation:
 
 
 def follow(solve: Callable[[Any, float], tuple], state, *, start: float, end: float, steps: int,
-           halving: str, max_failures: int, min_step: Optional[float] = None) -> Continuation:
+           halving: str, max_failures: int, min_step: Optional[float] = None,
+           steps_name: str = "steps") -> Continuation:
     """Continue the converged ``state`` at t = ``start`` to t = ``end`` in ``steps`` equal steps.
 
     ``solve(trial, t) -> (converged, outcome)`` solves at t from ``trial`` (a copy of the
@@ -63,6 +64,8 @@ def follow(solve: Callable[[Any, float], tuple], state, *, start: float, end: fl
     failed step, |target - t|, is below ``min_step`` or below the resolution of t itself
     (RESOLUTION ulps of the path's largest |t|: a smaller step would not move t, and the
     halving would go on without end whatever ``max_failures``), either way along the path.
+    A ``"step"`` schedule whose step is below that resolution is refused (ValueError)
+    naming ``steps`` as the caller's user knows it: ``steps_name`` (e.g. "load_steps").
     """
     if halving not in HALVINGS:
         raise ValueError(f"halving must be one of {HALVINGS}, got {halving!r}")
@@ -72,8 +75,8 @@ def follow(solve: Callable[[Any, float], tuple], state, *, start: float, end: fl
     floor = max(min_step or 0.0, RESOLUTION * np.spacing(max(abs(start), abs(end))))
     h = (end - start) / steps
     if halving == "step" and h < floor:  # t + h would not move t: the loop would never end
-        raise ValueError(f"steps = {steps} over [{start:g}, {end:g}]: a step of {h:.3g} is below the resolution "
-                         f"{floor:.3g} of the parameter; use fewer steps")
+        raise ValueError(f"{steps_name} = {steps} over [{start:g}, {end:g}]: a step of {h:.3g} is below the "
+                         f"resolution {floor:.3g} of the parameter; use fewer steps (lower {steps_name})")
     pending = list(np.linspace(start, end, steps + 1)[1:]) if halving == "interval" else None
     last = end - 1e-14 * (end - start)
     while (bool(pending) if pending is not None else way.t < last):

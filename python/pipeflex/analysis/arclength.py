@@ -204,7 +204,9 @@ def follow(model, state, t0, *, at, newton, size, tol, max_iterations, max_steps
         if nxt is None:
             ds /= 2
             if not ds >= ds_min or ds == 0.0:  # (ds_min itself may underflow to 0)
-                out.why = f"the arc-length step fell below {ds_min:.3g} at t = {here.t:.6g}: {why}"
+                short = (f"fell below {ds_min:.3g}" if ds_min > 0.0 else  # a subnormal first step
+                         f"was halved to 0 from its first {ds0:.3g}")
+                out.why = f"the arc-length step {short} at t = {here.t:.6g}: {why}"
                 return out
             continue
         out.steps += 1

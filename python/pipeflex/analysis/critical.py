@@ -46,10 +46,9 @@ from .. import _checks
 from ..results import Result
 from .._options import renamed
 from ..errors import ConvergenceError
-from .eigen import (GROWTH_TOL, SPARSE_MIN_DOFS, BlockSolutions, _growing, classify, eigen_from_blocks,
-                    free_coordinates,
-                    sparse_block_eigenvalues, MECHANISM_CONDITIONING, QuadraticPencil, eigen_noise, one_norms,
-                    sparse_eigen_from_blocks, split_blocks, stiffness_conditioning, with_reduction_noise)
+from .eigen import (GROWTH_TOL, SPARSE_MIN_DOFS, BlockSolutions, _growing, classify, eigen_from_blocks, mechanism,
+                    sparse_block_eigenvalues, QuadraticPencil, eigen_noise, one_norms,
+                    sparse_eigen_from_blocks, split_blocks, with_reduction_noise)
 from ._assembly import require_model
 from .._lazy import loaded_instance
 from .linearize import linearize
@@ -243,13 +242,13 @@ def critical_mass_flow(model, *, tol: float = 1e-10, mass_flow_max: Optional[flo
 
     eig, st0 = ev(0.0)
     ev.accept(0.0, st0)
-    # before the sign test: a neutral direction's sign is round-off. The rule of
-    # stability(): only a stiffness singular to round-off is a mechanism (a beam's
-    # conditioning falls like N^-3, so a stricter bound would refuse fine meshes).
-    if stiffness_conditioning(eig) < MECHANISM_CONDITIONING:
-        named = free_coordinates(replace(eig, dof_labels=getattr(model, "dof_labels", None)))
-        raise ValueError(f"the model is a mechanism (its stiffness is singular without flow, e.g. a free hinge; "
-                         f"{named}): there is no static equilibrium to lose stability; support the free motion")
+    # before the sign test: a neutral direction's sign is round-off. stability()'s rule
+    # (eigen.mechanism), applied to the equilibrium without flow that the scan starts from
+    named = mechanism(replace(eig, dof_labels=getattr(model, "dof_labels", None)))
+    if named is not None:
+        raise ValueError(f"the model is a mechanism (its stiffness at the static equilibrium without flow is "
+                         f"singular, e.g. a free hinge; {named}): there is no static equilibrium to lose "
+                         f"stability; support the free motion")
     if classify(eig) != "stable":
         raise ValueError(f"the model is already unstable ({classify(eig)}) without flow")
     eig0 = eig_lo = eig

@@ -1216,10 +1216,21 @@ def stability(eig: EigenResult) -> str:
     if not isinstance(eig, EigenResult):
         raise TypeError(f"eig must be an EigenResult (pipeflex.eigenvalues(pipeflex.linearize(model))), got "
                         f"{type(eig).__name__}")
-    if stiffness_conditioning(eig) < MECHANISM_CONDITIONING:
-        raise ValueError(f"stability: the stiffness is singular, a mechanism ({free_coordinates(eig)}); its "
+    free = mechanism(eig)
+    if free is not None:
+        raise ValueError(f"stability: the stiffness is singular, a mechanism ({free}); its "
                          f"eigenvalues near 0 are round-off, so stability is undefined: support the free motion")
     return classify(eig)
+
+
+def mechanism(eig: EigenResult) -> Optional[str]:
+    """The free coordinates, named (:func:`free_coordinates`), if the stiffness of ``eig``
+    is singular to round-off (:func:`stiffness_conditioning` below
+    MECHANISM_CONDITIONING), else None: the one mechanism rule of :func:`stability` and
+    :func:`~pipeflex.critical_mass_flow` (the latter at its equilibrium without flow)."""
+    if stiffness_conditioning(eig) < MECHANISM_CONDITIONING:
+        return free_coordinates(eig)
+    return None
 
 
 def classify(eig: EigenResult) -> str:

@@ -222,16 +222,14 @@ class _Shooter:
         """The flow map over ``period`` in ``steps`` steps (default the shooter's), its
         integrator's Newton to ``newton_tol`` (default the options'); with
         ``sensitivity`` also its monodromy matrix."""
-        load = self.model.load_state(mass_flow=mass_flow)
         opt = self.opt
         if newton_tol is not None and newton_tol != opt.newton_tol:
             opt = _options(self.model, newton_tol, opt.rho_inf)
         self.calls += 1
         with explained_singular_mass(self.model):
-            out = _core.generalized_alpha_flow_map(self.model.core, self.base.to_core(self.model), load,
-                                                   np.asarray(z0, float), np.asarray(v0, float), float(period),
-                                                   self.steps if steps is None else int(steps), bool(sensitivity),
-                                                   opt)
+            system = self.model.system(self.base.to_core(self.model), mass_flow=mass_flow)
+            out = _core.flow_map(system, float(mass_flow), np.asarray(z0, float), np.asarray(v0, float),
+                                 float(period), self.steps if steps is None else int(steps), bool(sensitivity), opt)
         self.newton_iterations += int(out["newton_iterations"])
         return out
 

@@ -147,11 +147,11 @@ def static_equilibrium(model, *, state=None, mass_flow: Optional[float] = None, 
         def extended(t):  # the same, extended past t = 1 (for the continuation)
             return mdot0 + t * (mdot - mdot0), (t if cold else 1.0)
         along = extended
-    size = max(float(np.ptp(model.positions, axis=0).max()), model.total_length / max(1, len(model.elements)))
+    size = model.length_scale
     solve = dict(tol=tol, size=size, max_iterations=max_iterations)
     total_iter = 0
     if path == "arclength" and model.n_dofs:
-        ok, it, rnorm, why, singular = _newton(model, state, *at(0.0), tol, size, max_iterations)
+        ok, it, rnorm, why, singular = _newton(model, state, *at(0.0), tol, max_iterations)
         if not ok and cold and mdot != 0.0 and from_mass_flow is None:  # ramp the flow with the loads
             ok, state, along = True, as_core(model, None), (lambda t: (t * mdot, t))
         if not ok:
@@ -162,11 +162,12 @@ def static_equilibrium(model, *, state=None, mass_flow: Optional[float] = None, 
 
     def step(trial, t):
         nonlocal total_iter
-        outcome = _newton(model, trial, *at(t), tol, size, max_iterations, step=True)
+        outcome = _newton(model, trial, *at(t), tol, max_iterations, step=True)
         total_iter += outcome[1]
         return outcome[0], outcome
 
-    way = follow(step, state, start=0.0, end=1.0, steps=load_steps, halving="step", max_failures=max_bisections)
+    way = follow(step, state, start=0.0, end=1.0, steps=load_steps, halving="step", max_failures=max_bisections,
+                 steps_name="load_steps")
     _, it, rnorm, why, singular = way.outcome
     state, lf = way.state, way.t
     if not way.done:
@@ -183,7 +184,7 @@ def static_equilibrium(model, *, state=None, mass_flow: Optional[float] = None, 
             raise failure
         secant = _core.reduce(model.core, np.asarray(state.q) - np.asarray(start.q)) / lf if lf > 0 else None
         if lf == 0.0:  # is the start an equilibrium (under the flow's forces alone)?
-            ok, it, _, _, _ = _newton(model, state, *at(0.0), tol, size, max_iterations)
+            ok, it, _, _, _ = _newton(model, state, *at(0.0), tol, max_iterations)
             total_iter += it
             if not ok and cold and mdot != 0.0:
                 # no, and the full flow at once from rest has none near: follow the flow from
@@ -222,7 +223,8 @@ def _continue(model, state, t0, along, solve, arc_steps, dt0, total_iter, mdot, 
     limits = tuple(float(p.t) for p in way.limits)
     if way.end is not None:
         end = way.end.state.copy()
-        ok, it, rnorm, why, _ = _newton(model, end, *along(1.0), **solve)  # onto t = 1 exactly
+        # onto t = 1 exactly
+        ok, it, rnorm, why, _ = _newton(model, end, *along(1.0), solve["tol"], solve["max_iterations"])
         if ok:
             return StaticResult(State.from_core(end, model), total_iter + it, rnorm, mdot, limits)
         way.why = f"the point at t = 1 did not converge: {why}"
@@ -245,12 +247,12 @@ def _continue(model, state, t0, along, solve, arc_steps, dt0, total_iter, mdot, 
     raise failure
 
 
-def _newton(model, state, mdot, load_factor, tol, size, max_iterations, step=False):
+def _newton(model, state, mdot, load_factor, tol, max_iterations, step=False):
     """Newton's method on R(q) = 0 at (mdot, load_factor) from ``state`` (updated in place):
-    the core's one static Newton (``static_newton``). Converged when the increment is below
-    ``tol`` model sizes ``size`` [m] or the residual below 1e-3 ``tol`` times the force
-    level; a start within ``tol`` of the model's force level is converged already (a warm
-    start, no iteration). Returns (converged, iterations, residual norm [N], reason,
+    the core's one static Newton (``static_equilibrium`` on the model's system). Converged
+    when the increment is below ``tol`` model sizes (``model.length_scale`` [m]) or the
+    residual below 1e-3 ``tol`` times the force level; a start within ``tol`` of the
+    model's force level is converged already (a warm start, no iteration). Returns (converged, iterations, residual norm [N], reason,
     singular).
 
     ``step``: the solve is a load step from the equilibrium ``state``, accepted only if the
@@ -268,7 +270,8 @@ def _newton(model, state, mdot, load_factor, tol, size, max_iterations, step=Fal
         return True, 0, 0.0, "", False
     fscale = model.force_scale(mass_flow=mdot)
     load = model.load_state(mass_flow=mdot, gravity_factor=load_factor)
-    out = _core.static_newton(model.core, state, load, load_factor, tol, size, fscale, max_iterations, step)
+    out = _core.static_equilibrium(_core.element_system(model.core, state, load), mdot, load_factor, tol,
+                                   max_iterations, fscale, step)
     before, after = out["negative_start"], out["negative_end"]
     if out["converged"] and before >= 0 and after >= 0 and before != after:
         return False, out["iterations"], out["residual"], (

@@ -173,12 +173,11 @@ def steady_rotation(model, *, omega_guess: Optional[float] = None, mass_flow: Op
     node, axis, hinge_dof = _hinge(model)
     steps, tol, max_iterations, mdot, omega = _options(model, omega_guess, mass_flow, continuation_steps, tol,
                                                        max_iterations)
-    size = max(float(np.ptp(model.positions, axis=0).max()), 1e-3)
 
     def solve_at(state, m, guess):
         st, = state
-        out = _core.steady_rotation(model.core, st, model.load_state(mass_flow=m), node, hinge_dof, axis, guess,
-                                    size, tol, max_iterations, DENSE_BELOW)
+        out = _core.steady_rotation(model.system(st, mass_flow=m), m, np.zeros(3), axis, -1, node, hinge_dof, guess,
+                                    tol, max_iterations, DENSE_BELOW)
         return out, (st,)
 
     point, iterations, out = _flow_continuation(solve_at, (as_core(model, state),), omega, mdot, steps,
@@ -303,6 +302,13 @@ def _system_hinge(system, coupled):
     return found[0]
 
 
+def _at_rest(r, R, eta, lam):
+    """A body state at rest (time 0) from its frames, modal amplitudes and multipliers."""
+    from ..multibody.system import MultibodyState
+    zero = np.zeros_like(eta)
+    return MultibodyState(r, R, eta, zero, zero, lam, 0.0)
+
+
 def _system_steady_rotation(system, coupled, *, omega_guess, mass_flow, state, continuation_steps, tol,
                             max_iterations) -> SystemSteadyRotation:
     """:func:`steady_rotation` of a MultibodySystem or a CoupledSystem."""
@@ -323,14 +329,12 @@ def _system_steady_rotation(system, coupled, *, omega_guess, mass_flow, state, c
             raise TypeError(f"state of a CoupledSystem must be a CoupledStatic or a SystemSteadyRotation, "
                             f"got {type(state).__name__}")
         bodies.check_state(bs, "state.body_state")
-        size = max(float(np.ptp(model.positions, axis=0).max()), 1e-3)
-        couplings = system.core_couplings()
 
         def solve_at(state, m, guess):
             st_k, r, R, eta, lam, lam_k = state
-            out = _core.coupled_steady_rotation(model.core, st_k, model.load_state(mass_flow=m), bodies.core, r, R,
-                                                eta, lam, couplings, lam_k, point, axis, body, dof, guess, size, tol,
-                                                max_iterations, DENSE_BELOW)
+            sys = system.system(st_k, _at_rest(r, R, eta, lam), lam_k, mass_flow=m)
+            out = _core.steady_rotation(sys, m, point, axis, body, -1, dof, guess, tol, max_iterations, DENSE_BELOW)
+            out["bodies"], out["coupling_multipliers"] = sys.body_state, sys.coupling_multipliers
             r, R, eta, _, _, lam, _ = out["bodies"]
             return out, (st_k, np.array(r), np.array(R), np.array(eta), np.array(lam),
                          np.array(out["coupling_multipliers"], float))
@@ -345,8 +349,9 @@ def _system_steady_rotation(system, coupled, *, omega_guess, mass_flow, state, c
 
         def solve_at(state, m, guess):
             r, R, eta, lam = state
-            out = _core.multibody_steady_rotation(bodies.core, r, R, eta, lam, m, point, axis, body, guess, tol,
-                                                  max_iterations, DENSE_BELOW)
+            sys = bodies.system(_at_rest(r, R, eta, lam))
+            out = _core.steady_rotation(sys, m, point, axis, body, -1, -1, guess, tol, max_iterations, DENSE_BELOW)
+            out["bodies"] = sys.body_state
             r, R, eta, _, _, lam, _ = out["bodies"]
             return out, (np.array(r), np.array(R), np.array(eta), np.array(lam))
 

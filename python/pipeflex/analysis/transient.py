@@ -18,7 +18,7 @@ import numpy as np
 from .. import _checks, _core, _progress
 from .._progress import logger
 from .._lazy import loaded_instance
-from ..results import Result
+from ..results import COUNTERS, Result
 from ..rotation import rotation_exp, rotation_log
 from ..state import State, as_core
 from ..time_functions import Sine, time_function
@@ -447,9 +447,7 @@ def simulate(model, t_end: float, *, integrator: str = "auto", state=None, t_sta
             setattr(opt, name, _checks.positive_int(name, options[name]))
     if "work" in options:
         opt.work = bool(options["work"])
-    opt.length_scale = max(float(np.ptp(model.positions, axis=0).max()), 1e-3)
     st = as_core(model, state)
-    load = model.load_state()
     flow = time_function("mass_flow", model.mass_flow if mass_flow is None else mass_flow)
     loads = time_function("load_factor", load_factor)
     if requested == "auto" and integrator == "generalized_alpha" and "step" not in options:
@@ -471,19 +469,17 @@ def simulate(model, t_end: float, *, integrator: str = "auto", state=None, t_sta
     logger.info("simulate: %s from t = %.6g to %.6g s, %d outputs, %s nodes%s", integrator, t0, t1, len(times),
                 model.n_nodes, "" if step is None else f", step {step:.6g} s")
     bar = _progress.Progress(progress, t1 - t0, desc=f"simulate ({integrator})", unit="s", leave=False)
-    run = _core.integrate_ida if integrator == "ida" else _core.integrate_generalized_alpha
     wall = _time.perf_counter()
     try:
         with bar, explained_singular_mass(model):
-            out = run(model.core, st, load, flow, loads, list(times), opt,
-                      None if bar.mode == "off" else (lambda t: bar.update(t - t0)))
+            out = _core.integrate(model.system(st), flow, loads, list(times), opt,
+                                  None if bar.mode == "off" else (lambda t: bar.update(t - t0)), integrator)
             bar.update(t1 - t0)  # the core reports at most every 0.1 s, not the end
     except Exception as exc:
         logger.info("simulate: %s failed after %.3g s of wall time: %s", integrator, _time.perf_counter() - wall, exc)
         raise
     wall = _time.perf_counter() - wall
-    stats = {k: int(out.pop(k)) for k in ("steps", "newton_iterations", "jacobians", "rebases", "failed_steps",
-                                               "convergence_failures")}
+    stats = {k: int(out.pop(k)) for k in COUNTERS}
     stats["wall_time"] = wall
     logger.info("simulate: %s done in %.3g s: %d steps (%d failed), %d Newton iterations", integrator, wall,
                 stats["steps"], stats["failed_steps"], stats["newton_iterations"])

@@ -22,13 +22,13 @@ from typing import Optional, Tuple
 
 import numpy as np
 
-from .. import _checks
+from .. import _checks, _core
 from ..analysis import constrained
 from ..analysis._continuation import follow
 from .._options import renamed
 from ..time_functions import time_function
 from ..errors import ConvergenceError, SingularMatrixError
-from ..results import Result
+from ..results import COUNTERS, Result
 from .body import node_index
 from .system import MultibodyState, MultibodySystem, TimeFunction
 
@@ -184,16 +184,22 @@ def static_equilibrium(system: MultibodySystem, *, state: Optional[MultibodyStat
             f"stiffness here; there is no static equilibrium in that direction: support it",
             load_factor=1.0, iteration=total, residual=float(np.abs(F).max()), mass_flow=mdot)
 
+    def _static(trial, lf, mechanism):
+        """The core's static_equilibrium from ``trial`` (not changed): its dict with the end
+        state (r, R, eta, v, a, lam, t) as 'state'."""
+        sys = system.system(trial)
+        out = _core.static_equilibrium(sys, mdot, lf, tol, max_iterations, mechanism=mechanism)
+        out["state"] = sys.body_state
+        return out
+
     def solve(trial, lf):
         nonlocal mechanism, total, rejected
-        out = core.static_newton(trial.r, trial.R, trial.eta, trial.lam, trial.t, mdot, lf, tol, max_iterations,
-                                 mechanism=mechanism)
+        out = _static(trial, lf, mechanism)
         total += out["iterations"]
         if (out["singular"] or out["diverged"]) and not mechanism:
             # (nearly) singular: a mechanism after all, from here with the penalty
             mechanism = True
-            out = core.static_newton(trial.r, trial.R, trial.eta, trial.lam, trial.t, mdot, lf, tol, max_iterations,
-                                     mechanism=True)
+            out = _static(trial, lf, True)
             total += out["iterations"]
         error, ok, stretched = None, out["converged"], None
         if ok:
@@ -213,7 +219,8 @@ def static_equilibrium(system: MultibodySystem, *, state: Optional[MultibodyStat
             raise error
         return ok, (lf, out, stretched)
 
-    way = follow(solve, st, start=0.0, end=1.0, steps=steps, halving="step", max_failures=max_bisections)
+    way = follow(solve, st, start=0.0, end=1.0, steps=steps, halving="step", max_failures=max_bisections,
+                 steps_name="load_steps")
     if not way.done:
         raise _not_converged(*way.outcome, max_iterations, mdot, rejected)
     st = way.state
@@ -261,7 +268,7 @@ def linearize(system: MultibodySystem, state: Optional[MultibodyState] = None, *
     if state is not None:
         system.check_state(state)
     st = static_equilibrium(system, mass_flow=mdot).state if state is None else state
-    out = system.core.linear_matrices(st.r, st.R, st.eta, st.v, st.a, st.lam, st.t, mdot)
+    out = _core.linear_matrices(system.system(st), mdot)
     return constrained.linearization(MultibodyLinearization, out, mdot, st)
 
 
@@ -278,9 +285,9 @@ class MultibodyResult(Result):
         enforced); offsets: (n_bodies + 1,) first coordinate of each body (as
         :attr:`MultibodySystem.offsets`); n_constraints: number of constraint equations;
         nodes_s: per body, its node coordinates s [m]; bases: per body, its reduction
-        basis Phi (6 n_nodes x m) [-]; stats: steps, Newton iterations, matrix
-        factorisations, retries (steps redone with full Newton), wall_time [s], step (the
-        step used [s]: the interval divided into whole steps).
+        basis Phi (6 n_nodes x m) [-]; stats: the integrator's counters
+        (:data:`pipeflex.results.COUNTERS`: steps, newton_iterations, jacobians, ...),
+        wall_time [s], step (the step used [s]: the interval divided into whole steps).
     """
 
     t: np.ndarray
@@ -398,12 +405,15 @@ def simulate(system: MultibodySystem, t_end: float, *, step: float, state: Optio
     n_steps = max(1, int(steps))
     out_steps = [int(k) for k in np.unique(np.round(np.linspace(0, n_steps, n_out)).astype(int))]
     wall = _time.perf_counter()
-    t, states, drift, stats = system.core.integrate(st.r, st.R, st.eta, st.v, st.a, st.lam, t0, flow, t_end,
-                                                    out_steps, h, rho, tol, max_iterations, max_steps)
+    step = (t_end - t0) / n_steps  # the step used: the interval in whole steps
+    times = [t_end if k == n_steps else t0 + k * step for k in out_steps]
+    opt = _core.TransientOptions()
+    opt.step, opt.rho_inf, opt.newton_tol, opt.max_newton, opt.max_steps = step, rho, tol, max_iterations, max_steps
+    out = _core.integrate(system.system(st), flow, time_function("load_factor", 1.0), times, opt)
+    stats = {k: int(out[k]) for k in COUNTERS}
     stats["wall_time"] = _time.perf_counter() - wall
-    stats["step"] = (t_end - t0) / n_steps  # the step used: the interval in whole steps
-    return MultibodyResult(np.array(t), np.array([x[0] for x in states]), np.array([x[1] for x in states]),
-                           np.array([x[2] for x in states]), np.array([x[3] for x in states]), np.array(drift),
+    stats["step"] = step
+    return MultibodyResult(out["t"], out["r"], out["R"], out["eta"], out["v"], out["drift"],
                            np.array(system.offsets), system.n_constraints,
                            tuple(np.array(b.nodes_s) for b in system.bodies),
                            tuple(np.array(b.basis) for b in system.bodies), stats)

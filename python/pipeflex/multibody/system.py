@@ -448,6 +448,13 @@ class MultibodySystem:
         return float(self._core.length_scale)
 
     # -- equations -----------------------------------------------------------------
+    def system(self, state: Optional[MultibodyState] = None) -> "_core.System":
+        """The bodies as the core's one system object (``pipeflex._core.System``) on a copy
+        of ``state`` (default: the assembly configuration at rest); the analyses run on it
+        leave their end state in its ``body_state``."""
+        st = self.initial_state() if state is None else state
+        return _core.body_system(self._core, st.r, st.R, st.eta, st.v, st.a, st.lam, st.t)
+
     def evaluate(self, state: MultibodyState, *, mass_flow: float, mass_flow_rate: float = 0.0,
                  load_factor: float = 1.0, gravity_factor: float = 1.0, wK: float = 1.0, wC: float = 0.0,
                  wM: float = 0.0, tangent: bool = True, jacobian: bool = True):

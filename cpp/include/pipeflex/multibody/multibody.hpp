@@ -116,19 +116,6 @@ struct MbEvaluation {
     std::vector<MbJointWork> joint_work;
 };
 
-struct MbOptions {
-    double step = 1e-3, rho_inf = 0.9, tol = 1e-9;
-    int max_newton = 12;
-    long max_steps = 10000000;  // refused before the first step if the run needs more
-};
-
-struct MbOutput {
-    std::vector<double> t;
-    std::vector<MbState> states;
-    std::vector<double> drift;  // max |C_q v| per output
-    long steps = 0, iterations = 0, factorizations = 0, retries = 0;  // retries: steps redone by full Newton
-};
-
 class MultibodySystemCore {
    public:
     int add_body(MbBody body);
@@ -177,10 +164,6 @@ class MultibodySystemCore {
     Eigen::SparseMatrix<double> sparse_constraint_jacobian(const MbEvaluation& ev) const;
     // max |C_q v| [m/s, rad/s] from an evaluation's joint blocks.
     double velocity_drift(const MbState& s, const MbEvaluation& ev) const;
-    // Checks the state, the options and out_steps (increasing, within the run's steps)
-    // before the first step; polls for an interrupt (Ctrl-C) in its loops.
-    MbOutput integrate(MbState& s, const TimeTable& mass_flow, double t_end, const std::vector<long>& out_steps,
-                       const MbOptions& opt) const;
 
    private:
     void joint_equations(const MbState& s, const MbJoint& j, Eigen::Ref<VecX> c, Eigen::Ref<MatX> Ja,

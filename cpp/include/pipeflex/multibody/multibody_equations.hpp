@@ -136,23 +136,11 @@ class MultibodyEquations final : public Equations {
 // the bodies' softest stiffness instead, a ball-jointed pipe's weight walked it to hang.
 constexpr double kMechanismShift = 1e-11;
 
-// Static equilibrium of the bodies from the state s (its frames, modal coordinates and
-// multipliers; updated) under the mass flow mdot [kg/s] and the loads and gravity scaled by
-// load_factor: static_newton on the system's equations; with mechanism (the joints leave a
-// rigid motion free) the frames' free motions penalised by kMechanismShift.
-StaticNewtonResult multibody_static(const MultibodySystemCore& sys, MbState& s, double mdot, double load_factor,
-                                    double tol, int max_iterations, bool mechanism = false);
-
 // The frames' free motions (FreeMotions, S the frames' coordinates) at the state s (its
 // multipliers; at rest) under the mass flow mdot [kg/s] and the full loads and gravity.
 FreeMotions multibody_free_motions(const MultibodySystemCore& sys, const MbState& s, double mdot);
 // The frames' weights of the mechanism penalty (StaticNewtonOptions::shift): kMechanismShift
 // on every frame coordinate, zero on the elastic ones.
 Eigen::VectorXd multibody_frame_shift(const MultibodySystemCore& sys);
-
-// The linearised equations (linear_matrices) of the bodies about the state s (its rates and
-// multipliers) under the mass flow mdot [kg/s].
-LinearMatrices multibody_linear_matrices(const MultibodySystemCore& sys, const MbState& s, double mdot,
-                                         double differences_step = 0.0);
 
 }  // namespace pipeflex

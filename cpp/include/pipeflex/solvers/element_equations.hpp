@@ -39,7 +39,7 @@ class ElementEquations final : public Equations {
     // statics' load factor (loads and gravity) if set; any real value: the arc-length
     // border differences it, beyond the loads' range
     double static_factor = std::numeric_limits<double>::quiet_NaN();
-    // Statics (element_static): no hub motion (the static analyses take the state's
+    // Statics: no hub motion (the static analyses take the state's
     // configuration as it is), and frames re-based only past pi, so that the rotation
     // vectors of the result stay what the Python analyses report (relative to the
     // state's frames) and the Newton iterates are those of a fixed chart.
@@ -121,6 +121,24 @@ class ElementEquations final : public Equations {
         const LoadState l = evaluated_load(&lf);
         const bool mixed = predicted && J != nullptr;
         assemble(model, state, l, lf, wK, wC, wM, &r, J, mixed ? geometric_stresses.data() : nullptr);
+    }
+    // K, C and an iteration matrix in one pass of the assembler on the model's pattern
+    void tangents(const std::vector<TangentWeights>& weights, std::vector<Triplets>& J) override {
+        double lf;
+        const LoadState l = evaluated_load(&lf);
+        const std::shared_ptr<const TangentPattern> pattern = tangent_pattern(model);
+        const std::size_t nnz = pattern->row_index.size();
+        std::vector<std::vector<double>> values(weights.size(), std::vector<double>(nnz));
+        std::vector<double*> out;
+        for (auto& v : values) out.push_back(v.data());
+        assemble_csc(model, state, l, lf, weights, nullptr, out.data());
+        J.resize(weights.size());
+        for (std::size_t w = 0; w < weights.size(); ++w) {
+            J[w].clear();
+            for (int c = 0; c < n; ++c)
+                for (int k = pattern->col_ptr[c]; k < pattern->col_ptr[c + 1]; ++k)
+                    J[w].add(pattern->row_index[k], c, values[w][k]);
+        }
     }
     void set_static_load_factor(double f) override { static_factor = f; }
     // The static Newton on pipe elements is the mixed Newton (Equations::predict_stresses).
@@ -255,19 +273,6 @@ struct ElementStatics {
         return base;
     }
 };
-
-// Static equilibrium of an element model under `load`'s mass flow [kg/s], with the
-// external loads and gravity times load_factor (`load`'s own gravity factor is not
-// used), by the one static_newton from
-// `state` (updated to the last iterate; frames re-based past pi). length_scale [m]: the
-// model size of the correction test. The model must have free coordinates.
-inline StaticNewtonResult element_static(const Model& model, State& state, const LoadState& load,
-                                         double load_factor, double length_scale, const StaticNewtonOptions& opt) {
-    ElementStatics statics(model, state, load, length_scale);
-    statics.eq.set_static_load_factor(load_factor);
-    Eigen::VectorXd lam;  // no constraints: supports are eliminated
-    return static_newton(statics.eq, 0.0, lam, opt);
-}
 
 // The spherical arc-length constraint of one continuation step (pipeflex.analysis.arclength)
 // as static_newton's border: the path parameter tau sets mdot = m0 + m1 tau [kg/s] and the

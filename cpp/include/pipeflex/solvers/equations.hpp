@@ -25,6 +25,7 @@
 #include <Eigen/SparseCholesky>
 #include <Eigen/SparseCore>
 #include <string>
+#include <vector>
 
 namespace pipeflex {
 
@@ -41,6 +42,15 @@ class Equations {
     // null, the weighted tangent above with s = 1 (the solvers scale). The pattern of the
     // triplets must not depend on the state (a fixed-pattern LU is kept across calls).
     virtual void evaluate(double wK, double wC, double wM, Eigen::VectorXd& residual, Triplets* tangent) = 0;
+    // The tangents of several weights at the state set, each as evaluate's triplets: the
+    // flow map's linearisation takes K, C and its step's iteration matrix at every step
+    // (an element model assembles them in one pass).
+    virtual void tangents(const std::vector<TangentWeights>& weights, std::vector<Triplets>& J) {
+        J.resize(weights.size());
+        Eigen::VectorXd r;
+        for (std::size_t k = 0; k < weights.size(); ++k)
+            evaluate(weights[k].wK, weights[k].wC, weights[k].wM, r, &J[k]);
+    }
     // The state set becomes the base (z = 0); v and a are mapped into the new chart.
     // Returns the number of frames re-based.
     virtual int rebase(Eigen::VectorXd& v, Eigen::VectorXd& a) = 0;

@@ -17,6 +17,7 @@
 #include "pipeflex/solvers/rigid_rotation.hpp"
 
 #include <algorithm>
+#include <memory>
 #include <cmath>
 #include <string>
 #include <vector>
@@ -75,6 +76,8 @@ class RotatingSystem {
     // called with the state set at omega = 1: by default those rates (the moment about the
     // hinge of all the forces); an element model takes its hinge coordinate's row.
     virtual void balance_weights(Eigen::VectorXd& u) { rates(u); }
+    // The end state (as set) and the multipliers lam into the system's own state.
+    virtual void finish(const Eigen::VectorXd& lam) { (void)lam; }
 };
 
 // omega as static_newton's border, the hinge angle pinned: g = pin . (the accumulated
@@ -111,14 +114,6 @@ struct PinnedRateBorder final : StaticBorder {
 SteadyRotationOutcome steady_rotation(RotatingSystem& sys, const Eigen::VectorXd& pin, double mdot,
                                       double omega_guess, const SteadyRotationOptions& opt, Eigen::VectorXd& lam);
 
-// Steady rotation of `model` at load.mass_flow about the hinge (a node with fixed position
-// and the single reduced coordinate hinge_dof, a rotation about the unit axis) from
-// `state` (updated: the last iterate, with the rotation's rates), as above.
-SteadyRotationOutcome steady_rotation(const Model& model, State& state, const LoadState& load, int hinge_node,
-                                      int hinge_dof, const Vec3<double>& axis, double omega_guess,
-                                      double length_scale, const SteadyRotationOptions& opt);
-
-
 // The hinge of a system's rotation: the axis through a fixed point, and the pinned angle:
 // the rotation of `body` (hinged to the ground) about the axis, or (body < 0) the element
 // model's hinge coordinate element_dof.
@@ -127,13 +122,20 @@ struct RotationHinge {
     Vec3d axis = Vec3d::UnitZ();  // unit a
     int body = -1;
     int element_dof = -1;
+    int node = -1;  // an element model alone: its hinge node (fixed position; point unused)
 };
 
-// Steady rotation of bodies alone about a body's ground hinge under the mass flow mdot
-// [kg/s], from the state s (updated: frames, modal amplitudes, multipliers, the rotation's
-// rates).
-SteadyRotationOutcome multibody_steady_rotation(const MultibodySystemCore& sys, MbState& s, double mdot,
-                                                const RotationHinge& hinge, double omega_guess,
-                                                const SteadyRotationOptions& opt);
+// An element model in rigid rotation about its hinge (hinge.node: fixed position, its one
+// reduced coordinate hinge.element_dof a rotation about hinge.axis) from `state` (updated
+// in place), at load.mass_flow; pin (n) set to the hinge coordinate's unit vector.
+std::unique_ptr<RotatingSystem> rotating_elements(const Model& model, State& state, const LoadState& load,
+                                                  double length_scale, const RotationHinge& hinge,
+                                                  Eigen::VectorXd& pin);
+// Bodies in rigid rotation about body hinge.body's ground hinge from the state s (updated
+// by finish()) at the mass flow mdot [kg/s]; pin (n) the axis on the hinged body's rotation
+// increment, lam the state's multipliers.
+std::unique_ptr<RotatingSystem> rotating_bodies(const MultibodySystemCore& sys, MbState& s, double mdot,
+                                                const RotationHinge& hinge, Eigen::VectorXd& pin,
+                                                Eigen::VectorXd& lam);
 
 }  // namespace pipeflex

@@ -77,9 +77,6 @@ TransientOutput integrate_ida(const Model& model, State& state, const LoadState&
                               const TimeFunctions& functions, const std::vector<double>& times,
                               const TransientOptions& opt, const ProgressFn& progress);
 
-TransientOutput integrate_generalized_alpha(const Model& model, State& state, const LoadState& load,
-                                            const TimeFunctions& functions, const std::vector<double>& times,
-                                            const TransientOptions& opt, const ProgressFn& progress);
 
 // The tangent-linear map of a generalised-alpha flow map, kept step by step: K and C at
 // every converged step and the step's exact iteration matrix M + gamma' C + beta' K,
@@ -101,14 +98,7 @@ class FlowMapTangent {
     std::shared_ptr<const Impl> impl_;
 };
 
-// The generalised-alpha flow map of an autonomous model (constant flow and loads) over
-// `duration` [s] in n_steps equal steps, in the fixed chart of `state` (its positions and
-// node frames; no re-basing, so rotations must stay well below pi from it): from the
-// reduced displacement z0 [m, rad] and velocity v0 to z, v at the end. With sensitivity,
-// also its tangent-linear map d(z, v)_end / d(z0, v0) (FlowMapTangent; the initial
-// acceleration consistent with z0, v0), with the exact iteration matrix of every step:
-// applied to the identity it is the monodromy matrix of a periodic orbit, whose
-// eigenvalues are its Floquet multipliers.
+// A flow map's outcome (flow_map in system.hpp).
 struct FlowMapOutput {
     std::vector<double> z;   // displacement after each step, (n_steps + 1) x n, row-major
     Eigen::VectorXd v, a;    // velocity and acceleration at the end
@@ -117,9 +107,6 @@ struct FlowMapOutput {
     long steps = 0, newton_iterations = 0, jacobians = 0;
 };
 
-FlowMapOutput generalized_alpha_flow_map(const Model& model, State& state, const LoadState& load,
-                                         const Eigen::VectorXd& z0, const Eigen::VectorXd& v0, double duration,
-                                         int n_steps, bool sensitivity, const TransientOptions& opt);
 
 // Gravitational potential energy [J] of pipes and point masses: -sum m g . x.
 double gravity_potential(const Model& model, const State& state, const LoadState& load);

@@ -1,0 +1,157 @@
+// One system object of any formulation (an element model, floating-frame bodies, both
+// coupled) with the state it works on: what every analysis takes. The analyses below are
+// written once, on System and Equations; a formulation only builds its System.
+//
+// An analysis starts a Run on the system (the formulation's equations at the system's
+// state, driven by a mass flow and a load factor in time, for dynamics or statics), solves
+// on the run's Equations, records the run's state at output times and finishes the run,
+// which leaves the end state in the system.
+#pragma once
+
+#include "pipeflex/multibody/multibody.hpp"
+#include "pipeflex/solvers/equations.hpp"
+#include "pipeflex/solvers/linear_matrices.hpp"
+#include "pipeflex/solvers/rotating_systems.hpp"
+#include "pipeflex/solvers/transient.hpp"
+
+#include <memory>
+#include <stdexcept>
+#include <string>
+#include <utility>
+#include <vector>
+
+namespace pipeflex {
+
+// A run's outputs by name: per output time, a block of values of a fixed shape per name
+// (a node's position: shape (n_nodes, 3)), and the integrator's counters.
+struct Record {
+    struct Series {
+        std::vector<long> shape;  // of one output time's block
+        std::vector<double> data;
+    };
+    std::vector<double> t;
+    std::vector<std::pair<std::string, Series>> series;
+    // the integrator's work: steps, newton_iterations, jacobians, rebases, failed_steps
+    // (IDA's error-test failures), convergence_failures (steps redone after Newton failed)
+    std::vector<std::pair<std::string, long>> counters;
+    // The series `name`, added with `shape` the first time.
+    Series& operator()(const std::string& name, const std::vector<long>& shape);
+};
+
+// What drives a run: the mass flow [kg/s] and the load factor (loads and gravity) as
+// functions of time, and the options (one vocabulary for every formulation).
+struct Drive {
+    TimeTable mass_flow = TimeTable::constant(0.0);
+    TimeTable load_factor = TimeTable::constant(1.0);
+    TransientOptions options;
+};
+
+// The equations of one analysis at the system's state. For statics the mass flow is its
+// value at t = 0 and the loads are scaled by Equations::set_static_load_factor.
+class Run {
+   public:
+    virtual ~Run() = default;
+    virtual Equations& equations() = 0;
+    // After the integrator has set the start up (consistent accelerations): bookkeeping.
+    virtual void begin(double t) { (void)t; }
+    // The state the equations are set to, at output time t.
+    virtual void record(double t, Record& out) = 0;
+    // The equations' state (as set) back into the system; statics: at rest, with the
+    // multipliers lam.
+    virtual void finish() = 0;
+    // The start: time [s], rates (chart of z = 0) and multipliers of the system's state.
+    double t0 = 0.0;
+    Eigen::VectorXd v, a, lam;
+};
+
+class System {
+   public:
+    // dynamics: the chart re-based onto the state's frames at the start (z = 0 there);
+    // fixed_chart: dynamics in the chart of the state as it is (z relative to it: the flow
+    // map's); statics: as Run says.
+    enum class Mode { dynamics, fixed_chart, statics };
+    virtual ~System() = default;
+    virtual std::unique_ptr<Run> start(const Drive& drive, Mode mode) = 0;
+    // The formulation's part of the static Newton's options (each override says why).
+    // mechanism: the joints leave a rigid motion free (penalised; bodies only).
+    virtual void static_policy(StaticNewtonOptions& opt, bool mechanism) const {
+        (void)opt;
+        if (mechanism) throw std::invalid_argument("mechanism: only systems of bodies have free frame motions");
+    }
+    // [m] the model's size (Newton's tests)
+    virtual double length_scale() const = 0;
+    virtual int n_coordinates() const = 0;
+    virtual int n_constraints() const { return 0; }
+    // Values recorded per output time (Run::record), to bound a run's output memory.
+    virtual double record_size() const = 0;
+    // Formulation-specific runs without a general implementation yet: IDA (an element
+    // model's ODE); the others say why not.
+    virtual Record integrate_ida(const Drive& drive, const std::vector<double>& times, const ProgressFn& progress);
+    // The system in rigid rotation about its hinge at the mass flow mdot [kg/s] (the
+    // formulation's rigid-rotation equations), from its state; pin (n): the hinge angle's
+    // row, lam: the state's multipliers. RotatingSystem::finish leaves the end state here.
+    virtual std::unique_ptr<RotatingSystem> rotating(const RotationHinge& hinge, double mdot, Eigen::VectorXd& pin,
+                                                     Eigen::VectorXd& lam) = 0;
+    // The parts' own state: the bodies' (nullptr without bodies), the couplings'
+    // multipliers (nullptr without couplings).
+    virtual MbState* body_state() { return nullptr; }
+    virtual const MultibodySystemCore* bodies() const { return nullptr; }
+    virtual Eigen::VectorXd* coupling_multipliers() { return nullptr; }
+};
+
+// The element model (the model, the state updated in place by every analysis, the load
+// state: gravity, hub frame; its mass flow is the drive's).
+std::unique_ptr<System> element_system(const Model& model, State& state, const LoadState& load);
+// [m] An element model's size for Newton's tests: the largest extent of its reference
+// node positions along x, y or z, at least kMinLengthScale (a model of coincident nodes).
+constexpr double kMinLengthScale = 1e-3;
+double model_length_scale(const Model& model);
+// An element run's outputs (TransientOutput: x, R, xd, omega, energies, work) appended to
+// the record's series (not its times); the counters too if `counters`.
+void append_element_outputs(const TransientOutput& o, long n_nodes, Record& out, bool counters = false);
+// Bodies and joints, the state owned (body_state() reads it).
+std::unique_ptr<System> body_system(const MultibodySystemCore& bodies, const MbState& state);
+// Why a system with floating-frame bodies has no run in a fixed chart (System::Mode).
+std::string fixed_chart_refusal();
+// A body state's outputs appended to the record's series: r (n_bodies, 3), R (n_bodies,
+// 3, 3), eta, v, a, lam and drift (max |C_q v|, at the mass flow at t; ev: scratch), each
+// name after the prefix.
+void append_body_outputs(const MultibodySystemCore& bodies, const MbState& s, const TimeTable& mass_flow, double t,
+                         MbEvaluation& ev, Record& out, const std::string& prefix = "");
+
+// Static equilibrium under the constant mass flow mdot [kg/s] with the loads and gravity
+// times load_factor, by the one static_newton from the system's state (updated); the
+// formulation adds its policy (System::static_policy).
+StaticNewtonResult static_equilibrium(System& sys, double mdot, double load_factor, StaticNewtonOptions opt,
+                                      const TransientOptions& options, bool mechanism = false);
+
+// The linearised equations (linear_matrices) about the system's state (its rates and
+// multipliers) under the constant mass flow mdot [kg/s].
+LinearMatrices linearize(System& sys, double mdot, const TransientOptions& options, double differences_step = 0.0);
+
+// Generalised-alpha from the system's state (time times.front(), its rates, consistent
+// accelerations and multipliers) through the output times; the end state stays in the
+// system.
+Record integrate(System& sys, const Drive& drive, const std::vector<double>& times, const ProgressFn& progress);
+
+// Steady rotation of the system about its hinge at the mass flow mdot [kg/s] (one
+// static_newton with omega as its border: rotating_systems.hpp) from its state (updated:
+// the last iterate with the rotation's rates), omega from omega_guess (NaN: the rigid
+// balance of the starting shape).
+SteadyRotationOutcome steady_rotation(System& sys, const RotationHinge& hinge, double mdot, double omega_guess,
+                                      const SteadyRotationOptions& opt);
+
+// The generalised-alpha flow map of the system, autonomous (constant mass flow mdot [kg/s],
+// loads at their full value), over `duration` [s] in n_steps equal steps in the fixed chart
+// of the system's state (no re-basing, so rotations must stay well below pi from it): from
+// z0 [m, rad, ...] and v0 (n each) to z, v at the end. With sensitivity also its tangent-
+// linear map d(z, v)_end / d(z0, v0) (FlowMapTangent; the initial acceleration and
+// multipliers consistent with z0, v0), with the exact iteration matrix of every step:
+// applied to the identity it is the monodromy matrix of a periodic orbit, whose
+// eigenvalues are its Floquet multipliers. With constraints each step's linearisation is
+// its KKT system, so a direction that violates them is mapped onto them by the first step
+// (a zero multiplier per constrained direction).
+FlowMapOutput flow_map(System& sys, double mdot, const Eigen::VectorXd& z0, const Eigen::VectorXd& v0, double duration,
+                       int n_steps, bool sensitivity, const TransientOptions& options);
+
+}  // namespace pipeflex
