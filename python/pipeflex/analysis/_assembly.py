@@ -8,18 +8,18 @@ from ..model import Model
 from ..state import State
 
 
-def require_model(model, name: str = "model"):
+def require_model(model, name: str = "model", *, why: str = ""):
     """``model`` is a :class:`~pipeflex.Model`, else TypeError naming ``name`` (the
     analyses that take a :class:`~pipeflex.multibody.MultibodySystem` or a
     :class:`~pipeflex.CoupledSystem` dispatch them before this check; for the others the
-    message says that they take element models only)."""
+    message says that they take element models only, and ``why``)."""
     if not isinstance(model, Model):
         kind = type(model).__name__
         if isinstance(model, tuple):
             hint = " (a tuple: pass the state as state=)"
         elif kind in ("MultibodySystem", "CoupledSystem"):
-            hint = (": this analysis takes element models only (docs/user_guide.md, 'Elements and bodies in one "
-                    "system', lists which analysis takes which system)")
+            hint = (f": this analysis takes element models only{': ' + why if why else ''} (docs/capabilities.md "
+                    "lists which analysis takes which system)")
         else:
             hint = (" (static_equilibrium, linearize, critical_mass_flow, steady_rotation and simulate also take a "
                     "MultibodySystem or a CoupledSystem)")

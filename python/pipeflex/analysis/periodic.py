@@ -43,6 +43,9 @@ from .._progress import logger
 from ._assembly import require_model
 from .transient import explained_singular_mass
 
+# Why periodic orbits are for element models only (require_model's reason).
+PERIODIC_ORBITS = ("shooting needs the flow map in one fixed chart, and floating-frame bodies integrate their "
+                   "rotations on the rotation group, re-basing the frames every step")
 #: steps of the integrator per period unless given
 STEPS_PER_PERIOD = 512
 #: multipliers within this distance of the unit circle count as neutral, not unstable:
@@ -433,7 +436,7 @@ def periodic_orbit(model, *, period: float, state=None, base=None, mass_flow: Op
         ValueError: bad options; or the shooting failed with ``period`` above
             MAX_PERIOD_RATIO times the model's slowest natural period.
     """
-    require_model(model)
+    require_model(model, why=PERIODIC_ORBITS)
     T = _checks.positive("period", period)
     steps = _checks.flow_map_steps("steps", steps, model.n_dofs)
     tol = _checks.positive("tol", tol)
@@ -540,7 +543,7 @@ def orbit_guess(model, *, node: int, step: float, component: int = 1, state=None
     from ..signals import zero_crossings
     from .transient import simulate
 
-    require_model(model)
+    require_model(model, why=PERIODIC_ORBITS)
     node = _checks.non_negative_int("node", node)
     if node >= model.n_nodes:
         raise ValueError(f"node must be in [0, {model.n_nodes}), got {node}")
@@ -620,7 +623,7 @@ def continue_orbits(model, *, start, mass_flow_end: float, amplitude: float = 1e
     """
     from .static import static_equilibrium
 
-    require_model(model)
+    require_model(model, why=PERIODIC_ORBITS)
     if getattr(start, "kind", None) != "flutter":
         raise ValueError("start must be a CriticalFlow of kind 'flutter' (a Hopf point); got "
                          f"{getattr(start, 'kind', type(start).__name__)!r}")

@@ -93,7 +93,8 @@ class _Frame:
     1.3-2.7 times slower."""
 
     def __init__(self, model):
-        require_model(model)
+        require_model(model, why="the rotating analyses follow a hub turning at a prescribed rate "
+                                  "(ModelBuilder.rotating_hub), which only element models have")
         if model.hub is None:
             raise ValueError("the model has no rotating hub: add one with ModelBuilder.rotating_hub")
         self.model = model

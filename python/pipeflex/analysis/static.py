@@ -107,8 +107,9 @@ def static_equilibrium(model, *, state=None, mass_flow: Optional[float] = None, 
     """
     own = getattr(model, "_static", None)  # a system with its own solver (pipeflex.CoupledSystem)
     if own is not None:
-        if path != "auto" or from_mass_flow is not None:
-            raise NotImplementedError("path and from_mass_flow for a CoupledSystem")
+        if path not in ("auto", "load") or from_mass_flow is not None:
+            raise ValueError("path='arclength' and from_mass_flow (the arc-length and flow continuations) run on "
+                             "element models: a CoupledSystem steps its loads (path='load')")
         return own(state=state, mass_flow=mass_flow, load_steps=load_steps, tol=tol, max_iterations=max_iterations,
                    max_bisections=max_bisections)
 
@@ -117,10 +118,9 @@ def static_equilibrium(model, *, state=None, mass_flow: Optional[float] = None, 
     if loaded_instance(model, "pipeflex.multibody.system", "MultibodySystem"):
         from ..multibody import static_equilibrium as multibody_static
 
-        if path == "arclength":
-            raise NotImplementedError("path='arclength' for a MultibodySystem")
-        if from_mass_flow is not None:
-            raise NotImplementedError("from_mass_flow (flow continuation) for a MultibodySystem")
+        if path == "arclength" or from_mass_flow is not None:
+            raise ValueError("path='arclength' and from_mass_flow (the arc-length and flow continuations) run on "
+                             "element models: a MultibodySystem steps its loads (path='load')")
         return multibody_static(model, state=state, mass_flow=mass_flow, load_steps=load_steps, tol=tol,
                                 max_iterations=max_iterations,
                                 max_bisections=max_bisections)

@@ -387,6 +387,11 @@ def simulate(model, t_end: float, *, integrator: str = "auto", state=None, t_sta
             raise ValueError("extrapolate=True is for element models (pipeflex.Model) only")
         if choose_integrator(integrator, options) != "generalized_alpha":
             raise ValueError("extrapolate=True needs generalised-alpha (its fixed step; IDA controls its own error)")
+    if integrator == "ida" and (loaded_instance(model, "pipeflex.multibody.system", "MultibodySystem")
+                                or hasattr(model, "_simulate")):
+        raise ValueError("integrator='ida' integrates an element model's ODE; joints make the equations "
+                         "differential-algebraic of index 3, which IDA does not take: use "
+                         "integrator='generalized_alpha'")
     if loaded_instance(model, "pipeflex.multibody.system", "MultibodySystem"):
         from ..multibody import simulate as multibody_simulate
 
