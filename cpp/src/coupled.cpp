@@ -60,25 +60,46 @@ class CoupledEquations final : public Equations {
     }
 
     void evaluate(double wK, double wC, double wM, VecX& r, Triplets* J) override {
-        const int n = n1_ + n2_;
         el_eq_.evaluate(wK, wC, wM, r1_, J ? &J1_ : nullptr);
         mb_eq_.evaluate(wK, wC, wM, r2_, J ? &J2_ : nullptr);
-        r.resize(n + nc2_ + nc3_);
+        r.resize(n1_ + n2_ + nc2_ + nc3_);
         r.head(n1_) = r1_;
         r.segment(n1_, n2_ + nc2_) = r2_;
-        if (J) {
-            *J = J1_;
-            for (std::size_t k = 0; k < J2_.values.size(); ++k)
-                J->add(n1_ + J2_.rows[k], n1_ + J2_.cols[k], J2_.values[k]);
+        if (J) join(J1_, J2_, *J);
+        couple(wK, &r, J);
+    }
+    // the parts' tangents each in one call (an element part assembles them in one pass)
+    void tangents(const std::vector<TangentWeights>& weights, std::vector<Triplets>& J) override {
+        el_eq_.tangents(weights, J1s_);
+        mb_eq_.tangents(weights, J2s_);
+        J.resize(weights.size());
+        for (std::size_t w = 0; w < weights.size(); ++w) {
+            join(J1s_[w], J2s_[w], J[w]);
+            couple(weights[w].wK, nullptr, &J[w]);
         }
+    }
+
+   private:
+    // The parts' tangents in the joint's coordinates [z_el; q_b] and constraint rows.
+    void join(const Triplets& J1, const Triplets& J2, Triplets& J) const {
+        J = J1;
+        for (std::size_t k = 0; k < J2.values.size(); ++k) J.add(n1_ + J2.rows[k], n1_ + J2.cols[k], J2.values[k]);
+    }
+    // The couplings' equations and reactions into the residual r (if not null; the parts'
+    // rows already set) and their blocks and geometric stiffness (weight wK) into J (if
+    // not null).
+    void couple(double wK, VecX* r, Triplets* J) {
+        const int n = n1_ + n2_;
         for (std::size_t k = 0; k < cp_.size(); ++k) {
             const int nr = rows(cp_[k]), R0 = n + nc2_ + rows_[k];
             equations(k, c_, Ja_, Jb_);
             const auto lam = lam3_.segment(rows_[k], nr);
             const int e0 = first_col(k), b0 = body_col(k);
-            r.segment(R0, nr) = c_;
-            r.segment(e0, Ja_.cols()) += Ja_.transpose() * lam;
-            r.segment(b0, Jb_.cols()) += Jb_.transpose() * lam;
+            if (r) {
+                r->segment(R0, nr) = c_;
+                r->segment(e0, Ja_.cols()) += Ja_.transpose() * lam;
+                r->segment(b0, Jb_.cols()) += Jb_.transpose() * lam;
+            }
             if (!J) continue;
             for (int i = 0; i < nr; ++i) {
                 for (int c = 0; c < Ja_.cols(); ++c) {
@@ -94,6 +115,7 @@ class CoupledEquations final : public Equations {
         }
     }
 
+   public:
     int rebase(VecX& v, VecX& a) override {
         VecX v1, a1, v2, a2;
         const int k = el_eq_.rebase(v1, a1) + mb_eq_.rebase(v2, a2);
@@ -247,6 +269,7 @@ class CoupledEquations final : public Equations {
     MatX Ja_, Jb_, Jpa_, Jaa_, Jpb_, Jab_, K_;
     Mat3d Aa_, Ab_;  // the node orientations of the last equations()
     Triplets J1_, J2_;
+    std::vector<Triplets> J1s_, J2s_;
 };
 
 }  // namespace

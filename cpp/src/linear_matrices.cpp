@@ -23,14 +23,11 @@ LinearMatrices linear_matrices(Equations& eq, const Eigen::VectorXd& v, const Ei
     out.nc = eq.n_constraints();
     eq.set_static_load_factor(1.0);
     eq.set(Eigen::VectorXd::Zero(out.n), v, a, lam, t);
-    Eigen::VectorXd r;
-    Triplets J;
-    eq.evaluate(1.0, 0.0, 0.0, r, &J);
-    split(J, out.n, out.K, &out.Cq);
-    eq.evaluate(0.0, 1.0, 0.0, r, &J);
-    split(J, out.n, out.C, nullptr);
-    eq.evaluate(0.0, 0.0, 1.0, r, &J);
-    split(J, out.n, out.M, nullptr);
+    std::vector<Triplets> J;
+    eq.tangents({{1.0, 0.0, 0.0}, {0.0, 1.0, 0.0}, {0.0, 0.0, 1.0}}, J);
+    split(J[0], out.n, out.K, &out.Cq);
+    split(J[1], out.n, out.C, nullptr);
+    split(J[2], out.n, out.M, nullptr);
     if (differences_step > 0.0) out.differences = residual_differences(eq, v, a, lam, t, differences_step);
     return out;
 }
