@@ -180,8 +180,10 @@ def test_bad_input():
 
 def test_clear_errors_for_misuse():
     s = scenes.ffrf_cantilever_pipe(n_bodies=1)
-    with pytest.raises(ValueError, match="pipeflex.multibody.simulate"):
+    with pytest.raises(ValueError, match="index 3, which IDA does not take"):
         pf.simulate(s, 1.0, integrator="ida")  # bodies: generalised-alpha only
+    with pytest.raises(ValueError, match="pipeflex.multibody.simulate"):
+        pf.simulate(s, 1.0, t_start=0.5)
     with pytest.raises(ValueError, match="flow_factor"):
         b = MultibodyBuilder()
         j = b.add_body(flexible_body(length=1.0, n_elements=2, section=pf.PipeSection(EI=1.0, pipe_mass=1.0)),

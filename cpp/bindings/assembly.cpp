@@ -1,6 +1,9 @@
 #include "convert.hpp"
-#include "pipeflex/solvers/system.hpp"
+#include "pipeflex/assembly/ancf_element.hpp"
+#include "pipeflex/assembly/axial_spring.hpp"
 #include "pipeflex/assembly/model.hpp"
+#include "pipeflex/assembly/pipe_element.hpp"
+#include "pipeflex/solvers/system.hpp"
 
 #include <pybind11/stl.h>
 
@@ -88,8 +91,8 @@ void bind_assembly(py::module_& m) {
         .def("add_pipe",
              [](Model& md, int p, int q, const PipeElementData& d) {
                  changed(md);
-                 md.pipes.push_back({node_index(md, p, "p"), node_index(md, q, "q"), d});
-                 return static_cast<int>(md.pipes.size()) - 1;
+                 md.elements.add(std::make_unique<PipeElement>(node_index(md, p, "p"), node_index(md, q, "q"), d));
+                 return md.elements.count<PipeElement>() - 1;
              },
              py::arg("p"), py::arg("q"), py::arg("data"), "A pipe element from node p to node q; its index.")
         .def("add_pipes",
@@ -118,7 +121,7 @@ void bind_assembly(py::module_& m) {
                      node_index(md, qq[k], "q");
                  }
                  changed(md);
-                 md.pipes.reserve(md.pipes.size() + static_cast<std::size_t>(n));
+                 md.elements.reserve(md.elements.size() + static_cast<std::size_t>(n));
                  for (py::ssize_t k = 0; k < n; ++k) {
                      PipeElementData d;
                      d.l0 = s[0][k];
@@ -137,7 +140,7 @@ void bind_assembly(py::module_& m) {
                      d.flow_factor = s[10][k];
                      d.end_terms_p = ep[k];
                      d.end_terms_q = eq[k];
-                     md.pipes.push_back({pp[k], qq[k], d});
+                     md.elements.add(std::make_unique<PipeElement>(pp[k], qq[k], d));
                  }
              },
              py::arg("p"), py::arg("q"), py::kw_only(), py::arg("l0"), py::arg("EA"), py::arg("GJ"), py::arg("EIy"),
@@ -175,10 +178,20 @@ void bind_assembly(py::module_& m) {
         .def("add_ancf",
              [](Model& md, int p, int q, const AncfElementData& d) {
                  changed(md);
-                 md.ancf.push_back({node_index(md, p, "p"), node_index(md, q, "q"), d});
-                 return static_cast<int>(md.ancf.size()) - 1;
+                 md.elements.add(std::make_unique<AncfElement>(node_index(md, p, "p"), node_index(md, q, "q"), d));
+                 return md.elements.count<AncfElement>() - 1;
              },
              py::arg("p"), py::arg("q"), py::arg("data"), "An ANCF element from node p to node q; its index.")
+        .def("add_spring",
+             [](Model& md, int a, int b, double k) {
+                 auto e = std::make_unique<AxialSpring>(node_index(md, a, "node_a"), node_index(md, b, "node_b"), k);
+                 changed(md);
+                 md.elements.add(std::move(e));
+                 return md.elements.count<AxialSpring>() - 1;
+             },
+             py::arg("node_a"), py::arg("node_b"), py::arg("k"),
+             "A linear axial spring of stiffness k [N/m] between the positions of node_a and node_b, "
+             "unstressed at their reference distance; its index among the springs.")
         .def("set_hub",
              [](Model& md, const std::vector<int>& nodes, const Eigen::Vector3d& axis, const Eigen::Vector3d& center,
                 double omega, double spin_up_time) {
@@ -200,10 +213,12 @@ void bind_assembly(py::module_& m) {
              py::arg("t"), "The hub's angle [rad], rate [rad/s] and acceleration [rad/s^2] at time t [s].")
         .def("ancf_nodes",
              [](const Model& md, int i) {
-                 if (i < 0 || i >= static_cast<int>(md.ancf.size()))
-                     throw std::invalid_argument("ANCF element index must be in [0, " + std::to_string(md.ancf.size()) +
-                                                 "), got " + std::to_string(i));
-                 return py::make_tuple(md.ancf[i].p, md.ancf[i].q);
+                 const AncfElement* e = i >= 0 ? md.elements.nth<AncfElement>(i) : nullptr;
+                 if (e == nullptr)
+                     throw std::invalid_argument("ANCF element index must be in [0, " +
+                                                 std::to_string(md.elements.count<AncfElement>()) + "), got " +
+                                                 std::to_string(i));
+                 return py::make_tuple(e->p(), e->q());
              },
              py::arg("element"), "The nodes (p, q) of ANCF element number element.")
         .def("set_bases",
@@ -234,10 +249,12 @@ void bind_assembly(py::module_& m) {
                                "positions along x, y or z, at least 1 mm.")
         .def_readonly("first_dof", &Model::first_dof)
         .def("pipe", [](const Model& md, int i) {
-            if (i < 0 || i >= static_cast<int>(md.pipes.size()))
-                throw std::invalid_argument("pipe element index must be in [0, " + std::to_string(md.pipes.size()) +
-                                            "), got " + std::to_string(i));
-            return md.pipes[i].data;
+            const PipeElement* e = i >= 0 ? md.elements.nth<PipeElement>(i) : nullptr;
+            if (e == nullptr)
+                throw std::invalid_argument("pipe element index must be in [0, " +
+                                            std::to_string(md.elements.count<PipeElement>()) + "), got " +
+                                            std::to_string(i));
+            return e->data;
         },
         py::arg("element"), "The data of pipe element number element (a copy).");
 

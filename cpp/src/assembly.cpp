@@ -1,4 +1,5 @@
 #include "pipeflex/assembly/model.hpp"
+#include "pipeflex/elements/ancf_beam2d.hpp"  // AncfFrame (point masses at ANCF nodes)
 
 #include <algorithm>
 #include <atomic>
@@ -13,15 +14,6 @@ double norm(const Vec3<double>& a) { return std::sqrt(dot(a, a)); }
 
 Vec3<double> node_vec(const Eigen::VectorXd& x, int node, int off) {
     return {{x[6 * node + off], x[6 * node + off + 1], x[6 * node + off + 2]}};
-}
-
-NodeFrames frames_of(const State& s, const PipeElement& el) { return {s.frames[el.p], s.frames[el.q]}; }
-
-void gather(const Eigen::VectorXd& x, int p, int q, double* out) {
-    for (int i = 0; i < 6; ++i) {
-        out[i] = x[6 * p + i];
-        out[6 + i] = x[6 * q + i];
-    }
 }
 
 // Generalised force of a nodal load (to be subtracted) on the node's 6 coordinates,
@@ -114,32 +106,7 @@ void scatter_block(const Model& m, int na, int nb, const double* blk, int ld, Si
         for (int j = 0; j < R.cols(); ++j) J->add(m.first_dof[na] + i, m.first_dof[nb] + j, R(i, j));
 }
 
-// ANCF element coordinates e (8) from a 6-per-node vector: slots 0, 1 (position) and
-// 3, 4 (slope) of each node.
-constexpr int kAncfSlot[4] = {0, 1, 3, 4};
-
-void gather_ancf(const Eigen::VectorXd& x, const AncfElement& el, double* e) {
-    for (int k = 0; k < 4; ++k) {
-        e[k] = x[6 * el.p + kAncfSlot[k]];
-        e[4 + k] = x[6 * el.q + kAncfSlot[k]];
-    }
-}
-
-// Scatter an ANCF element vector (8) and matrix (8x8) into 12-slot node pairs.
-void widen_ancf(const double* r8, const double* J8, double* r12, double* J12) {
-    auto slot = [](int i) { return 6 * (i / 4) + kAncfSlot[i % 4]; };
-    if (r8 != nullptr) {
-        for (int i = 0; i < 12; ++i) r12[i] = 0.0;
-        for (int i = 0; i < 8; ++i) r12[slot(i)] = r8[i];
-    }
-    if (J8 != nullptr) {
-        for (int i = 0; i < 144; ++i) J12[i] = 0.0;
-        for (int i = 0; i < 8; ++i)
-            for (int j = 0; j < 8; ++j) J12[12 * slot(i) + slot(j)] = J8[8 * i + j];
-    }
-}
-
-void scatter_vector(const Model& m, int n, const double* f, Eigen::VectorXd* r) {
+inline void scatter_vector(const Model& m, int n, const double* f, Eigen::VectorXd* r) {
     if (!m.reduced_slot.empty()) {  // every basis selects: a table lookup per slot
         const int* rs = m.reduced_slot.data() + 6 * n;
         for (int i = 0; i < 6; ++i)
@@ -159,18 +126,33 @@ void scatter_vector(const Model& m, int n, const double* f, Eigen::VectorXd* r) 
     }
 }
 
-// Scatter a two-node element's tangent (12x12, row-major).
-template <class Sink>
-void scatter_element(const Model& m, int p, int q, const double* Je, Sink* J) {
-    const int nodes[2] = {p, q};
-    for (int a = 0; a < 2; ++a)
-        for (int b = 0; b < 2; ++b) scatter_block(m, nodes[a], nodes[b], Je + 72 * a + 6 * b, 12, J);
+// Scatter an element's tangent ((6 n)^2 row-major for its n nodes), node block by block
+// (two-node elements, the common case, with the loop bounds known).
+template <int N, class Sink>
+void scatter_nodes(const Model& m, const int* nodes, int n, const double* Je, Sink* J) {
+    if (N > 0) n = N;
+    const int ld = 6 * n;
+    for (int a = 0; a < n; ++a)
+        for (int b = 0; b < n; ++b) scatter_block(m, nodes[a], nodes[b], Je + 6 * ld * a + 6 * b, ld, J);
 }
 
-void scatter_residual(const Model& m, int p, int q, const double* re, Eigen::VectorXd* residual) {
+template <class Sink>
+void scatter_element(const Model& m, const std::vector<int>& nodes, const double* Je, Sink* J) {
+    const int n = static_cast<int>(nodes.size());
+    if (n == 2)
+        scatter_nodes<2>(m, nodes.data(), n, Je, J);
+    else
+        scatter_nodes<0>(m, nodes.data(), n, Je, J);
+}
+
+void scatter_residual(const Model& m, const std::vector<int>& nodes, const double* re, Eigen::VectorXd* residual) {
     if (residual == nullptr) return;
-    scatter_vector(m, p, re, residual);
-    scatter_vector(m, q, re + 6, residual);
+    if (nodes.size() == 2) {  // the common case: unrolled
+        scatter_vector(m, nodes[0], re, residual);
+        scatter_vector(m, nodes[1], re + 6, residual);
+        return;
+    }
+    for (std::size_t a = 0; a < nodes.size(); ++a) scatter_vector(m, nodes[a], re + 6 * a, residual);
 }
 
 }  // namespace
@@ -229,37 +211,25 @@ void Model::finalize() {
             throw std::invalid_argument(std::string(what) + " refers to node " + std::to_string(i) +
                                         ", but the model has nodes 0.." + std::to_string(n - 1));
     };
-    for (const auto& e : pipes) {
-        check_node(e.p, "pipe element");
-        check_node(e.q, "pipe element");
-        if (!(e.data.l0 > 0.0)) throw std::invalid_argument("pipe element length l0 must be > 0");
-    }
-    // Elements are stress-free as built: eps^0 = eps(reference configuration).
-    const NodeFrames identity{promote<double>(Mat3<double>{{1, 0, 0, 0, 1, 0, 0, 0, 1}}),
-                              promote<double>(Mat3<double>{{1, 0, 0, 0, 1, 0, 0, 0, 1}})};
-    for (auto& e : pipes) {
-        double qe[12] = {};
-        for (int k = 0; k < 3; ++k) {
-            qe[k] = positions[e.p][k];
-            qe[6 + k] = positions[e.q][k];
+    // The elements: the generic checks, then each type's own (and its stress-free state).
+    stress_offset.assign(elements.size(), 0);
+    n_stresses = 0;
+    uses_node_motions = false;
+    max_element_nodes = 0;
+    for (std::size_t k = 0; k < elements.size(); ++k) {
+        Element& e = elements[k];
+        for (int i : e.nodes()) {
+            check_node(i, e.name());
+            if (!e.accepts(kinds[i]))
+                throw std::invalid_argument(std::string(e.name()) + " at node " + std::to_string(i) + ", " +
+                                            (kinds[i] == NodeKind::ancf ? "an ANCF node" : "a frame node") +
+                                            ", which it cannot connect");
         }
-        e.data.strain0 = {};
-        pipe_strains(e.data, identity, qe, e.data.strain0.data());
-    }
-    for (const auto& e : pipes)
-        for (int i : {e.p, e.q})
-            if (kinds[i] != NodeKind::frame)
-                throw std::invalid_argument("pipe element at node " + std::to_string(i) + ", an ANCF node");
-    for (const auto& e : ancf) {
-        check_node(e.p, "ANCF element");
-        check_node(e.q, "ANCF element");
-        if (!(e.data.l > 0.0)) throw std::invalid_argument("ANCF element length l must be > 0");
-        for (int i : {e.p, e.q}) {
-            if (kinds[i] != NodeKind::ancf)
-                throw std::invalid_argument("ANCF element at node " + std::to_string(i) + ", which is not an ANCF node");
-            if (bases[i].row(2).norm() != 0.0 || bases[i].row(5).norm() != 0.0)
-                throw std::invalid_argument("ANCF node " + std::to_string(i) + " must have z and z' fixed (planar element)");
-        }
+        e.finalize(*this);
+        stress_offset[k] = n_stresses;
+        n_stresses += e.n_stresses();
+        uses_node_motions = uses_node_motions || e.uses_node_motions();
+        max_element_nodes = std::max(max_element_nodes, e.n_nodes());
     }
     for (const auto& l : loads) {
         check_node(l.node, "nodal load");
@@ -284,8 +254,10 @@ void Model::finalize() {
             throw std::invalid_argument("hub-driven node " + std::to_string(i) + " must be clamped (no free coordinates)");
     }
     if (hub.co_rotating) {
-        if (!pipes.empty())
-            throw std::invalid_argument("a hub carrying ANCF beams turns a co-rotating frame: pipe elements cannot join it");
+        for (const auto& e : elements)
+            if (!e->in_co_rotating_frame())
+                throw std::invalid_argument("a hub carrying ANCF beams turns a co-rotating frame: " +
+                                            std::string(e->name()) + "s cannot join it");
         if (std::abs(hub.axis[2]) != 1.0) throw std::invalid_argument("the hub of ANCF beams must turn about z");
     }
     if (!hub.nodes.empty() && std::abs(norm(hub.axis) - 1.0) > 1e-12)
@@ -386,7 +358,9 @@ void State::check_sizes() const {
 
 void check_state(const Model& model, const State& state) {
     const int n = model.n_nodes();
-    if (static_cast<int>(model.first_dof.size()) != n || static_cast<int>(model.bases.size()) != n)
+    // (an element added since finalize: the kernels' buffers are sized by finalize)
+    if (static_cast<int>(model.first_dof.size()) != n || static_cast<int>(model.bases.size()) != n ||
+        model.stress_offset.size() != model.elements.size())
         throw std::invalid_argument("the model is not finalized (call finalize() after its last node)");
     if (static_cast<int>(state.frames.size()) != n)
         throw std::invalid_argument("the state has " + std::to_string(state.frames.size()) + " nodes, the model " +
@@ -460,71 +434,50 @@ void assemble_into(const Model& model, const State& state, const LoadState& load
                    const double* geometric_stresses = nullptr) {
     check_state(model, state);
     if (residual != nullptr) residual->setZero(model.n_dofs);
-    double qe[12], ve[12], ae[12], re[12], Je[144];
-    // Several weight sets with derivatives: the pipe kernel differentiates once for all
-    // (pipe_tangents); one set, or mass matrices only, take pipe_tangent's shortcuts.
-    std::vector<double> wflat(3 * nw), Jmany(nw > 1 ? 144 * nw : 0);
-    std::vector<double*> Jptr(nw);
-    bool derivatives = false;
+    // Caller-owned buffers of the element kernels, reused (no allocation per call): the
+    // residual (6 per node of an element) and one tangent per weight set.
+    const int nd = 6 * model.max_element_nodes;
+    thread_local std::vector<double> re, Jmany, wflat;
+    thread_local std::vector<double*> Jptr;
+    re.resize(nd);
+    Jmany.resize(static_cast<std::size_t>(nw) * nd * nd);
+    wflat.resize(3 * nw);
+    Jptr.resize(nw);
     for (int i = 0; i < nw; ++i) {
         wflat[3 * i] = w[i].wK;
         wflat[3 * i + 1] = w[i].wC;
         wflat[3 * i + 2] = w[i].wM;
-        Jptr[i] = nw > 1 ? Jmany.data() + 144 * i : Je;
-        derivatives = derivatives || w[i].wK != 0.0 || w[i].wC != 0.0;
+        Jptr[i] = Jmany.data() + static_cast<std::size_t>(nd) * nd * i;
     }
-    const bool at_once = (nw > 1 || geometric_stresses != nullptr) && derivatives;
     // The residual alone (every Newton iteration of the integrators): each node's rotation
-    // kinematics once, shared by the node's elements. Reused storage: no allocation per call.
+    // kinematics once, shared by the node's elements.
     thread_local std::vector<NodeMotion<double>> motions;
-    if (nw == 0 && !model.pipes.empty()) {
+    const bool with_motions = nw == 0 && model.uses_node_motions;
+    if (with_motions) {
         motions.resize(model.n_nodes());
         for (int i = 0; i < model.n_nodes(); ++i)
             if (model.kinds[i] == NodeKind::frame)
                 motions[i] = node_motion(node_vec(state.q, i, 3), node_vec(state.v, i, 3), node_vec(state.a, i, 3));
     }
-    for (std::size_t k = 0; k < model.pipes.size(); ++k) {
-        const auto& el = model.pipes[k];
-        gather(state.q, el.p, el.q, qe);
-        gather(state.v, el.p, el.q, ve);
-        gather(state.a, el.p, el.q, ae);
-        double* r = residual != nullptr ? re : nullptr;
-        if (nw == 0)
-            pipe_residual(el.data, frames_of(state, el), load, qe, ve, ae, motions[el.p], motions[el.q], re);
-        if (at_once)
-            pipe_tangents(el.data, frames_of(state, el), load, qe, ve, ae, nw, wflat.data(), r, Jptr.data(),
-                          geometric_stresses != nullptr ? geometric_stresses + 6 * k : nullptr);
-        for (int i = 0; i < nw; ++i) {
-            if (!at_once)
-                pipe_tangent(el.data, frames_of(state, el), load, qe, ve, ae, w[i].wK, w[i].wC, w[i].wM,
-                             i == 0 ? r : nullptr, Jptr[i]);
-            scatter_element(model, el.p, el.q, Jptr[i], &sinks[i]);
-        }
-        scatter_residual(model, el.p, el.q, re, residual);
+    // plain pointers in the loop: each use of a thread_local costs a call (its TLS wrapper)
+    const ElementInputs in{state, load, with_motions ? motions.data() : nullptr};
+    ElementOutputs out;
+    out.nw = nw;
+    out.weights = wflat.data();
+    out.r = residual != nullptr ? re.data() : nullptr;
+    out.J = Jptr.data();
+    for (std::size_t k = 0; k < model.elements.size(); ++k) {
+        const Element& el = model.elements[k];
+        out.geometric_stresses = geometric_stresses != nullptr ? geometric_stresses + model.stress_offset[k] : nullptr;
+        el.kernel(in, out);
+        for (int i = 0; i < nw; ++i) scatter_element(model, el.nodes(), out.J[i], &sinks[i]);
+        scatter_residual(model, el.nodes(), out.r, residual);
     }
-    AncfFrame frame;
+    AncfFrame frame;  // the co-rotating frame of the point masses at ANCF nodes
     frame.rate = load.frame_rate;
     frame.acceleration = load.frame_acceleration;
     frame.center[0] = load.frame_center[0];
     frame.center[1] = load.frame_center[1];
-    const double g[2] = {load.gravity[0] * load.gravity_factor, load.gravity[1] * load.gravity_factor};
-    for (const auto& el : model.ancf) {
-        double e[8], v8[8], a8[8], r8[8], J8[64];
-        gather_ancf(state.q, el, e);
-        gather_ancf(state.a, el, a8);
-        gather_ancf(state.v, el, v8);
-        if (nw == 0) ancf_tangent(el.data, e, v8, a8, g, &frame, 0.0, 0.0, 0.0, r8, nullptr);
-        for (int i = 0; i < nw; ++i) {
-            ancf_tangent(el.data, e, v8, a8, g, &frame, w[i].wK, w[i].wC, w[i].wM,
-                         i == 0 && residual != nullptr ? r8 : nullptr, J8);
-            widen_ancf(nullptr, J8, nullptr, Je);
-            scatter_element(model, el.p, el.q, Je, &sinks[i]);
-        }
-        if (residual != nullptr) {
-            widen_ancf(r8, nullptr, re, nullptr);
-            scatter_residual(model, el.p, el.q, re, residual);
-        }
-    }
     for (const auto& nm : model.masses) {
         const int n = nm.node;
         if (model.kinds[n] == NodeKind::ancf) {
@@ -665,14 +618,10 @@ void predicted_stresses(const Model& model, const State& state, const Eigen::Vec
     if (dq.size() != state.q.size())
         throw std::invalid_argument("predicted_stresses: dq must have " + std::to_string(state.q.size()) +
                                     " entries, got " + std::to_string(dq.size()));
-    sigma.resize(6 * model.pipes.size());
-    double qe[12], de[12];
-    for (std::size_t k = 0; k < model.pipes.size(); ++k) {
-        const auto& el = model.pipes[k];
-        gather(state.q, el.p, el.q, qe);
-        gather(dq, el.p, el.q, de);
-        pipe_predicted_stresses(el.data, frames_of(state, el), qe, de, sigma.data() + 6 * k);
-    }
+    sigma.resize(model.n_stresses);
+    for (std::size_t k = 0; k < model.elements.size(); ++k)
+        if (model.elements[k].n_stresses() > 0)
+            model.elements[k].predicted_stresses(state, dq, sigma.data() + model.stress_offset[k]);
 }
 
 std::shared_ptr<const TangentPattern> tangent_pattern(const Model& model) {
@@ -706,24 +655,16 @@ void assemble_csc(const Model& model, const State& state, const LoadState& load,
 }
 
 void assemble_geometric(const Model& model, const State& state, const Eigen::VectorXd& dq, Triplets* G) {
-    if (!model.pipes.empty())
-        throw std::invalid_argument("the small-deformation prestress stiffness is defined for ANCF Model A elements "
-                                    "only; this model has pipe elements (use the steady-state linearisation)");
+    check_state(model, state);
+    for (const auto& e : model.elements)
+        if (const char* why = e->prestress_unavailable()) throw std::invalid_argument(why);
     G->clear();
     TripletSink sink{G};
-    double e[8], de[8], G8[64], G12[144];
-    for (const auto& el : model.ancf) {
-        if (el.data.elastic != AncfElastic::model_a)
-            throw std::invalid_argument("the small-deformation prestress stiffness is defined for ANCF Model A "
-                                        "elements only (Model 0 has no axial-bending coupling); use the "
-                                        "steady-state linearisation");
-        gather_ancf(state.q, el, e);
-        gather_ancf(dq, el, de);
-        ancf_geometric_stiffness(el.data, e, de, G8);
-        widen_ancf(nullptr, G8, nullptr, G12);
-        const int nodes[2] = {el.p, el.q};
-        for (int a = 0; a < 2; ++a)
-            for (int b = 0; b < 2; ++b) scatter_block(model, nodes[a], nodes[b], G12 + 72 * a + 6 * b, 12, &sink);
+    const int nd = 6 * model.max_element_nodes;
+    std::vector<double> Ge(static_cast<std::size_t>(nd) * nd);
+    for (const auto& e : model.elements) {
+        e->prestress_stiffness(state, dq, Ge.data());
+        scatter_element(model, e->nodes(), Ge.data(), &sink);
     }
 }
 
@@ -766,33 +707,17 @@ Eigen::VectorXd reduce(const Model& model, const Eigen::VectorXd& full) {
 }
 
 double fluid_power(const Model& model, const State& state, const LoadState& load) {
-    double P = 0.0, qe[12], ve[12], fe[12];
-    for (const auto& el : model.pipes) {
-        gather(state.q, el.p, el.q, qe);
-        gather(state.v, el.p, el.q, ve);
-        pipe_fluid_forces(el.data, frames_of(state, el), load, qe, ve, fe);
-        for (int i = 0; i < 12; ++i) P -= ve[i] * fe[i];
-    }
+    double P = 0.0;
+    for (const auto& e : model.elements) e->add_fluid_power(state, load, &P);
     return P;
 }
 
 void energies(const Model& model, const State& state, double* kinetic, double* elastic) {
     check_state(model, state);
     double T = 0.0, U = 0.0;
-    double qe[12], ve[12];
-    for (const auto& el : model.pipes) {
-        gather(state.q, el.p, el.q, qe);
-        gather(state.v, el.p, el.q, ve);
+    for (const auto& e : model.elements) {
         double t, u;
-        pipe_energies(el.data, frames_of(state, el), qe, ve, &t, &u);
-        T += t;
-        U += u;
-    }
-    for (const auto& el : model.ancf) {
-        double e[8], v8[8], t, u;
-        gather_ancf(state.q, el, e);
-        gather_ancf(state.v, el, v8);
-        ancf_energies(el.data, e, v8, &t, &u);
+        e->energies(state, &t, &u);
         T += t;
         U += u;
     }

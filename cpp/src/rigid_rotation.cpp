@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cmath>
 #include <stdexcept>
+#include <typeinfo>
 
 namespace pipeflex {
 
@@ -43,8 +44,10 @@ RigidRotationEquations::RigidRotationEquations(const Model& model, State& state,
     : statics_(model, state, load, length_scale), hinge_point_(hinge_point[0], hinge_point[1], hinge_point[2]),
       axis_(axis), assembled_(free != nullptr ? *free : model) {
     const Model& F = assembled_;
-    if (free != nullptr && (F.n_nodes() != model.n_nodes() || F.kinds != model.kinds ||
-                            F.pipes.size() != model.pipes.size() || F.ancf.size() != model.ancf.size()))
+    bool same = F.n_nodes() == model.n_nodes() && F.kinds == model.kinds && F.elements.size() == model.elements.size();
+    for (std::size_t k = 0; same && k < F.elements.size(); ++k)
+        same = typeid(F.elements[k]) == typeid(model.elements[k]) && F.elements[k].nodes() == model.elements[k].nodes();
+    if (free != nullptr && !same)
         throw std::invalid_argument("rigid rotation: the unconstrained model has other nodes or elements than the "
                                     "model");
     // the rates below hold at phi = 0: every iterate is re-based

@@ -2,7 +2,6 @@
 
 #include "pipeflex/core/format.hpp"
 #include "pipeflex/core/interrupt.hpp"
-#include "pipeflex/elements/hermite.hpp"
 #include "pipeflex/solvers/element_equations.hpp"
 #include "pipeflex/solvers/sparse_lu.hpp"
 
@@ -61,24 +60,7 @@ double gravity_potential(const Model& model, const State& s, const LoadState& lo
     double V = 0.0;
     Vec3<double> g;
     for (int i = 0; i < 3; ++i) g[i] = load.gravity[i] * load.gravity_factor;
-    for (const auto& el : model.pipes) {
-        const double m = (el.data.pipe_mass + el.data.fluid_mass) * el.data.l0;
-        const Mat3<double> Ep = s.rotation(el.p) * el.data.offset_p;
-        const Mat3<double> Eq = s.rotation(el.q) * el.data.offset_q;
-        const double l0 = el.data.l0;
-        Vec3<double> xp{{s.q[6 * el.p], s.q[6 * el.p + 1], s.q[6 * el.p + 2]}};
-        Vec3<double> xq{{s.q[6 * el.q], s.q[6 * el.q + 1], s.q[6 * el.q + 2]}};
-        const Vec3<double> a[4] = {xp, l0 * Ep.col(0), xq, l0 * Eq.col(0)};
-        for (int i = 0; i < 4; ++i) V -= m * hermite::load[i] * dot(g, a[i]);
-    }
-    for (const auto& el : model.ancf) {
-        // int rho A r dx = rho A l sum_i (int s_i) a_i, a = [r_A, l r_A', r_B, l r_B']
-        const double m = el.data.mass * el.data.l, l = el.data.l;
-        const double c[4] = {m * hermite::load[0], m * l * hermite::load[1], m * hermite::load[2], m * l * hermite::load[3]};
-        const int at[4] = {6 * el.p, 6 * el.p + 3, 6 * el.q, 6 * el.q + 3};
-        for (int i = 0; i < 4; ++i)
-            for (int k = 0; k < 3; ++k) V -= c[i] * g[k] * s.q[at[i] + k];
-    }
+    for (const auto& e : model.elements) e->add_gravity_potential(s, g, &V);
     for (const auto& nm : model.masses) {
         Vec3<double> x{{s.q[6 * nm.node], s.q[6 * nm.node + 1], s.q[6 * nm.node + 2]}};
         V -= nm.mass * dot(g, x);

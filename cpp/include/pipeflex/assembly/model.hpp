@@ -10,7 +10,7 @@
 // routine for static (1, 0, 0), linearisation (one weight at a time) and time stepping.
 #pragma once
 
-#include "pipeflex/elements/ancf_beam2d.hpp"
+#include "pipeflex/assembly/element.hpp"
 #include "pipeflex/elements/pipe_beam3d.hpp"
 
 #include <Eigen/Core>
@@ -19,19 +19,6 @@
 #include <vector>
 
 namespace pipeflex {
-
-struct PipeElement {
-    int p = 0, q = 0;  // node indices (flow from p to q)
-    PipeElementData data;
-};
-
-// Planar ANCF beam between two ANCF nodes (x, y components of position and slope).
-struct AncfElement {
-    int p = 0, q = 0;
-    AncfElementData data;
-};
-
-enum class NodeKind : int { frame = 0, ancf = 1 };
 
 // Prescribed rotation of the hub about the axis a through the centre c by the angle
 // theta(t): eq. 13 of seed 002 (spin-up to Omega over spin_up_time T, then constant
@@ -72,8 +59,9 @@ struct TangentPattern;
 
 struct Model {
     std::vector<Vec3<double>> positions;  // reference node positions [m]
-    std::vector<PipeElement> pipes;
-    std::vector<AncfElement> ancf;
+    // Every element (pipe_element.hpp, ancf_element.hpp, ...: the Element interface), in
+    // the order added; the assembler sums their contributions in this order.
+    ElementList elements;
     std::vector<NodeKind> kinds;          // per node (default frame)
     std::vector<Vec3<double>> slopes;     // reference slope r' of ANCF nodes
     HubDrive hub;
@@ -89,6 +77,13 @@ struct Model {
     std::vector<int> full_slot;
     std::vector<int> reduced_slot;  // the inverse, 6 per node (-1: a fixed slot)
     int n_dofs = 0;
+    // Set by finalize from the elements: the first of each element's stresses of the
+    // mixed Newton (Element::n_stresses) and their total; whether an element takes the
+    // nodes' rotation kinematics (Element::uses_node_motions); the most nodes of one.
+    std::vector<int> stress_offset;
+    int n_stresses = 0;
+    bool uses_node_motions = false;
+    int max_element_nodes = 0;
     // The CSC pattern of the tangent, built by tangent_pattern() at its first use and
     // dropped by finalize(): every change of the structure ends with finalize().
     mutable std::shared_ptr<const TangentPattern> pattern_cache;
@@ -134,14 +129,16 @@ struct Triplets {
 };
 
 // Reduced residual (size n_dofs) and, if J is not null, the weighted tangent.
-// geometric_stresses (6 per pipe element, model.pipes' order; may be null): the stresses
-// of the pipe elements' geometric stiffness (pipe_tangents' sigma_geometric).
+// geometric_stresses (model.n_stresses, each element's at its stress_offset; may be null):
+// the stresses of the elements' geometric stiffness (the pipe's: pipe_tangents'
+// sigma_geometric).
 void assemble(const Model& model, const State& state, const LoadState& load, double load_factor,
               double wK, double wC, double wM, Eigen::VectorXd* residual, Triplets* J,
               const double* geometric_stresses = nullptr);
 
-// The pipe elements' stresses extrapolated from the state along the full-coordinate
-// increment dq (6 per element, model.pipes' order): pipe_predicted_stresses.
+// The elements' stresses of the mixed Newton extrapolated from the state along the
+// full-coordinate increment dq (model.n_stresses, as geometric_stresses above; the pipe's:
+// pipe_predicted_stresses).
 void predicted_stresses(const Model& model, const State& state, const Eigen::VectorXd& dq,
                         std::vector<double>& sigma);
 
@@ -160,10 +157,6 @@ struct TangentPattern {
 // by later calls (safe from several threads: a race computes it twice).
 std::shared_ptr<const TangentPattern> tangent_pattern(const Model& model);
 
-struct TangentWeights {
-    double wK = 1.0, wC = 0.0, wM = 0.0;
-};
-
 // Reduced residual (if not null) and, in one pass over the elements, the tangent for
 // each weight set w[i] written to values[i] (pattern->nnz() entries each, overwritten)
 // on pattern = tangent_pattern(model): K, C and M at once without triplets.
@@ -173,7 +166,8 @@ void assemble_csc(const Model& model, const State& state, const LoadState& load,
                   const double* geometric_stresses = nullptr);
 
 // Geometric stiffness (reduced triplets) of the prestress that the full-coordinate
-// displacement dq produces to first order about the state: ANCF Model A elements only.
+// displacement dq produces to first order about the state: ANCF Model A elements only
+// (Element::prestress_stiffness; the others throw their prestress_unavailable()).
 void assemble_geometric(const Model& model, const State& state, const Eigen::VectorXd& dq, Triplets* G);
 
 // Set position, velocity and acceleration of the hub nodes to the drive's motion at t
@@ -189,8 +183,8 @@ Eigen::VectorXd external_forces(const Model& model, const State& state);
 void add_increment(const Model& model, Eigen::Ref<Eigen::VectorXd> full, const Eigen::VectorXd& dz);
 Eigen::VectorXd reduce(const Model& model, const Eigen::VectorXd& full);  // T^T f (full: 6 per node, checked)
 
-// Power of the fluid forces on the structure [W]: -v . f_fluid summed over the pipe
-// elements (the flow-dependent part of their residuals).
+// Power of the fluid forces on the structure [W]: -v . f_fluid summed over the elements
+// (the flow-dependent part of the pipe elements' residuals).
 double fluid_power(const Model& model, const State& state, const LoadState& load);
 
 // Energies [J]: kinetic, elastic; potential of gravity is separate.

@@ -146,7 +146,7 @@ class ElementEquations final : public Equations {
     // from the straight state no longer leaves the next tangent stiffened by a spurious
     // axial force, whose size grows with the mesh (bench_analyses_scaling: static (tip load)).
     void predict_stresses(const Eigen::VectorXd* dz) override {
-        predicted = dz != nullptr && !model.pipes.empty();
+        predicted = dz != nullptr && model.n_stresses > 0;
         if (predicted) predicted_stresses(model, state, full(dz->head(n)), geometric_stresses);
     }
     int rebase(Eigen::VectorXd& v, Eigen::VectorXd& a) override { return rebase(rebase_angle, v, a); }
