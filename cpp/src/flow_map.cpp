@@ -90,6 +90,16 @@ Eigen::MatrixXd FlowMapTangent::apply(const Eigen::MatrixXd& directions) const {
 
 namespace {
 
+// The (rows x cols) block at (r0, c0) of triplets (repeats summed), dense.
+Eigen::MatrixXd dense_block(const Triplets& J, int r0, int rows, int c0, int cols) {
+    Eigen::MatrixXd A = Eigen::MatrixXd::Zero(rows, cols);
+    for (std::size_t k = 0; k < J.values.size(); ++k) {
+        const int i = J.rows[k] - r0, j = J.cols[k] - c0;
+        if (i >= 0 && i < rows && j >= 0 && j < cols) A(i, j) += J.values[k];
+    }
+    return A;
+}
+
 // The (rows x cols) block at (r0, c0) of triplets (repeats summed), sparse.
 Eigen::SparseMatrix<double> block(const Triplets& J, int r0, int rows, int c0, int cols) {
     std::vector<Eigen::Triplet<double>> t;
@@ -144,16 +154,18 @@ FlowMapOutput flow_map(System& sys, double mdot, const Eigen::VectorXd& z0, cons
         eq.tangents({{1.0, 0.0, 0.0}, {0.0, 1.0, 0.0}, {wK, wC, 1.0}}, J);
         TangentStep s;
         s.q_weight = q_weight;
-        const double size = scale_constraints(J[2], n, 1.0);  // pivoting sees comparable entries
-        s.s = size > 0.0 ? size : 1.0;
-        scale_constraints(J[2], n, s.s);
+        if (nc) {  // pivoting sees comparable entries
+            const double size = scale_constraints(J[2], n, 1.0);
+            s.s = size > 0.0 ? size : 1.0;
+            scale_constraints(J[2], n, s.s);
+        }
         bool ok;
         if (tangent->dense) {
-            s.Kd = Eigen::MatrixXd(block(J[0], 0, n, 0, n));
-            s.Cd = Eigen::MatrixXd(block(J[1], 0, n, 0, n));
-            if (nc) s.Qd = Eigen::MatrixXd(block(J[0], n, nc, 0, n));
+            s.Kd = dense_block(J[0], 0, n, 0, n);
+            s.Cd = dense_block(J[1], 0, n, 0, n);
+            if (nc) s.Qd = dense_block(J[0], n, nc, 0, n);
             s.lu = std::make_shared<FixedPatternLU>(kDenseLuBelow);
-            ok = s.lu->factorize_dense(Eigen::MatrixXd(block(J[2], 0, n + nc, 0, n + nc)));
+            ok = s.lu->factorize_dense(dense_block(J[2], 0, n + nc, 0, n + nc));
         } else {
             s.Ks = block(J[0], 0, n, 0, n);
             s.Cs = block(J[1], 0, n, 0, n);

@@ -47,6 +47,7 @@ class ElementEquations final : public Equations {
     double static_mdot = 0.0;  // statics: mdot [kg/s] (the load factor: set_static_load_factor)
     bool predicted = false;    // geometric_stresses hold the static Newton's prediction
     std::vector<double> geometric_stresses;
+    std::vector<std::vector<double>> tangent_values;  // tangents(): the assembler's CSC values
     double rebase_angle = 0.0;  // [rad] frames with |phi| beyond it are re-based by rebase()
     double fluid_work = 0.0, load_work = 0.0, last_power_t = 0.0, last_fluid_power = 0.0,
            last_load_power = 0.0;
@@ -128,16 +129,24 @@ class ElementEquations final : public Equations {
         const LoadState l = evaluated_load(&lf);
         const std::shared_ptr<const TangentPattern> pattern = tangent_pattern(model);
         const std::size_t nnz = pattern->row_index.size();
-        std::vector<std::vector<double>> values(weights.size(), std::vector<double>(nnz));
+        tangent_values.resize(weights.size());
         std::vector<double*> out;
-        for (auto& v : values) out.push_back(v.data());
+        for (auto& v : tangent_values) {
+            v.resize(nnz);
+            out.push_back(v.data());
+        }
         assemble_csc(model, state, l, lf, weights, nullptr, out.data());
         J.resize(weights.size());
         for (std::size_t w = 0; w < weights.size(); ++w) {
-            J[w].clear();
+            Triplets& t = J[w];
+            t.rows.resize(nnz);
+            t.cols.resize(nnz);
+            t.values.assign(tangent_values[w].begin(), tangent_values[w].end());
             for (int c = 0; c < n; ++c)
-                for (int k = pattern->col_ptr[c]; k < pattern->col_ptr[c + 1]; ++k)
-                    J[w].add(pattern->row_index[k], c, values[w][k]);
+                for (int k = pattern->col_ptr[c]; k < pattern->col_ptr[c + 1]; ++k) {
+                    t.rows[k] = pattern->row_index[k];
+                    t.cols[k] = c;
+                }
         }
     }
     void set_static_load_factor(double f) override { static_factor = f; }
