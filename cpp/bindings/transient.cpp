@@ -6,44 +6,20 @@
 #include "pipeflex/solvers/rigid_rotation.hpp"
 #include "pipeflex/solvers/rotating_systems.hpp"
 #include "pipeflex/solvers/sparse_lu.hpp"
+#include "pipeflex/solvers/system.hpp"
 #include "pipeflex/solvers/transient.hpp"
 
 #include <pybind11/eigen.h>
 #include <pybind11/functional.h>
 #include <pybind11/stl.h>
 
-#include <chrono>
 #include <cmath>
 #include <memory>
 #include <string>
 
 namespace py = pybind11;
 
-namespace {
-// The element statics' Newton options (the Python loop's tests): converged on the
-// correction or the force level, the converged correction applied, divergence judged
-// from the second correction on.
-pipeflex::StaticNewtonOptions element_static_options(double tol, double force_scale, int max_iterations) {
-    pipeflex::StaticNewtonOptions opt;
-    opt.tol = tol;
-    opt.max_iterations = max_iterations;
-    opt.force_scale = force_scale;
-    opt.apply_converged_correction = true;
-    opt.divergence_from = 2;
-    return opt;
-}
-}  // namespace
 using namespace pipeflex;
-
-namespace {
-
-py::array_t<double> as_array(const std::vector<double>& v, std::vector<py::ssize_t> shape) {
-    py::array_t<double> a(shape);
-    std::copy(v.begin(), v.end(), a.mutable_data());
-    return a;
-}
-
-}  // namespace
 
 void bind_transient(py::module_& m) {
     m.def(
@@ -89,7 +65,11 @@ void bind_transient(py::module_& m) {
         [](const Model& md, State& s, const LoadState& load, const std::tuple<double, double, double, double>& path,
            const Eigen::VectorXd& w2, double psi2, double ds, double tau, Eigen::VectorXd dq, double dtau,
            double tol, double length_scale, double force_scale, int max_iterations) {
-            const StaticNewtonOptions opt = element_static_options(tol, force_scale, max_iterations);
+            StaticNewtonOptions opt;
+            opt.tol = tol;
+            opt.max_iterations = max_iterations;
+            opt.force_scale = force_scale;
+            element_static_policy(opt);
             StaticNewtonResult res;
             {
                 py::gil_scoped_release release;

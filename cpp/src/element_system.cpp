@@ -27,6 +27,11 @@ void append_element_outputs(const TransientOutput& o, long N, Record& out, bool 
                         {"failed_steps", o.failed_steps}, {"convergence_failures", o.convergence_failures}};
 }
 
+void element_static_policy(StaticNewtonOptions& opt) {
+    opt.apply_converged_correction = true;
+    opt.divergence_from = 2;
+}
+
 double model_length_scale(const Model& model) {
     double extent = 0.0;
     for (int k = 0; k < 3; ++k) {
@@ -94,14 +99,9 @@ class ElementSystem final : public System {
         check_state(model_, state_);
         return std::make_unique<ElementRun>(model_, state_, load_, drive, mode);
     }
-    // The converged correction is applied (the result is the Newton iterate after it, its
-    // residual evaluated there), and divergence is judged from the second correction on:
-    // the first from the start may land on a far branch of the path, which the load
-    // stepping judges.
     void static_policy(StaticNewtonOptions& opt, bool mechanism) const override {
         System::static_policy(opt, mechanism);
-        opt.apply_converged_correction = true;
-        opt.divergence_from = 2;
+        element_static_policy(opt);
     }
     double length_scale() const override { return model_length_scale(model_); }
     std::unique_ptr<RotatingSystem> rotating(const RotationHinge& hinge, double mdot, Eigen::VectorXd& pin,

@@ -5,6 +5,10 @@ namespace pipeflex {
 namespace {
 // The n x n block of a KKT tangent's triplets (and, if Cq is given, its constraint rows).
 void split(const Triplets& J, int n, Triplets& A, Triplets* Cq) {
+    const std::size_t m = J.values.size();  // at most; a large model's regrowth copies cost more than the split
+    A.rows.reserve(m);
+    A.cols.reserve(m);
+    A.values.reserve(m);
     for (std::size_t k = 0; k < J.values.size(); ++k) {
         const int r = J.rows[k], c = J.cols[k];
         if (c >= n) continue;

@@ -102,6 +102,13 @@ class System {
 // The element model (the model, the state updated in place by every analysis, the load
 // state: gravity, hub frame; its mass flow is the drive's).
 std::unique_ptr<System> element_system(const Model& model, State& state, const LoadState& load);
+// An element model's part of the static Newton's options (its system's static_policy,
+// and the arc-length corrector's): the converged correction is applied (the result is the
+// Newton iterate after it, its residual evaluated there), and divergence is judged from the
+// second correction on (the first from the start may land on a far branch of the path,
+// which the load stepping judges).
+void element_static_policy(StaticNewtonOptions& opt);
+
 // [m] An element model's size for Newton's tests: the largest extent of its reference
 // node positions along x, y or z, at least kMinLengthScale (a model of coincident nodes).
 constexpr double kMinLengthScale = 1e-3;
