@@ -352,9 +352,7 @@ class CoupledRun final : public Run {
     Equations& equations() override { return eq_; }
     void begin(double t) override { el_.start_work(t); }
     void record(double t, Record& out) override {
-        TransientOutput o;
-        el_.record(t, o, el_.fluid_work, el_.load_work);
-        append_element_outputs(o, el_.model.n_nodes(), out);
+        record_element(el_, t, out);
         append_body_outputs(bodies_, mb_.state(), functions_.mass_flow, t, ev_, out, "body_");
         const VecX& lc = eq_.coupling_multipliers();
         auto& series = out("coupling_multipliers", {static_cast<long>(lc.size())});

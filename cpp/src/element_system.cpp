@@ -46,6 +46,12 @@ double model_length_scale(const Model& model) {
     return std::max(extent, kMinLengthScale);
 }
 
+void record_element(const ElementEquations& eq, double t, Record& out) {
+    TransientOutput o;
+    eq.record(t, o, eq.fluid_work, eq.load_work);
+    append_element_outputs(o, eq.model.n_nodes(), out);
+}
+
 namespace {
 
 class ElementRun final : public Run {
@@ -68,11 +74,7 @@ class ElementRun final : public Run {
     }
     Equations& equations() override { return eq_; }
     void begin(double t) override { eq_.start_work(t); }
-    void record(double t, Record& out) override {
-        TransientOutput o;
-        eq_.record(t, o, eq_.fluid_work, eq_.load_work);
-        append_element_outputs(o, eq_.model.n_nodes(), out);
-    }
+    void record(double t, Record& out) override { record_element(eq_, t, out); }
     void finish() override {}  // the equations work on the system's state
 
    private:

@@ -116,6 +116,9 @@ double model_length_scale(const Model& model);
 // An element run's outputs (TransientOutput: x, R, xd, omega, energies, work) appended to
 // the record's series (not its times); the counters too if `counters`.
 void append_element_outputs(const TransientOutput& o, long n_nodes, Record& out, bool counters = false);
+class ElementEquations;
+// The element equations' state as set, at output time t, appended to the record.
+void record_element(const ElementEquations& eq, double t, Record& out);
 // Bodies and joints, the state owned (body_state() reads it).
 std::unique_ptr<System> body_system(const MultibodySystemCore& bodies, const MbState& state);
 // Why a system with floating-frame bodies has no run in a fixed chart (System::Mode).
