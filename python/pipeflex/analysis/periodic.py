@@ -248,7 +248,7 @@ def _options(model, newton_tol, rho_inf):
         raise ValueError(f"rho_inf must be in [0, 1], got {rho}")
     opt.rho_inf = rho
     opt.max_newton = 30
-    opt.length_scale = max(float(np.ptp(model.positions, axis=0).max()), 1e-3)
+    opt.length_scale = model.length_scale
     return opt
 
 
@@ -557,7 +557,7 @@ def orbit_guess(model, *, node: int, step: float, component: int = 1, state=None
         raise ValueError(f"t_max = {t_max:g} s is {t_max / h:.3g} steps of step = {h:g} s; at most MAX_GUESS_STEPS = "
                          f"{MAX_GUESS_STEPS:.0e}: lower t_max (a cycle that attracts settles within some hundred "
                          "periods) or raise step")
-    size = max(float(np.ptp(model.positions, axis=0).max()), 1e-3)
+    size = model.length_scale
     t, st = 0.0, state
     ts, ys = [np.zeros(0)], [np.zeros(0)]
     # each chunk ends at t + chunk >= t + 4 step (or t_max): a bounded count

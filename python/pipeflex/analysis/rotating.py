@@ -306,7 +306,7 @@ def _steady_state(fr, omega, st, state_omega=0.0, n_steps=1, tol=1e-10, max_iter
     step's interval bisected)."""
     model = fr.model
     st.rebase(0.0)
-    size = max(float(np.ptp(model.positions, axis=0).max()), 1e-3)
+    size = model.length_scale
     load = model.load_state()
     scale = model.force_scale()
     center, axis = list(map(float, fr.center)), list(map(float, fr.axis))
