@@ -7,7 +7,7 @@ elements, 1e4 times as stiff as a body as compliant as the arm) clamped to the g
 (tests/helpers.on_clamped_hub), fed from a still reservoir; beside it the same arm
 clamped to the ground, an element model. For each N: ``pf.linearize`` about the static
 equilibrium at 10 kg/s (best of --repeat), split for the coupled arm into the core's
-``coupled_linear_matrices`` and the reduction to the constraints' null space
+``linear_matrices`` (of the coupled system) and the reduction to the constraints' null space
 (pipeflex.analysis.constrained: triplets to CSC, the sparse basis, T^T X T); the ratio
 coupled / element and the log-log slopes between successive sizes ("core and rest": the
 coupled time less the reduction's, mostly the core's assembly). With --critical also
