@@ -76,7 +76,8 @@ run() {
 # critical flow, generalised-alpha and IDA (test_transient), the flow map
 # _core.flow_map (test_periodic), ANCF (test_ancf, test_rotating),
 # steady rotation (test_sprinkler), FFRF bodies and the multibody integrator and statics
-# (test_ffrf_*, test_multibody_*), and the property tests (hypothesis); then a short
+# (test_ffrf_*, test_multibody_*), the element interface's spring (test_element_interface),
+# the system object's entry points (test_system), and the property tests (hypothesis); then a short
 # fuzz run. About a fifth of the fast suite's tests, 4 min under the sanitizers
 # (the whole suite took 24 min). test_sanitized_entry_points reaches what the others do
 # not (the coupled linearisation, the coupled and the bodies' steady rotation, the
@@ -90,6 +91,7 @@ SUBSET=(
   tests/test_ancf.py tests/test_rotating.py tests/test_sprinkler.py tests/test_ffrf_body.py
   tests/test_ffrf_scenes.py tests/test_multibody_joints.py tests/test_multibody_input.py
   tests/test_properties.py tests/test_coupled.py tests/test_sanitized_entry_points.py
+  tests/test_element_interface.py tests/test_system.py
 )
 
 case "${1:-test}" in
