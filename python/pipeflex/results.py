@@ -26,10 +26,10 @@ import numpy as np
 
 FORMAT = 1
 
-# The integrators' work counters, one vocabulary for every formulation and integrator (a
-# transient result's ``stats``): steps taken, Newton iterations, Jacobians (iteration
-# matrices) evaluated, frame re-basings, steps failed by the error test (IDA) and steps
-# redone after Newton failed (halved).
+#: The integrators' work counters, one vocabulary for every formulation and integrator (a
+#: transient result's ``stats``): steps taken, Newton iterations, Jacobians (iteration
+#: matrices) evaluated, frame re-basings, steps failed by the error test (IDA) and steps
+#: redone after Newton failed (halved).
 COUNTERS = ("steps", "newton_iterations", "jacobians", "rebases", "failed_steps", "convergence_failures")
 _META = "__result__"
 _SPARSE_FORMATS = ("csc_matrix", "csr_matrix", "coo_matrix", "csc_array", "csr_array", "coo_array")
