@@ -86,6 +86,7 @@ py::dict record_dict(const Record& r) {
         d[py::str(name)] = a;
     }
     for (const auto& [name, value] : r.counters) d[py::str(name)] = value;
+    for (const auto& [name, value] : r.estimates) d[py::str(name)] = value;
     return d;
 }
 

@@ -52,6 +52,13 @@ class CoupledEquations final : public Equations {
     int n_coordinates() const override { return n1_ + n2_; }
     int n_constraints() const override { return nc2_ + nc3_; }
     double length_scale() const override { return std::max(el_.length_scale(), mb_.length_scale()); }
+    void error_scales(VecX& s) const override {
+        VecX s1, s2;
+        el_eq_.error_scales(s1);
+        mb_eq_.error_scales(s2);
+        s.resize(n1_ + n2_);
+        s << s1, s2;
+    }
 
     void set(const VecX& z, const VecX& v, const VecX& a, const VecX& lam, double t) override {
         el_eq_.set(z.head(n1_), v.head(n1_), a.head(n1_), VecX(), t);

@@ -21,6 +21,16 @@ namespace {
 constexpr int kDenseMinimumNormLimit = 4000;
 // How much closer (on the last step) a predictor must be than the extrapolation to replace it.
 constexpr double kPredictorMargin = 4.0;
+// Step size control (error_rate > 0): the error of a step in tolerances (error_rate h) is
+// O(h^2), so the step that meets it is h (1 / err)^(1/2), taken with a safety factor. A
+// new step costs a new iteration matrix (modified Newton keeps one per step size), so the
+// step grows only when it can grow by kGrowMin at least, and by kGrowMax at most; a
+// rejected step shrinks by kShrinkMax at most.
+constexpr double kSafety = 0.8, kGrowMin = 1.5, kGrowMax = 2.0, kShrinkMax = 0.2;
+// Newton's share of a controlled step's error tolerance: the position error it leaves
+// (at most newton_tol) is at most this fraction of the step's error_rate h, so that Newton
+// neither over-solves nor adds noise to the accelerations the error estimate differences.
+constexpr double kNewtonShare = 0.1;
 
 }  // namespace
 
@@ -41,7 +51,7 @@ double scale_constraints(Triplets& J, int n, double s) {
 struct AlphaNewton::Impl {
     Impl(Equations& e, const AlphaMethod& m, const AlphaOptions& o)
         : eq(e), method(m), opt(o), n(e.n_coordinates()), nc(e.n_constraints()), lu(kDenseLuBelow, true), r(n + nc),
-          x(n + nc), dz(n), policy(e.refresh_policy()) {}
+          x(n + nc), dz(n), policy(e.refresh_policy()), tol(o.newton_tol) {}
 
     // rate / (1 - rate) of the modified Newton iteration; pessimistic until measured
     static constexpr double kUnknownContraction = 20.0, kMinContraction = 0.1;
@@ -57,6 +67,7 @@ struct AlphaNewton::Impl {
     Triplets J;
     Eigen::VectorXd r, x, dz;
     Equations::RefreshPolicy policy;
+    double tol;  // newton_tol in force
 };
 
 AlphaNewton::AlphaNewton(Equations& eq, const AlphaMethod& m, const AlphaOptions& opt)
@@ -64,6 +75,7 @@ AlphaNewton::AlphaNewton(Equations& eq, const AlphaMethod& m, const AlphaOptions
 AlphaNewton::~AlphaNewton() { delete impl_; }
 void AlphaNewton::invalidate() { impl_->fresh = false; }
 void AlphaNewton::set_rough_prediction(bool rough) { impl_->rough = rough; }
+void AlphaNewton::set_tolerance(double newton_tol) { impl_->tol = newton_tol; }
 
 bool AlphaNewton::solve(double t, double h, const Eigen::VectorXd& z, const Eigen::VectorXd& v,
                         const Eigen::VectorXd& a, const Eigen::VectorXd& pa, Eigen::VectorXd& an,
@@ -135,9 +147,9 @@ bool AlphaNewton::solve(double t, double h, const Eigen::VectorXd& z, const Eige
             // floored: one fast contraction must not license large corrections later
             s.contraction = rate < 0.9 ? std::max(rate / (1.0 - rate), Impl::kMinContraction) : 1e3;
             // stalled at round-off near the tolerance with a matrix of this step: accept
-            if (rate >= 0.5 && refreshed && corr <= 10.0 * s.opt.newton_tol * L) return true;
+            if (rate >= 0.5 && refreshed && corr <= 10.0 * s.tol * L) return true;
         }
-        if (s.contraction * corr <= s.opt.newton_tol * L) {
+        if (s.contraction * corr <= s.tol * L) {
             s.stale = it > s.policy.long_step;
             return true;
         }
@@ -207,6 +219,8 @@ AlphaOptions checked(const AlphaOptions& o) {
     if (!std::isfinite(o.step) || !(o.step > 0.0)) throw std::invalid_argument("step must be > 0 and finite");
     if (!(o.rho_inf >= 0.0 && o.rho_inf <= 1.0)) throw std::invalid_argument("rho_inf must be in [0, 1]");
     if (!(o.newton_tol > 0.0)) throw std::invalid_argument("newton_tol must be > 0");
+    if (!(o.error_rate >= 0.0) || !std::isfinite(o.error_rate))
+        throw std::invalid_argument("error_rate must be >= 0 and finite (0: a fixed step)");
     if (o.max_newton < 1) throw std::invalid_argument("max_newton must be >= 1");
     return o;
 }
@@ -246,6 +260,12 @@ GeneralizedAlpha::GeneralizedAlpha(Equations& eq, const AlphaOptions& opt, doubl
     initial_acceleration(eq, zero_, v_, t0, a_, lam_);
     pa_ = a_;
     a_prev_ = a_;
+    if (opt_.error_rate > 0.0) {
+        eq.error_scales(error_weights_);
+        if (error_weights_.size() != n || !(error_weights_.minCoeff() > 0.0))
+            throw std::logic_error("error_scales: n positive entries expected");
+        error_weights_ /= opt_.error_rate;
+    }
     an_.resize(n);
     pan_.resize(n);
     zn_.resize(n);
@@ -261,7 +281,9 @@ void GeneralizedAlpha::advance_to(double t_out) {
     while (t_ < t_out - 1e-14 * std::max(1.0, std::abs(t_))) {
         poll_interrupt();
         const double left = t_out - t_;
-        const double hs = left / std::ceil(left / h_ - 1e-9);
+        // error control: the controlled step until the output time is near (then the rest
+        // in one or two equal steps), so that the iteration matrix is kept
+        const double hs = opt_.error_rate > 0.0 && left > 2.0 * h_ ? h_ : left / std::ceil(left / h_ - 1e-9);
         const double tn = t_ + hs;
         // Predictor (see Prediction): on smooth motion the extrapolated acceleration
         // (error O(h^2) instead of O(h): one correction usually converges); where stiff
@@ -276,11 +298,13 @@ void GeneralizedAlpha::advance_to(double t_out) {
         else
             an_ = a_ + ratio * (a_ - a_prev_);
         // halved steps count too: max_steps bounds the work, not only the progress
-        if (stats_.steps + stats_.failed_steps >= opt_.max_steps)
+        if (stats_.steps + stats_.failed_steps + stats_.rejected_steps >= opt_.max_steps)
             throw std::invalid_argument("generalised-alpha: max_steps = " + std::to_string(opt_.max_steps) +
                                         " steps (failed ones included) reached at t = " + fmt(t_) + " s (step " +
                                         fmt(hs) + " s) before t_end; raise max_steps, or the motion may be diverging");
         lam_start_ = lam_;
+        if (opt_.error_rate > 0.0)
+            newton_.set_tolerance(std::min(opt_.newton_tol, kNewtonShare * opt_.error_rate * hs / eq_.length_scale()));
         AlphaNewton::Failure failure;
         if (!newton_.solve(t_, hs, zero_, v_, a_, pa_, an_, pan_, zn_, vn_, lam_, stats_, failure)) {
             ++stats_.failed_steps;
@@ -289,6 +313,21 @@ void GeneralizedAlpha::advance_to(double t_out) {
             h_ = 0.5 * hs;
             if (h_ < opt_.min_step) throw_newton_failure(eq_, t_, hs, failure);
             continue;
+        }
+        if (opt_.error_rate > 0.0) {
+            const double err = local_error(hs);
+            const double factor = err > 0.0 ? kSafety / std::sqrt(err) : kGrowMax;
+            if (err > 1.0 && hs > opt_.min_step) {
+                ++stats_.rejected_steps;
+                lam_ = lam_start_;
+                h_ = std::max(opt_.min_step, hs * std::clamp(factor, kShrinkMax, kSafety));
+                continue;
+            }
+            // the step from the control (not a short one that reached an output time)
+            if (factor >= kGrowMin) h_ = std::max(h_, hs * std::min(factor, kGrowMax));
+            const double e_m = err * opt_.error_rate * hs;
+            stats_.error_sum += e_m;
+            stats_.error_max = std::max(stats_.error_max, e_m);
         }
         if (adaptive_prediction_) {
             // the next step's predictor: the one closest to this step's converged
@@ -319,9 +358,20 @@ void GeneralizedAlpha::advance_to(double t_out) {
         h_prev_ = hs;
         t_ = tn;
         ++stats_.steps;
-        if (h_ < opt_.step) h_ = std::min(opt_.step, 2.0 * h_);
+        stats_.smallest_step = stats_.steps == 1 ? hs : std::min(stats_.smallest_step, hs);
+        stats_.largest_step = std::max(stats_.largest_step, hs);
+        if (opt_.error_rate == 0.0 && h_ < opt_.step) h_ = std::min(opt_.step, 2.0 * h_);
     }
     eq_.set(zero_, v_, a_, lam_, t_);
+}
+
+double GeneralizedAlpha::local_error(double hs) const {
+    // The displacement's local error of a Newmark-type step, (beta - 1/6) h^3 z''' with
+    // z''' ~ (a' - a) / h (Zienkiewicz & Xie 1991): the generalised-alpha update against
+    // the third-order Taylor step through the same accelerations. The largest coordinate
+    // in tolerances: a local motion (a tip) is not diluted by a large model.
+    const double c = std::abs(method_.beta - 1.0 / 6.0) * hs;  // (.) hs^2 / (error_rate hs)
+    return c * (an_ - a_).cwiseProduct(error_weights_).lpNorm<Eigen::Infinity>();
 }
 
 }  // namespace pipeflex

@@ -72,10 +72,16 @@ Record integrate(System& sys, const Drive& drive, const std::vector<double>& tim
     }
     run->finish();
     const AlphaStats& st = alpha.stats();
-    // one vocabulary with IDA's (TransientOutput): a halved step is a convergence failure
+    // one vocabulary with IDA's (TransientOutput): a halved step is a convergence failure,
+    // a step redone for its error estimate an error-test failure
     out.counters = {{"steps", st.steps},         {"newton_iterations", st.newton_iterations},
                     {"jacobians", st.jacobians}, {"rebases", st.rebases},
-                    {"failed_steps", 0},         {"convergence_failures", st.failed_steps}};
+                    {"failed_steps", st.rejected_steps}, {"convergence_failures", st.failed_steps}};
+    if (drive.options.error_rate > 0.0)
+        out.estimates = {{"error_sum", st.error_sum},
+                         {"error_max", st.error_max},
+                         {"smallest_step", st.smallest_step},
+                         {"largest_step", st.largest_step}};
     return out;
 }
 

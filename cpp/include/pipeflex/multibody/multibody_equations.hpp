@@ -32,6 +32,12 @@ class MultibodyEquations final : public Equations {
     int n_coordinates() const override { return n_; }
     int n_constraints() const override { return nc_; }
     double length_scale() const override { return sys_.length_scale(); }
+    // a frame's rotation counts at the model size; its translation and the elastic
+    // coordinates (modes scaled to a largest nodal entry of 1) as displacements
+    void error_scales(Eigen::VectorXd& s) const override {
+        s = Eigen::VectorXd::Ones(n_);
+        for (int j = 0; j < sys_.n_bodies(); ++j) s.segment<3>(sys_.offset(j) + 3).setConstant(sys_.length_scale());
+    }
 
     void set(const Eigen::VectorXd& z, const Eigen::VectorXd& v, const Eigen::VectorXd& a, const Eigen::VectorXd& lam,
              double t) override {

@@ -99,6 +99,14 @@ class ElementEquations final : public Equations {
     // Equations
     int n_coordinates() const override { return n; }
     double length_scale() const override { return opt.length_scale; }
+    // rotations and ANCF slopes (slots 3-5 of a node) count at the model size; a
+    // combined basis column as a displacement
+    void error_scales(Eigen::VectorXd& s) const override {
+        s = Eigen::VectorXd::Ones(n);
+        if (model.full_slot.empty()) return;
+        for (int k = 0; k < n; ++k)
+            if (model.full_slot[k] % 6 >= 3) s[k] = opt.length_scale;
+    }
     void set(const Eigen::VectorXd& z, const Eigen::VectorXd& v, const Eigen::VectorXd& a, const Eigen::VectorXd&,
              double t) override {
         set(z, v, a, t);
@@ -348,6 +356,7 @@ inline AlphaOptions alpha_options(const TransientOptions& opt) {
     a.newton_tol = opt.newton_tol;
     a.max_newton = opt.max_newton;
     a.max_steps = opt.max_steps;
+    a.error_rate = opt.error_rate;
     return a;
 }
 

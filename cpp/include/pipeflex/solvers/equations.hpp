@@ -87,6 +87,11 @@ class Equations {
     virtual double mass_flow(double t) const { (void)t; return 0.0; }
     // Why a singular mass matrix or iteration matrix is singular, in the system's terms.
     virtual std::string singular_mass_hint() const { return "coordinates without inertia"; }
+    // [m per unit] How far a unit error of each coordinate moves the model (n entries,
+    // > 0), for the integrator's error control: 1 for displacements (the default, every
+    // coordinate), the model size for rotations and slopes (an angle error e moves a
+    // point at that distance by e times it).
+    virtual void error_scales(Eigen::VectorXd& s) const { s = Eigen::VectorXd::Ones(n_coordinates()); }
 };
 
 // Scales the constraint rows and columns of an (n + nc) tangent's triplets by s (so that
@@ -95,12 +100,18 @@ class Equations {
 double scale_constraints(Triplets& J, int n, double s);
 
 struct AlphaOptions {
-    double step = 1e-3;         // h [s], the largest step
+    double step = 1e-3;         // h [s]: the step (error_rate > 0: the first step)
     double min_step = 1e-12;    // smallest step before giving up [s]
     double rho_inf = 0.9;       // spectral radius at infinite frequency, in [0, 1]
     double newton_tol = 1e-10;  // position error left by Newton / length_scale
     int max_newton = 12;
     long max_steps = 10000000;  // steps, failed (halved) ones included
+    // [m/s] > 0: the step h is controlled by the local error estimate (GeneralizedAlpha):
+    // each coordinate's estimated error of a step, in metres (Equations::error_scales), at
+    // most error_rate h, so that the errors of a run of duration T add up to at most
+    // error_rate T (error per unit step: the global error proportional to the tolerance);
+    // 0: the fixed step `step`.
+    double error_rate = 0.0;
 };
 
 // Chung-Hulbert parameters from rho_inf and the update formulas of one step
@@ -117,7 +128,13 @@ struct AlphaMethod {
 };
 
 struct AlphaStats {
-    long steps = 0, newton_iterations = 0, jacobians = 0, rebases = 0, failed_steps = 0;
+    // failed_steps: steps halved after Newton failed; rejected_steps: steps redone
+    // because the local error estimate exceeded error_rate
+    long steps = 0, newton_iterations = 0, jacobians = 0, rebases = 0, failed_steps = 0, rejected_steps = 0;
+    // [m] the accepted steps' local error estimates summed (a bound of the global error
+    // where errors add up; 0 with a fixed step) and the largest single one, per step
+    double error_sum = 0.0, error_max = 0.0;
+    double smallest_step = 0.0, largest_step = 0.0;  // [s] accepted steps
 };
 
 // Newton on one step's end state: the position corrections dz from
@@ -151,6 +168,9 @@ class AlphaNewton {
     // contracts poorly once the first correction has removed them, so a refresh due at
     // a step's start is taken after its first correction, made with the kept matrix.
     void set_rough_prediction(bool rough);
+    // The Newton tolerance of the next steps (position error / length_scale), in place of
+    // the options' newton_tol (the error-controlled step ties it to its tolerance).
+    void set_tolerance(double newton_tol);
 
    private:
     struct Impl;
@@ -353,6 +373,10 @@ class GeneralizedAlpha {
     bool adaptive_prediction_;
     double t_ = 0.0, h_ = 0.0, h_prev_ = 0.0;
     Eigen::VectorXd v_, a_, pa_, lam_, an_, pan_, zn_, vn_, a_prev_, zero_, offset_, lam_start_;
+    Eigen::VectorXd error_weights_;  // s_i / error_rate: a coordinate's error in [s]
+    // The local error of the step just converged (step hs) in tolerances error_rate hs
+    // (<= 1: accepted).
+    double local_error(double hs) const;
 };
 
 }  // namespace pipeflex

@@ -34,6 +34,9 @@ struct Record {
     // the integrator's work: steps, newton_iterations, jacobians, rebases, failed_steps
     // (IDA's error-test failures), convergence_failures (steps redone after Newton failed)
     std::vector<std::pair<std::string, long>> counters;
+    // the step control's figures (error-controlled generalised-alpha): error_sum and
+    // error_max [m] (AlphaStats), smallest_step and largest_step [s]; none with a fixed step
+    std::vector<std::pair<std::string, double>> estimates;
     // The series `name`, added with `shape` the first time.
     Series& operator()(const std::string& name, const std::vector<long>& shape);
 };

@@ -43,7 +43,8 @@ struct TransientOptions {
     double rtol = 1e-6;         // IDA relative tolerance
     double atol = 1e-8;         // IDA absolute tolerance [m, rad, m/s, rad/s]
     int max_order = 5;          // IDA: largest BDF order (2 is A-stable)
-    double step = 1e-3;         // generalised-alpha step h [s] (the largest step)
+    double step = 1e-3;         // generalised-alpha step h [s] (error_rate > 0: the first step)
+    double error_rate = 0.0;    // generalised-alpha: local error per unit time [m/s] (0: fixed step)
     double min_step = 1e-12;    // generalised-alpha: smallest step before giving up [s]
     double rho_inf = 0.9;       // generalised-alpha spectral radius at infinity
     double newton_tol = 1e-10;  // generalised-alpha: position correction / length_scale
