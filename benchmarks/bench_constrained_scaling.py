@@ -8,10 +8,10 @@ elements, 1e4 times as stiff as a body as compliant as the arm) clamped to the g
 clamped to the ground, an element model. For each N: ``pf.linearize`` about the static
 equilibrium at 10 kg/s (best of --repeat), split for the coupled arm into the core's
 ``linear_matrices`` (of the coupled system) and the reduction to the constraints' null space
-(pipeflex.analysis.constrained: triplets to CSC, the sparse basis, T^T X T); the ratio
-coupled / element and the log-log slopes between successive sizes ("core and rest": the
-coupled time less the reduction's, mostly the core's assembly). With --critical also
-``pf.critical_mass_flow`` of both at the sizes given (one run each).
+(pipeflex.analysis.constrained: the core's compressed columns as scipy matrices, the sparse
+basis, T^T X T); the ratio coupled / element and the log-log slopes between successive
+sizes ("core and rest": the coupled time less the reduction's, mostly the core's assembly).
+With --critical also ``pf.critical_mass_flow`` of both at the sizes given (one run each).
 Wall (or with --cpu CPU) times in microseconds (whole numbers).
 Run: OPENBLAS_NUM_THREADS=1 .venv/bin/python benchmarks/bench_constrained_scaling.py
      [--sizes 64 128 256 512 1024 2048 4096] [--repeat 5] [--critical 64 256] [--cpu]

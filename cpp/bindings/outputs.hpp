@@ -42,21 +42,29 @@ inline pybind11::dict static_dict(const StaticNewtonResult& r) {
     return d;
 }
 
-// Linearised equations as {"n", "nc", "K", "C", "M", "Cq"}, each matrix a (rows, cols,
-// values) tuple of numpy arrays (repeats to be summed).
-inline pybind11::dict linear_dict(const LinearMatrices& m) {
-    auto coo = [](const Triplets& t) {
-        return pybind11::make_tuple(pybind11::array_t<int>(t.rows.size(), t.rows.data()),
-                                    pybind11::array_t<int>(t.cols.size(), t.cols.data()),
-                                    pybind11::array_t<double>(t.values.size(), t.values.data()));
+// A vector as a numpy array without a copy: the array owns it (moved into a capsule).
+template <class T>
+pybind11::array_t<T> owned_array(std::vector<T>&& v) {
+    auto* held = new std::vector<T>(std::move(v));
+    pybind11::capsule owner(held, [](void* p) { delete static_cast<std::vector<T>*>(p); });
+    return pybind11::array_t<T>(static_cast<pybind11::ssize_t>(held->size()), held->data(), owner);
+}
+
+// Linearised equations as {"n", "nc", "K", "C", "M", "Cq"}, each matrix a (data, indices,
+// indptr) tuple of numpy arrays in compressed columns (rows sorted, no repeats; K, C and M
+// on one pattern, each with its own arrays), moved out of m.
+inline pybind11::dict linear_dict(LinearMatrices&& m) {
+    auto csc = [](CscMatrix& a) {
+        return pybind11::make_tuple(owned_array(std::move(a.values)), owned_array(std::move(a.row_index)),
+                                    owned_array(std::move(a.col_ptr)));
     };
     pybind11::dict d;
     d["n"] = m.n;
     d["nc"] = m.nc;
-    d["K"] = coo(m.K);
-    d["C"] = coo(m.C);
-    d["M"] = coo(m.M);
-    d["Cq"] = coo(m.Cq);
+    d["K"] = csc(m.K);
+    d["C"] = csc(m.C);
+    d["M"] = csc(m.M);
+    d["Cq"] = csc(m.Cq);
     if (m.differences.size()) d["differences"] = m.differences;
     return d;
 }

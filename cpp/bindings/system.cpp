@@ -133,7 +133,11 @@ void bind_system(py::module_& m) {
                 VecX* lam = s.coupling_multipliers();
                 return lam == nullptr ? py::object(py::none()) : py::cast(*lam);
             },
-            "The couplings' multipliers, None without couplings.");
+            "The couplings' multipliers, None without couplings.")
+        .def_property_readonly(
+            "linear_pattern_builds", [](System& s) { return s.tangent_csc().builds; },
+            "How many times linear_matrices built the system's tangent pattern (once, unless what the "
+            "tangent holds changed: kept across calls).");
     m.def("element_system", &element_system, py::arg("model"), py::arg("state"), py::arg("load"),
           py::keep_alive<0, 1>(), py::keep_alive<0, 2>(),
           "The element model as a System; its analyses update the state in place.");
@@ -193,10 +197,11 @@ void bind_system(py::module_& m) {
                 py::gil_scoped_release release;
                 lm = linearize(sys, mass_flow, TransientOptions(), differences_step);
             }
-            return linear_dict(lm);
+            return linear_dict(std::move(lm));
         },
         "The linearised equations about the system's state (its rates and multipliers; an element model's frames "
-        "re-based in place) under the mass flow [kg/s]: K, C, M (n x n) and C_q (nc x n) as triplets; with "
+        "re-based in place) under the mass flow [kg/s]: K, C, M (n x n, one pattern) and C_q (nc x n) as (data, "
+        "indices, indptr) in compressed columns, on a pattern the system keeps for its later calls; with "
         "differences_step > 0 also the residual's central differences ('differences', tests).",
         py::arg("system"), py::arg("mass_flow"), py::arg("differences_step") = 0.0);
     m.def(

@@ -637,14 +637,14 @@ std::shared_ptr<const TangentPattern> tangent_pattern(const Model& model) {
 
 void assemble_csc(const Model& model, const State& state, const LoadState& load, double load_factor,
                   const std::vector<TangentWeights>& w, Eigen::VectorXd* residual, double* const* values,
-                  const double* geometric_stresses) {
+                  const double* geometric_stresses, const int* slot) {
     check_state(model, state);
     const auto pattern = tangent_pattern(model);
     std::vector<SlotSink> sinks;
     sinks.reserve(w.size());
     for (std::size_t i = 0; i < w.size(); ++i) {
-        std::fill(values[i], values[i] + pattern->nnz(), 0.0);
-        sinks.push_back(SlotSink{pattern->slot.data(), values[i]});
+        if (slot == nullptr) std::fill(values[i], values[i] + pattern->nnz(), 0.0);
+        sinks.push_back(SlotSink{slot != nullptr ? slot : pattern->slot.data(), values[i]});
     }
     assemble_into(model, state, load, load_factor, w.data(), sinks.data(), static_cast<int>(w.size()), residual,
                   geometric_stresses);

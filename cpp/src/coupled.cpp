@@ -86,6 +86,24 @@ class CoupledEquations final : public Equations {
         }
     }
 
+    // The element part written straight into the pattern (the model's within the system's),
+    // the bodies' and the couplings' entries as triplets.
+    void tangents_csc(const std::vector<TangentWeights>& weights, TangentCsc& out) override {
+        // another element part (in rigid rotation) gives triplets only
+        if (&el_eq_ != static_cast<Equations*>(&el_)) return Equations::tangents_csc(weights, out);
+        mb_eq_.tangents(weights, J2s_);
+        parts_.resize(weights.size());
+        for (std::size_t w = 0; w < weights.size(); ++w) {
+            Triplets& J = parts_[w];
+            J.clear();
+            const Triplets& J2 = J2s_[w];
+            for (std::size_t k = 0; k < J2.values.size(); ++k) J.add(n1_ + J2.rows[k], n1_ + J2.cols[k], J2.values[k]);
+            couple(weights[w].wK, nullptr, &J);
+        }
+        out.assemble(n1_ + n2_, nc2_ + nc3_, static_cast<int>(weights.size()), tangent_pattern(el_.model),
+                     [&](const int* slot, double* const* values) { el_.tangents_into(weights, slot, values); }, parts_);
+    }
+
    private:
     // The parts' tangents in the joint's coordinates [z_el; q_b] and constraint rows.
     void join(const Triplets& J1, const Triplets& J2, Triplets& J) const {
@@ -277,6 +295,7 @@ class CoupledEquations final : public Equations {
     Mat3d Aa_, Ab_;  // the node orientations of the last equations()
     Triplets J1_, J2_;
     std::vector<Triplets> J1s_, J2s_;
+    std::vector<Triplets> parts_;  // tangents_csc: the bodies' and the couplings' entries
 };
 
 }  // namespace

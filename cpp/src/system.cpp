@@ -43,7 +43,7 @@ LinearMatrices linearize(System& sys, double mdot, const TransientOptions& optio
     drive.mass_flow = TimeTable::constant(mdot);
     drive.options = options;
     const std::unique_ptr<Run> run = sys.start(drive, System::Mode::dynamics);
-    return linear_matrices(run->equations(), run->v, run->a, run->lam, run->t0, differences_step);
+    return linear_matrices(run->equations(), run->v, run->a, run->lam, run->t0, differences_step, &sys.tangent_csc());
 }
 
 SteadyRotationOutcome steady_rotation(System& sys, const RotationHinge& hinge, double mdot, double omega_guess,

@@ -27,10 +27,12 @@ def require_model(model, name: str = "model", *, why: str = ""):
     return model
 
 
-def _csc(data, indices, indptr, n):
+def _csc(data, indices, indptr, n, *, rows=None):
+    """The core's compressed columns (rows ascending, no repeats) as a scipy CSC matrix,
+    ``rows`` (default n) x n, without a copy."""
     import scipy.sparse as sp
 
-    A = sp.csc_matrix((data, indices, indptr), shape=(n, n), copy=False)
+    A = sp.csc_matrix((data, indices, indptr), shape=(n if rows is None else rows, n), copy=False)
     A.has_sorted_indices = True  # the core's pattern: rows ascending, no repeats
     A.has_canonical_format = True
     return A

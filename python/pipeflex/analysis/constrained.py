@@ -39,6 +39,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from ..results import Result
+from ._assembly import _csc
 
 
 @dataclass(frozen=True)
@@ -74,14 +75,10 @@ class ConstrainedLinearization(Result):
 
 
 def from_core(out: dict):
-    """(K, C, M, C_q) as CSC matrices from the core's ``linear_matrices`` dictionary."""
+    """(K, C, M, C_q) as CSC matrices from the core's ``linear_matrices`` dictionary (its
+    compressed columns, taken without a copy)."""
     n, nc = out["n"], out["nc"]
-
-    def csc(key, rows):
-        r, c, v = out[key]
-        return sp.coo_matrix((v, (r, c)), shape=(rows, n)).tocsc()  # duplicates summed, canonical
-
-    return csc("K", n), csc("C", n), csc("M", n), csc("Cq", nc)
+    return (_csc(*out["K"], n), _csc(*out["C"], n), _csc(*out["M"], n), _csc(*out["Cq"], n, rows=nc))
 
 
 def metric(K, n: int) -> np.ndarray:

@@ -160,10 +160,12 @@ std::shared_ptr<const TangentPattern> tangent_pattern(const Model& model);
 // Reduced residual (if not null) and, in one pass over the elements, the tangent for
 // each weight set w[i] written to values[i] (pattern->nnz() entries each, overwritten)
 // on pattern = tangent_pattern(model): K, C and M at once without triplets.
-// geometric_stresses: as assemble's.
+// geometric_stresses: as assemble's. slot (pattern->slot.size() entries; null:
+// pattern->slot): the value slot of each emitted entry in a larger pattern that holds the
+// model's (TangentCsc: a coupled system's), the values then added to, not overwritten.
 void assemble_csc(const Model& model, const State& state, const LoadState& load, double load_factor,
                   const std::vector<TangentWeights>& w, Eigen::VectorXd* residual, double* const* values,
-                  const double* geometric_stresses = nullptr);
+                  const double* geometric_stresses = nullptr, const int* slot = nullptr);
 
 // Geometric stiffness (reduced triplets) of the prestress that the full-coordinate
 // displacement dq produces to first order about the state: ANCF Model A elements only

@@ -157,6 +157,18 @@ class ElementEquations final : public Equations {
                 }
         }
     }
+    // on the model's pattern (tangent_pattern), no triplets
+    void tangents_csc(const std::vector<TangentWeights>& weights, TangentCsc& out) override {
+        out.assemble(n, 0, static_cast<int>(weights.size()), tangent_pattern(model),
+                     [&](const int* slot, double* const* values) { tangents_into(weights, slot, values); }, {});
+    }
+    // The tangents of the weights at the state set added to values[i] at slot[k] for the
+    // assembler's k-th entry (TangentCsc::BlockFill: the model's pattern within a larger one).
+    void tangents_into(const std::vector<TangentWeights>& weights, const int* slot, double* const* values) {
+        double lf;
+        const LoadState l = evaluated_load(&lf);
+        assemble_csc(model, state, l, lf, weights, nullptr, values, nullptr, slot);
+    }
     void set_static_load_factor(double f) override { static_factor = f; }
     // The static Newton on pipe elements is the mixed Newton (Equations::predict_stresses).
     // Only the tangent changes, so the equilibrium is the same; a large first correction

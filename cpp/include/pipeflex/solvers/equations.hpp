@@ -20,6 +20,7 @@
 #pragma once
 
 #include "pipeflex/assembly/model.hpp"
+#include "pipeflex/solvers/tangent_csc.hpp"
 
 #include <Eigen/Core>
 #include <Eigen/SparseCholesky>
@@ -50,6 +51,15 @@ class Equations {
         Eigen::VectorXd r;
         for (std::size_t k = 0; k < weights.size(); ++k)
             evaluate(weights[k].wK, weights[k].wC, weights[k].wM, r, &J[k]);
+    }
+    // The same tangents' first n columns in compressed columns on the pattern kept in out
+    // (TangentCsc: built at the first call, values only while the entries' sources stay
+    // the same): the linearisation's K, C, M and C_q. By default from tangents()' triplets;
+    // a system assembled on a fixed pattern (an element model) writes straight into it.
+    virtual void tangents_csc(const std::vector<TangentWeights>& weights, TangentCsc& out) {
+        std::vector<Triplets> J;
+        tangents(weights, J);
+        out.assemble(n_coordinates(), n_constraints(), static_cast<int>(weights.size()), nullptr, {}, J);
     }
     // The state set becomes the base (z = 0); v and a are mapped into the new chart.
     // Returns the number of frames re-based.

@@ -100,6 +100,12 @@ class System {
     virtual MbState* body_state() { return nullptr; }
     virtual const MultibodySystemCore* bodies() const { return nullptr; }
     virtual Eigen::VectorXd* coupling_multipliers() { return nullptr; }
+    // The linearisation's tangent pattern, kept across linearize() calls on this system
+    // (TangentCsc; one analysis at a time on a system, as for its state).
+    TangentCsc& tangent_csc() { return tangent_csc_; }
+
+   private:
+    TangentCsc tangent_csc_;
 };
 
 // The element model (the model, the state updated in place by every analysis, the load
