@@ -84,7 +84,7 @@ def test_the_graph_sees_imports():
     graph = _graph()
     assert "pipeflex.seeds.seed000.scenes" in graph["pipeflex.scenes"]
     assert "pipeflex.model" in graph["pipeflex.seeds.seed000.scenes"]
-    assert "pipeflex.multibody" in graph["pipeflex.analysis.static"]  # an import inside a function
+    assert "pipeflex.analysis.eigen" in graph["pipeflex.analysis.transient"]  # an import inside a function
 
 
 def test_library_imports_nothing_from_the_seeds():
@@ -115,4 +115,43 @@ def test_the_library_speaks_of_physics_not_of_the_seeds():
     """Sources are cited by their authors; "seed" belongs to pipeflex.seeds."""
     offenders = [f"{name}:{i}" for name, path in _modules().items() if path and _is_library(name)
                  for i, line in enumerate(path.read_text().splitlines(), 1) if "seed" in line.lower()]
+    assert not offenders
+
+
+ANALYSIS = PACKAGE / "analysis"
+FORMULATIONS = ("pipeflex.multibody", "pipeflex.coupled")
+
+
+def _names_a_formulation(module):
+    return any(module == f or module.startswith(f + ".") for f in FORMULATIONS)
+
+
+def test_the_analyses_import_no_formulation():
+    """One driver per analysis for every formulation: pipeflex.analysis names neither
+    pipeflex.multibody nor pipeflex.coupled in any import (also inside functions); the
+    model classes carry what is formulation-specific (analysis/_protocol.py)."""
+    graph = _graph()
+    bad = {n: sorted(m for m in deps if _names_a_formulation(m))
+           for n, deps in graph.items() if n == "pipeflex.analysis" or n.startswith("pipeflex.analysis.")}
+    assert not {n: d for n, d in bad.items() if d}
+
+
+def test_importing_every_analysis_loads_no_formulation_module():
+    analyses = sorted(n for n, path in _modules().items() if path and n.startswith("pipeflex.analysis"))
+    assert "pipeflex.analysis.transient" in analyses and "pipeflex.analysis.critical" in analyses
+    code = ("import importlib, sys\n"
+            f"for m in {analyses!r}: importlib.import_module(m)\n"
+            "import pipeflex.analysis as a\n"
+            "for name in a.__all__: getattr(a, name)\n"
+            f"print(sorted(m for m in sys.modules if any(m == f or m.startswith(f + '.') for f in {FORMULATIONS!r})))")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
+    assert out.strip() == "[]"
+
+
+def test_the_analyses_do_not_dispatch_on_the_model_type():
+    """No loaded_instance (the lazy isinstance) and no per-formulation hook looked up on the
+    model (getattr(model, "_simulate") and the like) under analysis/."""
+    hooks = ('"_simulate"', '"_linearize"', '"_static"', "loaded_instance")
+    offenders = [f"{path.name}:{i}: {hook}" for path in sorted(ANALYSIS.glob("*.py"))
+                 for i, line in enumerate(path.read_text().splitlines(), 1) for hook in hooks if hook in line]
     assert not offenders

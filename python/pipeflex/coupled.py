@@ -11,10 +11,11 @@ joint equations (rigid, hinge, spherical) with the element node as node a:
 
 It is integrated by the project's one generalised-alpha integrator (the index-3 form:
 positions constrained exactly), the same that integrates element models and bodies
-alone: :func:`simulate`, also reached through :func:`pipeflex.simulate`.
+alone: :func:`pipeflex.simulate` (:func:`simulate` here is its alias with this module's
+start states).
 
 Coordinates: the element model's reduced coordinates, then the bodies' (body after body);
-multipliers: the bodies' joints, then the couplings (:attr:`CoupledResult.coupling_forces`).
+multipliers: the bodies' joints, then the couplings (:attr:`pipeflex.TransientResult.coupling_forces`).
 A planar ANCF node is clamped to a body node in the x-y plane (3 rows: its position, and
 its slope's direction; the slope's length, the root's axial strain, stays free), so a
 rotating ANCF beam can hang on a hub body with inertia and a motor torque instead of a
@@ -22,23 +23,22 @@ prescribed hub angle.
 """
 from __future__ import annotations
 
-import time as _time
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from typing import List, Optional, Sequence, Tuple
 
 import numpy as np
 
-from . import _checks, _core, _progress
-from .analysis import constrained
+from . import _checks, _core
 from .analysis._continuation import follow
-from .analysis.transient import TransientResult, _step_used
-from .model import Model
-from .multibody.analysis import MAX_STEPS, MultibodyResult
+from .analysis.linearize import Linearization, constrained_fields, linearize as _linearize
+from .analysis.transient import TransientResult, simulate as _simulate
+from ._options import MAX_NEWTON, MAX_STEPS, NEWTON_TOL, RHO_INF
+from .model import SYSTEM_STATES, Model
+from .multibody.system import body_motion
 from .multibody.system import MultibodyState, MultibodySystem
 from .errors import ConvergenceError, SingularMatrixError
-from .results import COUNTERS, Result
+from .results import Result
 from .state import State, as_core
-from .time_functions import time_function
 
 KINDS = ("rigid", "hinge", "spherical")
 
@@ -140,19 +140,6 @@ class CoupledSystem:
                              f"valid: load_steps, mass_flow, max_bisections, max_iterations, state, tol")
         return static_equilibrium(self, state=state, mass_flow=mass_flow, load_steps=load_steps, **options)
 
-    def _linearize(self, state=None, *, mass_flow=None) -> "CoupledLinearization":
-        """:func:`pipeflex.linearize`'s entry for a coupled system."""
-        return linearize(self, state, mass_flow=mass_flow)
-
-    def _simulate(self, t_end, *, integrator, state, t_start, n_outputs, times, mass_flow, load_factor, progress,
-                  **options) -> "CoupledResult":
-        """:func:`pipeflex.simulate`'s entry for a coupled system."""
-        if integrator not in ("auto", "generalized_alpha") or t_start != 0.0 or times is not None:
-            raise ValueError("a CoupledSystem is integrated by generalised-alpha from t_start = 0 with n_outputs "
-                             "equally spaced outputs (pipeflex.coupled.simulate)")
-        return simulate(self, t_end, n_outputs=n_outputs, state=state, mass_flow=mass_flow, load_factor=load_factor,
-                        progress=progress, **{"step": 1e-3, **options})
-
     @property
     def n_coordinates(self) -> int:
         return self.model.n_dofs + self.bodies.n_coordinates
@@ -170,6 +157,107 @@ class CoupledSystem:
         return _core.coupled_system(self.model.core, self.model.initial_state() if state is None else state,
                                     self.model.load_state(mass_flow=mass_flow), self.bodies.core, bs.r, bs.R, bs.eta,
                                     bs.v, bs.a, bs.lam, bs.t, self.core_couplings(), lam_c)
+
+    # The protocol of the analyses (pipeflex.analysis: one driver for every formulation; the
+    # same methods on pipeflex.Model and pipeflex.multibody.MultibodySystem).
+
+    def _system(self, state=None, *, mass_flow: Optional[float] = None) -> "_core.System":
+        """The core system on a copy of ``state``: a :class:`CoupledState`, or a result that
+        holds one (a :class:`CoupledStatic`, a steady rotation's ``SystemSteadyRotation``:
+        their ``state``, ``body_state`` and ``coupling_forces``); None: the assembly
+        configuration at rest. mdot [kg/s] ``mass_flow`` (None: the model's) for the loads
+        that depend on it."""
+        if state is None:
+            st, bs, lam_c = as_core(self.model, None), None, None
+        elif all(hasattr(state, k) for k in ("state", "body_state", "coupling_forces")) and state.state is not None:
+            self.bodies.check_state(state.body_state, "state.body_state")
+            st, bs, lam_c = as_core(self.model, state.state), state.body_state, state.coupling_forces
+        else:
+            raise TypeError(f"state of a CoupledSystem must be a CoupledStatic or a SystemSteadyRotation (results of "
+                            f"pipeflex.static_equilibrium and pipeflex.steady_rotation on it) or a CoupledState, got "
+                            f"{type(state).__name__}")
+        system = self.system(st, bs, lam_c, mass_flow=mass_flow)
+        SYSTEM_STATES[system] = st  # the element state the analyses update in place
+        return system
+
+    def _state_of(self, system) -> "CoupledState":
+        """The end state of an analysis run on ``system`` (from :meth:`_system`)."""
+        r, R, eta, v, a, lam, t = system.body_state
+        bs = MultibodyState(np.array(r), np.array(R), np.array(eta), np.array(v), np.array(a), np.array(lam), float(t))
+        return CoupledState(State.from_core(SYSTEM_STATES[system], self.model), bs,
+                            np.array(system.coupling_multipliers, float))
+
+    #: :func:`~pipeflex.linearize` without a state: about the static equilibrium (its
+    #: multipliers balance its forces; others give a wrong K).
+    _linearize_at_equilibrium = True
+
+    def _linearization(self, system, mass_flow: float) -> dict:
+        """:func:`~pipeflex.linearize`'s fields for ``system`` at mdot [kg/s] ``mass_flow``:
+        the core's linear matrices reduced to the joints' and couplings' null space."""
+        return constrained_fields(_core.linear_matrices(system, mass_flow), mass_flow, self._state_of(system))
+
+    def _equilibrium_state(self, result):
+        """The state a static result holds (what :meth:`_system` takes): a
+        :class:`CoupledStatic` holds every part and multiplier itself."""
+        return result
+
+    def _zero_flow_growth_hint(self) -> str:
+        """The element inlets joined to bodies, named as a likely cause of a growth that
+        starts with the flow, for :func:`~pipeflex.critical_mass_flow`'s error ('' if none).
+
+        Why: the unsplit element's inlet end term is the force that accelerates the incoming
+        fluid to the inlet's velocity v (docs/theory.md), which does the work mdot |v|^2 on
+        the pipe: a mode that moves the inlet gains energy at a rate proportional to the flow.
+        A clamped inlet never moves; one held by a body that carries no fluid moves with the
+        body's modes, e.g. a stiff hub's (9e4 to 3e9 rad/s) grow at Re lambda = 2.6e-3 to
+        3.1e-3 1/s per kg/s (measured from 0.003 to 24 kg/s, the same for hubs 1e2 to 1e6
+        times stiffer): the model is unstable from the first flow, not at round-off."""
+        ends = [e.nodes if e.flow_factor > 0 else e.nodes[::-1] for e in self.model.elements
+                if e.kind == "pipe" and e.flow_factor != 0 and e.section.fluid_mass > 0]
+        outlets = {q for _, q in ends}
+        inlets = sorted({j.node for j in self.joints if any(p == j.node for p, _ in ends) and j.node not in outlets})
+        if not inlets:
+            return ""
+        return (f"; element node(s) {', '.join(map(str, inlets))}, an inlet of the flow, move(s) with a body: the "
+                "inlet end term (the force accelerating the incoming fluid to the inlet's velocity) feeds every mode "
+                "that moves the inlet, at a rate proportional to the flow. Where the fluid comes from a still "
+                "reservoir, mark the inlet with ModelBuilder.reservoir_inlet(node) (docs/theory.md)")
+
+    def _rotation_hinge(self):
+        """:func:`~pipeflex.steady_rotation`'s hinge: (name, point [m], axis, body or -1, -1,
+        element coordinate or -1) of the one body hinged to the ground or element hinge."""
+        from .analysis.steady import hinge_of
+
+        return hinge_of(type(self).__name__, bodies=self.bodies, model=self.model)
+
+    def _steady_rotation_parts(self, state: "CoupledState") -> dict:
+        """:class:`~pipeflex.SteadyRotation`'s fields of the end ``state`` (from
+        :meth:`_state_of`): the element state, the bodies' and the couplings' forces."""
+        return dict(state=state.state, body_state=state.body_state, coupling_forces=state.coupling_forces)
+
+    def _check_transient(self) -> None:
+        """Nothing: :func:`~pipeflex.simulate` integrates every coupled system."""
+
+    def _transient_parts(self, out: dict, system, stats: dict, metadata: dict) -> dict:
+        """:class:`~pipeflex.TransientResult`'s fields from the core's record ``out`` of a run
+        on ``system``: the element motion and energies, the bodies' motion in ``bodies``,
+        the couplings' multipliers in ``coupling_forces`` and the end state."""
+        bodies = body_motion(self.bodies, out, stats, "body_")
+        for k in ("r", "R", "eta", "v", "a", "lam", "drift"):
+            out.pop("body_" + k)
+        forces = np.array(out.pop("coupling_multipliers"))
+        metadata.update(coupled=True, n_nodes=self.model.n_nodes, n_dofs=self.n_dofs)
+        return dict(out, final_state=self._state_of(system), bodies=bodies, coupling_forces=forces)
+
+    @property
+    def mass_flow(self) -> float:
+        """mdot [kg/s] of the system: the element model's."""
+        return self.model.mass_flow
+
+    @property
+    def n_nodes(self) -> int:
+        """Nodes of the element model and of the bodies."""
+        return self.model.n_nodes + self.bodies.n_nodes
 
     @property
     def n_dofs(self) -> int:
@@ -199,23 +287,23 @@ class CoupledSystem:
         return node in set(self.model.ancf_nodes or ())
 
 
+#: A coupled transient: :class:`pipeflex.TransientResult` (one type for every formulation):
+#: the element motion and energies, ``bodies`` (a :class:`~pipeflex.multibody.MultibodyResult`
+#: at the same times; its ``drift`` is not computed: NaN), ``coupling_forces`` (n_out, rows)
+#: the couplings' multipliers [N, N m], ``elements`` (the result itself, for its element part).
+CoupledResult = TransientResult
+
+
 @dataclass(frozen=True)
-class CoupledResult(Result):
-    """A coupled transient: ``elements`` (a :class:`~pipeflex.TransientResult`: node
-    positions, rotations, velocities, the element model's energies), ``bodies`` (a
-    :class:`~pipeflex.multibody.MultibodyResult` at the same times; its ``drift`` is not
-    computed: NaN), ``coupling_forces`` (n_out, rows) the couplings' multipliers [N, N m]
-    (forces and moments on the element nodes, as the bodies' joint multipliers), and
-    ``stats`` (steps, Newton iterations, Jacobians, failed steps, wall time [s])."""
+class CoupledState(Result):
+    """The state of a coupled system: ``state`` (the element model's
+    :class:`~pipeflex.State`), ``body_state`` (a :class:`~pipeflex.multibody.MultibodyState`
+    with the bodies' joint multipliers) and ``coupling_forces`` (the couplings' multipliers
+    [N, N m]; None: zero)."""
 
-    elements: TransientResult
-    bodies: MultibodyResult
-    coupling_forces: np.ndarray
-    stats: dict = field(default_factory=dict)
-
-    @property
-    def t(self) -> np.ndarray:
-        return self.elements.t
+    state: State
+    body_state: MultibodyState
+    coupling_forces: Optional[np.ndarray] = None
 
 
 @dataclass(frozen=True)
@@ -335,105 +423,47 @@ def static_equilibrium(system: CoupledSystem, *, state: Optional["CoupledStatic"
                          total, float(out["residual"]), mdot)
 
 
-@dataclass(frozen=True)
-class CoupledLinearization(constrained.ConstrainedLinearization):
-    """The linearisation of a coupled system: coordinates [z_el; q_b], ``state`` a
-    :class:`CoupledStatic`."""
+#: The linearisation of a coupled system: :class:`pipeflex.Linearization` (one type for every
+#: formulation): coordinates [z_el; q_b], ``state`` a :class:`CoupledState`.
+CoupledLinearization = Linearization
 
 
-def linearize(system: CoupledSystem, state: Optional[CoupledStatic] = None, *,
-              mass_flow: Optional[float] = None) -> CoupledLinearization:
-    """Linearise a :class:`CoupledSystem` about ``state`` (a :class:`CoupledStatic` with its
-    multipliers; default: the static equilibrium at ``mass_flow`` mdot [kg/s]): the one
-    constrained linearisation of the bodies (:mod:`pipeflex.analysis.constrained`), K with
-    the geometric stiffness of the joints' and couplings' reactions."""
+def linearize(system: CoupledSystem, state=None, *, mass_flow: Optional[float] = None) -> Linearization:
+    """:func:`pipeflex.linearize` of a :class:`CoupledSystem` (the same driver): about
+    ``state`` (a :class:`CoupledStatic` or :class:`CoupledState` with its multipliers;
+    default: the static equilibrium at ``mass_flow`` mdot [kg/s], default the state's flow),
+    K with the geometric stiffness of the joints' and couplings' reactions."""
     if not isinstance(system, CoupledSystem):
         raise ValueError("system must be a pipeflex.CoupledSystem")
-    if state is not None and not isinstance(state, CoupledStatic):
-        raise TypeError(f"state must be a CoupledStatic (pipeflex.static_equilibrium(system)), "
-                        f"got {type(state).__name__}")
-    model = system.model
-    mdot = (model.mass_flow if state is None else state.mass_flow) if mass_flow is None else \
-        _checks.finite("mass_flow", mass_flow)
-    st = static_equilibrium(system, mass_flow=mdot) if state is None else state
-    out = _core.linear_matrices(system.system(as_core(model, st.state), st.body_state, st.coupling_forces,
-                                              mass_flow=mdot), mdot)
-    return constrained.linearization(CoupledLinearization, out, mdot, st)
+    return _linearize(system, state, mass_flow=mass_flow)
 
 
 def simulate(system: CoupledSystem, t_end: float, *, step: float, n_outputs: int = 201,
              state: Optional[State] = None, body_state: Optional[MultibodyState] = None,
-             mass_flow=None, load_factor=1.0, rho_inf: float = 0.8, newton_tol: float = 1e-9,
-             max_newton: int = 12, max_steps: int = MAX_STEPS, work: bool = True,
-             progress: Optional[bool] = None) -> CoupledResult:
-    """Integrate a :class:`CoupledSystem` from t = 0 to ``t_end`` [s] with generalised-alpha.
-
-    Args:
-        step: h [s], the largest step (halved where Newton fails, restored after); each
-            output interval is split into equal steps no longer than h, and the result's
-            ``elements.metadata["step"]`` is the step taken (``["requested_step"]``: h).
-        n_outputs: equally spaced output times.
-        state, body_state: initial states of the element model and of the bodies (default:
-            their assembly configurations at rest); they must satisfy the couplings.
-        mass_flow: mdot [kg/s] through the pipe elements and the bodies that carry fluid: a
-            number, a table ``(times [s], values)`` or a :class:`~pipeflex.Sine`; default the
-            element model's.
-        load_factor: scales the element model's nodal loads (number, table or Sine).
-        rho_inf: spectral radius at infinite frequency in [0, 1) (index-3 constraints need
-            numerical damping, as :func:`pipeflex.multibody.simulate`).
-        newton_tol: Newton tolerance on the position error left, relative to the model size.
-        max_newton, max_steps: Newton iterations per step; steps (failed ones included).
-        work: integrate the work of the fluid forces and loads on the elements.
-        progress: None (a bar in a notebook or on a terminal once the run is long, else
-            log lines), True (always) or False (nothing); as :func:`pipeflex.simulate`.
+             mass_flow=None, load_factor=1.0, rho_inf: float = RHO_INF, newton_tol: float = NEWTON_TOL,
+             max_newton: int = MAX_NEWTON, max_steps: int = MAX_STEPS, work: bool = True,
+             progress: Optional[bool] = None) -> TransientResult:
+    """:func:`pipeflex.simulate` of a :class:`CoupledSystem` (the same driver,
+    generalised-alpha) from t = 0 to ``t_end`` [s] with the step ``step`` h [s], from the
+    element model's ``state`` and the bodies' ``body_state`` (default: their assembly
+    configurations at rest; they must satisfy the couplings; the bodies' rates are kept,
+    their accelerations and the multipliers are the integrator's). Options as
+    :func:`pipeflex.simulate`'s (``rho_inf`` < 1: index-3 constraints need numerical
+    damping).
 
     Raises:
         ValueError: bad options or states; ConvergenceError: where and why Newton failed.
     """
     if not isinstance(system, CoupledSystem):
         raise ValueError("system must be a pipeflex.CoupledSystem")
-    t1 = _checks.positive("t_end", t_end)
-    h = _checks.positive("step", step)
-    n_out = _checks.positive_int("n_outputs", n_outputs)
-    rho = _checks.rho_inf_with_multipliers(rho_inf)
-    model, bodies = system.model, system.bodies
-    opt = _core.TransientOptions()
-    opt.step = min(h, t1)
-    opt.rho_inf = rho
-    opt.newton_tol = _checks.positive("newton_tol", newton_tol)
-    opt.max_newton = _checks.positive_int("max_newton", max_newton)
-    opt.max_steps = _checks.positive_int("max_steps", max_steps)
-    opt.work = bool(work)
-    st = as_core(model, state)
-    if body_state is not None:
-        bodies.check_state(body_state, "body_state")
-    bs = bodies.initial_state() if body_state is None else body_state
-    flow = time_function("mass_flow", model.mass_flow if mass_flow is None else mass_flow)
-    loads = time_function("load_factor", load_factor)
-    times = list(np.linspace(0.0, t1, max(n_out, 2)))
-    bar = _progress.Progress(progress, t1, desc="simulate (coupled)", unit="s", leave=False)
-    wall = _time.perf_counter()
-    with bar:
-        # from t = 0 with the bodies' rates (consistent accelerations and multipliers: the integrator's)
+    start = None
+    if state is not None or body_state is not None:
+        if body_state is not None:
+            system.bodies.check_state(body_state, "body_state")
+        bs = system.bodies.initial_state() if body_state is None else body_state
         zero = np.zeros_like(bs.eta)
-        sys = system.system(st, MultibodyState(bs.r, bs.R, bs.eta, bs.v, zero, np.zeros_like(bs.lam), 0.0))
-        out = _core.integrate(sys, flow, loads, times, opt, None if bar.mode == "off" else bar.update)
-        bar.update(t1)  # the core reports at most every 0.1 s, not the end
-    wall = _time.perf_counter() - wall
-    stats = {k: int(out.pop(k)) for k in COUNTERS}
-    stats["wall_time"] = wall
-    body = {k: out.pop("body_" + k) for k in ("r", "R", "eta", "v", "a", "lam", "drift")}
-    lams = out.pop("coupling_multipliers")
-    if not opt.work:
-        out["fluid_work"][:] = np.nan
-        out["load_work"][:] = np.nan
-    # the step taken (each output interval in equal steps, as simulate reports it) and the one asked for
-    meta = {"integrator": "generalized_alpha", "step": _step_used(opt.step, np.asarray(times)),
-            "requested_step": float(opt.step), "coupled": True}
-    elements = TransientResult(**out, stats=stats, metadata=meta,
-                               final_state=State.from_core(st, model))
-    body_res = MultibodyResult(out["t"].copy(), body["r"], body["R"], body["eta"], body["v"], body["drift"],
-                               np.array(bodies.offsets), bodies.n_constraints,
-                               tuple(np.array(b.nodes_s) for b in bodies.bodies),
-                               tuple(np.array(b.basis) for b in bodies.bodies), stats)
-    return CoupledResult(elements, body_res, np.array(lams), stats)
+        start = CoupledState(State.from_core(as_core(system.model, state), system.model),
+                             MultibodyState(bs.r, bs.R, bs.eta, bs.v, zero, np.zeros_like(bs.lam), 0.0))
+    return _simulate(system, t_end, integrator="generalized_alpha", state=start, n_outputs=n_outputs,
+                     mass_flow=mass_flow, load_factor=load_factor, progress=progress, step=step, rho_inf=rho_inf,
+                     newton_tol=newton_tol, max_newton=max_newton, max_steps=max_steps, work=work)

@@ -11,6 +11,7 @@ position in m and the slope dr/dx [-] (z and z' are fixed: the element is planar
 from __future__ import annotations
 
 import copy
+import weakref
 from itertools import chain
 from dataclasses import dataclass
 from typing import Iterable, List, Optional, Sequence, Tuple
@@ -27,6 +28,11 @@ ELASTIC_MODELS = ("A", "0")
 _IDENTITY = np.eye(6)  # the basis of every free node, one read-only array for all of them
 _IDENTITY.flags.writeable = False
 _NEXT, _LAST = np.array([1, 2, 0]), np.array([2, 0, 1])  # (a x b)_i = a[_NEXT[i]] b[_LAST[i]] - a[_LAST[i]] b[_NEXT[i]]
+
+#: The element state (a ``_core.State``) of each core system built by a model's ``_system``,
+#: which the analyses update in place: read back by ``_state_of`` (the system object does not
+#: expose it). Weak: an entry goes with its system.
+SYSTEM_STATES: "weakref.WeakKeyDictionary" = weakref.WeakKeyDictionary()
 
 
 def _triads(tangents: np.ndarray, up: Optional[np.ndarray], where=lambda k: "") -> np.ndarray:
@@ -869,6 +875,106 @@ class Model:
         state = self.initial_state() if state is None else state
         return _core.element_system(self._core, state, self.load_state(mass_flow=mass_flow,
                                                                         gravity_factor=gravity_factor))
+
+    # The protocol of the analyses (pipeflex.analysis: one driver for every formulation; the
+    # same methods on pipeflex.multibody.MultibodySystem and pipeflex.CoupledSystem).
+
+    def _system(self, state=None, *, mass_flow: Optional[float] = None) -> "_core.System":
+        """The core system on a copy of ``state`` (what :func:`~pipeflex.state.as_core`
+        takes; None: the reference configuration at rest), mdot [kg/s] ``mass_flow`` (None:
+        the model's) for the loads that depend on it."""
+        from .state import as_core
+
+        st = as_core(self, state)
+        system = self.system(st, mass_flow=mass_flow)
+        SYSTEM_STATES[system] = st  # the element state the analyses update in place
+        return system
+
+    def _state_of(self, system):
+        """The end state of an analysis run on ``system`` (from :meth:`_system`): a
+        :class:`~pipeflex.state.State` (a copy)."""
+        from .state import State
+
+        return State.from_core(SYSTEM_STATES[system], self)
+
+    #: :func:`~pipeflex.linearize` without a state: about the reference configuration (an
+    #: element model's supports are eliminated: no reactions to balance).
+    _linearize_at_equilibrium = False
+
+    def _linearization(self, system, mass_flow: float) -> dict:
+        """:func:`~pipeflex.linearize`'s fields for ``system`` at mdot [kg/s] ``mass_flow``:
+        the reduced coordinates' M, C, K (CSC) from the element assembler straight into the
+        model's cached pattern (:func:`pipeflex.analysis._assembly.tangents`' core call;
+        the core's ``linear_matrices`` gives the same numbers through triplets, 3-10 times
+        slower), about the state re-based (phi = 0), and the coordinates' labels."""
+        import scipy.sparse as sp
+
+        from .state import State
+
+        s = SYSTEM_STATES[system]
+        s.rebase(0.0)
+        _, data, indices, indptr = _core.assemble_csc(self._core, s, self.load_state(mass_flow=mass_flow), 1.0,
+                                                      [(1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.0, 0.0, 1.0)], False)
+        n = self.n_dofs
+        K, C, M = (sp.csc_matrix((d, indices if k == 0 else indices.copy(), indptr if k == 0 else indptr.copy()),
+                                 shape=(n, n), copy=False) for k, d in enumerate(data))
+        for X in (K, C, M):  # the core's pattern: rows ascending, no repeats
+            X.has_sorted_indices = True
+            X.has_canonical_format = True
+        return dict(M=M, C=C, K=K, state=State.from_core(s, self), dof_labels=self.dof_labels)
+
+    def _equilibrium_state(self, result):
+        """The state a static result holds (what :meth:`_system` takes): its ``state``."""
+        return result.state
+
+    def _zero_flow_growth_hint(self) -> str:
+        """Why a mode may grow from the first flow on, for :func:`~pipeflex.critical_mass_flow`'s
+        error: '' (an element model's equilibrium without flow is only marginal)."""
+        return ""
+
+    def _element_hinges(self) -> list:
+        """The nodes with one free rotation and fixed position, as (node, axis, coordinate)
+        (linear in the model size: only nodes with one reduced coordinate are looked at)."""
+        nodes = np.fromiter((n for n, _ in self.dof_labels), dtype=int, count=self.n_dofs)
+        single = np.bincount(nodes, minlength=self.n_nodes)[nodes] == 1
+        basis = self.basis
+        found = []
+        for dof in np.flatnonzero(single):
+            n = int(nodes[dof])
+            t = basis[6 * n:6 * n + 6, [dof]].toarray()[:, 0]
+            if np.allclose(t[:3], 0.0):
+                found.append((n, t[3:] / np.linalg.norm(t[3:]), int(dof)))
+        return found
+
+    def _rotation_hinge(self):
+        """:func:`~pipeflex.steady_rotation`'s hinge: (name, point [m], axis, body -1, node,
+        coordinate) of the one node with fixed position and one free rotation."""
+        found = self._element_hinges()
+        if len(found) != 1:
+            raise ValueError(f"steady_rotation needs exactly one hinge (a node with fixed position and one "
+                             f"free rotation); this model has {len(found)}")
+        node, axis, dof = found[0]
+        return f"element node {node}", np.array(self.positions[node], float), axis, -1, node, dof
+
+    def _steady_rotation_parts(self, state) -> dict:
+        """:class:`~pipeflex.SteadyRotation`'s fields of the end ``state`` (from
+        :meth:`_state_of`): the element state."""
+        return dict(state=state)
+
+    def _check_transient(self) -> None:
+        """ValueError if :func:`~pipeflex.simulate` cannot integrate this model: an ANCF
+        model on a hub under gravity in the x-y plane."""
+        hub = self.hub
+        if hub is not None and hub.nodes and hub.nodes[0] in self.ancf_nodes and np.any(self.gravity[:2] != 0):
+            raise ValueError("gravity in the x-y plane: an ANCF model on a hub is integrated in the co-rotating "
+                             "frame, where in-plane gravity would have to turn; keep gravity along the hub axis (z)")
+
+    def _transient_parts(self, out: dict, system, stats: dict, metadata: dict) -> dict:
+        """:class:`~pipeflex.TransientResult`'s fields from the core's record ``out`` of a run
+        on ``system`` (``metadata`` completed): node positions, rotations, velocities,
+        energies and works, the end state."""
+        metadata.update(n_nodes=self.n_nodes, n_dofs=self.n_dofs)
+        return dict(out, final_state=self._state_of(system))
 
     @property
     def total_length(self) -> float:

@@ -407,15 +407,9 @@ FIELDS: Dict[str, Dict[str, tuple]] = {
         "hinge_node": (None, "hinge node", ()),
         "iterations": (None, "Newton iterations", ()),
         "residual": ("N", "final residual norm", ()),
-    },
-    "SystemSteadyRotation": {
-        "omega": ("rad/s", "angular velocity about the hinge axis", ()),
         "coupling_forces": (None, "coupling multipliers (N, N m)", ("coupling",)),
-        "axis": ("1", "hinge axis", ("component",)),
         "point": ("m", "point of the hinge axis", ("component",)),
         "hinge": (None, "hinge", ()),
-        "iterations": (None, "Newton iterations", ()),
-        "residual": ("N", "final residual norm", ()),
     },
     "MultibodyStatic": {
         "iterations": (None, "Newton iterations", ()),

@@ -430,7 +430,7 @@ def _run(c):
         else:
             r = mb.simulate(system, m["n_steps"] * m["step"], step=m["step"], mass_flow=mdot,
                             rho_inf=m["rho_inf"], n_outputs=m["n_outputs"])
-            _finite("multibody.simulate", r.r, r.R, r.eta, r.v, r.drift)
+            _finite("multibody.simulate", r.r, r.bodies.R, r.eta, r.v, r.drift)
     else:
         raise ValueError(fam)
 

@@ -49,8 +49,7 @@ from ..errors import ConvergenceError
 from .eigen import (GROWTH_TOL, SPARSE_MIN_DOFS, BlockSolutions, _growing, classify, eigen_from_blocks, mechanism,
                     sparse_block_eigenvalues, QuadraticPencil, eigen_noise, one_norms,
                     sparse_eigen_from_blocks, split_blocks, with_reduction_noise)
-from ._assembly import require_model
-from .._lazy import loaded_instance
+from ._protocol import require_system
 from .linearize import linearize
 from ._roots import brentq
 from .static import static_equilibrium
@@ -123,26 +122,18 @@ class _Evaluator:
     """Static solve + linearisation + eigen-analysis at a mass flow, warm-started."""
 
     def __init__(self, model, state):
-        # (without importing coupled or multibody for an element model)
-        self.coupled = loaded_instance(model, "pipeflex.coupled", "CoupledSystem")
-        bodies = loaded_instance(model, "pipeflex.multibody.system", "MultibodySystem")
-        if self.coupled:
-            if state is not None and not loaded_instance(state, "pipeflex.coupled", "CoupledStatic"):
-                raise TypeError(f"state must be a CoupledStatic (pipeflex.static_equilibrium(system)) for a "
-                                f"CoupledSystem, got {type(state).__name__}")
-        elif not bodies:
-            require_model(model)
+        require_system(model)
+        if state is not None:
+            model._system(state)  # a state foreign to the system: its TypeError now, not at the first solve
         self.model = model
-        # a coupled system's static solve starts from its assembly configuration (None)
-        self.state = model.initial_state() if state is None and not self.coupled else state
+        self.state = state  # None: the static solves start from the model's default start
         self.flow = None  # mdot of self.state once it is an equilibrium
         self.count = 0
         self.sparse = model.n_dofs >= SPARSE_MIN_DOFS
         # the scan's analyses at neighbouring flows: unchanged blocks are not solved again
         self.previous = BlockSolutions() if self.sparse else None
         self._kept = {}  # mdot -> (blocks, equilibrium, linearisation), the last few
-        # bodies and coupled systems: warm-started solves without the flow continuation
-        self.continuation = not (self.coupled or bodies)
+        self.continuation = True  # the static flow continuation from the last equilibrium
 
     def accept(self, mdot, state):
         """Warm-start the next static solves from this equilibrium at mdot."""
@@ -165,8 +156,16 @@ class _Evaluator:
         ramp = (dict(from_mass_flow=self.flow, max_bisections=FLOW_BISECTIONS)
                 if self.continuation and self.flow is not None else {})
         try:
-            solved = static_equilibrium(self.model, state=self.state, mass_flow=mdot, **ramp)
-            st = solved if self.coupled else solved.state  # a CoupledStatic holds all parts and multipliers
+            try:
+                solved = static_equilibrium(self.model, state=self.state, mass_flow=mdot, **ramp)
+            except ValueError:
+                if not ramp:
+                    raise
+                # a static solver that refuses the flow ramp on this system (before any solve):
+                # plain solves warm-started from the last equilibrium
+                self.continuation = False
+                solved = static_equilibrium(self.model, state=self.state, mass_flow=mdot)
+            st = self.model._equilibrium_state(solved)
         except ConvergenceError as e:
             err = type(e)(f"critical_mass_flow: the static solve failed at mdot = {mdot:.6g} kg/s: {e}",
                           load_factor=e.load_factor, iteration=e.iteration, residual=e.residual,
@@ -199,8 +198,7 @@ def critical_mass_flow(model, *, tol: float = 1e-10, mass_flow_max: Optional[flo
         model: the model (its loads and gravity are applied; the flow is varied): an
             element :class:`~pipeflex.Model`, a :class:`~pipeflex.multibody.MultibodySystem`
             or a :class:`~pipeflex.CoupledSystem` (their linearisations in independent
-            coordinates, :mod:`pipeflex.analysis.constrained`; no flow continuation: each
-            static solve starts from the last equilibrium).
+            coordinates, :mod:`pipeflex.analysis.constrained`): the same driver.
         tol: relative tolerance on the critical mass flow [-] (``rtol=`` is its
             deprecated name; ``tol`` as in the static solvers, ``rtol`` is IDA's).
         mass_flow_max: mdot [kg/s] up to which to search (default 20 flow units).
@@ -244,7 +242,7 @@ def critical_mass_flow(model, *, tol: float = 1e-10, mass_flow_max: Optional[flo
     ev.accept(0.0, st0)
     # before the sign test: a neutral direction's sign is round-off. stability()'s rule
     # (eigen.mechanism), applied to the equilibrium without flow that the scan starts from
-    named = mechanism(replace(eig, dof_labels=getattr(model, "dof_labels", None)))
+    named = mechanism(replace(eig, dof_labels=ev.blocks(0.0)[2].dof_labels))
     if named is not None:
         raise ValueError(f"the model is a mechanism (its stiffness at the static equilibrium without flow is "
                          f"singular, e.g. a free hinge; {named}): there is no static equilibrium to lose "
@@ -336,7 +334,7 @@ def critical_mass_flow(model, *, tol: float = 1e-10, mass_flow_max: Optional[flo
                         "the cantilever, docs/performance.md); use fewer elements")
             raise ConvergenceError(f"flutter between {lo:.6g} and {hi:.6g} kg/s (lambda = {worst.real:.3g} "
                                    f"{worst.imag:+.6g}j 1/s), but the crossing eigenvalue could not be followed "
-                                   f"through zero: {why}{_moving_inlets(ev.model)}", mass_flow=hi) from None
+                                   f"through zero: {why}{ev.model._zero_flow_growth_hint()}", mass_flow=hi) from None
         _check_not_at_zero(mc, unit, hi, eig_hi, ev.model)
     else:
         def kmin(m):
@@ -475,34 +473,7 @@ def _check_not_at_zero(mc, unit, hi, eig_hi, model):
         raise ConvergenceError(
             f"the equilibrium loses stability as soon as the flow starts (crossing at mdot = {mc:.3g} kg/s; at "
             f"{hi:.6g} kg/s lambda = {worst.real:.3g} {worst.imag:+.6g}j 1/s): it is only marginally stable "
-            f"without flow, so there is no critical flow to report{_moving_inlets(model)}", mass_flow=mc)
-
-
-def _moving_inlets(model) -> str:
-    """For a :class:`~pipeflex.CoupledSystem`: the element inlets joined to bodies, named
-    as a likely cause of a growth that starts with the flow ('' if none or another model).
-
-    Why: the unsplit element's inlet end term is the force that accelerates the incoming
-    fluid to the inlet's velocity v (docs/theory.md), which does the work mdot |v|^2 on
-    the pipe: a mode that moves the inlet gains energy at a rate proportional to the flow.
-    A clamped inlet never moves; one held by a body that carries no fluid moves with the
-    body's modes, e.g. a stiff hub's (9e4 to 3e9 rad/s) grow at Re lambda = 2.6e-3 to
-    3.1e-3 1/s per kg/s (measured from 0.003 to 24 kg/s, the same for hubs 1e2 to 1e6
-    times stiffer): the model is unstable from the first flow, not at round-off."""
-    joints = getattr(model, "joints", None)
-    elements = getattr(getattr(model, "model", None), "elements", None)
-    if not joints or elements is None:
-        return ""
-    ends = [e.nodes if e.flow_factor > 0 else e.nodes[::-1] for e in elements
-            if e.kind == "pipe" and e.flow_factor != 0 and e.section.fluid_mass > 0]
-    outlets = {q for _, q in ends}
-    inlets = sorted({j.node for j in joints if any(p == j.node for p, _ in ends) and j.node not in outlets})
-    if not inlets:
-        return ""
-    return (f"; element node(s) {', '.join(map(str, inlets))}, an inlet of the flow, move(s) with a body: the "
-            "inlet end term (the force accelerating the incoming fluid to the inlet's velocity) feeds every mode "
-            "that moves the inlet, at a rate proportional to the flow. Where the fluid comes from a still "
-            "reservoir, mark the inlet with ModelBuilder.reservoir_inlet(node) (docs/theory.md)")
+            f"without flow, so there is no critical flow to report{model._zero_flow_growth_hint()}", mass_flow=mc)
 
 
 def refine_eigenpair(block, lam, x=None, *, tol=1e-10, max_iterations=20):

@@ -17,7 +17,7 @@ turns about its one hinge: a body hinged to the ground (or, in a coupled system,
 element hinge). Its bodies move rigidly with the rotation too (frame r_dot =
 omega a x (r - x_h), spatial angular velocity omega a, modal rates 0), and the same
 Newton runs on the bordered KKT matrix of the joints and couplings
-(cpp/src/rotating_systems.cpp); the result is a :class:`SystemSteadyRotation`.
+(cpp/src/rotating_systems.cpp); the result is the same :class:`SteadyRotation`, with the bodies' state.
 
 Why only a hinge to the ground: everything turns. A part turning on a hinge to another
 flexible part (a rotor hinged to a flexible stand, a body hinged to a body) is not in a
@@ -28,7 +28,7 @@ turn, has such a state; simulate it with :func:`pipeflex.simulate`.)
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Optional
 
 import numpy as np
@@ -36,11 +36,10 @@ import numpy as np
 from .. import _checks, _core
 from ..errors import ConvergenceError, SingularMatrixError
 from ..results import Result
-from ..state import State, as_core
-from ._assembly import require_model
+from ..state import State
 from ._continuation import follow
+from ._protocol import require_system
 from .._blas import pinned as blas_pinned
-from .._lazy import loaded_instance
 
 
 # below this many coordinates the Newton systems are solved densely (cheaper than sparse
@@ -50,76 +49,39 @@ DENSE_BELOW = _core.DENSE_LU_BELOW
 
 @dataclass(frozen=True)
 class SteadyRotation(Result):
-    """Steady rotation found by :func:`steady_rotation`.
-
-    Attributes:
-        omega: angular velocity [rad/s] about the hinge axis (right-hand rule).
-        state: the deformed, rotating state (:class:`~pipeflex.state.State`: positions,
-            rotation vectors, velocities, accelerations of the rigid rotation).
-        axis: (3,) unit hinge axis [-]; hinge_node: its node.
-        iterations: Newton iterations over all flow steps (bisected ones included);
-            residual: final residual norm [N].
-    """
-
-    omega: float
-    state: State
-    axis: np.ndarray
-    hinge_node: int
-    iterations: int
-    residual: float
-
-
-@dataclass(frozen=True)
-class SystemSteadyRotation(Result):
-    """Steady rotation of a :class:`~pipeflex.multibody.MultibodySystem` or a
-    :class:`~pipeflex.CoupledSystem` found by :func:`steady_rotation`.
+    """Steady rotation found by :func:`steady_rotation`, of every formulation.
 
     Attributes:
         omega: angular velocity [rad/s] about the hinge axis (right-hand rule).
         state: the element model's deformed, rotating :class:`~pipeflex.state.State`
-            (None for bodies alone).
-        body_state: the bodies' :class:`~pipeflex.multibody.MultibodyState` (frames, modal
-            amplitudes, the rotation's rates, joint multipliers).
-        coupling_forces: the couplings' multipliers [N, N m] (empty for bodies alone).
-        axis: (3,) unit hinge axis [-]; point: (3,) a point of it [m]; hinge: which hinge
-            (a body joint's name, or "element node i").
+            (positions, rotation vectors, velocities, accelerations of the rigid rotation);
+            None for bodies alone.
+        axis: (3,) unit hinge axis [-].
+        hinge_node: the element hinge's node (-1 for a body's hinge).
         iterations: Newton iterations over all flow steps (bisected ones included);
             residual: final residual norm [N].
+        body_state: the bodies' :class:`~pipeflex.multibody.MultibodyState` (frames, modal
+            amplitudes, the rotation's rates, joint multipliers); None without bodies.
+        coupling_forces: the couplings' multipliers [N, N m] (empty without couplings).
+        point: (3,) a point of the hinge axis [m].
+        hinge: which hinge ("element node i", or a body joint's name).
     """
 
     omega: float
     state: Optional[State]
-    body_state: object
-    coupling_forces: np.ndarray
     axis: np.ndarray
-    point: np.ndarray
-    hinge: str
+    hinge_node: int
     iterations: int
     residual: float
+    body_state: object = None
+    coupling_forces: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    point: Optional[np.ndarray] = None
+    hinge: str = ""
 
 
-def _element_hinges(model):
-    """The nodes with one free rotation and fixed position, as (node, axis, coordinate)
-    (linear in the model size: only nodes with one reduced coordinate are looked at)."""
-    nodes = np.fromiter((n for n, _ in model.dof_labels), dtype=int, count=model.n_dofs)
-    single = np.bincount(nodes, minlength=model.n_nodes)[nodes] == 1
-    basis = model.basis
-    found = []
-    for dof in np.flatnonzero(single):
-        n = int(nodes[dof])
-        t = basis[6 * n:6 * n + 6, [dof]].toarray()[:, 0]
-        if np.allclose(t[:3], 0.0):
-            found.append((n, t[3:] / np.linalg.norm(t[3:]), int(dof)))
-    return found
-
-
-def _hinge(model):
-    """The node with one free rotation and fixed position (the hinge), and its axis."""
-    found = _element_hinges(model)
-    if len(found) != 1:
-        raise ValueError(f"steady_rotation needs exactly one hinge (a node with fixed position and one "
-                         f"free rotation); this model has {len(found)}")
-    return found[0]
+#: The steady rotation of a system with bodies: :class:`SteadyRotation` (one type for every
+#: formulation).
+SystemSteadyRotation = SteadyRotation
 
 
 @blas_pinned
@@ -132,16 +94,16 @@ def steady_rotation(model, *, omega_guess: Optional[float] = None, mass_flow: Op
         model: a model with exactly one hinge (e.g. :func:`pipeflex.scenes.sprinkler`);
             or a :class:`~pipeflex.multibody.MultibodySystem` with one body hinged to the
             ground, or a :class:`~pipeflex.CoupledSystem` with one such body or one element
-            hinge (e.g. :func:`pipeflex.scenes.sprinkler_on_hub`): then the result is a
-            :class:`SystemSteadyRotation` (the bodies' state and the couplings' forces too).
+            hinge (e.g. :func:`pipeflex.scenes.sprinkler_on_hub`): the same driver, the
+            result holds the bodies' state and the couplings' forces too.
         omega_guess: starting angular velocity [rad/s] (default: from a rigid-body balance
             of the undeformed structure at the first continuation step: the moment about
             the hinge).
         mass_flow: mdot [kg/s] (default the model's).
         state: starting deformation (default the reference configuration); of a coupled
-            system a :class:`~pipeflex.coupled.CoupledStatic` or a
-            :class:`SystemSteadyRotation`, of bodies a
-            :class:`~pipeflex.multibody.MultibodyState` or a :class:`SystemSteadyRotation`.
+            system a :class:`~pipeflex.coupled.CoupledStatic`, a
+            :class:`~pipeflex.coupled.CoupledState` or a :class:`SteadyRotation`, of bodies
+            a :class:`~pipeflex.multibody.MultibodyState` or a :class:`SteadyRotation`.
         continuation_steps: the flow is raised from mdot/steps to mdot in this many steps
             (a step whose Newton fails, or whose omega falls more than ``OMEGA_JUMP`` = 0.5
             of its prediction away, i.e. on another branch of steady states, is bisected, up
@@ -154,8 +116,8 @@ def steady_rotation(model, *, omega_guess: Optional[float] = None, mass_flow: Op
         max_iterations: Newton iterations per solve (a flow step, or a bisection of one).
 
     Returns:
-        :class:`SteadyRotation` of a model, :class:`SystemSteadyRotation` of a system with
-        bodies.
+        :class:`SteadyRotation` (of a system with bodies also its ``body_state``,
+        ``coupling_forces``, ``point`` and ``hinge``).
 
     Raises:
         ValueError: no or several hinges (named), or only hinges between two bodies (no
@@ -164,33 +126,32 @@ def steady_rotation(model, *, omega_guess: Optional[float] = None, mass_flow: Op
         ConvergenceError: Newton failed (the message gives the step and the residual;
             attributes ``mass_flow`` of the continuation step, ``iteration``, ``residual``).
     """
-    coupled = loaded_instance(model, "pipeflex.coupled", "CoupledSystem")
-    if coupled or loaded_instance(model, "pipeflex.multibody.system", "MultibodySystem"):
-        return _system_steady_rotation(model, coupled, omega_guess=omega_guess, mass_flow=mass_flow, state=state,
-                                       continuation_steps=continuation_steps, tol=tol,
-                                       max_iterations=max_iterations)
-    require_model(model)
-    node, axis, hinge_dof = _hinge(model)
+    require_system(model)
+    name, point, axis, body, node, dof = model._rotation_hinge()
     steps, tol, max_iterations, mdot, omega = _options(model, omega_guess, mass_flow, continuation_steps, tol,
                                                        max_iterations)
+    # (a state foreign to the system: its error here, before the continuation)
+    constrained = model._system(state).n_constraints > 0
 
     def solve_at(state, m, guess):
-        st, = state
-        out = _core.steady_rotation(model.system(st, mass_flow=m), m, np.zeros(3), axis, -1, node, hinge_dof, guess,
-                                    tol, max_iterations, DENSE_BELOW)
-        return out, (st,)
+        system = model._system(state, mass_flow=m)
+        out = _core.steady_rotation(system, m, point, axis, body, node, dof, guess, tol, max_iterations, DENSE_BELOW)
+        return out, model._state_of(system)
 
-    point, iterations, out = _flow_continuation(solve_at, (as_core(model, state),), omega, mdot, steps,
-                                                singular="singular Jacobian")
-    return SteadyRotation(point.omega, State.from_core(point.state[0], model), axis, node, iterations,
-                          float(out["residual"]))
+    singular = ("singular Jacobian" if not constrained else
+                f"singular bordered KKT matrix (hinge {name}: a mechanism the hinge does not turn, or a motion "
+                f"locked twice)")
+    end, iterations, out = _flow_continuation(solve_at, state, omega, mdot, steps, singular=singular)
+    return SteadyRotation(float(end.omega), axis=axis, hinge_node=node, iterations=iterations,
+                          residual=float(out["residual"]), point=point, hinge=name,
+                          **{"coupling_forces": np.zeros(0), **model._steady_rotation_parts(end.state)})
 
 
 def _flow_continuation(solve_at, state, omega, mdot, steps, *, singular):
     """steady_rotation's continuation in the mass flow from 0 to ``mdot`` in ``steps``
     scheduled steps (``_continuation.follow``, interval halving). ``solve_at(state, m,
     guess) -> (outcome dict, state)`` runs the core's Newton (one flow step) at the flow m
-    from ``state`` (a tuple of copyable parts) with omega starting at ``guess``: the last
+    from ``state`` (the system's user-level state, not changed) with omega starting at ``guess``: the last
     steady state's omega scaled with the flow (the first step: ``omega``, NaN for the rigid
     balance). A failed step, or one whose omega is off the path (:func:`_on_the_path`), is
     bisected. Returns (the last point, Newton iterations in all, its outcome); raises
@@ -246,16 +207,16 @@ def _on_the_path(omega, predicted):
 
 @dataclass
 class _Spin:
-    """A point of steady_rotation's continuation: the state (a tuple of parts: core
-    states, arrays), omega [rad/s] and the mass flow [kg/s] it holds at (omega: the guess
-    before the first)."""
+    """A point of steady_rotation's continuation: the system's user-level state (None: the
+    model's default start; not changed: each solve starts on a copy), omega [rad/s] and the
+    mass flow [kg/s] it holds at (omega: the guess before the first)."""
 
-    state: tuple
+    state: object
     omega: float
     mass_flow: float
 
     def copy(self):
-        return _Spin(tuple(x.copy() for x in self.state), self.omega, self.mass_flow)
+        return _Spin(self.state, self.omega, self.mass_flow)
 
 
 def _options(model, omega_guess, mass_flow, continuation_steps, tol, max_iterations):
@@ -273,98 +234,32 @@ def _options(model, omega_guess, mass_flow, continuation_steps, tol, max_iterati
     return steps, tol, max_iterations, mdot, omega
 
 
-def _system_hinge(system, coupled):
-    """The one hinge of a system with bodies: (name, point, axis, body or -1, element
-    coordinate or -1): a body joint of kind hinge to the ground, or (coupled) an element
-    node with fixed position and one free rotation. ValueError if none or several."""
-    bodies = system.bodies if coupled else system
+def hinge_of(name: str, *, bodies, model=None):
+    """The one hinge of a system with bodies (named ``name`` in the errors), for
+    :func:`steady_rotation`: (hinge name, point [m], unit axis, body or -1, -1, element
+    coordinate or -1): a joint of ``bodies`` (a :class:`~pipeflex.multibody.MultibodySystem`)
+    of kind hinge to the ground, or an element node of ``model`` (a coupled system's) with
+    fixed position and one free rotation. ValueError if none or several."""
     found = []
     for jt in bodies.joints:
         if jt.kind == "hinge" and jt.b is None:
             axis = np.asarray(jt.ref["A_ground"]) @ np.asarray(jt.ref["axis_b"])
-            found.append((jt.name, np.array(jt.ref["p_ground"], float), axis / np.linalg.norm(axis), int(jt.a[0]), -1))
-    if coupled:
-        positions = np.asarray(system.model.positions, float)
-        for node, axis, dof in _element_hinges(system.model):
-            found.append((f"element node {node}", positions[node].copy(), axis, -1, dof))
+            found.append((jt.name, np.array(jt.ref["p_ground"], float), axis / np.linalg.norm(axis), int(jt.a[0]),
+                          -1, -1))
+    if model is not None:
+        positions = np.asarray(model.positions, float)
+        for node, axis, dof in model._element_hinges():
+            found.append((f"element node {node}", positions[node].copy(), axis, -1, -1, dof))  # (the point)
     if not found:
         between = [jt.name for jt in bodies.joints if jt.kind == "hinge" and jt.b is not None]
         if between:
-            raise ValueError(f"steady_rotation needs a hinge to the ground; this {type(system).__name__}'s hinges "
+            raise ValueError(f"steady_rotation needs a hinge to the ground; this {name}'s hinges "
                              f"join two bodies ({', '.join(between)}): the standing body would carry the turning "
                              f"body's reactions, which turn with it, so there is no steady rotation in general "
                              f"(simulate it with pipeflex.simulate)")
     if len(found) != 1:
         where = "" if not found else ": " + ", ".join(f[0] for f in found)
-        raise ValueError(f"steady_rotation needs exactly one hinge (a body hinged to the ground"
-                         f"{', or an element node with fixed position and one free rotation' if coupled else ''}); "
-                         f"this {type(system).__name__} has {len(found)}{where}")
+        element = ", or an element node with fixed position and one free rotation" if model is not None else ""
+        raise ValueError(f"steady_rotation needs exactly one hinge (a body hinged to the ground{element}); "
+                         f"this {name} has {len(found)}{where}")
     return found[0]
-
-
-def _at_rest(r, R, eta, lam):
-    """A body state at rest (time 0) from its frames, modal amplitudes and multipliers."""
-    from ..multibody.system import MultibodyState
-    zero = np.zeros_like(eta)
-    return MultibodyState(r, R, eta, zero, zero, lam, 0.0)
-
-
-def _system_steady_rotation(system, coupled, *, omega_guess, mass_flow, state, continuation_steps, tol,
-                            max_iterations) -> SystemSteadyRotation:
-    """:func:`steady_rotation` of a MultibodySystem or a CoupledSystem."""
-    name, point, axis, body, dof = _system_hinge(system, coupled)
-    model = system.model if coupled else system
-    steps, tol, max_iterations, mdot, omega = _options(model, omega_guess, mass_flow, continuation_steps, tol,
-                                                       max_iterations)
-    bodies = system.bodies if coupled else system
-    if coupled:
-        from ..coupled import CoupledStatic
-        if state is None:
-            st, bs = as_core(model, None), bodies.initial_state()
-            lam_c = np.zeros(system.n_constraints - bodies.n_constraints)
-        elif isinstance(state, (CoupledStatic, SystemSteadyRotation)) and getattr(state, "state", None) is not None:
-            bs = state.body_state
-            st, lam_c = as_core(model, state.state), np.array(state.coupling_forces, float)
-        else:
-            raise TypeError(f"state of a CoupledSystem must be a CoupledStatic or a SystemSteadyRotation, "
-                            f"got {type(state).__name__}")
-        bodies.check_state(bs, "state.body_state")
-
-        def solve_at(state, m, guess):
-            st_k, r, R, eta, lam, lam_k = state
-            sys = system.system(st_k, _at_rest(r, R, eta, lam), lam_k, mass_flow=m)
-            out = _core.steady_rotation(sys, m, point, axis, body, -1, dof, guess, tol, max_iterations, DENSE_BELOW)
-            out["bodies"], out["coupling_multipliers"] = sys.body_state, sys.coupling_multipliers
-            r, R, eta, _, _, lam, _ = out["bodies"]
-            return out, (st_k, np.array(r), np.array(R), np.array(eta), np.array(lam),
-                         np.array(out["coupling_multipliers"], float))
-
-        start = (st, np.array(bs.r), np.array(bs.R), np.array(bs.eta), np.array(bs.lam), np.array(lam_c, float))
-    else:
-        if state is None:
-            bs = bodies.initial_state()
-        else:
-            bs = state.body_state if isinstance(state, SystemSteadyRotation) else state
-            bodies.check_state(bs)
-
-        def solve_at(state, m, guess):
-            r, R, eta, lam = state
-            sys = bodies.system(_at_rest(r, R, eta, lam))
-            out = _core.steady_rotation(sys, m, point, axis, body, -1, -1, guess, tol, max_iterations, DENSE_BELOW)
-            out["bodies"] = sys.body_state
-            r, R, eta, _, _, lam, _ = out["bodies"]
-            return out, (np.array(r), np.array(R), np.array(eta), np.array(lam))
-
-        start = (np.array(bs.r), np.array(bs.R), np.array(bs.eta), np.array(bs.lam))
-    point_, iterations, out = _flow_continuation(
-        solve_at, start, omega, mdot, steps,
-        singular=f"singular bordered KKT matrix (hinge {name}: a mechanism the hinge does not turn, or a motion "
-                 f"locked twice)")
-    if coupled:
-        st = point_.state[0]
-    r, R, eta, v, a, lam, _ = out["bodies"]
-    from ..multibody.system import MultibodyState
-    body_state = MultibodyState(np.array(r), np.array(R), np.array(eta), np.array(v), np.array(a), np.array(lam), 0.0)
-    forces = np.array(out["coupling_multipliers"], float) if coupled else np.zeros(0)
-    return SystemSteadyRotation(float(out["omega"]), State.from_core(st, model) if coupled else None, body_state,
-                                forces, axis, point, name, iterations, float(out["residual"]))

@@ -10,19 +10,18 @@ from __future__ import annotations
 import contextlib
 import json
 import time as _time
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Optional, Sequence, Tuple, Union
 
 import numpy as np
 
 from .. import _checks, _core, _progress
+from .._options import MAX_NEWTON, MAX_STEPS, NEWTON_TOL, RHO_INF, STEP
 from .._progress import logger
-from .._lazy import loaded_instance
 from ..results import COUNTERS, Result
 from ..rotation import rotation_exp, rotation_log
-from ..state import State, as_core
 from ..time_functions import Sine, time_function
-from ._assembly import require_model
+from ._protocol import require_system
 
 INTEGRATORS = ("auto", "ida", "generalized_alpha")
 _OPTIONS = {
@@ -40,8 +39,9 @@ STEPS_PER_SLOWEST_PERIOD = 400
 #: ... and at most this h |lambda_g| for the fastest growing eigenvalue lambda_g (flutter,
 #: divergence). Generalised-alpha's discrete rate is lambda (1 + O((h lambda)^2)): its
 #: relative error is (h |lambda|)^2 / 12 (the period error; 2.1e-4 at 0.05), while its
-#: numerical damping at rho_inf = 0.9 is a damping ratio of 9e-9 there (it acts on the
-#: unresolved modes, h |lambda| >> 1). A growing motion is followed over some 20-30
+#: numerical damping at rho_inf = 0.8 (the default) is a damping ratio of 8.6e-8 there
+#: (9e-9 at 0.9; it acts on the unresolved modes, h |lambda| >> 1). A growing motion is
+#: followed over some 20-30
 #: e-foldings before it turns nonlinear or diverges: by this estimate its amplitude errs
 #: by ~0.5 %; measured, 1.7 % (the 8-element cantilever at 1e6 kg/s over 25 e-foldings,
 #: against h/4; 5-7 % at 0.1, 17-23 % at 0.2).
@@ -222,9 +222,15 @@ def explained_singular_mass(model):
         raise ValueError(f"the mass matrix is singular: {hint}") from None
 
 
+#: The bodies' motion's accessors that a result of bodies alone also answers itself
+#: (``res.node_position(...)`` for ``res.bodies.node_position(...)``).
+_BODY_ACCESSORS = frozenset({"r", "eta", "v", "drift", "offsets", "n_constraints", "nodes_s", "bases", "n_coordinates",
+                             "state", "node_position", "angular_velocity", "node_angular_velocity"})
+
+
 @dataclass(frozen=True)
 class TransientResult(Result):
-    """Motion at the output times; arrays are numpy, SI units.
+    """Motion at the output times, of every formulation; arrays are numpy, SI units.
 
     Attributes:
         t: (nt,) output times [s].
@@ -234,31 +240,60 @@ class TransientResult(Result):
         fluid_work: (nt,) work done by the fluid forces on the structure since t[0] [J]
             (momentum flux in and out, Coriolis and centripetal forces).
         load_work: (nt,) work of the nodal loads [J].
+            (x ... load_work: the element model's, of an element model or a coupled
+            system; None for bodies alone.)
         final_state: the state at the end (to continue the run, or to start a periodic
-            orbit from a settled transient).
+            orbit from a settled transient): a :class:`~pipeflex.state.State`, a
+            :class:`~pipeflex.multibody.MultibodyState` or a
+            :class:`~pipeflex.coupled.CoupledState`, as the system's.
         stats: integrator statistics (steps, Newton iterations, Jacobians, re-basings,
             failed steps, wall time [s]).
         metadata: ``integrator`` (the one that ran), ``requested`` (e.g. ``"auto"``),
             ``step`` (the largest step [s] generalised-alpha took, None for IDA),
             ``requested_step`` (the step asked for or chosen, before it was fitted to
             the output spacing), options and model description.
+        bodies: the bodies' motion (a :class:`~pipeflex.multibody.MultibodyResult`:
+            frames, elastic coordinates, velocities, constraint drift, and its accessors
+            ``node_position``, ``state(k)``, ...) of a system with bodies, else None. A
+            result of bodies alone answers those accessors itself (``res.node_position``).
+        coupling_forces: (nt, rows) the couplings' multipliers [N, N m] of a coupled
+            system, else None.
     """
 
     t: np.ndarray
-    x: np.ndarray
-    R: np.ndarray
-    xd: np.ndarray
-    omega: np.ndarray
-    kinetic: np.ndarray
-    elastic: np.ndarray
-    gravity_potential: np.ndarray
-    fluid_work: np.ndarray
-    load_work: np.ndarray
+    x: Optional[np.ndarray] = None
+    R: Optional[np.ndarray] = None
+    xd: Optional[np.ndarray] = None
+    omega: Optional[np.ndarray] = None
+    kinetic: Optional[np.ndarray] = None
+    elastic: Optional[np.ndarray] = None
+    gravity_potential: Optional[np.ndarray] = None
+    fluid_work: Optional[np.ndarray] = None
+    load_work: Optional[np.ndarray] = None
     stats: dict = field(default_factory=dict)
     metadata: dict = field(default_factory=dict)
-    final_state: Optional[State] = None
+    final_state: Optional[object] = None
+    bodies: Optional[Result] = None
+    coupling_forces: Optional[np.ndarray] = None
 
     _ARRAYS = ("t", "x", "R", "xd", "omega", "kinetic", "elastic", "gravity_potential", "fluid_work", "load_work")
+
+    def __getattr__(self, name):
+        # only for names not found otherwise: a result of bodies alone answers its bodies' accessors
+        fields = self.__dict__
+        if name in _BODY_ACCESSORS and fields.get("bodies") is not None and fields.get("x") is None:
+            return getattr(fields["bodies"], name)
+        raise AttributeError(f"{type(self).__name__!r} object has no attribute {name!r}")
+
+    @property
+    def elements(self) -> Optional["TransientResult"]:
+        """The element part: the result itself for an element model's run; a coupled run's
+        element motion with the element model's ``final_state`` (a
+        :class:`~pipeflex.state.State`); None for bodies alone."""
+        if self.x is None or self.bodies is None:
+            return self if self.x is not None else None
+        end = self.final_state
+        return replace(self, bodies=None, coupling_forces=None, final_state=None if end is None else end.state)
 
     @property
     def energy(self) -> np.ndarray:
@@ -286,6 +321,9 @@ class TransientResult(Result):
         integrator and its step [s] (None for IDA: left out). xarray loads here."""
         from ..results import field_info, node_coords, to_dataset
 
+        if self.x is None:
+            raise ValueError("to_xarray() holds the element nodes' motion; a run of bodies alone has none (its "
+                             "bodies' motion: result.bodies)")
         coords = {"time": ("time", self.t, field_info("TransientResult", "t")[0]), **node_coords(self.x.shape[1])}
         attrs = {k: self.metadata[k] for k in ("integrator", "requested", "step")
                  if isinstance(self.metadata.get(k), (str, int, float))}
@@ -306,11 +344,11 @@ def simulate(model, t_end: float, *, integrator: str = "auto", state=None, t_sta
     """Integrate the equations of motion from ``state`` over [t_start, t_end].
 
     Args:
-        model: the model; a :class:`~pipeflex.CoupledSystem` (elements and floating-frame
-            bodies) goes to :func:`pipeflex.coupled.simulate` and a
-            :class:`~pipeflex.multibody.MultibodySystem` to
-            :func:`pipeflex.multibody.simulate` (both generalised-alpha, the same integrator;
-            ``step`` defaults to 1 ms there).
+        model: an element :class:`~pipeflex.Model`, a
+            :class:`~pipeflex.multibody.MultibodySystem` or a :class:`~pipeflex.CoupledSystem`
+            (elements and floating-frame bodies): the same driver and options for each;
+            bodies and joints make the equations differential-algebraic of index 3, which
+            generalised-alpha integrates (not IDA), with ``rho_inf`` < 1.
         t_end: final time [s] (> t_start).
         integrator: ``"auto"`` (default), ``"generalized_alpha"`` (second order, numerical
             damping set by ``rho_inf``; fixed step, halved when Newton fails) or ``"ida"``
@@ -325,7 +363,7 @@ def simulate(model, t_end: float, *, integrator: str = "auto", state=None, t_sta
             ``h |lambda_g| = 0.05`` for the fastest eigenvalue lambda_g that grows by a
             factor e or more over the run (flutter or divergence; generalised-alpha's rate
             error is ``(h |lambda|)^2 / 12``, 2.1e-4 there, and its numerical damping at
-            ``rho_inf = 0.9`` negligible), shortened to divide the output spacing (e.g.
+            ``rho_inf = 0.8`` negligible), shortened to divide the output spacing (e.g.
             1.67 ms for the sprinkler with EI = 100 N m^2 over 1 s, from the slow motion;
             5.8 ns for the 8-element cantilever at 1e6 kg/s, 40,000 times its critical
             flow, whose flutter grows at 8.6e6 1/s).
@@ -337,8 +375,10 @@ def simulate(model, t_end: float, *, integrator: str = "auto", state=None, t_sta
             and ``metadata["step"]`` is the largest step taken (``["requested_step"]``
             the h asked for); steps halved after a failed Newton iteration are counted
             in ``stats["failed_steps"]``.
-        state: initial state (a :class:`~pipeflex.state.State` or ``_core.State``;
-            default: the reference configuration at rest); not modified.
+        state: initial state (an element model's :class:`~pipeflex.state.State` or
+            ``_core.State``; bodies' :class:`~pipeflex.multibody.MultibodyState`; a coupled
+            system's :class:`~pipeflex.coupled.CoupledState` or a static result; default:
+            the reference configuration at rest); not modified.
         t_start: initial time [s].
         n_outputs: number of equally spaced output times (ignored if ``times`` is given).
         times: output times [s], increasing, from t_start to t_end.
@@ -355,13 +395,13 @@ def simulate(model, t_end: float, *, integrator: str = "auto", state=None, t_sta
         **options: for ``ida``: ``rtol`` (1e-6), ``atol`` (1e-8), ``rebase_angle`` [rad]
             (1.0), ``max_steps``; for ``generalized_alpha``: ``step`` [s] (1e-3 with
             ``integrator="generalized_alpha"``, :func:`default_step` with ``"auto"``),
-            ``rho_inf`` [-] (0.9, in [0, 1]: damps the unresolved high modes a step
-            start of the flow excites, while 1, no damping, is allowed: the supports are
-            eliminated, there are no constraint multipliers; the index-3 multibody
-            integrator, :func:`pipeflex.multibody.simulate`, defaults to 0.8 and needs
-            < 1), ``newton_tol`` [-] (1e-10, on the position correction relative to the
+            ``rho_inf`` [-] (0.8, in [0, 1]: damps the unresolved high modes a step
+            start of the flow excites; 1, no damping, is allowed for an element model,
+            whose supports are eliminated, while joints' multipliers need < 1),
+            ``newton_tol`` [-] (1e-10, on the position correction relative to the
             model size), ``max_newton`` (12, Newton iterations per step), ``min_step`` [s],
-            ``max_steps``; the same names as :func:`pipeflex.multibody.simulate`'s. Both: ``divergence_limit`` (1e3): a node
+            ``max_steps`` (10^7); one default each for every formulation
+            (:mod:`pipeflex._options` says why). Both: ``divergence_limit`` (1e3): a node
             farther than this many model sizes from its reference position stops the run
             with :class:`~pipeflex.ConvergenceError`; ``work`` (True): integrate the work of the
             fluid forces and loads at every step (two extra residual evaluations per
@@ -382,40 +422,16 @@ def simulate(model, t_end: float, *, integrator: str = "auto", state=None, t_sta
         ConvergenceError: a failed step or a diverging motion; ``time`` [s] (and for
             generalised-alpha ``iteration`` and ``residual``) say where.
     """
-    if extrapolate:
-        if loaded_instance(model, "pipeflex.multibody.system", "MultibodySystem") or hasattr(model, "_simulate"):
-            raise ValueError("extrapolate=True is for element models (pipeflex.Model) only")
-        if choose_integrator(integrator, options) != "generalized_alpha":
-            raise ValueError("extrapolate=True needs generalised-alpha (its fixed step; IDA controls its own error)")
-    if integrator == "ida" and (loaded_instance(model, "pipeflex.multibody.system", "MultibodySystem")
-                                or hasattr(model, "_simulate")):
-        raise ValueError("integrator='ida' integrates an element model's ODE; joints make the equations "
-                         "differential-algebraic of index 3, which IDA does not take: use "
-                         "integrator='generalized_alpha'")
-    if loaded_instance(model, "pipeflex.multibody.system", "MultibodySystem"):
-        from ..multibody import simulate as multibody_simulate
-
-        if integrator not in ("auto", "generalized_alpha") or times is not None or t_start != 0.0 \
-                or not (np.isscalar(load_factor) and load_factor == 1.0):
-            raise ValueError("a MultibodySystem is integrated by generalised-alpha from its state's time, with "
-                             "n_outputs equal output times and its own loads (pipeflex.multibody.simulate)")
-        return multibody_simulate(model, t_end, state=state, mass_flow=mass_flow, n_outputs=n_outputs,
-                                  **{"step": 1e-3, **options})
-    own = getattr(model, "_simulate", None)  # a system with its own driver (pipeflex.CoupledSystem)
-    if own is not None:
-        return own(t_end, integrator=integrator, state=state, t_start=t_start, n_outputs=n_outputs, times=times,
-                   mass_flow=mass_flow, load_factor=load_factor, progress=progress, **options)
-    require_model(model)
-    hub = getattr(model, "hub", None)
-    if hub is not None and hub.nodes and hub.nodes[0] in model.ancf_nodes and np.any(model.gravity[:2] != 0):
-        raise ValueError("gravity in the x-y plane: an ANCF model on a hub is integrated in the co-rotating frame, "
-                         "where in-plane gravity would have to turn; keep gravity along the hub axis (z)")
+    require_system(model)
     requested = integrator
     integrator = choose_integrator(integrator, options)
     unknown = set(options) - _OPTIONS[integrator]
     if unknown:
         raise ValueError(f"unknown option(s) {sorted(unknown)} for integrator {integrator!r}; "
                          f"valid: {sorted(_OPTIONS[integrator])}")
+    if extrapolate and integrator != "generalized_alpha":
+        raise ValueError("extrapolate=True needs generalised-alpha (its fixed step; IDA controls its own error)")
+    model._check_transient()
     t0 = _checks.finite("t_start", t_start)
     t1 = _checks.finite("t_end", t_end)
     if t1 <= t0:
@@ -428,13 +444,26 @@ def simulate(model, t_end: float, *, integrator: str = "auto", state=None, t_sta
             raise ValueError("times must be a finite, strictly increasing sequence of at least 2 values [s]")
         if abs(times[0] - t0) > 0 or times[-1] > t1 + 1e-12 * max(1.0, abs(t1)):
             raise ValueError("times must start at t_start and end at or before t_end")
+    system = model._system(state)
+    bodies = system.body_state is not None
+    if bodies and integrator == "ida":
+        raise ValueError("integrator='ida' integrates an element model's ODE; joints make the equations "
+                         "differential-algebraic of index 3, which IDA does not take: use "
+                         "integrator='generalized_alpha'")
+    if bodies and extrapolate:
+        raise ValueError("extrapolate=True is for element models (pipeflex.Model) only")
     opt = _core.TransientOptions()
+    # one default per option for every formulation (pipeflex._options says why)
+    opt.rho_inf, opt.newton_tol, opt.max_newton = RHO_INF, NEWTON_TOL, MAX_NEWTON
+    opt.step, opt.max_steps = STEP, MAX_STEPS
     for name in ("rtol", "atol", "step", "min_step", "newton_tol", "divergence_limit"):
         if name in options:
             setattr(opt, name, _checks.positive(name, options[name]))
     if "rho_inf" in options:
         rho = _checks.finite("rho_inf", options["rho_inf"])
-        if not 0.0 <= rho <= 1.0:
+        if system.n_constraints:
+            rho = _checks.rho_inf_with_multipliers(rho)
+        elif not 0.0 <= rho <= 1.0:
             raise ValueError(f"rho_inf must be in [0, 1], got {rho}")
         opt.rho_inf = rho
     if "rebase_angle" in options:
@@ -452,12 +481,12 @@ def simulate(model, t_end: float, *, integrator: str = "auto", state=None, t_sta
             setattr(opt, name, _checks.positive_int(name, options[name]))
     if "work" in options:
         opt.work = bool(options["work"])
-    st = as_core(model, state)
     flow = time_function("mass_flow", model.mass_flow if mass_flow is None else mass_flow)
     loads = time_function("load_factor", load_factor)
     if requested == "auto" and integrator == "generalized_alpha" and "step" not in options:
         peak = float(np.asarray(flow.value)[np.argmax(np.abs(flow.value))])
-        opt.step = default_step(model, times, state, mass_flow=peak)
+        # about the run's start itself (bodies: no static solve, which a free hinge would refuse)
+        opt.step = default_step(model, times, model._state_of(system), mass_flow=peak)
     if integrator == "generalized_alpha" and opt.step > (t1 - t0):
         opt.step = t1 - t0
     if extrapolate:
@@ -471,13 +500,13 @@ def simulate(model, t_end: float, *, integrator: str = "auto", state=None, t_sta
         return richardson(*(simulate(model, t_end, **run, **{**options, "step": step}) for step in (h, 0.5 * h)))
 
     step = _step_used(float(opt.step), times) if integrator == "generalized_alpha" else None
-    logger.info("simulate: %s from t = %.6g to %.6g s, %d outputs, %s nodes%s", integrator, t0, t1, len(times),
-                model.n_nodes, "" if step is None else f", step {step:.6g} s")
+    logger.info("simulate: %s from t = %.6g to %.6g s, %d outputs, %d coordinates%s", integrator, t0, t1, len(times),
+                system.n_coordinates, "" if step is None else f", step {step:.6g} s")
     bar = _progress.Progress(progress, t1 - t0, desc=f"simulate ({integrator})", unit="s", leave=False)
     wall = _time.perf_counter()
     try:
         with bar, explained_singular_mass(model):
-            out = _core.integrate(model.system(st), flow, loads, list(times), opt,
+            out = _core.integrate(system, flow, loads, list(times), opt,
                                   None if bar.mode == "off" else (lambda t: bar.update(t - t0)), integrator)
             bar.update(t1 - t0)  # the core reports at most every 0.1 s, not the end
     except Exception as exc:
@@ -488,15 +517,16 @@ def simulate(model, t_end: float, *, integrator: str = "auto", state=None, t_sta
     stats["wall_time"] = wall
     logger.info("simulate: %s done in %.3g s: %d steps (%d failed), %d Newton iterations", integrator, wall,
                 stats["steps"], stats["failed_steps"], stats["newton_iterations"])
-    if not opt.work:
-        out["fluid_work"][:] = np.nan
-        out["load_work"][:] = np.nan
+    if not opt.work:  # the works were not integrated (an element part's; bodies record none)
+        for name in ("fluid_work", "load_work"):
+            if name in out:
+                out[name][:] = np.nan
     meta = {"integrator": integrator, "requested": requested,
-            "step": step, "requested_step": float(opt.step) if step is not None else None, "options": {k: float(v) for k, v in options.items()},
-            "t_start": t0, "t_end": t1, "n_nodes": model.n_nodes, "n_dofs": model.n_dofs,
+            "step": step, "requested_step": float(opt.step) if step is not None else None,
+            "options": {k: float(v) for k, v in options.items()}, "t_start": t0, "t_end": t1,
             "mass_flow": [list(flow.t), list(flow.value), flow.omega, flow.phase],
             "load_factor": [list(loads.t), list(loads.value), loads.omega, loads.phase]}
-    return TransientResult(**out, stats=stats, metadata=meta, final_state=State.from_core(st, model))
+    return TransientResult(**model._transient_parts(out, system, stats, meta), stats=stats, metadata=meta)
 
 
 #: Largest rotation [rad] between the two runs' node frames that :func:`richardson` combines:
@@ -521,6 +551,8 @@ def richardson(coarse: TransientResult, fine: TransientResult, *, order: int = 2
     """
     from ..errors import ConvergenceError
 
+    if any(r.x is None or r.bodies is not None for r in (coarse, fine)):
+        raise ValueError("richardson: both runs must be element models' runs (bodies are not extrapolated)")
     steps = [r.metadata.get("step") for r in (coarse, fine)]
     if any(r.metadata.get("integrator") != "generalized_alpha" for r in (coarse, fine)) or None in steps:
         raise ValueError("richardson: both runs must be generalised-alpha runs")

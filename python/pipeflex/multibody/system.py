@@ -13,7 +13,7 @@ model's mass flow mdot [kg/s]). Coordinates are stacked body after body.
 from __future__ import annotations
 
 import copy
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 from typing import List, Optional, Sequence, Tuple, Union
 
 import numpy as np
@@ -21,7 +21,7 @@ import numpy as np
 from .. import _checks, _core
 from ..results import Result
 from ..time_functions import Sine, time_function
-from .body import FlexibleBody
+from .body import FlexibleBody, node_index
 from ..rotation import rotation_exp
 from .joints import JOINT_KINDS, JOINT_ROWS, Joint
 
@@ -455,6 +455,73 @@ class MultibodySystem:
         st = self.initial_state() if state is None else state
         return _core.body_system(self._core, st.r, st.R, st.eta, st.v, st.a, st.lam, st.t)
 
+    # The protocol of the analyses (pipeflex.analysis: one driver for every formulation; the
+    # same methods on pipeflex.Model and pipeflex.CoupledSystem).
+
+    def _system(self, state: Optional[MultibodyState] = None, *, mass_flow: Optional[float] = None) -> "_core.System":
+        """The core system on a copy of ``state`` (a :class:`MultibodyState`, or a result
+        holding one in ``body_state``, e.g. a steady rotation; checked; None: the assembly
+        configuration at rest); ``mass_flow`` mdot [kg/s] is the analyses' argument (the
+        bodies' system holds no flow)."""
+        if state is not None and not isinstance(state, MultibodyState) and hasattr(state, "body_state"):
+            state = state.body_state
+        if state is not None:
+            self.check_state(state)
+        return self.system(state)
+
+    def _state_of(self, system) -> MultibodyState:
+        """The end state of an analysis run on ``system`` (from :meth:`_system`)."""
+        r, R, eta, v, a, lam, t = system.body_state
+        return MultibodyState(np.array(r), np.array(R), np.array(eta), np.array(v), np.array(a), np.array(lam),
+                              float(t))
+
+    #: :func:`~pipeflex.linearize` without a state: about the static equilibrium (its
+    #: multipliers balance its forces; others give a wrong K).
+    _linearize_at_equilibrium = True
+
+    def _linearization(self, system, mass_flow: float) -> dict:
+        """:func:`~pipeflex.linearize`'s fields for ``system`` at mdot [kg/s] ``mass_flow``:
+        the core's linear matrices reduced to the joints' null space."""
+        from ..analysis.linearize import constrained_fields
+
+        return constrained_fields(_core.linear_matrices(system, mass_flow), mass_flow, self._state_of(system))
+
+    def _equilibrium_state(self, result):
+        """The state a static result holds (what :meth:`_system` takes): its ``state``."""
+        return result.state
+
+    def _zero_flow_growth_hint(self) -> str:
+        """Why a mode may grow from the first flow on, for :func:`~pipeflex.critical_mass_flow`'s
+        error: ''."""
+        return ""
+
+    def _rotation_hinge(self):
+        """:func:`~pipeflex.steady_rotation`'s hinge: (name, point [m], axis, body, -1, -1) of
+        the one body hinged to the ground."""
+        from ..analysis.steady import hinge_of
+
+        return hinge_of(type(self).__name__, bodies=self)
+
+    def _steady_rotation_parts(self, state: MultibodyState) -> dict:
+        """:class:`~pipeflex.SteadyRotation`'s fields of the end ``state`` (from
+        :meth:`_state_of`): no element state, the bodies' state."""
+        return dict(state=None, body_state=state)
+
+    def _check_transient(self) -> None:
+        """Nothing: :func:`~pipeflex.simulate` integrates every system of bodies."""
+
+    def _transient_parts(self, out: dict, system, stats: dict, metadata: dict) -> dict:
+        """:class:`~pipeflex.TransientResult`'s fields from the core's record ``out`` of a run
+        on ``system``: the bodies' motion in ``bodies`` (its accessors also on the result)
+        and the end state; ``stats`` get the step (the bodies' results have said it there)."""
+        stats["step"] = metadata["step"]
+        return dict(t=out["t"], final_state=self._state_of(system), bodies=body_motion(self, out, stats))
+
+    @property
+    def n_nodes(self) -> int:
+        """Nodes of all bodies."""
+        return sum(b.n_nodes for b in self.bodies)
+
     def evaluate(self, state: MultibodyState, *, mass_flow: float, mass_flow_rate: float = 0.0,
                  load_factor: float = 1.0, gravity_factor: float = 1.0, wK: float = 1.0, wC: float = 0.0,
                  wM: float = 0.0, tangent: bool = True, jacobian: bool = True):
@@ -534,3 +601,82 @@ def _full_row_rank(J) -> bool:
     except RuntimeError:  # exactly singular
         return False
     return bool(pivots.min() > 1e-12 * pivots.max())
+
+
+@dataclass(frozen=True)
+class MultibodyResult(Result):
+    """A multibody transient, with the layout of the system's coordinates that its
+    methods need.
+
+    Attributes:
+        t: (n_out,) output times [s]; r: (n_out, n_bodies, 3) frame origins [m], R:
+        (n_out, n_bodies, 3, 3) frame rotations [-]; eta: (n_out, N) elastic coordinates
+        (frame entries zero); v: (n_out, N) velocities [m/s, rad/s, ...]; drift: (n_out,)
+        ``max abs(C_q v)`` [m/s] (velocity-level constraint drift; positions are
+        enforced); offsets: (n_bodies + 1,) first coordinate of each body (as
+        :attr:`MultibodySystem.offsets`); n_constraints: number of constraint equations;
+        nodes_s: per body, its node coordinates s [m]; bases: per body, its reduction
+        basis Phi (6 n_nodes x m) [-]; stats: the integrator's counters
+        (:data:`pipeflex.results.COUNTERS`: steps, newton_iterations, jacobians, ...),
+        wall_time [s], step (the step used [s]: the interval divided into whole steps).
+    """
+
+    t: np.ndarray
+    r: np.ndarray
+    R: np.ndarray
+    eta: np.ndarray
+    v: np.ndarray
+    drift: np.ndarray
+    offsets: np.ndarray
+    n_constraints: int
+    nodes_s: Tuple[np.ndarray, ...]
+    bases: Tuple[np.ndarray, ...]
+    stats: dict = field(default_factory=dict)
+
+    @property
+    def n_coordinates(self) -> int:
+        """N = sum(6 + m_j) stacked coordinates."""
+        return int(self.offsets[-1])
+
+    def _body(self, body) -> int:
+        j = _checks.non_negative_int("body", body)
+        if j >= len(self.nodes_s):
+            raise ValueError(f"body must be in [0, {len(self.nodes_s)}), got {body!r}")
+        return j
+
+    def state(self, k: int) -> MultibodyState:
+        """The k-th output as a state (accelerations and multipliers not kept: zero)."""
+        return MultibodyState(self.r[k].copy(), self.R[k].copy(), self.eta[k].copy(), self.v[k].copy(),
+                              np.zeros_like(self.v[k]), np.zeros(self.n_constraints), float(self.t[k]))
+
+    def node_position(self, body: int, node) -> np.ndarray:
+        """(n_out, 3) global position [m] of a node (index or "start"/"center"/"end"):
+        r + R (x + Phi_u eta)."""
+        j = self._body(body)
+        i = node_index(len(self.nodes_s[j]) - 1, node)
+        o, e = int(self.offsets[j]), int(self.offsets[j + 1])
+        x = np.array([self.nodes_s[j][i], 0.0, 0.0]) + self.eta[:, o + 6:e] @ self.bases[j][6 * i:6 * i + 3].T
+        return self.r[:, j] + np.einsum("kij,kj->ki", self.R[:, j], x)
+
+    def angular_velocity(self, body: int) -> np.ndarray:
+        """(n_out, 3) global angular velocity [rad/s] of a body's frame."""
+        o = int(self.offsets[self._body(body)])
+        return self.v[:, o + 3:o + 6]
+
+    def node_angular_velocity(self, body: int, node) -> np.ndarray:
+        """(n_out, 3) global angular velocity [rad/s] of a node: omega + R Phi_theta eta_dot
+        (small nodal rotations)."""
+        j = self._body(body)
+        i = node_index(len(self.nodes_s[j]) - 1, node)
+        Pt = self.bases[j][6 * i + 3:6 * i + 6]
+        ed = self.v[:, int(self.offsets[j]) + 6:int(self.offsets[j + 1])]
+        return self.angular_velocity(j) + np.einsum("kij,kj->ki", self.R[:, j], ed @ Pt.T)
+
+
+def body_motion(system: MultibodySystem, out: dict, stats: dict, prefix: str = "") -> MultibodyResult:
+    """The bodies' motion in the core's record ``out`` of a run (their entries named with
+    ``prefix``: "body_" in a coupled run), with the layout of ``system``'s coordinates."""
+    return MultibodyResult(out["t"].copy(), out[prefix + "r"], out[prefix + "R"], out[prefix + "eta"],
+                           out[prefix + "v"], out[prefix + "drift"], np.array(system.offsets), system.n_constraints,
+                           tuple(np.array(b.nodes_s) for b in system.bodies),
+                           tuple(np.array(b.basis) for b in system.bodies), stats)
