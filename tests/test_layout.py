@@ -84,7 +84,7 @@ def test_the_graph_sees_imports():
     graph = _graph()
     assert "pipeflex.seeds.seed000.scenes" in graph["pipeflex.scenes"]
     assert "pipeflex.model" in graph["pipeflex.seeds.seed000.scenes"]
-    assert "pipeflex.multibody" in graph["pipeflex.analysis.static"]  # an import inside a function
+    assert "pipeflex.analysis.arclength" in graph["pipeflex.analysis.static"]  # an import inside a function
 
 
 def test_library_imports_nothing_from_the_seeds():
