@@ -60,6 +60,10 @@ def run_arclength(kind):
     pf.static_equilibrium(cantilever(kind), mass_flow=1.0, path="arclength")
 
 
+def run_flow_continuation(kind):
+    pf.static_equilibrium(cantilever(kind), mass_flow=1.0, from_mass_flow=0.0, load_steps=2)
+
+
 def run_linearize(kind):
     pf.linearize(cantilever(kind), mass_flow=1.0)
 
@@ -113,6 +117,7 @@ def run_rotating_frequencies(kind):
 ANALYSES = {
     "static_equilibrium (load steps)": run_static,
     "static_equilibrium (arc-length)": run_arclength,
+    "static_equilibrium (flow continuation)": run_flow_continuation,
     "linearize": run_linearize,
     "eigenvalues, stability": run_stability,
     "critical_mass_flow": run_critical,

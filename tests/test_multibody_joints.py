@@ -227,7 +227,7 @@ def test_failed_load_step_is_halved():
     b.add_load(j, "end", force=(0.0, 40.0, 0.0))
     s = b.build()
     with pytest.raises(pf.ConvergenceError, match="did not converge at load factor 1 "):
-        static_equilibrium(s, max_iterations=3, max_bisections=0)
+        static_equilibrium(s, max_iterations=3, max_bisections=0, path="load")
     halved = static_equilibrium(s, max_iterations=3)
     whole = static_equilibrium(s)
     np.testing.assert_allclose(s.node_position(halved.state, j, "end"), s.node_position(whole.state, j, "end"),

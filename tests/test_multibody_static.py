@@ -136,7 +136,7 @@ def test_one_max_iterations_default_passed_through():
     s = _one_body("fix", (0.0, 40.0, 0.0))  # 4 iterations from the assembly
     for solve in (static_equilibrium, pf.static_equilibrium):
         with pytest.raises(pf.ConvergenceError, match="after 2 iterations"):
-            solve(s, max_iterations=2, max_bisections=0)
+            solve(s, max_iterations=2, max_bisections=0, path="load")
         assert solve(s, max_iterations=4, max_bisections=0).iterations == 4
 
 

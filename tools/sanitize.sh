@@ -77,7 +77,8 @@ run() {
 # _core.flow_map (test_periodic), ANCF (test_ancf, test_rotating),
 # steady rotation (test_sprinkler), FFRF bodies and the multibody integrator and statics
 # (test_ffrf_*, test_multibody_*), the element interface's spring (test_element_interface),
-# the system object's entry points (test_system), and the property tests (hypothesis); then a short
+# the system object's entry points (test_system), the static driver's arc-length and flow
+# continuation on every system (test_static_any_system), and the property tests (hypothesis); then a short
 # fuzz run. About a fifth of the fast suite's tests, 4 min under the sanitizers
 # (the whole suite took 24 min). test_sanitized_entry_points reaches what the others do
 # not (the coupled linearisation, the coupled and the bodies' steady rotation, the
@@ -92,6 +93,7 @@ SUBSET=(
   tests/test_ffrf_scenes.py tests/test_multibody_joints.py tests/test_multibody_input.py
   tests/test_properties.py tests/test_coupled.py tests/test_sanitized_entry_points.py
   tests/test_element_interface.py tests/test_system.py tests/test_linear_csc.py
+  tests/test_static_any_system.py
 )
 
 case "${1:-test}" in

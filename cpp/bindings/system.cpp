@@ -120,6 +120,9 @@ void bind_system(py::module_& m) {
         .def_property_readonly("n_coordinates", &System::n_coordinates)
         .def_property_readonly("n_constraints", &System::n_constraints)
         .def_property_readonly("length_scale", &System::length_scale, "The model's size [m] (Newton's tests).")
+        .def_property_readonly("length_coordinates", &System::length_coordinates,
+                               "Per coordinate: 1 if it is a length [m] (positions, elastic amplitudes), else 0 "
+                               "(rotations, slopes): the arc-length metric's weights.")
         .def_property_readonly(
             "body_state",
             [](System& s) -> py::object {
@@ -127,6 +130,13 @@ void bind_system(py::module_& m) {
                 return b == nullptr ? py::object(py::none()) : py::object(from_state(*b));
             },
             "The bodies' state (r, R, eta, v, a, lam, t), None without bodies.")
+        .def_property_readonly(
+            "element_state",
+            [](System& s) -> py::object {
+                const State* e = s.element_state();
+                return e == nullptr ? py::object(py::none()) : py::cast(State(*e));
+            },
+            "A copy of the element model's state, None without elements.")
         .def_property_readonly(
             "coupling_multipliers",
             [](System& s) -> py::object {
@@ -189,6 +199,58 @@ void bind_system(py::module_& m) {
         "residual [N], correction.",
         py::arg("system"), py::arg("mass_flow"), py::arg("load_factor"), py::arg("tol"), py::arg("max_iterations"),
         py::arg("force_scale") = 0.0, py::arg("inertia") = false, py::arg("mechanism") = false);
+    m.def(
+        "static_arc_newton",
+        [](System& sys, const std::tuple<double, double, double, double>& path, const Eigen::VectorXd& w2, double psi2,
+           double ds, double tau, Eigen::VectorXd dq, double dtau, double tol, int max_iterations,
+           double force_scale, bool predict) {
+            StaticNewtonOptions opt;
+            opt.tol = tol;
+            opt.max_iterations = max_iterations;
+            opt.force_scale = force_scale;
+            const ArcPath p{std::get<0>(path), std::get<1>(path), std::get<2>(path), std::get<3>(path)};
+            StaticNewtonResult res;
+            {
+                py::gil_scoped_release release;
+                res = static_arc_newton(sys, p, w2, psi2, ds, tau, dq, dtau, opt, TransientOptions(), predict);
+            }
+            py::dict d = static_dict(res);
+            d["t"] = tau;
+            d["dq"] = dq;
+            d["dt"] = dtau;
+            return d;
+        },
+        "One arc-length step's Newton corrector on the system (the core's static_newton with the spherical "
+        "constraint as border): from the system's state (the step's start) moved by the predictor dq, the end state "
+        "left in the system; path (m0, m1, l0, l1) gives mdot = m0 + m1 t [kg/s] and the load factor l0 + l1 t; "
+        "the constraint |W dq|^2 + psi2 dt^2 = ds^2 (w2 = W^2) on the increment (dq, dt) from the step's start, t "
+        "the predicted path parameter; tol on the correction / length_scale or the residual / force_scale [N] "
+        "(> 0); predict false: the system's state is the predictor's already (dq the increment to it). "
+        "static_newton's dict with t, dq, dt updated.",
+        py::arg("system"), py::arg("path"), py::arg("w2"), py::arg("psi2"), py::arg("ds"), py::arg("t"), py::arg("dq"),
+        py::arg("dt"), py::arg("tol"), py::arg("max_iterations"), py::arg("force_scale") = 0.0,
+        py::arg("predict") = true);
+    m.def(
+        "static_arc_tangent",
+        [](System& sys, const std::tuple<double, double, double, double>& path, double tau, const Eigen::VectorXd& w2,
+           double psi2, const Eigen::VectorXd& previous_dq, double previous_dt) -> py::object {
+            const ArcPath p{std::get<0>(path), std::get<1>(path), std::get<2>(path), std::get<3>(path)};
+            Eigen::VectorXd v;
+            double s = 0.0;
+            bool ok;
+            {
+                py::gil_scoped_release release;
+                ok = static_arc_tangent(sys, p, tau, w2, psi2, previous_dq, previous_dt, v, s, TransientOptions());
+            }
+            if (!ok) return py::none();
+            return py::make_tuple(v, s);
+        },
+        "The unit tangent (dq/ds, dt/ds) of the equilibrium path at the system's state at path parameter t (path as "
+        "static_arc_newton's), |W dq/ds|^2 + psi2 (dt/ds)^2 = 1, oriented along the previous tangent (previous_dq, "
+        "previous_dt); dR/dt by central differences of step 1/2 (exact: R is quadratic in t). None if the "
+        "bordered matrix is singular.",
+        py::arg("system"), py::arg("path"), py::arg("t"), py::arg("w2"), py::arg("psi2"), py::arg("previous_dq"),
+        py::arg("previous_dt"));
     m.def(
         "linear_matrices",
         [](System& sys, double mass_flow, double differences_step) {

@@ -62,35 +62,6 @@ void bind_transient(py::module_& m) {
         .def_readwrite("divergence_limit", &TransientOptions::divergence_limit)
         .def_readwrite("work", &TransientOptions::work);
     m.def(
-        "static_arc_newton",
-        [](const Model& md, State& s, const LoadState& load, const std::tuple<double, double, double, double>& path,
-           const Eigen::VectorXd& w2, double psi2, double ds, double tau, Eigen::VectorXd dq, double dtau,
-           double tol, double length_scale, double force_scale, int max_iterations) {
-            StaticNewtonOptions opt;
-            opt.tol = tol;
-            opt.max_iterations = max_iterations;
-            opt.force_scale = force_scale;
-            element_static_policy(opt);
-            StaticNewtonResult res;
-            {
-                py::gil_scoped_release release;
-                res = element_arc_static(md, s, load, length_scale, opt, std::get<0>(path), std::get<1>(path),
-                                         std::get<2>(path), std::get<3>(path), w2, psi2, ds, tau, dq, dtau);
-            }
-            py::dict d = static_dict(res);
-            d["t"] = tau;
-            d["dq"] = dq;
-            d["dt"] = dtau;
-            return d;
-        },
-        "One arc-length step's Newton corrector (the core's static_newton with the spherical constraint as "
-        "border) from the state (updated in place): path (m0, m1, l0, l1) gives mdot = m0 + m1 t [kg/s] and the "
-        "load factor l0 + l1 t; the constraint |W dq|^2 + psi2 dt^2 = ds^2 (w2 = W^2) on the increment (dq, dt) "
-        "from the step's start, t the current path parameter. static_newton's dict with t, dq, dt updated.",
-        py::arg("model"), py::arg("state"), py::arg("load"), py::arg("path"), py::arg("w2"), py::arg("psi2"),
-        py::arg("ds"), py::arg("t"), py::arg("dq"), py::arg("dt"), py::arg("tol"), py::arg("length_scale"),
-        py::arg("force_scale"), py::arg("max_iterations"));
-    m.def(
         "rotating_state",
         [](const Model& md, const Model& free, State& s, const LoadState& load, const std::array<double, 3>& centre,
            const std::array<double, 3>& axis, double omega, double length_scale, double tol, int max_iterations,

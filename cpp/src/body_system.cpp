@@ -86,6 +86,7 @@ class BodySystem final : public System {
     }
     int n_coordinates() const override { return sys_.n_coordinates(); }
     int n_constraints() const override { return sys_.n_constraints(); }
+    Eigen::VectorXd length_coordinates() const override { return body_length_coordinates(sys_); }
     double record_size() const override {
         return 12.0 * sys_.n_bodies() + 3.0 * sys_.n_coordinates() + sys_.n_constraints() + 1.0;
     }
@@ -98,6 +99,12 @@ class BodySystem final : public System {
 };
 
 }  // namespace
+
+Eigen::VectorXd body_length_coordinates(const MultibodySystemCore& bodies) {
+    Eigen::VectorXd out = Eigen::VectorXd::Ones(bodies.n_coordinates());
+    for (int j = 0; j < bodies.n_bodies(); ++j) out.segment<3>(bodies.offset(j) + 3).setZero();  // the frame's turn
+    return out;
+}
 
 std::unique_ptr<System> body_system(const MultibodySystemCore& bodies, const MbState& state) {
     return std::make_unique<BodySystem>(bodies, state);

@@ -158,6 +158,10 @@ class CoupledEquations final : public Equations {
         el_eq_.set_static_load_factor(f);
         mb_eq_.set_static_load_factor(f);
     }
+    void set_static_mass_flow(double mdot) override {
+        el_eq_.set_static_mass_flow(mdot);
+        mb_eq_.set_static_mass_flow(mdot);
+    }
     void predict_stresses(const VecX* dz) override {
         if (dz == nullptr) return el_eq_.predict_stresses(nullptr);
         const VecX head = dz->head(n1_);
@@ -430,6 +434,11 @@ class CoupledSystem final : public System {
     }
     double length_scale() const override { return std::max(model_length_scale(model_), bodies_.length_scale()); }
     int n_coordinates() const override { return model_.n_dofs + bodies_.n_coordinates(); }
+    Eigen::VectorXd length_coordinates() const override {
+        Eigen::VectorXd out(n_coordinates());
+        out << element_length_coordinates(model_), body_length_coordinates(bodies_);
+        return out;
+    }
     int n_constraints() const override {
         int rows = bodies_.n_constraints();
         for (const Coupling& c : couplings_)  // CoupledEquations::rows
@@ -441,6 +450,7 @@ class CoupledSystem final : public System {
                n_constraints() + 1.0;
     }
     MbState* body_state() override { return &body_state_; }
+    const State* element_state() const override { return &state_; }
     const MultibodySystemCore* bodies() const override { return &bodies_; }
     VecX* coupling_multipliers() override { return &coupling_lam_; }
     std::unique_ptr<RotatingSystem> rotating(const RotationHinge& hinge, double mdot, VecX& pin, VecX& lam) override {

@@ -32,6 +32,20 @@ void element_static_policy(StaticNewtonOptions& opt) {
     opt.divergence_from = 2;
 }
 
+Eigen::VectorXd element_length_coordinates(const Model& model) {
+    const int N = model.n_nodes();
+    Eigen::VectorXd position = Eigen::VectorXd::Zero(6 * N), turn = Eigen::VectorXd::Zero(6 * N);
+    for (int i = 0; i < N; ++i) {
+        position.segment<3>(6 * i).setOnes();
+        turn.segment<3>(6 * i + 3).setOnes();
+    }
+    // a basis column with position entries and none of rotation (or slope) moves a position
+    const Eigen::VectorXd p = reduce(model, position), r = reduce(model, turn);
+    Eigen::VectorXd out(p.size());
+    for (int j = 0; j < p.size(); ++j) out[j] = p[j] != 0.0 && r[j] == 0.0 ? 1.0 : 0.0;
+    return out;
+}
+
 double model_length_scale(const Model& model) {
     double extent = 0.0;
     for (int k = 0; k < 3; ++k) {
@@ -64,7 +78,7 @@ class ElementRun final : public Run {
             // no hub motion, frames re-based past pi only (ElementEquations::statics)
             eq_.statics = true;
             eq_.rebase_angle = M_PI;
-            eq_.static_mdot = drive_.mass_flow.at(0.0);
+            eq_.set_static_mass_flow(drive_.mass_flow.at(0.0));
         } else if (mode == System::Mode::dynamics) {
             v = reduce(model, state.v);
             eq_.rebase(0.0, v, a);  // the chart of the state's frames: z = 0, v and a mapped
@@ -115,6 +129,8 @@ class ElementSystem final : public System {
         return rotating_elements(model_, state_, load, model_length_scale(model_), hinge, pin);
     }
     int n_coordinates() const override { return model_.n_dofs; }
+    Eigen::VectorXd length_coordinates() const override { return element_length_coordinates(model_); }
+    const State* element_state() const override { return &state_; }
     double record_size() const override { return 18.0 * model_.n_nodes() + 5.0; }
     Record integrate_ida(const Drive& drive, const std::vector<double>& times, const ProgressFn& progress) override {
         Drive d = drive;

@@ -3,6 +3,7 @@
 
 #include "pipeflex/core/format.hpp"
 #include "pipeflex/solvers/element_equations.hpp"
+#include "pipeflex/solvers/sparse_lu.hpp"
 
 #include <cmath>
 #include <stdexcept>
@@ -36,6 +37,96 @@ StaticNewtonResult static_equilibrium(System& sys, double mdot, double load_fact
     run->lam = lam;
     run->finish();
     return res;
+}
+
+namespace {
+
+void check_arc(const System& sys, const Eigen::VectorXd& w2, const Eigen::VectorXd& dq, const char* name) {
+    const int n = sys.n_coordinates();
+    if (w2.size() != n || dq.size() != n)
+        throw std::invalid_argument(std::string("the arc's weights w2 and ") + name + " must have " +
+                                    std::to_string(n) + " entries (the system's coordinates)");
+}
+
+Drive static_drive(double mdot, const TransientOptions& options) {
+    Drive drive;
+    drive.mass_flow = TimeTable::constant(mdot);
+    drive.options = options;
+    return drive;
+}
+
+}  // namespace
+
+StaticNewtonResult static_arc_newton(System& sys, const ArcPath& path, const Eigen::VectorXd& w2, double psi2,
+                                     double ds, double& tau, Eigen::VectorXd& dq, double& dtau,
+                                     StaticNewtonOptions opt, const TransientOptions& options, bool predict) {
+    check_arc(sys, w2, dq, "dq");
+    sys.static_policy(opt, false);
+    const std::unique_ptr<Run> run = sys.start(static_drive(path.m0 + path.m1 * tau, options), System::Mode::statics);
+    Equations& eq = run->equations();
+    const int n = eq.n_coordinates();
+    Eigen::VectorXd lam = run->lam, v = Eigen::VectorXd::Zero(n), a = Eigen::VectorXd::Zero(n);
+    if (predict && dq.any()) {  // the predictor: the state moved by dq, the new base
+        eq.set(dq, v, a, lam, run->t0);
+        eq.rebase(v, a);
+    }
+    ArcBorder arc(eq, path, w2, dq, psi2, ds, tau, dtau);
+    opt.border = &arc;
+    const StaticNewtonResult res = static_newton(eq, run->t0, lam, opt);
+    tau = arc.tau;
+    dq = arc.dq;
+    dtau = arc.dtau;
+    run->lam = lam;
+    run->finish();
+    return res;
+}
+
+bool static_arc_tangent(System& sys, const ArcPath& path, double tau, const Eigen::VectorXd& w2, double psi2,
+                        const Eigen::VectorXd& pq, double pt, Eigen::VectorXd& v, double& s,
+                        const TransientOptions& options) {
+    check_arc(sys, w2, pq, "the previous tangent");
+    const std::unique_ptr<Run> run = sys.start(static_drive(path.m0 + path.m1 * tau, options), System::Mode::statics);
+    Equations& eq = run->equations();
+    const int n = eq.n_coordinates(), nc = eq.n_constraints(), m = n + nc;
+    const Eigen::VectorXd zero = Eigen::VectorXd::Zero(n);
+    ArcBorder arc(eq, path, w2, zero, psi2, 1.0, tau, 0.0);
+    Eigen::VectorXd r, rp, rt;
+    Triplets J;
+    eq.set(zero, zero, zero, run->lam, run->t0);
+    const double h = arc.difference_step();
+    arc.set_parameter(tau + h);
+    eq.evaluate(1.0, 0.0, 0.0, rp, nullptr);
+    arc.set_parameter(tau - h);
+    eq.evaluate(1.0, 0.0, 0.0, rt, nullptr);
+    arc.set_parameter(tau);
+    eq.evaluate(1.0, 0.0, 0.0, r, &J);
+    rt = (rp - rt) / (2.0 * h);
+    if (nc > 0) {  // scaled as static_newton's KKT matrix
+        double sc = scale_constraints(J, n, 1.0);
+        sc = sc > 0.0 ? sc : 1.0;
+        scale_constraints(J, n, sc);
+        rt.tail(nc) *= sc;
+    }
+    Triplets A = J;
+    for (int i = 0; i < m; ++i) A.add(i, m, rt[i]);
+    for (int i = 0; i < n; ++i) A.add(m, i, w2[i] * pq[i]);
+    A.add(m, m, psi2 * pt);
+    FixedPatternLU lu(kDenseLuBelow);
+    if (!lu.factorize(m + 1, A.rows, A.cols, A.values)) return false;
+    Eigen::VectorXd rhs = Eigen::VectorXd::Zero(m + 1), x;
+    rhs[m] = 1.0;
+    lu.solve(rhs, x);
+    v = x.head(n);
+    s = x[m];
+    const double norm = std::sqrt(w2.cwiseProduct(v).dot(v) + psi2 * s * s);
+    if (!std::isfinite(norm) || norm == 0.0) return false;
+    v /= norm;
+    s /= norm;
+    if (w2.cwiseProduct(v).dot(pq) + psi2 * s * pt < 0.0) {
+        v = -v;
+        s = -s;
+    }
+    return true;
 }
 
 LinearMatrices linearize(System& sys, double mdot, const TransientOptions& options, double differences_step) {

@@ -23,14 +23,14 @@ prescribed hub angle.
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import List, Optional, Sequence, Tuple
 
 import numpy as np
 
 from . import _checks, _core
-from .analysis._continuation import follow
 from .analysis.linearize import Linearization, constrained_fields, linearize as _linearize
+from .analysis.static import StaticResult
 from .analysis.transient import TransientResult, simulate as _simulate
 from ._options import MAX_NEWTON, MAX_STEPS, NEWTON_TOL, RHO_INF
 from .model import SYSTEM_STATES, Model
@@ -76,6 +76,11 @@ class CoupledSystem:
         self.model = model
         self.bodies = bodies
         self._joints: List[CouplingJoint] = []
+
+    @property
+    def mass_flow(self) -> float:
+        """mdot [kg/s] of the analyses by default: the element model's."""
+        return self.model.mass_flow
 
     @property
     def joints(self) -> Tuple[CouplingJoint, ...]:
@@ -132,13 +137,6 @@ class CoupledSystem:
             out.append((c.node, KINDS.index(c.kind), c.body, c.body_node, Aa.T @ Ab, axis_b, perp[0], perp[1]))
         return out
 
-    def _static(self, *, state=None, mass_flow=None, load_steps=1, **options) -> "CoupledStatic":
-        """:func:`pipeflex.static_equilibrium`'s entry for a coupled system."""
-        unknown = set(options) - {"tol", "max_iterations", "max_bisections"}
-        if unknown:
-            raise ValueError(f"unknown option(s) {sorted(unknown)} for a CoupledSystem's static solve; "
-                             f"valid: load_steps, mass_flow, max_bisections, max_iterations, state, tol")
-        return static_equilibrium(self, state=state, mass_flow=mass_flow, load_steps=load_steps, **options)
 
     @property
     def n_coordinates(self) -> int:
@@ -250,14 +248,75 @@ class CoupledSystem:
         return dict(out, final_state=self._state_of(system), bodies=bodies, coupling_forces=forces)
 
     @property
-    def mass_flow(self) -> float:
-        """mdot [kg/s] of the system: the element model's."""
-        return self.model.mass_flow
-
-    @property
     def n_nodes(self) -> int:
         """Nodes of the element model and of the bodies."""
         return self.model.n_nodes + self.bodies.n_nodes
+
+    def _static_start(self, state) -> "_StaticWork":
+        """The static driver's working state: a copy of ``state`` (a :class:`CoupledState`
+        or a static result of this system; None: the assembly at rest)."""
+        if state is None:
+            bs = self.bodies.initial_state()
+            return _StaticWork(as_core(self.model, None), bs, np.zeros(self.n_constraints - self.bodies.n_constraints))
+        if not isinstance(state, (CoupledState, StaticResult, _StaticWork)) or state.body_state is None:
+            raise TypeError(f"state must be a CoupledStatic (pipeflex.static_equilibrium(system)), "
+                            f"got {type(state).__name__}")
+        self.bodies.check_state(state.body_state, "state.body_state")
+        forces = np.zeros(self.n_constraints - self.bodies.n_constraints) if state.coupling_forces is None \
+            else np.array(state.coupling_forces, float)
+        return _StaticWork(as_core(self.model, state.state), state.body_state.copy(), forces)
+
+    def _static_newton(self, state, solve, *, mass_flow, load_factor, max_iterations, start=None) -> dict:
+        """One static Newton from the CoupledState ``state`` (updated in place): the driver's
+        ``solve(system)`` on the system object at rest; its dict, ``why`` if not converged."""
+        bs = state.body_state
+        zero = np.zeros_like(bs.eta)
+        sys = self.system(state.state, MultibodyState(bs.r, bs.R, bs.eta, zero, zero, bs.lam, 0.0),
+                          state.coupling_forces, mass_flow=mass_flow)
+        out = solve(sys)
+        end = self._state_of(sys)
+        state.body_state, state.coupling_forces = replace(end.body_state, v=zero, a=zero.copy()), end.coupling_forces
+        # a singular KKT matrix or a correction beyond the model is its mechanism error (a
+        # rigid motion left free, or a motion locked twice): the static driver does not
+        # continue it by arc length
+        out["final"] = bool(out["singular"] or out["diverged"])
+        if not out["converged"]:
+            out["why"] = ("a singular KKT matrix" if out["singular"] else
+                          f"a correction of {out['correction']:.3g} m, beyond the model's size" if out["diverged"] else
+                          f"no convergence in {max_iterations} iterations (residual {out['residual']:.3g} N)")
+        return out
+
+    def _static_increment(self, start: "_StaticWork", end: "_StaticWork") -> np.ndarray:
+        """The increment from ``start`` to ``end`` (element, then bodies): the continuation's secant."""
+        return np.concatenate([self.model._static_increment(start.state, end.state),
+                               self.bodies._static_increment(start.body_state, end.body_state)])
+
+    def _static_failure(self, out, *, load_factor, mass_flow, reached, ramp, halvings, max_iterations,
+                        earlier) -> Exception:
+        """The error of a load stepping whose step failed with ``out``."""
+        lf = load_factor
+        where = f"at load factor {lf:.6g} (from {reached[1]:.6g}, after {halvings} halvings of the load step)"
+        if out["singular"] or out["diverged"]:
+            what, large = ("singular KKT matrix", "") if out["singular"] else (
+                f"a correction of {out['correction']:.3g} m, beyond the model's size (a nearly singular tangent)",
+                ", or a load step too large (more load_steps or max_bisections)")
+            return SingularMatrixError(f"coupled static solve: {what} {where}, iteration {out['iterations']}: a "
+                                       f"mechanism (a rigid motion that supports, joints and couplings leave free, "
+                                       f"loaded) or a motion locked twice{large}", load_factor=lf,
+                                       iteration=out["iterations"], residual=out["residual"], mass_flow=mass_flow)
+        return ConvergenceError(f"coupled static solve did not converge {where} after {max_iterations} iterations "
+                                f"(last correction {out['correction']:.3g}, residual {out['residual']:.3g} N)",
+                                load_factor=lf, iteration=max_iterations, residual=out["residual"],
+                                mass_flow=mass_flow)
+
+    def _static_result(self, state: "_StaticWork", *, iterations, residual, mass_flow, limit_points=()):
+        """The StaticResult of the equilibrium ``state``: the element model's State, the
+        bodies' (at rest) and the couplings' multipliers."""
+        bs = state.body_state
+        zero = np.zeros_like(bs.eta)
+        return StaticResult(State.from_core(state.state, self.model), iterations, residual, mass_flow,
+                            limit_points, MultibodyState(bs.r, bs.R, bs.eta, zero, zero.copy(), bs.lam, 0.0),
+                            np.asarray(state.coupling_forces))
 
     @property
     def n_dofs(self) -> int:
@@ -306,54 +365,42 @@ class CoupledState(Result):
     coupling_forces: Optional[np.ndarray] = None
 
 
-@dataclass(frozen=True)
-class CoupledStatic(Result):
-    """A coupled static equilibrium: ``state`` (the element model's
-    :class:`~pipeflex.State`), ``body_state`` (a :class:`~pipeflex.multibody.MultibodyState`
-    with the bodies' joint multipliers), ``coupling_forces`` (the couplings' multipliers
-    [N, N m]), ``iterations`` (Newton's, all load steps), ``residual`` [N] and
-    ``mass_flow`` mdot [kg/s]."""
-
-    state: State
-    body_state: MultibodyState
-    coupling_forces: np.ndarray
-    iterations: int
-    residual: float
-    mass_flow: float
+#: A coupled system's static equilibrium is :func:`pipeflex.static_equilibrium`'s one result
+#: type: ``state`` (the element model's :class:`~pipeflex.State`), ``body_state`` (a
+#: :class:`~pipeflex.multibody.MultibodyState` with the bodies' joint multipliers),
+#: ``coupling_forces`` (the couplings' multipliers [N, N m]), ``iterations`` (Newton's, all
+#: load steps), ``residual`` [N] and ``mass_flow`` mdot [kg/s].
+CoupledStatic = StaticResult
 
 
 @dataclass
-class _Iterate:
-    """The unknowns of a coupled static solve: the element state (a ``_core.State``,
-    updated in place by the core), the bodies' coordinates and joint multipliers, and the
-    couplings' multipliers (:func:`~pipeflex.analysis._continuation.follow`'s state)."""
+class _StaticWork:
+    """A coupled system's state while the static driver works on it (updated in place):
+    ``state`` the element model's (a ``_core.State``), ``body_state`` the bodies'
+    :class:`~pipeflex.multibody.MultibodyState`, ``coupling_forces`` the couplings'
+    multipliers [N, N m]."""
 
-    elements: object
-    r: np.ndarray
-    R: np.ndarray
-    eta: np.ndarray
-    lam: np.ndarray
-    lam_c: np.ndarray
+    state: object
+    body_state: MultibodyState
+    coupling_forces: np.ndarray
 
-    def copy(self) -> "_Iterate":
-        # the core returns new body arrays, so only the element state, solved in place, is copied
-        return _Iterate(self.elements.copy(), self.r, self.R, self.eta, self.lam, self.lam_c)
+    def copy(self) -> "_StaticWork":
+        return _StaticWork(self.state.copy(), self.body_state.copy(), np.array(self.coupling_forces, float))
 
 
-def static_equilibrium(system: CoupledSystem, *, state: Optional["CoupledStatic"] = None,
+def static_equilibrium(system: CoupledSystem, *, state: Optional[StaticResult] = None,
                        mass_flow: Optional[float] = None, load_steps: int = 1,
-                       tol: float = 1e-10, max_iterations: int = 30, max_bisections: int = 8) -> CoupledStatic:
-    """Static equilibrium of a :class:`CoupledSystem` from its assembly configuration (or
-    from ``state``): the core's Newton on the scaled KKT matrix of the element and body
-    equations with their joints (one sparse LU per iteration), loads and gravity applied
-    in ``load_steps`` increments (halved, at most ``max_bisections`` times in all, where
-    Newton fails: the package's one load stepping,
-    :func:`~pipeflex.analysis._continuation.follow`); converged when the correction is
-    below ``tol`` model sizes.
+                       tol: float = 1e-10, max_iterations: int = 30, max_bisections: int = 8,
+                       **options) -> StaticResult:
+    """Static equilibrium of a :class:`CoupledSystem`: :func:`pipeflex.static_equilibrium`
+    (the core's Newton on the scaled KKT matrix of the element and body equations with
+    their joints, loads and gravity in ``load_steps`` increments halved where Newton
+    fails; ``options``: ``from_mass_flow``, ``path``, ``arc_steps``, its flow and
+    arc-length continuations).
 
     Args:
-        state: a :class:`CoupledStatic` to start from (e.g. the equilibrium at another
-            flow; its multipliers too), default the assembly configuration.
+        state: a static result of the system to start from (e.g. the equilibrium at
+            another flow; its multipliers too), default the assembly configuration.
         mass_flow: mdot [kg/s] (default: the element model's).
         load_steps: increments of the loads and gravity.
         tol: Newton tolerance on the correction, relative to the model size [-].
@@ -367,60 +414,12 @@ def static_equilibrium(system: CoupledSystem, *, state: Optional["CoupledStatic"
         ConvergenceError: no convergence after the halvings; ``load_factor`` the failed
             step's, ``iteration``, ``residual`` [N] and ``mass_flow`` [kg/s] its own.
     """
+    from .analysis.static import static_equilibrium as solve
+
     if not isinstance(system, CoupledSystem):
         raise ValueError("system must be a pipeflex.CoupledSystem")
-    steps = _checks.positive_int("load_steps", load_steps)
-    tol = _checks.positive("tol", tol)
-    max_iterations = _checks.positive_int("max_iterations", max_iterations)
-    max_bisections = _checks.non_negative_int("max_bisections", max_bisections)
-    model, bodies = system.model, system.bodies
-    mdot = model.mass_flow if mass_flow is None else _checks.finite("mass_flow", mass_flow)
-    if state is None:
-        bs = bodies.initial_state()
-        start = _Iterate(as_core(model, None), bs.r, bs.R, bs.eta, bs.lam,
-                         np.zeros(system.n_constraints - bodies.n_constraints))
-    elif isinstance(state, CoupledStatic):
-        bs = state.body_state
-        start = _Iterate(as_core(model, state.state), bs.r, bs.R, bs.eta, bs.lam,
-                         np.array(state.coupling_forces, float))
-    else:
-        raise TypeError(f"state must be a CoupledStatic (pipeflex.static_equilibrium(system)), "
-                        f"got {type(state).__name__}")
-    total = 0
-
-    def solve(trial, lf):
-        nonlocal total
-        zero = np.zeros_like(trial.eta)
-        sys = system.system(trial.elements, MultibodyState(trial.r, trial.R, trial.eta, zero, zero, trial.lam, 0.0),
-                            trial.lam_c, mass_flow=mdot)
-        out = _core.static_equilibrium(sys, mdot, lf, tol, max_iterations)
-        total += out["iterations"]
-        trial.r, trial.R, trial.eta, _, _, trial.lam, _ = sys.body_state
-        trial.lam_c = np.array(sys.coupling_multipliers)
-        return bool(out["converged"]), out
-
-    way = follow(solve, start, start=0.0, end=1.0, steps=steps, halving="step", max_failures=max_bisections,
-                 steps_name="load_steps")
-    out = way.outcome
-    if not way.done:
-        lf = way.target
-        where = f"at load factor {lf:.6g} (from {way.t:.6g}, after {way.failures - 1} halvings of the load step)"
-        if out["singular"] or out["diverged"]:
-            what, large = ("singular KKT matrix", "") if out["singular"] else (
-                f"a correction of {out['correction']:.3g} m, beyond the model's size (a nearly singular tangent)",
-                ", or a load step too large (more load_steps or max_bisections)")
-            raise SingularMatrixError(f"coupled static solve: {what} {where}, iteration {out['iterations']}: a "
-                                      f"mechanism (a rigid motion that supports, joints and couplings leave free, "
-                                      f"loaded) or a motion locked twice{large}", load_factor=lf,
-                                      iteration=out["iterations"], residual=out["residual"], mass_flow=mdot)
-        raise ConvergenceError(f"coupled static solve did not converge {where} after {max_iterations} iterations "
-                               f"(last correction {out['correction']:.3g}, residual {out['residual']:.3g} N)",
-                               load_factor=lf, iteration=max_iterations, residual=out["residual"], mass_flow=mdot)
-    end = way.state
-    zero = np.zeros_like(end.eta)
-    return CoupledStatic(State.from_core(end.elements, model),
-                         MultibodyState(end.r, end.R, end.eta, zero, zero.copy(), end.lam, 0.0), end.lam_c,
-                         total, float(out["residual"]), mdot)
+    return solve(system, state=state, mass_flow=mass_flow, load_steps=load_steps, tol=tol,
+                 max_iterations=max_iterations, max_bisections=max_bisections, **options)
 
 
 #: The linearisation of a coupled system: :class:`pipeflex.Linearization` (one type for every

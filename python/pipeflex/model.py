@@ -976,6 +976,58 @@ class Model:
         metadata.update(n_nodes=self.n_nodes, n_dofs=self.n_dofs)
         return dict(out, final_state=self._state_of(system))
 
+    def _static_start(self, state) -> "_core.State":
+        """The static driver's working state: a copy of ``state`` (as :meth:`_system`'s)."""
+        from .state import as_core
+
+        return as_core(self, state)
+
+    def _static_newton(self, state, solve, *, mass_flow: float, load_factor: float, max_iterations: int,
+                       start=None) -> dict:
+        """One static Newton from the core State ``state`` (updated in place): the driver's
+        ``solve(system, force_scale=)`` on the model's system object at mdot [kg/s]
+        ``mass_flow``; its dict, with ``why`` the reason when it did not converge."""
+        from .analysis.static import outcome_reason
+
+        if self.n_dofs == 0:  # nothing to solve
+            return dict(converged=True, singular=False, diverged=False, nonfinite=False, iterations=0,
+                        residual=0.0, correction=0.0, negative_start=-1, negative_end=-1)
+        load = self.load_state(mass_flow=mass_flow, gravity_factor=load_factor)
+        out = solve(_core.element_system(self._core, state, load), force_scale=self.force_scale(mass_flow=mass_flow))
+        if not out["converged"]:
+            out["why"] = outcome_reason(out, max_iterations, lambda: self._singular_reason(state, load, load_factor))
+        return out
+
+    def _singular_reason(self, state, load, load_factor) -> str:
+        """Why the tangent at the core State ``state`` is singular, naming its free coordinates."""
+        import scipy.sparse as sp
+
+        from .analysis.eigen import describe_coordinates, null_coordinates
+
+        _, (data,), indices, indptr = _core.assemble_csc(self._core, state, load, load_factor, [(1.0, 0.0, 0.0)],
+                                                         False)
+        free = null_coordinates(sp.csc_matrix((data, indices, indptr), shape=(self.n_dofs, self.n_dofs)))
+        named = f"; {describe_coordinates(free, self.dof_labels)}" if len(free) else ""
+        return f"the tangent is singular (a mechanism: missing supports, or a bifurcation point{named})"
+
+    def _static_increment(self, start, end) -> np.ndarray:
+        """The reduced increment from the core State ``start`` to ``end`` (the continuation's secant)."""
+        return _core.reduce(self._core, np.asarray(end.q) - np.asarray(start.q))
+
+    def _static_failure(self, out, *, load_factor, mass_flow, reached, ramp, halvings, max_iterations,
+                        earlier) -> Exception:
+        """The error of a load stepping whose step failed with ``out`` (static.newton_failure's)."""
+        from .analysis.static import newton_failure
+
+        return newton_failure(out, load_factor=load_factor, mass_flow=mass_flow, reached=reached, ramp=ramp)
+
+    def _static_result(self, state, *, iterations, residual, mass_flow, limit_points=()):
+        """The StaticResult of the equilibrium ``state`` (a core State)."""
+        from .analysis.static import StaticResult
+        from .state import State
+
+        return StaticResult(State.from_core(state, self), iterations, residual, mass_flow, limit_points)
+
     @property
     def total_length(self) -> float:
         """Sum of the elements' reference lengths [m]."""

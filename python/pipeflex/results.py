@@ -321,6 +321,7 @@ FIELDS: Dict[str, Dict[str, tuple]] = {
         "iterations": (None, "Newton iterations", ()),
         "residual": ("N", "final residual norm", ()),
         "mass_flow": ("kg/s", "mass flow", ()),
+        "coupling_forces": (None, "coupling multipliers (N, N m)", ("coupling",)),
     },
     "EigenResult": {
         "values": ("1/s", "eigenvalue", ("mode",)),
@@ -411,17 +412,7 @@ FIELDS: Dict[str, Dict[str, tuple]] = {
         "point": ("m", "point of the hinge axis", ("component",)),
         "hinge": (None, "hinge", ()),
     },
-    "MultibodyStatic": {
-        "iterations": (None, "Newton iterations", ()),
-        "residual": ("N", "final residual norm", ()),
-        "mass_flow": ("kg/s", "mass flow", ()),
-    },
-    "CoupledStatic": {
-        "coupling_forces": (None, "coupling multipliers (N, N m)", ("coupling",)),
-        "iterations": (None, "Newton iterations", ()),
-        "residual": ("N", "final residual norm", ()),
-        "mass_flow": ("kg/s", "mass flow", ()),
-    },
+
     # pipeflex.stability_map's Dataset (the variables of stability_map.critical_point)
     "stability_map": {
         "mass_ratio": ("1", "mass ratio beta = M / (M + m)", ()),

@@ -18,6 +18,9 @@ point instead of reversing) and a Newton corrector on the bordered system
 solved by block elimination with one sparse LU of the tangent K (two solves), or the
 full bordered matrix when K is exactly singular: the core's static Newton with the
 constraint as its border (passed in as ``newton``); this module keeps the step control.
+It runs on the core's system object of any formulation (element model, bodies, coupled:
+the model class's ``_system``), whose analyses compute the residual, its tangent and
+dR/dt (``_core.static_arc_tangent``).
 
 A limit point is where the t component of the tangent changes sign; it is located by
 the Illinois method on the arc length of the step.
@@ -28,25 +31,8 @@ from dataclasses import dataclass, field
 from typing import Callable, List, Optional
 
 import numpy as np
-import scipy.sparse as sp
-import scipy.sparse.linalg as spla
 
 from .. import _core
-from ._assembly import residual_and_tangent
-
-
-def dR_dt(model, state, at, t):
-    """dR/dt [N per unit t] at ``state``: R is a polynomial of degree <= 2 in t (loads
-    and gravity linear in the load factor, the flow forces quadratic in mdot), so the
-    central difference with step 1/2 is exact."""
-    h = 0.5
-    out = []
-    for s in (t + h, t - h):
-        mdot, lf = at(s)
-        r, _ = residual_and_tangent(model, state, model.load_state(mass_flow=mdot, gravity_factor=lf),
-                                    load_factor=lf, matrix=False)
-        out.append(r)
-    return (out[0] - out[1]) / (2 * h)
 
 
 @dataclass
@@ -55,7 +41,8 @@ class Arc:
     the bordered system with it: ``pipeflex.analysis.static._arc_newton``).
 
     ``t`` is the current path parameter, ``dq``/``dt`` the increment accumulated from
-    the step's start (updated by the corrector)."""
+    the step's start (updated by the corrector); ``predict``: the corrector's state is the
+    step's start, to be moved by ``dq`` first (else it is there already)."""
 
     at: Callable  # t -> (mdot [kg/s], load factor [-]), affine in t
     w2: np.ndarray  # squared weights of the coordinates
@@ -64,42 +51,36 @@ class Arc:
     t: float
     dq: np.ndarray
     dt: float = 0.0
+    predict: bool = False
+
+    def path(self) -> tuple:
+        """(m0, m1, l0, l1): mdot = m0 + m1 t [kg/s], the load factor l0 + l1 t."""
+        return path_of(self.at)
+
+
+def path_of(at) -> tuple:
+    """(m0, m1, l0, l1) of the affine t -> (mdot [kg/s], load factor) ``at``."""
+    (m0, l0), (m1, l1) = at(0.0), at(1.0)
+    return m0, m1 - m0, l0, l1 - l0
 
 
 def tangent(model, state, at, t, w2, psi2, previous):
-    """Unit tangent (dq/ds, dt/ds) of the path at a converged point, oriented along
-    ``previous`` (a tangent, or None: t increasing); None if the bordered system is
-    singular."""
-    mdot, lf = at(t)
-    _, J = residual_and_tangent(model, state, model.load_state(mass_flow=mdot, gravity_factor=lf),
-                                load_factor=lf)
-    rt = dR_dt(model, state, at, t)
-    pq, pt = (np.zeros(model.n_dofs), 1.0) if previous is None else previous
-    try:
-        b = spla.splu(J).solve(-rt)
-        if not np.all(np.isfinite(b)):
-            raise RuntimeError("not finite")
-        v, s = b, 1.0
-    except RuntimeError:  # exactly singular: the bordered matrix [J rt; W^2 p^T psi^2 p_t]
-        A = sp.bmat([[J, sp.csc_matrix(rt[:, None])],
-                     [sp.csc_matrix((w2 * pq)[None, :]), sp.csc_matrix([[psi2 * pt]])]], format="csc")
-        try:
-            z = spla.splu(A).solve(np.concatenate([np.zeros(model.n_dofs), [1.0]]))
-        except RuntimeError:
-            return None
-        v, s = z[:-1], float(z[-1])
-    n = np.sqrt(float(np.dot(w2 * v, v)) + psi2 * s * s)
-    if not np.isfinite(n) or n == 0.0:
+    """Unit tangent (dq/ds, dt/ds) of the path at a converged point ``state`` (a working
+    state of ``model``) at t, oriented along ``previous`` (a tangent, or None: t
+    increasing); None if the bordered system is singular. The core's, on the model's system
+    object (dR/dt exact by central differences: R is a polynomial of degree <= 2 in t)."""
+    pq, pt = (np.zeros(len(w2)), 1.0) if previous is None else previous
+    out = _core.static_arc_tangent(model._system(state, mass_flow=at(t)[0]), path_of(at), t, w2, psi2,
+                                   np.asarray(pq, float), float(pt))
+    if out is None:
         return None
-    v, s = v / n, s / n
-    if float(np.dot(w2 * v, pq)) + psi2 * s * pt < 0:
-        v, s = -v, -s
-    return v, s
+    v, s = out
+    return np.asarray(v), float(s)
 
 
 @dataclass
 class Point:
-    state: object  # _core.State
+    state: object  # a working state of the model (its _static_start's type)
     t: float
     tangent: tuple
 
@@ -120,8 +101,10 @@ class Path:
 
 
 def weights(model, size):
-    """Squared weights of the reduced coordinates: translations 1/size^2 [1/m^2], the rest 1."""
-    return np.array([1.0 / size**2 if comp.startswith("u") else 1.0 for _, comp in model.dof_labels])
+    """Squared weights of the system's coordinates: lengths 1/size^2 [1/m^2] (positions,
+    a body's elastic amplitudes), the rest 1 (rotations, slopes)."""
+    lengths = np.asarray(model._system().length_coordinates)
+    return np.where(lengths != 0.0, 1.0 / size**2, 1.0)
 
 
 def follow(model, state, t0, *, at, newton, size, tol, max_iterations, max_steps, dt0, secant=None):
@@ -152,10 +135,8 @@ def follow(model, state, t0, *, at, newton, size, tol, max_iterations, max_steps
         """Converged point at arc length sigma from p along the path, or (None, reason)."""
         nonlocal its, last_it
         v, s = p.tangent
-        trial = p.state.copy()
-        _core.add_increment(model.core, trial, sigma * v, "q")
-        trial.rebase(np.pi)
-        arc = Arc(at, w2, psi2, sigma, p.t + sigma * s, sigma * v, sigma * s)
+        trial = p.state.copy()  # moved by the predictor sigma v in the corrector
+        arc = Arc(at, w2, psi2, sigma, p.t + sigma * s, sigma * v, sigma * s, predict=True)
         ok, it, rn, why, _ = newton(trial, arc)
         its += it
         last_it = it

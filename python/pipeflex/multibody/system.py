@@ -22,8 +22,9 @@ from .. import _checks, _core
 from ..results import Result
 from ..time_functions import Sine, time_function
 from .body import FlexibleBody, node_index
-from ..rotation import rotation_exp
+from ..rotation import rotation_exp, rotation_log
 from .joints import JOINT_KINDS, JOINT_ROWS, Joint
+from .statics import static_failure, static_newton
 
 #: A function of time: a number, a table (times [s], values) interpolated linearly, or a
 #: :class:`~pipeflex.Sine` (envelope number or table times a sine carrier).
@@ -414,7 +415,7 @@ class MultibodySystem:
     def increment(self, state: MultibodyState, dq: np.ndarray) -> None:
         """q <- q (+) dq in place: r += dr, R <- exp(dpi~) R, eta += deta."""
         for j in range(len(self.bodies)):
-            o = self.offsets[j]
+            o = int(self.offsets[j])
             state.r[j] += dq[o:o + 3]
             state.R[j] = rotation_exp(dq[o + 3:o + 6]) @ state.R[j]
             state.eta[o + 6:self.offsets[j + 1]] += dq[o + 6:self.offsets[j + 1]]
@@ -521,6 +522,44 @@ class MultibodySystem:
     def n_nodes(self) -> int:
         """Nodes of all bodies."""
         return sum(b.n_nodes for b in self.bodies)
+
+    def _static_start(self, state: Optional[MultibodyState]) -> MultibodyState:
+        """The static driver's working state: a copy of ``state`` (checked; None: the
+        assembly) at rest, the loads at its time ``t``."""
+        if state is not None:
+            self.check_state(state)
+        st = self.initial_state() if state is None else state.copy()
+        st.v[:] = 0.0
+        st.a[:] = 0.0
+        return st
+
+    def _static_newton(self, state, solve, *, mass_flow, load_factor, max_iterations, start=None) -> dict:
+        """One static Newton from ``state`` (updated in place): statics.static_newton."""
+        return static_newton(self, state, solve, mass_flow=mass_flow, load_factor=load_factor,
+                             max_iterations=max_iterations, start=start)
+
+    def _static_increment(self, start: MultibodyState, end: MultibodyState) -> np.ndarray:
+        """The increment from ``start`` to ``end`` in the core's chart (origins, spatial
+        rotation vectors log(R R0^T), elastic coordinates): the continuation's secant."""
+        dq = np.array(end.eta, float) - np.array(start.eta, float)
+        for j in range(len(self.bodies)):
+            o = int(self.offsets[j])
+            dq[o:o + 3] = np.asarray(end.r[j]) - np.asarray(start.r[j])
+            dq[o + 3:o + 6] = rotation_log(np.asarray(end.R[j]) @ np.asarray(start.R[j]).T)
+        return dq
+
+    def _static_failure(self, out, *, load_factor, mass_flow, reached, ramp, halvings, max_iterations,
+                        earlier) -> Exception:
+        """The error of a load stepping whose step failed with ``out``: statics.static_failure."""
+        return static_failure(self, out, load_factor=load_factor, mass_flow=mass_flow, max_iterations=max_iterations,
+                              earlier=earlier)
+
+    def _static_result(self, state: MultibodyState, *, iterations, residual, mass_flow, limit_points=()):
+        """The StaticResult of the equilibrium ``state`` (its residual: the largest entry [N])."""
+        from ..analysis.static import StaticResult
+
+        F = self.evaluate(state, mass_flow=mass_flow, tangent=False, jacobian=False)[0]
+        return StaticResult(state, iterations, float(np.abs(F).max()), mass_flow, limit_points)
 
     def evaluate(self, state: MultibodyState, *, mass_flow: float, mass_flow_rate: float = 0.0,
                  load_factor: float = 1.0, gravity_factor: float = 1.0, wK: float = 1.0, wC: float = 0.0,

@@ -8,6 +8,8 @@
 #include "pipeflex/solvers/linear_matrices.hpp"
 
 #include <algorithm>
+#include <cmath>
+#include <limits>
 #include <set>
 #include <string>
 #include <utility>
@@ -54,7 +56,9 @@ class MultibodyEquations final : public Equations {
     }
 
     void evaluate(double wK, double wC, double wM, Eigen::VectorXd& r, Triplets* J) override {
-        sys_.evaluate(cur_, flow_.at(cur_.t), flow_.rate(cur_.t), factor_, factor_, wK, wC, wM, J != nullptr, ev_);
+        const bool fixed = !std::isnan(static_mdot_);
+        sys_.evaluate(cur_, fixed ? static_mdot_ : flow_.at(cur_.t), fixed ? 0.0 : flow_.rate(cur_.t), factor_, factor_,
+                      wK, wC, wM, J != nullptr, ev_);
         r.resize(n_ + nc_);
         r.head(n_) = ev_.F;
         r.tail(nc_) = ev_.c;
@@ -104,8 +108,9 @@ class MultibodyEquations final : public Equations {
                                where);
     }
 
-    double mass_flow(double t) const override { return flow_.at(t); }
-    void set_static_load_factor(double f) override { factor_ = f >= 0.0 ? f : 1.0; }
+    double mass_flow(double t) const override { return std::isnan(static_mdot_) ? flow_.at(t) : static_mdot_; }
+    void set_static_load_factor(double f) override { factor_ = f; }
+    void set_static_mass_flow(double mdot) override { static_mdot_ = mdot; }
     RefreshPolicy refresh_policy() const override { return {kSlowRate, kLongStep}; }
     std::string singular_mass_hint() const override {
         return "the joints lock a motion twice or leave a body's mass matrix singular";
@@ -131,6 +136,7 @@ class MultibodyEquations final : public Equations {
     int n_, nc_;
     std::vector<Vec3d> start_r_;
     double factor_ = 1.0;  // loads and gravity (statics steps them)
+    double static_mdot_ = std::numeric_limits<double>::quiet_NaN();  // [kg/s] if set, else the flow's
     MbEvaluation ev_;
 };
 

@@ -44,7 +44,8 @@ class ElementEquations final : public Equations {
     // vectors of the result stay what the Python analyses report (relative to the
     // state's frames) and the Newton iterates are those of a fixed chart.
     bool statics = false;
-    double static_mdot = 0.0;  // statics: mdot [kg/s] (the load factor: set_static_load_factor)
+    // mdot [kg/s] if set (statics; set_static_mass_flow), else the flow's at t
+    double static_mdot = std::numeric_limits<double>::quiet_NaN();
     bool predicted = false;    // geometric_stresses hold the static Newton's prediction
     std::vector<double> geometric_stresses;
     std::vector<std::vector<double>> tangent_values;  // tangents(): the assembler's CSC values
@@ -115,7 +116,7 @@ class ElementEquations final : public Equations {
     LoadState evaluated_load(double* lf) const {
         LoadState l = load_at(t_set);
         *lf = load_factor(t_set);
-        if (statics) {
+        if (!std::isnan(static_mdot)) {
             l.mass_flow = static_mdot;
             l.mass_flow_rate = 0.0;
         }
@@ -170,6 +171,7 @@ class ElementEquations final : public Equations {
         assemble_csc(model, state, l, lf, weights, nullptr, values, nullptr, slot);
     }
     void set_static_load_factor(double f) override { static_factor = f; }
+    void set_static_mass_flow(double mdot) override { static_mdot = mdot; }
     // The static Newton on pipe elements is the mixed Newton (Equations::predict_stresses).
     // Only the tangent changes, so the equilibrium is the same; a large first correction
     // from the straight state no longer leaves the next tangent stiffened by a spurious
@@ -302,62 +304,6 @@ struct ElementStatics {
         return base;
     }
 };
-
-// The spherical arc-length constraint of one continuation step (pipeflex.analysis.arclength)
-// as static_newton's border: the path parameter tau sets mdot = m0 + m1 tau [kg/s] and the
-// load factor l0 + l1 tau; g = (|W dq|^2 + psi2 dtau^2 - ds^2) / ds^2 on the increment
-// (dq, dtau) from the step's start (w2: the squared weights W^2).
-struct ArcBorder final : StaticBorder {
-    ElementEquations& eq;
-    double m0, m1, l0, l1;
-    Eigen::VectorXd w2, dq;
-    double psi2, ds, tau, dtau;
-    ArcBorder(ElementEquations& e, double m0_, double m1_, double l0_, double l1_, Eigen::VectorXd w2_,
-              Eigen::VectorXd dq_, double psi2_, double ds_, double tau_, double dtau_)
-        : eq(e), m0(m0_), m1(m1_), l0(l0_), l1(l1_), w2(std::move(w2_)), dq(std::move(dq_)), psi2(psi2_), ds(ds_),
-          tau(tau_), dtau(dtau_) {
-        set_parameter(tau);
-    }
-    double parameter() const override { return tau; }
-    void set_parameter(double t) override {
-        eq.static_mdot = m0 + m1 * t;
-        eq.set_static_load_factor(l0 + l1 * t);
-    }
-    double constraint(Eigen::VectorXd* c, double* d) const override {
-        const double ds2 = ds * ds;
-        if (c != nullptr) {
-            *c = (2.0 / ds2) * w2.cwiseProduct(dq);
-            *d = 2.0 * psi2 * dtau / ds2;
-        }
-        return (w2.cwiseProduct(dq).dot(dq) + psi2 * dtau * dtau - ds2) / ds2;
-    }
-    void accumulate(const Eigen::VectorXd& dz, double dt) override {
-        dq += dz;
-        dtau += dt;
-        tau += dt;
-        set_parameter(tau);
-    }
-};
-
-// Newton on the bordered system of one arc-length step from `state` (updated): the path
-// parameter tau, the step's increment dq and dtau updated (see ArcBorder for the rest).
-inline StaticNewtonResult element_arc_static(const Model& model, State& state, const LoadState& load,
-                                             double length_scale, StaticNewtonOptions opt, double m0, double m1,
-                                             double l0, double l1, const Eigen::VectorXd& w2, double psi2, double ds,
-                                             double& tau, Eigen::VectorXd& dq, double& dtau) {
-    if (w2.size() != model.n_dofs || dq.size() != model.n_dofs)
-        throw std::invalid_argument("the arc's weights and increment must have n_dofs entries");
-    ElementStatics statics(model, state, load, length_scale);
-    ElementEquations& eq = statics.eq;
-    ArcBorder arc(eq, m0, m1, l0, l1, w2, dq, psi2, ds, tau, dtau);
-    opt.border = &arc;
-    Eigen::VectorXd lam;
-    const StaticNewtonResult res = static_newton(eq, 0.0, lam, opt);
-    tau = arc.tau;
-    dq = arc.dq;
-    dtau = arc.dtau;
-    return res;
-}
 
 // The generalised-alpha options of a run's transient options.
 inline AlphaOptions alpha_options(const TransientOptions& opt) {

@@ -26,6 +26,7 @@
 #include <Eigen/SparseCholesky>
 #include <Eigen/SparseCore>
 #include <string>
+#include <utility>
 #include <vector>
 
 namespace pipeflex {
@@ -86,8 +87,11 @@ class Equations {
     // damped predictors bias what Newton leaves, and a spinning body's energy drifted 6x
     // more over 4000 steps.
     virtual bool adaptive_prediction() const { return false; }
-    // Statics: scale the applied loads and gravity by f (< 0: the run's own load factor).
+    // Statics: scale the applied loads and gravity by f (any real: the arc-length border
+    // differences it beyond the loads' range).
     virtual void set_static_load_factor(double f) { (void)f; }
+    // Statics: the mass flow mdot [kg/s] of the loads that depend on it (any real, as f).
+    virtual void set_static_mass_flow(double mdot) { (void)mdot; }
     // Statics: the Newton correction dz (its first n entries; reduced coordinates) about to
     // be added to the state set. A system may extrapolate its stresses along it and take
     // them for the next tangent's geometric part (the mixed Newton: pipe_predicted_stresses);
@@ -224,6 +228,44 @@ class StaticBorder {
     // by construction (a zero mode that the border equation fixes), where an LU of it may
     // or may not fail on round-off.
     virtual bool bordered_only() const { return false; }
+};
+
+// The spherical arc-length constraint of one continuation step as static_newton's border
+// (pipeflex.analysis.arclength): the path parameter tau sets the equations' static mass flow
+// mdot = m0 + m1 tau [kg/s] and load factor l0 + l1 tau; g = (|W dq|^2 + psi2 dtau^2 - ds^2)
+// / ds^2 on the increment (dq, dtau) from the step's start (w2: the squared weights W^2, n).
+struct ArcPath {
+    double m0 = 0.0, m1 = 0.0, l0 = 0.0, l1 = 1.0;
+};
+struct ArcBorder final : StaticBorder {
+    Equations& eq;
+    ArcPath path;
+    Eigen::VectorXd w2, dq;
+    double psi2, ds, tau, dtau;
+    ArcBorder(Equations& e, const ArcPath& p, Eigen::VectorXd w2_, Eigen::VectorXd dq_, double psi2_, double ds_,
+              double tau_, double dtau_)
+        : eq(e), path(p), w2(std::move(w2_)), dq(std::move(dq_)), psi2(psi2_), ds(ds_), tau(tau_), dtau(dtau_) {
+        set_parameter(tau);
+    }
+    double parameter() const override { return tau; }
+    void set_parameter(double t) override {
+        eq.set_static_mass_flow(path.m0 + path.m1 * t);
+        eq.set_static_load_factor(path.l0 + path.l1 * t);
+    }
+    double constraint(Eigen::VectorXd* c, double* d) const override {
+        const double ds2 = ds * ds;
+        if (c != nullptr) {
+            *c = (2.0 / ds2) * w2.cwiseProduct(dq);
+            *d = 2.0 * psi2 * dtau / ds2;
+        }
+        return (w2.cwiseProduct(dq).dot(dq) + psi2 * dtau * dtau - ds2) / ds2;
+    }
+    void accumulate(const Eigen::VectorXd& dz, double dt) override {
+        dq += dz;
+        dtau += dt;
+        tau += dt;
+        set_parameter(tau);
+    }
 };
 
 struct StaticNewtonOptions {

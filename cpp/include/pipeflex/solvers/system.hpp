@@ -85,6 +85,9 @@ class System {
     virtual double length_scale() const = 0;
     virtual int n_coordinates() const = 0;
     virtual int n_constraints() const { return 0; }
+    // Per coordinate (n): 1 if it is a length [m] (positions, a body's elastic amplitudes),
+    // else 0 (rotations [rad], ANCF slopes [-]): the arc-length metric's weights.
+    virtual Eigen::VectorXd length_coordinates() const = 0;
     // Values recorded per output time (Run::record), to bound a run's output memory.
     virtual double record_size() const = 0;
     // Formulation-specific runs without a general implementation yet: IDA (an element
@@ -98,6 +101,7 @@ class System {
     // The parts' own state: the bodies' (nullptr without bodies), the couplings'
     // multipliers (nullptr without couplings).
     virtual MbState* body_state() { return nullptr; }
+    virtual const State* element_state() const { return nullptr; }  // the element model's (nullptr without)
     virtual const MultibodySystemCore* bodies() const { return nullptr; }
     virtual Eigen::VectorXd* coupling_multipliers() { return nullptr; }
     // The linearisation's tangent pattern, kept across linearize() calls on this system
@@ -138,11 +142,34 @@ std::string fixed_chart_refusal();
 void append_body_outputs(const MultibodySystemCore& bodies, const MbState& s, const TimeTable& mass_flow, double t,
                          MbEvaluation& ev, Record& out, const std::string& prefix = "");
 
+// length_coordinates of an element model's reduced coordinates (1 where a coordinate's
+// basis column moves only node positions) and of bodies' coordinates (frame origins and
+// elastic amplitudes).
+Eigen::VectorXd element_length_coordinates(const Model& model);
+Eigen::VectorXd body_length_coordinates(const MultibodySystemCore& bodies);
+
 // Static equilibrium under the constant mass flow mdot [kg/s] with the loads and gravity
 // times load_factor, by the one static_newton from the system's state (updated); the
 // formulation adds its policy (System::static_policy).
 StaticNewtonResult static_equilibrium(System& sys, double mdot, double load_factor, StaticNewtonOptions opt,
                                       const TransientOptions& options, bool mechanism = false);
+
+// One arc-length step's Newton corrector (static_newton with ArcBorder) on the system: from
+// its state (the step's start) moved by the predictor dq (n; predict false: the state is
+// the predictor's already, dq the increment from the step's start), with tau the predicted path
+// parameter and dtau its increment; tau, dq and dtau updated (the increment accumulated from
+// the step's start), the end state left in the system; the formulation's static_policy.
+StaticNewtonResult static_arc_newton(System& sys, const ArcPath& path, const Eigen::VectorXd& w2, double psi2,
+                                     double ds, double& tau, Eigen::VectorXd& dq, double& dtau,
+                                     StaticNewtonOptions opt, const TransientOptions& options, bool predict = true);
+// The unit tangent (v (n), s) of the equilibrium path R(q, tau) = 0 (and the constraints) at
+// the system's state at tau, in the metric |W v|^2 + psi2 s^2 (w2 = W^2), oriented along the
+// previous tangent (pq (n), pt): from the bordered matrix [K, dR/dtau; W^2 pq, psi2 pt]
+// (dR/dtau by central differences of step 1/2, exact for a residual quadratic in tau; with
+// constraints the KKT matrix, scaled as static_newton's). False if it is singular.
+bool static_arc_tangent(System& sys, const ArcPath& path, double tau, const Eigen::VectorXd& w2, double psi2,
+                        const Eigen::VectorXd& pq, double pt, Eigen::VectorXd& v, double& s,
+                        const TransientOptions& options);
 
 // The linearised equations (linear_matrices) about the system's state (its rates and
 // multipliers) under the constant mass flow mdot [kg/s].
