@@ -87,15 +87,13 @@ def test_coupled_critical_flow_refuses_a_foreign_state():
 
 def test_analyses_for_element_models_only_say_so():
     """The analyses that take element models only refuse bodies and coupled systems with a
-    TypeError that says so (periodic_orbit and orbit_guess raised an AttributeError);
-    steady_rotation takes them and asks for their one hinge (tests/test_steady_systems.py)."""
+    TypeError that says so; steady_rotation takes them and asks for their one hinge
+    (tests/test_steady_systems.py); the periodic orbits take them (tests/test_body_orbits.py)."""
     bodies = pf.scenes.ffrf_cantilever_pipe(n_bodies=2, elements_per_body=2)
     for system in (bodies, on_stiff_hub()):
         with pytest.raises(ValueError, match=f"needs exactly one hinge .* this {type(system).__name__} has 0"):
             pf.steady_rotation(system)
-        for call in (lambda s: pf.periodic_orbit(s, period=0.1),
-                     lambda s: pf.orbit_guess(s, node=1, step=1e-3),
-                     lambda s: pf.rotating_frequencies(s, gamma=1.0), lambda s: pf.campbell(s, gamma=[0.0, 1.0])):
+        for call in (lambda s: pf.rotating_frequencies(s, gamma=1.0), lambda s: pf.campbell(s, gamma=[0.0, 1.0])):
             with pytest.raises(TypeError, match=f"got {type(system).__name__}: this analysis takes element models"):
                 call(system)
     with pytest.raises(TypeError, match="also take a MultibodySystem or a CoupledSystem"):

@@ -25,7 +25,7 @@ def cantilever(kind):
     if kind == "element model":
         return limit_cycle_model(n_elements=4, tip_force=1.5, planar=True, EA=1e5)[0]
     if kind == "bodies":
-        return pf.scenes.ffrf_cantilever_pipe(n_bodies=2, elements_per_body=4, tip_force=1.5)
+        return pf.scenes.ffrf_cantilever_pipe(n_bodies=2, elements_per_body=4, tip_force=1.5, mass_flow=30.0)
     arm = pf.ModelBuilder()
     root = arm.add_node((0.0, 0.0, 0.0))
     nodes = arm.add_line(root, (1.0, 0.0, 0.0), 4, pf.PipeSection(EI=10.0, EA=1e5, GJ=10.0 / 1.3, pipe_mass=8.0,
@@ -89,15 +89,13 @@ def run_ida(kind):
 
 
 def run_orbit_guess(kind):
-    return pf.orbit_guess(cantilever(kind), node=4, step=2e-3, t_max=20.0)
+    # the cycle in the tip force's plane (the FFRF scene's force is along z)
+    return pf.orbit_guess(cantilever(kind), node=4, step=2e-3, t_max=20.0, component=2 if kind == "bodies" else 1)
 
 
-def run_periodic(kind):
-    if kind == "element model":  # from a guess on its cycle
-        g = run_orbit_guess(kind)
-        pf.periodic_orbit(cantilever(kind), period=g.period, state=g.state, steps=int(round(g.period / 1e-3)))
-    else:
-        pf.periodic_orbit(cantilever(kind), period=0.2, steps=40)
+def run_periodic(kind):  # from a guess on its cycle
+    g = run_orbit_guess(kind)
+    pf.periodic_orbit(cantilever(kind), period=g.period, state=g.state, steps=int(round(g.period / 1e-3)))
 
 
 def run_continue(kind):

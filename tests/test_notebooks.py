@@ -81,6 +81,15 @@ CHECKS = {
         within("veering_min_mac", 0.9, 1.0, "pipeflex.campbell's contract (docs/plotting.md): branches followed "
                "through the veering with MAC > 0.9 between neighbouring speeds"),
     ],
+    "ffrf_limit_cycle.ipynb": [
+        near("hopf_intercept / b.hopf[0]", 1.0, 1e-4,
+             "a supercritical Hopf bifurcation: amplitude^2 linear in the flow, zero at critical_mass_flow's Hopf "
+             "point (2 FFRF bodies)"),
+        near("period_ratio", 1.0, 1e-3, "the period tends to 2 pi / omega_c at the Hopf point (to the "
+             "integrator's period error at 128 steps per period, 2e-4)"),
+        within("gap_ratio", 0.0, 0.5, "n FFRF bodies behave like 2n elements: the 4-body branch lies closer to "
+               "the 16-element model's than the 2-body one"),
+    ],
     "seed000_bifurcation.ipynb": [
         near("amplitude_30 / transient_30", 1.0, 1e-3,
              "seed 000, Fig. 3 (30 kg/s, 4 elements, EA = 1e5 N): the orbit continued from the Hopf point and the "

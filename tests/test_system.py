@@ -113,11 +113,10 @@ def test_flow_map_tangent_equals_central_differences():
 
 
 @pytest.mark.parametrize("kind", ["bodies", "coupled"])
-def test_flow_maps_of_floating_frames_are_refused_with_the_reason(kind, bodies, coupled):
-    """The bodies' rates are spatial angular velocities, integrated on the rotation group by
-    re-basing every step: a flow map in a fixed chart would move its coordinates at the wrong
-    rates, so it is refused (not computed wrong)."""
+def test_flow_maps_of_floating_frames_run(kind, bodies, coupled):
+    """Systems with floating frames have flow maps too (re-based every step; their tangent
+    is checked in tests/test_body_orbits.py): from rest at zero flow the state stays."""
     system = bodies.system() if kind == "bodies" else coupled.system()
     n = system.n_coordinates
-    with pytest.raises(ValueError, match="flow maps .periodic orbits. of floating-frame bodies are not available"):
-        _core.flow_map(system, 0.0, np.zeros(n), np.zeros(n), 0.01, 10, False, _core.TransientOptions())
+    out = _core.flow_map(system, 0.0, np.zeros(n), np.zeros(n), 0.01, 10, False, _core.TransientOptions())
+    assert out["z"].shape == (11, n) and np.all(np.isfinite(out["z"]))

@@ -333,9 +333,11 @@ void bind_system(py::module_& m) {
             return d;
         },
         "The generalised-alpha flow map of the system (autonomous: the constant mass flow [kg/s], loads at their "
-        "full value) over duration [s] in n_steps equal steps, in the fixed chart of the system's state: from z0, v0 "
+        "full value) over duration [s] in n_steps equal steps, in the chart of the system's state: from z0, v0 "
         "to z (every step), v, a at the end; with sensitivity its tangent-linear map ('tangent', FlowMapTangent) "
-        "and, with monodromy, the monodromy matrix (its action on the identity).",
+        "and, with monodromy, the monodromy matrix (its action on the identity). Floating frames are re-based "
+        "every step and their z is the rotation's log relative to the state's frame (v: spatial angular "
+        "velocities); element nodes stay in the fixed chart.",
         py::arg("system"), py::arg("mass_flow"), py::arg("z0"), py::arg("v0"), py::arg("duration"), py::arg("n_steps"),
         py::arg("sensitivity"), py::arg("options"), py::arg("monodromy") = true);
     m.def(

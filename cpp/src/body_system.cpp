@@ -5,12 +5,6 @@
 
 namespace pipeflex {
 
-std::string fixed_chart_refusal() {
-    return "flow maps (periodic orbits) of floating-frame bodies are not available: the bodies' velocities are "
-           "spatial angular velocities, integrated on the rotation group by re-basing the frames every step, so a "
-           "fixed chart's coordinates do not move at those rates; periodic orbits run on element models";
-}
-
 void append_body_outputs(const MultibodySystemCore& sys, const MbState& s, const TimeTable& mass_flow, double t,
                          MbEvaluation& ev, Record& out, const std::string& prefix) {
     const long nb = sys.n_bodies(), n = sys.n_coordinates(), nc = sys.n_constraints();
@@ -43,8 +37,14 @@ class BodyRun final : public Run {
         v = target.v;
         a = target.a;
         lam = target.lam;
+        for (int j = 0; j < sys.n_bodies(); ++j) frame_rotations.push_back(sys.offset(j) + 3);
+        frames_end = sys.n_coordinates();
     }
     Equations& equations() override { return eq_; }
+    void rebase_frames() override {
+        Eigen::VectorXd unused;  // the bodies' rates are spatial: re-basing keeps them
+        eq_.rebase(unused, unused);
+    }
     void record(double t, Record& out) override {
         append_body_outputs(sys_, eq_.state(), drive_.mass_flow, t, ev_, out);
     }
@@ -72,7 +72,6 @@ class BodySystem final : public System {
     }
     std::unique_ptr<Run> start(const Drive& drive, Mode mode) override {
         sys_.check_state(state_);
-        if (mode == Mode::fixed_chart) throw std::invalid_argument(fixed_chart_refusal());
         return std::make_unique<BodyRun>(sys_, state_, drive, mode);
     }
     // A mechanism's free frame motions are penalised (StaticNewtonOptions::shift).

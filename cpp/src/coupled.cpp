@@ -378,8 +378,17 @@ class CoupledRun final : public Run {
         v << v1, body_state.v;
         a << a1, body_state.a;
         lam << body_state.lam, (coupling_lam.size() == nc3 ? coupling_lam : VecX::Zero(nc3));
+        // the flow map re-bases the bodies' frames; the element nodes stay in their chart
+        const int n1 = model.n_dofs;
+        for (int j = 0; j < bodies.n_bodies(); ++j) frame_rotations.push_back(n1 + bodies.offset(j) + 3);
+        frames_begin = n1;
+        frames_end = n;
     }
     Equations& equations() override { return eq_; }
+    void rebase_frames() override {
+        VecX unused;  // the bodies' rates are spatial: re-basing keeps them
+        mb_.rebase(unused, unused);
+    }
     void begin(double t) override { el_.start_work(t); }
     void record(double t, Record& out) override {
         record_element(el_, t, out);
@@ -426,7 +435,6 @@ class CoupledSystem final : public System {
     }
     std::unique_ptr<Run> start(const Drive& drive, Mode mode) override {
         check();
-        if (mode == Mode::fixed_chart) throw std::invalid_argument(fixed_chart_refusal());
         Drive d = drive;
         d.options.length_scale = model_length_scale(model_);
         return std::make_unique<CoupledRun>(model_, state_, load_, bodies_, body_state_, couplings_, coupling_lam_, d,

@@ -19,15 +19,24 @@ run to a looser Newton tolerance. At the solution the monodromy is computed agai
 the multipliers, when asked. Its eigenvalues are the Floquet multipliers: one is 1 (the
 shift along the orbit), the orbit is stable when all others lie inside the unit circle.
 
-Coordinates z are reduced displacements from a base state (its node frames held fixed:
-no re-basing along the orbit, so rotations must stay well below pi from the base), v
-their rates. Continuation is pseudo-arclength in (x0, T, mdot), starting at a Hopf point
-found by :func:`~pipeflex.critical_mass_flow` (its critical mode and frequency give the
-first direction and period), with step control and fold detection.
+Coordinates z are measured from a base state, v are the rates; per formulation (one
+chart class each, :func:`_chart`): an element model's reduced displacements (its node
+frames held fixed: no re-basing along the orbit, so rotations must stay well below pi
+from the base) and their chart rates; a :class:`~pipeflex.multibody.MultibodySystem`'s
+coordinates (per body the frame's translation, its rotation vector relative to the
+base frame, the elastic coordinates) and its velocities (spatial angular velocities:
+the flow map re-bases the frames every step, as the integrator does, and maps the end
+back to the base's chart with its exact tangent); a :class:`~pipeflex.CoupledSystem`'s
+both, stacked [element; bodies]. With joints the flow map's end satisfies them, so
+each constrained direction has a zero multiplier. Continuation is pseudo-arclength in
+(x0, T, mdot), starting at a Hopf point found by :func:`~pipeflex.critical_mass_flow`
+(its critical mode and frequency give the first direction and period), with step
+control and fold detection.
 """
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from contextlib import nullcontext as _no_context
+from dataclasses import dataclass, field, replace
 from typing import Optional
 
 import numpy as np
@@ -35,17 +44,17 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
 from .. import _checks, _core
+from .._lazy import loaded_instance
 from ..errors import ConvergenceError
+from ..model import Model
 from ..results import Result
+from ..rotation import rotation_log
 from ..state import State, as_core
 from .._blas import pinned as blas_pinned
 from .._progress import logger
 from ._assembly import require_model
 from .transient import explained_singular_mass
 
-# Why periodic orbits are for element models only (require_model's reason).
-PERIODIC_ORBITS = ("shooting needs the flow map in one fixed chart, and floating-frame bodies integrate their "
-                   "rotations on the rotation group, re-basing the frames every step")
 #: steps of the integrator per period unless given
 STEPS_PER_PERIOD = 512
 #: multipliers within this distance of the unit circle count as neutral, not unstable:
@@ -84,14 +93,19 @@ class PeriodicOrbit(Result):
     Attributes:
         mass_flow: mdot [kg/s].
         period: T [s].
-        base: the base state (positions and node frames of the chart; reduced
-            coordinates z are measured from it).
-        z0: (n_dofs,) reduced displacement at t = 0 [m, rad]; v0: their rates [m/s, rad/s].
-        start: the state at t = 0 on the orbit (in the base's frames).
+        base: the base state (the chart: coordinates z are measured from it): a
+            :class:`~pipeflex.State` of an element model, a
+            :class:`~pipeflex.multibody.MultibodyState` of bodies, a
+            :class:`~pipeflex.coupled.CoupledStatic` of a coupled system.
+        z0: (n,) coordinates at t = 0 [m, rad, ...] (n: an element model's n_dofs, the
+            bodies' n_coordinates, their sum for a coupled system); v0: their rates
+            [m/s, rad/s, ...].
+        start: the state at t = 0 on the orbit (of base's kind).
         t: (N + 1,) times over one period [s].
-        x: (N + 1, n_nodes, 3) node positions over one period [m].
-        amplitude: (n_nodes, 3) half the peak-to-peak excursion of each node coordinate [m].
-        multipliers: (2 n_dofs,) Floquet multipliers by decreasing modulus [-] (empty
+        x: (N + 1, n_points, 3) positions over one period [m]: the element nodes, then
+            each body's nodes (:meth:`~pipeflex.multibody.MultibodySystem.centre_line`).
+        amplitude: (n_points, 3) half the peak-to-peak excursion of each point's coordinate [m].
+        multipliers: (2 n,) Floquet multipliers by decreasing modulus [-] (empty
             if not asked for: ``periodic_orbit(..., multipliers=False)``).
         trivial: index in ``multipliers`` of the one closest to 1 (the shift along the
             orbit); -1 without multipliers.
@@ -145,7 +159,8 @@ class OrbitBranch(Result):
     Attributes:
         mass_flow: (k,) mdot [kg/s] of each orbit.
         period: (k,) T [s].
-        amplitude: (k, n_nodes, 3) half peak-to-peak excursions [m].
+        amplitude: (k, n_points, 3) half peak-to-peak excursions [m] (points as
+            :attr:`PeriodicOrbit.x`).
         stable: (k,) stability from the Floquet multipliers.
         max_multiplier: (k,) largest modulus of the non-trivial multipliers [-].
         folds: mass flows [kg/s] where the branch turns back (d mdot / ds changes sign).
@@ -208,16 +223,156 @@ def _state_at(base: State, basis, z, v) -> State:
     return State(base.q + basis @ z, basis @ v, np.zeros_like(base.a), base.frames.copy(), base.ancf.copy())
 
 
-class _Shooter:
-    """The flow map of a model at one mass flow in the chart of a base state."""
+class _ElementChart:
+    """An element model's reduced coordinates z (n_dofs) about a base State (node frames
+    held) and their chart rates: what the shooting needs of a formulation (the other
+    charts have the same members)."""
 
-    def __init__(self, model, base, steps: int, opt):
+    def __init__(self, model, base):
         self.model = model
         self.base = base if isinstance(base, State) else State.from_core(as_core(model, base), model)
         self.base.q.flags.writeable = False
+        self.n = model.n_dofs
+        self.length_scale = model.length_scale
+
+    def system(self, mass_flow):
+        """The core system at the base state."""
+        with explained_singular_mass(self.model):
+            return self.model.system(self.base.to_core(self.model), mass_flow=mass_flow)
+
+    def positions(self, z):
+        """(k, n_points, 3) positions [m] at the rows of z (k, n)."""
+        q = self.base.q[None, :] + (self.model.basis @ np.atleast_2d(z).T).T
+        return q.reshape(len(q), self.model.n_nodes, 6)[:, :, :3]
+
+    def state(self, z, v):
+        """The state at coordinates z with rates v."""
+        return _state_at(self.base, self.model.basis, z, v)
+
+    def coordinates(self, state):
+        """(z, v) of a state (least squares through the basis)."""
+        st = State.from_core(as_core(self.model, state), self.model)
+        basis = self.model.basis
+        return _reduced(basis, st.q - self.base.q, self.base, st), _reduced(basis, st.v, self.base, st)
+
+
+class _BodyChart:
+    """A MultibodySystem's coordinates about a base MultibodyState: per body r - r_base,
+    log(R R_base^T), eta - eta_base; rates its velocities (spatial angular velocities)."""
+
+    def __init__(self, model, base):
+        model.check_state(base, "base")
+        self.model = model
+        self.base = base.copy()
+        self.n = model.n_coordinates
+        self.length_scale = model.length_scale
+
+    def system(self, mass_flow):
+        return self.model.system(self.base)
+
+    def positions(self, z):
+        out = []
+        for zk in np.atleast_2d(z):
+            st = self.base.copy()
+            self.model.increment(st, zk)
+            out.append(np.vstack(self.model.centre_line(st)))
+        return np.array(out)
+
+    def state(self, z, v):
+        st = self.base.copy()
+        self.model.increment(st, np.asarray(z, float))
+        st.v[:] = v
+        st.a[:] = 0.0
+        return st
+
+    def coordinates(self, state):
+        self.model.check_state(state)
+        z = np.asarray(state.eta, float) - self.base.eta
+        for j, o in enumerate(self.model.offsets[:-1]):
+            z[o:o + 3] = state.r[j] - self.base.r[j]
+            z[o + 3:o + 6] = rotation_log(state.R[j] @ self.base.R[j].T)
+        return z, np.array(state.v, float)
+
+
+class _CoupledChart:
+    """A CoupledSystem's coordinates [element; bodies] about a base CoupledStatic (the
+    element part as _ElementChart, the bodies' as _BodyChart); its states are
+    CoupledStatic's fields with the rates."""
+
+    def __init__(self, model, base):
+        if not loaded_instance(base, "pipeflex.coupled", "CoupledStatic"):
+            raise TypeError(f"the state of a CoupledSystem's periodic orbit must be a CoupledStatic "
+                            f"(pipeflex.static_equilibrium(system), or an orbit's start), got {type(base).__name__}")
+        self.model = model
+        self.base = base
+        self.elements = _ElementChart(model.model, base.state)
+        self.bodies = _BodyChart(model.bodies, base.body_state)
+        self.n = self.elements.n + self.bodies.n
+        self.length_scale = max(self.elements.length_scale, self.bodies.length_scale)
+
+    def system(self, mass_flow):
+        return self.model.system(self.elements.base.to_core(self.model.model), self.bodies.base,
+                                 self.base.coupling_forces, mass_flow=mass_flow)
+
+    def positions(self, z):
+        z = np.atleast_2d(z)
+        n1 = self.elements.n
+        return np.concatenate([self.elements.positions(z[:, :n1]), self.bodies.positions(z[:, n1:])], axis=1)
+
+    def state(self, z, v):
+        n1 = self.elements.n
+        return replace(self.base, state=self.elements.state(z[:n1], v[:n1]),
+                       body_state=self.bodies.state(z[n1:], v[n1:]))
+
+    def coordinates(self, state):
+        if not loaded_instance(state, "pipeflex.coupled", "CoupledStatic"):
+            raise TypeError(f"state must be a CoupledStatic for a CoupledSystem, got {type(state).__name__}")
+        (z1, v1), (z2, v2) = self.elements.coordinates(state.state), self.bodies.coordinates(state.body_state)
+        return np.concatenate([z1, z2]), np.concatenate([v1, v2])
+
+
+def _chart(model, base):
+    """The chart of ``model``'s formulation about the state ``base`` (None: the model's
+    initial state)."""
+    if loaded_instance(model, "pipeflex.multibody.system", "MultibodySystem"):
+        return _BodyChart(model, model.initial_state() if base is None else base)
+    if loaded_instance(model, "pipeflex.coupled", "CoupledSystem"):
+        if base is None:  # the assembly configuration at rest
+            from ..coupled import CoupledStatic
+
+            base = CoupledStatic(state=State.from_core(as_core(model.model, None), model.model),
+                                 body_state=model.bodies.initial_state(),
+                                 coupling_forces=np.zeros(model.n_constraints - model.bodies.n_constraints),
+                                 iterations=0, residual=0.0, mass_flow=_mass_flow(model))
+        return _CoupledChart(model, base)
+    require_model(model)
+    return _ElementChart(model, base)
+
+
+def _critical_direction(model, equilibrium, start):
+    """The critical mode of ``start`` (a CriticalFlow) in the chart's coordinates: an
+    element model's as it is; with constraints the mode's independent coordinates
+    through the null-space basis of the linearisation at the Hopf equilibrium."""
+    phi = np.asarray(start.mode, complex)
+    if isinstance(equilibrium, _ElementChart):
+        return phi
+    from .linearize import linearize
+
+    lin = linearize(model, equilibrium.base, mass_flow=float(start.mass_flow))
+    return np.asarray(lin.basis @ phi)
+
+
+class _Shooter:
+    """The flow map of a model at one mass flow in a chart (_ElementChart, _BodyChart,
+    _CoupledChart)."""
+
+    def __init__(self, model, chart, steps: int, opt):
+        self.model = model
+        self.chart = chart
+        self.base = chart.base
         self.steps = steps
         self.opt = opt
-        self.n = model.n_dofs
+        self.n = chart.n
         self.calls = 0
         self.newton_iterations = 0
 
@@ -227,10 +382,10 @@ class _Shooter:
         ``sensitivity`` also its monodromy matrix."""
         opt = self.opt
         if newton_tol is not None and newton_tol != opt.newton_tol:
-            opt = _options(self.model, newton_tol, opt.rho_inf)
+            opt = _options(self.chart, newton_tol, opt.rho_inf)
         self.calls += 1
-        with explained_singular_mass(self.model):
-            system = self.model.system(self.base.to_core(self.model), mass_flow=mass_flow)
+        system = self.chart.system(mass_flow)
+        with explained_singular_mass(self.model) if isinstance(self.chart, _ElementChart) else _no_context():
             out = _core.flow_map(system, float(mass_flow), np.asarray(z0, float), np.asarray(v0, float),
                                  float(period), self.steps if steps is None else int(steps), bool(sensitivity), opt)
         self.newton_iterations += int(out["newton_iterations"])
@@ -240,7 +395,7 @@ class _Shooter:
         return np.concatenate([out["z"][-1] - z0, out["v"] - v0])
 
 
-def _options(model, newton_tol, rho_inf):
+def _options(chart, newton_tol, rho_inf):
     opt = _core.TransientOptions()
     opt.newton_tol = _checks.positive("newton_tol", newton_tol)
     rho = _checks.finite("rho_inf", rho_inf)
@@ -248,12 +403,17 @@ def _options(model, newton_tol, rho_inf):
         raise ValueError(f"rho_inf must be in [0, 1], got {rho}")
     opt.rho_inf = rho
     opt.max_newton = 30
-    opt.length_scale = model.length_scale
+    opt.length_scale = chart.length_scale
     return opt
 
 
+def _mass_flow(model) -> float:
+    """The model's mass flow mdot [kg/s] (a coupled system's: its element model's)."""
+    part = model.model if loaded_instance(model, "pipeflex.coupled", "CoupledSystem") else model
+    return float(part.mass_flow)
+
+
 def _finish(shooter, z0, v0, period, mass_flow, out, iterations, residual) -> PeriodicOrbit:
-    model = shooter.model
     if "monodromy" in out:
         mu = np.linalg.eigvals(out["monodromy"])
         mu = mu[np.argsort(-np.abs(mu), kind="stable")]
@@ -262,12 +422,11 @@ def _finish(shooter, z0, v0, period, mass_flow, out, iterations, residual) -> Pe
     else:  # not asked for
         mu, trivial, stable = np.zeros(0, complex), -1, None
     z = out["z"]
-    basis = model.basis
-    q = shooter.base.q[None, :] + (basis @ z.T).T
-    x = q.reshape(len(z), model.n_nodes, 6)[:, :, :3]
+    x = shooter.chart.positions(z)
     amplitude = 0.5 * (x.max(axis=0) - x.min(axis=0))
     orbit = PeriodicOrbit(mass_flow=float(mass_flow), period=float(period), base=shooter.base, z0=np.array(z0),
-                          v0=np.array(v0), start=_state_at(shooter.base, basis, z0, v0), t=np.linspace(0.0, period, len(z)), x=x, amplitude=amplitude,
+                          v0=np.array(v0), start=shooter.chart.state(np.array(z0), np.array(v0)),
+                          t=np.linspace(0.0, period, len(z)), x=x, amplitude=amplitude,
                           multipliers=mu, trivial=trivial, stable=stable,
                           residual=float(residual), iterations=int(iterations), steps=shooter.steps,
                           stats={"flow_maps": shooter.calls, "newton_iterations": shooter.newton_iterations})
@@ -402,13 +561,18 @@ def periodic_orbit(model, *, period: float, state=None, base=None, mass_flow: Op
     """The periodic orbit through (near) ``state`` with period near ``period``.
 
     Args:
-        model: an autonomous model (constant flow and loads, no hub drive).
+        model: an autonomous model (constant flow and loads, no hub drive): a
+            :class:`~pipeflex.Model`, a :class:`~pipeflex.multibody.MultibodySystem` or a
+            :class:`~pipeflex.CoupledSystem`.
         period: T [s] first guess of the period (e.g. from a transient, or 2 pi / omega
             at a Hopf point).
         state: a state on or near the orbit (e.g. the end of a transient that has settled
-            on the cycle); default the model's reference state.
-        base: the chart (positions and node frames the reduced coordinates are measured
-            from); default ``state`` itself.
+            on the cycle: :attr:`OrbitGuess.state`); default the model's reference state
+            (assembly configuration) at rest. Of the model's kind: a
+            :class:`~pipeflex.State`, a :class:`~pipeflex.multibody.MultibodyState`, a
+            :class:`~pipeflex.coupled.CoupledStatic` (its element and body states).
+        base: the chart (an element model's positions and node frames, the bodies'
+            frames, that the coordinates are measured from); default ``state`` itself.
         mass_flow: mdot [kg/s] (default the model's).
         steps: N, generalised-alpha steps per period (h = T / N) [-].
         tol: Newton tolerance on the periodicity defect ``max |phi_T(x0) - x0|`` [m, m/s].
@@ -436,19 +600,17 @@ def periodic_orbit(model, *, period: float, state=None, base=None, mass_flow: Op
         ValueError: bad options; or the shooting failed with ``period`` above
             MAX_PERIOD_RATIO times the model's slowest natural period.
     """
-    require_model(model, why=PERIODIC_ORBITS)
+    start_chart = _chart(model, state)
+    chart = start_chart if base is None else _chart(model, base)
     T = _checks.positive("period", period)
-    steps = _checks.flow_map_steps("steps", steps, model.n_dofs)
+    steps = _checks.flow_map_steps("steps", steps, chart.n)
     tol = _checks.positive("tol", tol)
     max_iterations = _checks.positive_int("max_iterations", max_iterations)
-    mdot = model.mass_flow if mass_flow is None else _checks.finite("mass_flow", mass_flow)
-    start = State.from_core(as_core(model, state), model)
-    chart = start if base is None else State.from_core(as_core(model, base), model)
-    shooter = _Shooter(model, chart, steps, _options(model, newton_tol, rho_inf))
-    # the start in the chart's reduced coordinates (least squares through the basis)
-    basis = model.basis
-    z0 = _reduced(basis, start.q - chart.q, chart, start)
-    v0 = _reduced(basis, start.v, chart, start)
+    mdot = _mass_flow(model) if mass_flow is None else _checks.finite("mass_flow", mass_flow)
+    start = start_chart.base
+    shooter = _Shooter(model, chart, steps, _options(chart, newton_tol, rho_inf))
+    # the start in the chart's coordinates
+    z0, v0 = chart.coordinates(start)
     y = np.concatenate([z0, v0, [T]])
     # The coarse start pays where no exact monodromy is needed: with multipliers one is
     # computed anyway, and an exact first one then serves the whole chord (measured:
@@ -461,7 +623,7 @@ def periodic_orbit(model, *, period: float, state=None, base=None, mass_flow: Op
         raise
     logger.info("periodic_orbit: converged in %d iterations at mdot = %.8g kg/s: T = %.10g s, defect %.3g "
                 "(%d flow maps)", it, mdot, y[-1], res, shooter.calls)
-    n = model.n_dofs
+    n = chart.n
     return _nontrivial(_finish(shooter, y[:n], y[n:2 * n], y[-1], mdot, out, it, res), shooter.opt.length_scale, tol)
 
 
@@ -494,6 +656,8 @@ def _refuse_period(model, period, start, mdot, err):
     from .eigen import SPARSE_MIN_DOFS, eigenvalues
     from .linearize import linearize
 
+    if not isinstance(model, Model):
+        return  # (the verdict linearises an element model about the start)
     try:
         lin = linearize(model, start, mass_flow=mdot)
         n = model.n_dofs
@@ -524,11 +688,16 @@ def orbit_guess(model, *, node: int, step: float, component: int = 1, state=None
     (docs/performance.md, "Periodic orbits from a coarse transient").
 
     Args:
-        model: an autonomous model (constant flow and loads).
-        node: the node whose coordinate is watched [-].
-        step: h [s] of the transient.
+        model: an autonomous model (constant flow and loads): a
+            :class:`~pipeflex.Model`, a :class:`~pipeflex.multibody.MultibodySystem` or
+            a :class:`~pipeflex.CoupledSystem`.
+        node: the node whose coordinate is watched [-]; with bodies a point of
+            :attr:`PeriodicOrbit.x` (the element nodes, then each body's nodes).
+        step: h [s] of the transient (bodies and coupled systems: the flow map's
+            generalised-alpha, re-based every ``chunk``; element models: :func:`simulate`'s).
         component: 0, 1, 2 = x, y, z of the node's position.
-        state: the start (default the reference configuration at rest).
+        state: the start (default the reference configuration at rest; a coupled
+            system's: a CoupledStatic, e.g. ``pipeflex.static_equilibrium(system)``).
         mass_flow: mdot [kg/s] (default the model's).
         settle: relative change of the amplitude between the last two cycles at which
             the transient stops [-].
@@ -543,10 +712,12 @@ def orbit_guess(model, *, node: int, step: float, component: int = 1, state=None
     from ..signals import zero_crossings
     from .transient import simulate
 
-    require_model(model, why=PERIODIC_ORBITS)
+    element = isinstance(model, Model)
+    chart = None if element else _chart(model, state)
+    n_points = model.n_nodes if element else chart.positions(np.zeros(chart.n)).shape[1]
     node = _checks.non_negative_int("node", node)
-    if node >= model.n_nodes:
-        raise ValueError(f"node must be in [0, {model.n_nodes}), got {node}")
+    if node >= n_points:
+        raise ValueError(f"node must be in [0, {n_points}), got {node}")
     if component not in (0, 1, 2):
         raise ValueError(f"component must be 0, 1 or 2 (x, y, z), got {component!r}")
     h = _checks.positive("step", step)
@@ -557,17 +728,28 @@ def orbit_guess(model, *, node: int, step: float, component: int = 1, state=None
         raise ValueError(f"t_max = {t_max:g} s is {t_max / h:.3g} steps of step = {h:g} s; at most MAX_GUESS_STEPS = "
                          f"{MAX_GUESS_STEPS:.0e}: lower t_max (a cycle that attracts settles within some hundred "
                          "periods) or raise step")
-    size = model.length_scale
+    size = model.length_scale if element else chart.length_scale
     t, st = 0.0, state
     ts, ys = [np.zeros(0)], [np.zeros(0)]
     # each chunk ends at t + chunk >= t + 4 step (or t_max): a bounded count
     for _ in range(int(np.ceil(t_max / chunk)) + 2):
         t_end = min(t + chunk, t_max)
-        run = simulate(model, t_end, t_start=t, state=st, step=h, n_outputs=max(2, int(round((t_end - t) / h)) + 1),
-                       mass_flow=mass_flow, progress=False, integrator="generalized_alpha")
-        ts.append(run.t[1:])
-        ys.append(run.x[1:, node, component])
-        t, st = t_end, run.final_state
+        k = max(2, int(round((t_end - t) / h)) + 1)
+        if element:
+            run = simulate(model, t_end, t_start=t, state=st, step=h, n_outputs=k, mass_flow=mass_flow,
+                           progress=False, integrator="generalized_alpha")
+            ts.append(run.t[1:])
+            ys.append(run.x[1:, node, component])
+            st = run.final_state
+        else:  # the flow map from the chunk's start, in its chart
+            mdot = _mass_flow(model) if mass_flow is None else _checks.finite("mass_flow", mass_flow)
+            out = _core.flow_map(chart.system(mdot), mdot, np.zeros(chart.n), chart.coordinates(chart.base)[1],
+                                 t_end - t, k - 1, False, _options(chart, 1e-10, 0.9))
+            ts.append(np.linspace(t, t_end, k)[1:])
+            ys.append(chart.positions(out["z"][1:])[:, node, component])
+            chart = _chart(model, chart.state(out["z"][-1], out["v"]))
+            st = chart.base
+        t = t_end
         time_, y = np.concatenate(ts), np.concatenate(ys)
         recent = y[time_ >= t - chunk]
         mid = 0.5 * (recent.max() + recent.min())
@@ -604,9 +786,13 @@ def continue_orbits(model, *, start, mass_flow_end: float, amplitude: float = 1e
     """Continue the periodic orbits born at a Hopf point in the mass flow.
 
     Args:
-        model: an autonomous model (constant loads, no hub drive).
+        model: an autonomous model (constant loads, no hub drive): a
+            :class:`~pipeflex.Model`, a :class:`~pipeflex.multibody.MultibodySystem` or a
+            :class:`~pipeflex.CoupledSystem`.
         start: the :class:`~pipeflex.CriticalFlow` of kind "flutter" at which the branch
-            starts (its mass flow, frequency and critical mode).
+            starts (its mass flow, frequency and critical mode; with joints the mode's
+            independent coordinates are mapped to the system's through the null-space
+            basis of the linearisation at the Hopf equilibrium).
         mass_flow_end: mdot [kg/s] at which to stop (either side of the Hopf point: a
             subcritical branch first turns back).
         amplitude: size of the first orbit's excursion along the critical mode [m].
@@ -623,21 +809,22 @@ def continue_orbits(model, *, start, mass_flow_end: float, amplitude: float = 1e
     """
     from .static import static_equilibrium
 
-    require_model(model, why=PERIODIC_ORBITS)
     if getattr(start, "kind", None) != "flutter":
         raise ValueError("start must be a CriticalFlow of kind 'flutter' (a Hopf point); got "
                          f"{getattr(start, 'kind', type(start).__name__)!r}")
     m_end = _checks.finite("mass_flow_end", mass_flow_end)
     amp = _checks.positive("amplitude", amplitude)
     max_points = _checks.positive_int("max_points", max_points)
-    steps = _checks.flow_map_steps("steps", steps, model.n_dofs)
     mc, wc = float(start.mass_flow), float(start.frequency)
-    eq = static_equilibrium(model, mass_flow=mc, state=state).state
-    shooter = _Shooter(model, eq, steps, _options(model, newton_tol, rho_inf))
-    n = model.n_dofs
+    static = static_equilibrium(model, mass_flow=mc, state=state)
+    # a coupled system's chart is its whole static result (element and body states)
+    chart = _chart(model, static if loaded_instance(model, "pipeflex.coupled", "CoupledSystem") else static.state)
+    steps = _checks.flow_map_steps("steps", steps, chart.n)
+    shooter = _Shooter(model, chart, steps, _options(chart, newton_tol, rho_inf))
+    n = chart.n
     # first orbit: the equilibrium displaced along the real part of the critical mode,
     # velocity from its imaginary part (x(t) = Re(phi e^{i w t}) at t = 0)
-    phi = np.asarray(start.mode, complex)
+    phi = _critical_direction(model, chart, start)
     phi = phi / np.abs(phi).max()
     z_dir, v_dir = phi.real, -wc * phi.imag
     scale = amp / max(np.abs(z_dir).max(), 1e-300)

@@ -65,6 +65,15 @@ class Run {
     // The start: time [s], rates (chart of z = 0) and multipliers of the system's state.
     double t0 = 0.0;
     Eigen::VectorXd v, a, lam;
+    // Floating frames (the flow map re-bases them every step, as dynamics does): the
+    // coordinates [frames_begin, frames_end) are the bodies' (frames and modal amplitudes),
+    // re-based together; frame_rotations: the first of each frame's three rotation
+    // coordinates (R = exp(z~) R0; their rates are spatial angular velocities, which
+    // re-basing keeps). None: the fixed chart is exact (element nodes' rates are chart rates).
+    std::vector<int> frame_rotations;
+    int frames_begin = 0, frames_end = 0;
+    // The frames' coordinates of the state set become their base (z = 0 there).
+    virtual void rebase_frames() {}
 };
 
 class System {
@@ -134,8 +143,6 @@ class ElementEquations;
 void record_element(const ElementEquations& eq, double t, Record& out);
 // Bodies and joints, the state owned (body_state() reads it).
 std::unique_ptr<System> body_system(const MultibodySystemCore& bodies, const MbState& state);
-// Why a system with floating-frame bodies has no run in a fixed chart (System::Mode).
-std::string fixed_chart_refusal();
 // A body state's outputs appended to the record's series: r (n_bodies, 3), R (n_bodies,
 // 3, 3), eta, v, a, lam and drift (max |C_q v|, at the mass flow at t; ev: scratch), each
 // name after the prefix.
@@ -188,13 +195,17 @@ SteadyRotationOutcome steady_rotation(System& sys, const RotationHinge& hinge, d
                                       const SteadyRotationOptions& opt);
 
 // The generalised-alpha flow map of the system, autonomous (constant mass flow mdot [kg/s],
-// loads at their full value), over `duration` [s] in n_steps equal steps in the fixed chart
-// of the system's state (no re-basing, so rotations must stay well below pi from it): from
-// z0 [m, rad, ...] and v0 (n each) to z, v at the end. With sensitivity also its tangent-
+// loads at their full value), over `duration` [s] in n_steps equal steps in the chart of
+// the system's state: from z0 [m, rad, ...] and v0 (n each) to z, v at the end. Element
+// nodes stay in the fixed chart (no re-basing, so their rotations must stay well below pi
+// from it); floating frames (Run::frame_rotations) are re-based every step, as integrate
+// does, and their z at every step is in the start chart (the rotation's log relative to
+// the state's frame, below pi; v spatial as v0). With sensitivity also its tangent-
 // linear map d(z, v)_end / d(z0, v0) (FlowMapTangent; the initial acceleration and
 // multipliers consistent with z0, v0), with the exact iteration matrix of every step:
 // applied to the identity it is the monodromy matrix of a periodic orbit, whose
-// eigenvalues are its Floquet multipliers. With constraints each step's linearisation is
+// eigenvalues are its Floquet multipliers. The frames' sensitivities are transported
+// through each step's chart change (flow_map.cpp). With constraints each step's linearisation is
 // its KKT system, so a direction that violates them is mapped onto them by the first step
 // (a zero multiplier per constrained direction).
 FlowMapOutput flow_map(System& sys, double mdot, const Eigen::VectorXd& z0, const Eigen::VectorXd& v0, double duration,

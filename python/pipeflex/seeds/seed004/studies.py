@@ -120,6 +120,114 @@ def ffrf_cycle_branch(mass_flows: Sequence[float], *, n_bodies: int, t_end: floa
     return {"mass_flow": np.asarray(mass_flows, float), "amplitude": np.array(amp), "period": np.array(period)}
 
 
+@dataclass
+class OrbitStudy:
+    """A flutter branch continued from its Hopf point (``ffrf_orbit_branch``): ``branch``
+    (a :class:`~pipeflex.OrbitBranch`) and the tip's point index ``tip`` in the orbits'
+    positions; ``reference``: the element model's branch of the same pipe (``mass_flow``
+    [kg/s], ``amplitude`` [m] (the tip's lateral half range), ``period`` [s], ``stable``,
+    ``max_multiplier``, ``hopf`` (mdot_c, omega_c)), if computed."""
+
+    branch: object
+    tip: int
+    reference: Optional[Dict[str, np.ndarray]] = None
+
+    @property
+    def tip_amplitude(self) -> np.ndarray:
+        """Half peak-to-peak of the tip's lateral motion [m], per orbit: the straight pipe's
+        orbits are planar, in a plane through its axis that the critical mode picks, so
+        the hypotenuse of the y and z half ranges."""
+        return lateral_amplitude(self.branch.amplitude[:, self.tip])
+
+
+def lateral_amplitude(amplitude) -> np.ndarray:
+    """hypot of the y and z entries of half peak-to-peak ranges (..., 3) [m]."""
+    a = np.asarray(amplitude, float)
+    return np.hypot(a[..., 1], a[..., 2])
+
+
+def element_cantilever_model(*, n_elements: int, tip_force: float = CANTILEVER_TIP_FORCE):
+    """The element model of the FFRF cantilever's pipe (the scene's section: seed 000's
+    Table 2 pipe with seed 004's tube's EA, GJ and polar rotary inertia), clamped at the
+    origin along x, with ``tip_force`` [N] along global z at the free end; returns the
+    model and its tip node."""
+    from ...model import ModelBuilder
+
+    sec = scenes.ffrf_cantilever_pipe(n_bodies=1, elements_per_body=2).bodies[0].section
+    b = ModelBuilder()
+    n0 = b.add_node((0.0, 0.0, 0.0))
+    nodes = b.add_line(n0, (1.0, 0.0, 0.0), _checks.positive_int("n_elements", n_elements), sec)
+    b.clamp(n0)
+    b.add_load(nodes[-1], force=(0.0, 0.0, _checks.finite("tip_force", tip_force)))
+    return b.build(), nodes[-1]
+
+
+def ffrf_orbit_branch(*, n_bodies: int, mass_flow_end: Optional[float] = None, max_points: int = 12,
+                      steps: int = 128, amplitude: float = 0.01, reference_elements: Optional[int] = None,
+                      tip_force: float = 0.0) -> OrbitStudy:
+    """The flutter limit cycle of the FFRF cantilever (sec. 8.1: ``n_bodies`` bodies of 20
+    elements, boundary modes, ``tip_force`` [N] along z) continued in the mass flow from
+    its Hopf point (:func:`pipeflex.critical_mass_flow`) by :func:`pipeflex.continue_orbits`:
+    ``max_points`` orbits of ``steps`` steps per period, the first of amplitude about
+    ``amplitude`` [m] along the critical mode, up to ``mass_flow_end`` [kg/s] (default the
+    Hopf flow + 4 kg/s). With ``reference_elements`` the element model of the same pipe
+    (:func:`element_cantilever_model`, that many elements) is continued the same way.
+
+    The tip force is 0 by default: with the seed's 1.5 N, critical_mass_flow stops at a
+    weakly growing mode of the loaded floating-frame bodies near zero flow (its round-off
+    test), so there is no Hopf point to start from. The straight pipe is axisymmetric: its
+    orbits are planar, in a plane the critical mode picks, and turning that plane about
+    the axis is another orbit (a second multiplier 1)."""
+    from ...analysis.periodic import continue_orbits
+
+    def run(model):
+        crit = critical_mass_flow(model)
+        end = crit.mass_flow + 4.0 if mass_flow_end is None else _checks.finite("mass_flow_end", mass_flow_end)
+        return continue_orbits(model, start=crit, mass_flow_end=end, amplitude=amplitude, max_points=max_points,
+                               steps=steps)
+
+    s = scenes.ffrf_cantilever_pipe(n_bodies=_checks.positive_int("n_bodies", n_bodies), tip_force=tip_force)
+    body, node = s.info["tip"]  # its point in the orbits' positions: the bodies' nodes stacked
+    tip = sum(b.n_nodes for b in s.bodies[:body]) + s.bodies[body].node_index(node)
+    branch = run(s)
+    reference = None
+    if reference_elements is not None:
+        model, tip_node = element_cantilever_model(n_elements=reference_elements, tip_force=tip_force)
+        ref = run(model)
+        reference = {"mass_flow": ref.mass_flow, "amplitude": lateral_amplitude(ref.amplitude[:, tip_node]),
+                     "period": ref.period, "stable": ref.stable, "max_multiplier": ref.max_multiplier,
+                     "hopf": ref.hopf}
+    return OrbitStudy(branch=branch, tip=tip, reference=reference)
+
+
+def ffrf_orbit_figure(studies: Sequence[OrbitStudy], *, labels: Sequence[str]):
+    """The tip's lateral amplitude [m], the period [s] and the largest non-trivial Floquet
+    multiplier's modulus against the mass flow [kg/s] of continued branches (one colour
+    each, ``labels``), with the element model's branch of the first study that has one
+    (black); the Hopf points as dots. Returns the figure."""
+    import matplotlib.pyplot as plt
+
+    fig, (ax_a, ax_t, ax_m) = plt.subplots(1, 3, figsize=(13, 4), constrained_layout=True)
+    curves = [(lab, st.branch.mass_flow, st.tip_amplitude, st.branch.period, st.branch.max_multiplier,
+               st.branch.hopf, dict(color=f"C{i}")) for i, (lab, st) in enumerate(zip(labels, studies))]
+    ref = next((st.reference for st in studies if st.reference is not None), None)
+    if ref is not None:
+        curves.append(("elements", ref["mass_flow"], ref["amplitude"], ref["period"], ref["max_multiplier"],
+                       ref["hopf"], dict(color="k", ls="--")))
+    for label, m, amp, period, mult, (mc, wc), style in curves:
+        ax_a.plot(np.r_[mc, m], np.r_[0.0, amp], label=label, **style)
+        ax_t.plot(np.r_[mc, m], np.r_[2 * np.pi / wc, period], **style)
+        ax_m.plot(m, mult, **style)
+        for ax, y in ((ax_a, 0.0), (ax_t, 2 * np.pi / wc)):
+            ax.plot(mc, y, "o", color=style["color"], ms=4)
+    ax_a.set(xlabel="mass flow [kg/s]", ylabel="tip amplitude (lateral) [m]")
+    ax_t.set(xlabel="mass flow [kg/s]", ylabel="period [s]")
+    ax_m.set(xlabel="mass flow [kg/s]", ylabel=r"largest non-trivial $|\mu|$ [-]")
+    ax_m.axhline(1.0, color="grey", lw=0.8)
+    ax_a.legend(fontsize=8)
+    return fig
+
+
 def critical_flow_speed(system) -> float:
     """Critical flow speed sdot_cr [m/s] = mdot_cr / mu_f of a straight FFRF cantilever."""
     return critical_mass_flow(system).mass_flow / system.bodies[0].section.fluid_mass
