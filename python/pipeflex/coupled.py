@@ -33,7 +33,7 @@ from .analysis.linearize import Linearization, constrained_fields, linearize as 
 from .analysis.static import StaticResult
 from .analysis.transient import TransientResult, simulate as _simulate
 from ._options import MAX_NEWTON, MAX_STEPS, NEWTON_TOL, RHO_INF
-from .model import SYSTEM_STATES, Model
+from .model import Model
 from .multibody.system import body_motion
 from .multibody.system import MultibodyState, MultibodySystem
 from .errors import ConvergenceError, SingularMatrixError
@@ -174,15 +174,13 @@ class CoupledSystem:
             raise TypeError(f"state of a CoupledSystem must be a CoupledStatic or a SystemSteadyRotation (results of "
                             f"pipeflex.static_equilibrium and pipeflex.steady_rotation on it) or a CoupledState, got "
                             f"{type(state).__name__}")
-        system = self.system(st, bs, lam_c, mass_flow=mass_flow)
-        SYSTEM_STATES[system] = st  # the element state the analyses update in place
-        return system
+        return self.system(st, bs, lam_c, mass_flow=mass_flow)
 
     def _state_of(self, system) -> "CoupledState":
         """The end state of an analysis run on ``system`` (from :meth:`_system`)."""
         r, R, eta, v, a, lam, t = system.body_state
         bs = MultibodyState(np.array(r), np.array(R), np.array(eta), np.array(v), np.array(a), np.array(lam), float(t))
-        return CoupledState(State.from_core(SYSTEM_STATES[system], self.model), bs,
+        return CoupledState(State.from_core(system.element_state, self.model), bs,
                             np.array(system.coupling_multipliers, float))
 
     #: :func:`~pipeflex.linearize` without a state: about the static equilibrium (its
@@ -251,6 +249,17 @@ class CoupledSystem:
     def n_nodes(self) -> int:
         """Nodes of the element model and of the bodies."""
         return self.model.n_nodes + self.bodies.n_nodes
+
+    def _orbit_chart(self, base):
+        """The periodic orbits' chart about ``base`` (a static result of this system; None:
+        the assembly at rest): the element model's and the bodies' charts stacked."""
+        from .charts import CoupledChart
+
+        if base is None:  # the assembly at rest, the couplings' multipliers zero
+            base = StaticResult(state=State.from_core(as_core(self.model, None), self.model), iterations=0,
+                                residual=0.0, mass_flow=self.mass_flow, body_state=self.bodies.initial_state(),
+                                coupling_forces=np.zeros(self.n_constraints - self.bodies.n_constraints))
+        return CoupledChart(self, base)
 
     def _static_start(self, state) -> "_StaticWork":
         """The static driver's working state: a copy of ``state`` (a :class:`CoupledState`

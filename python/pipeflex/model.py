@@ -11,7 +11,6 @@ position in m and the slope dr/dx [-] (z and z' are fixed: the element is planar
 from __future__ import annotations
 
 import copy
-import weakref
 from itertools import chain
 from dataclasses import dataclass
 from typing import Iterable, List, Optional, Sequence, Tuple
@@ -32,7 +31,6 @@ _NEXT, _LAST = np.array([1, 2, 0]), np.array([2, 0, 1])  # (a x b)_i = a[_NEXT[i
 #: The element state (a ``_core.State``) of each core system built by a model's ``_system``,
 #: which the analyses update in place: read back by ``_state_of`` (the system object does not
 #: expose it). Weak: an entry goes with its system.
-SYSTEM_STATES: "weakref.WeakKeyDictionary" = weakref.WeakKeyDictionary()
 
 
 def _triads(tangents: np.ndarray, up: Optional[np.ndarray], where=lambda k: "") -> np.ndarray:
@@ -885,17 +883,14 @@ class Model:
         the model's) for the loads that depend on it."""
         from .state import as_core
 
-        st = as_core(self, state)
-        system = self.system(st, mass_flow=mass_flow)
-        SYSTEM_STATES[system] = st  # the element state the analyses update in place
-        return system
+        return self.system(as_core(self, state), mass_flow=mass_flow)
 
     def _state_of(self, system):
         """The end state of an analysis run on ``system`` (from :meth:`_system`): a
         :class:`~pipeflex.state.State` (a copy)."""
         from .state import State
 
-        return State.from_core(SYSTEM_STATES[system], self)
+        return State.from_core(system.element_state, self)
 
     #: :func:`~pipeflex.linearize` without a state: about the reference configuration (an
     #: element model's supports are eliminated: no reactions to balance).
@@ -911,7 +906,7 @@ class Model:
 
         from .state import State
 
-        s = SYSTEM_STATES[system]
+        s = system.element_state  # a copy
         s.rebase(0.0)
         _, data, indices, indptr = _core.assemble_csc(self._core, s, self.load_state(mass_flow=mass_flow), 1.0,
                                                       [(1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.0, 0.0, 1.0)], False)
@@ -975,6 +970,13 @@ class Model:
         energies and works, the end state."""
         metadata.update(n_nodes=self.n_nodes, n_dofs=self.n_dofs)
         return dict(out, final_state=self._state_of(system))
+
+    def _orbit_chart(self, base):
+        """The periodic orbits' chart about ``base`` (None: the reference configuration): the
+        reduced coordinates about a State with its node frames held."""
+        from .charts import ElementChart
+
+        return ElementChart(self, base)
 
     def _static_start(self, state) -> "_core.State":
         """The static driver's working state: a copy of ``state`` (as :meth:`_system`'s)."""

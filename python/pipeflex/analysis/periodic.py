@@ -20,7 +20,7 @@ the multipliers, when asked. Its eigenvalues are the Floquet multipliers: one is
 shift along the orbit), the orbit is stable when all others lie inside the unit circle.
 
 Coordinates z are measured from a base state, v are the rates; per formulation (one
-chart class each, :func:`_chart`): an element model's reduced displacements (its node
+chart class each, :mod:`pipeflex.charts`): an element model's reduced displacements (its node
 frames held fixed: no re-basing along the orbit, so rotations must stay well below pi
 from the base) and their chart rates; a :class:`~pipeflex.multibody.MultibodySystem`'s
 coordinates (per body the frame's translation, its rotation vector relative to the
@@ -36,23 +36,18 @@ control and fold detection.
 from __future__ import annotations
 
 from contextlib import nullcontext as _no_context
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 from typing import Optional
 
 import numpy as np
-import scipy.sparse as sp
-import scipy.sparse.linalg as spla
 
 from .. import _checks, _core
-from .._lazy import loaded_instance
 from ..errors import ConvergenceError
-from ..model import Model
 from ..results import Result
-from ..rotation import rotation_log
-from ..state import State, as_core
+from ..state import State
 from .._blas import pinned as blas_pinned
 from .._progress import logger
-from ._assembly import require_model
+from ._protocol import require_system
 from .transient import explained_singular_mass
 
 #: steps of the integrator per period unless given
@@ -219,134 +214,10 @@ class OrbitGuess(Result):
     settled: bool
 
 
-def _state_at(base: State, basis, z, v) -> State:
-    return State(base.q + basis @ z, basis @ v, np.zeros_like(base.a), base.frames.copy(), base.ancf.copy())
-
-
-class _ElementChart:
-    """An element model's reduced coordinates z (n_dofs) about a base State (node frames
-    held) and their chart rates: what the shooting needs of a formulation (the other
-    charts have the same members)."""
-
-    def __init__(self, model, base):
-        self.model = model
-        self.base = base if isinstance(base, State) else State.from_core(as_core(model, base), model)
-        self.base.q.flags.writeable = False
-        self.n = model.n_dofs
-        self.length_scale = model.length_scale
-
-    def system(self, mass_flow):
-        """The core system at the base state."""
-        with explained_singular_mass(self.model):
-            return self.model.system(self.base.to_core(self.model), mass_flow=mass_flow)
-
-    def positions(self, z):
-        """(k, n_points, 3) positions [m] at the rows of z (k, n)."""
-        q = self.base.q[None, :] + (self.model.basis @ np.atleast_2d(z).T).T
-        return q.reshape(len(q), self.model.n_nodes, 6)[:, :, :3]
-
-    def state(self, z, v):
-        """The state at coordinates z with rates v."""
-        return _state_at(self.base, self.model.basis, z, v)
-
-    def coordinates(self, state):
-        """(z, v) of a state (least squares through the basis)."""
-        st = State.from_core(as_core(self.model, state), self.model)
-        basis = self.model.basis
-        return _reduced(basis, st.q - self.base.q, self.base, st), _reduced(basis, st.v, self.base, st)
-
-
-class _BodyChart:
-    """A MultibodySystem's coordinates about a base MultibodyState: per body r - r_base,
-    log(R R_base^T), eta - eta_base; rates its velocities (spatial angular velocities)."""
-
-    def __init__(self, model, base):
-        model.check_state(base, "base")
-        self.model = model
-        self.base = base.copy()
-        self.n = model.n_coordinates
-        self.length_scale = model.length_scale
-
-    def system(self, mass_flow):
-        return self.model.system(self.base)
-
-    def positions(self, z):
-        out = []
-        for zk in np.atleast_2d(z):
-            st = self.base.copy()
-            self.model.increment(st, zk)
-            out.append(np.vstack(self.model.centre_line(st)))
-        return np.array(out)
-
-    def state(self, z, v):
-        st = self.base.copy()
-        self.model.increment(st, np.asarray(z, float))
-        st.v[:] = v
-        st.a[:] = 0.0
-        return st
-
-    def coordinates(self, state):
-        self.model.check_state(state)
-        z = np.asarray(state.eta, float) - self.base.eta
-        for j, o in enumerate(self.model.offsets[:-1]):
-            z[o:o + 3] = state.r[j] - self.base.r[j]
-            z[o + 3:o + 6] = rotation_log(state.R[j] @ self.base.R[j].T)
-        return z, np.array(state.v, float)
-
-
-class _CoupledChart:
-    """A CoupledSystem's coordinates [element; bodies] about a base CoupledStatic (the
-    element part as _ElementChart, the bodies' as _BodyChart); its states are
-    CoupledStatic's fields with the rates."""
-
-    def __init__(self, model, base):
-        if not loaded_instance(base, "pipeflex.coupled", "CoupledStatic"):
-            raise TypeError(f"the state of a CoupledSystem's periodic orbit must be a CoupledStatic "
-                            f"(pipeflex.static_equilibrium(system), or an orbit's start), got {type(base).__name__}")
-        self.model = model
-        self.base = base
-        self.elements = _ElementChart(model.model, base.state)
-        self.bodies = _BodyChart(model.bodies, base.body_state)
-        self.n = self.elements.n + self.bodies.n
-        self.length_scale = max(self.elements.length_scale, self.bodies.length_scale)
-
-    def system(self, mass_flow):
-        return self.model.system(self.elements.base.to_core(self.model.model), self.bodies.base,
-                                 self.base.coupling_forces, mass_flow=mass_flow)
-
-    def positions(self, z):
-        z = np.atleast_2d(z)
-        n1 = self.elements.n
-        return np.concatenate([self.elements.positions(z[:, :n1]), self.bodies.positions(z[:, n1:])], axis=1)
-
-    def state(self, z, v):
-        n1 = self.elements.n
-        return replace(self.base, state=self.elements.state(z[:n1], v[:n1]),
-                       body_state=self.bodies.state(z[n1:], v[n1:]))
-
-    def coordinates(self, state):
-        if not loaded_instance(state, "pipeflex.coupled", "CoupledStatic"):
-            raise TypeError(f"state must be a CoupledStatic for a CoupledSystem, got {type(state).__name__}")
-        (z1, v1), (z2, v2) = self.elements.coordinates(state.state), self.bodies.coordinates(state.body_state)
-        return np.concatenate([z1, z2]), np.concatenate([v1, v2])
-
-
 def _chart(model, base):
     """The chart of ``model``'s formulation about the state ``base`` (None: the model's
-    initial state)."""
-    if loaded_instance(model, "pipeflex.multibody.system", "MultibodySystem"):
-        return _BodyChart(model, model.initial_state() if base is None else base)
-    if loaded_instance(model, "pipeflex.coupled", "CoupledSystem"):
-        if base is None:  # the assembly configuration at rest
-            from ..coupled import CoupledStatic
-
-            base = CoupledStatic(state=State.from_core(as_core(model.model, None), model.model),
-                                 body_state=model.bodies.initial_state(),
-                                 coupling_forces=np.zeros(model.n_constraints - model.bodies.n_constraints),
-                                 iterations=0, residual=0.0, mass_flow=_mass_flow(model))
-        return _CoupledChart(model, base)
-    require_model(model)
-    return _ElementChart(model, base)
+    initial state): the model's ``_orbit_chart`` (one of the chart classes above)."""
+    return require_system(model)._orbit_chart(base)
 
 
 def _critical_direction(model, equilibrium, start):
@@ -354,7 +225,7 @@ def _critical_direction(model, equilibrium, start):
     element model's as it is; with constraints the mode's independent coordinates
     through the null-space basis of the linearisation at the Hopf equilibrium."""
     phi = np.asarray(start.mode, complex)
-    if isinstance(equilibrium, _ElementChart):
+    if equilibrium.independent:
         return phi
     from .linearize import linearize
 
@@ -363,8 +234,7 @@ def _critical_direction(model, equilibrium, start):
 
 
 class _Shooter:
-    """The flow map of a model at one mass flow in a chart (_ElementChart, _BodyChart,
-    _CoupledChart)."""
+    """The flow map of a model at one mass flow in a chart (pipeflex.charts)."""
 
     def __init__(self, model, chart, steps: int, opt):
         self.model = model
@@ -385,7 +255,8 @@ class _Shooter:
             opt = _options(self.chart, newton_tol, opt.rho_inf)
         self.calls += 1
         system = self.chart.system(mass_flow)
-        with explained_singular_mass(self.model) if isinstance(self.chart, _ElementChart) else _no_context():
+        model = self.chart.element_model
+        with explained_singular_mass(model) if model is not None else _no_context():
             out = _core.flow_map(system, float(mass_flow), np.asarray(z0, float), np.asarray(v0, float),
                                  float(period), self.steps if steps is None else int(steps), bool(sensitivity), opt)
         self.newton_iterations += int(out["newton_iterations"])
@@ -409,8 +280,7 @@ def _options(chart, newton_tol, rho_inf):
 
 def _mass_flow(model) -> float:
     """The model's mass flow mdot [kg/s] (a coupled system's: its element model's)."""
-    part = model.model if loaded_instance(model, "pipeflex.coupled", "CoupledSystem") else model
-    return float(part.mass_flow)
+    return float(model.mass_flow)
 
 
 def _finish(shooter, z0, v0, period, mass_flow, out, iterations, residual) -> PeriodicOrbit:
@@ -656,11 +526,9 @@ def _refuse_period(model, period, start, mdot, err):
     from .eigen import SPARSE_MIN_DOFS, eigenvalues
     from .linearize import linearize
 
-    if not isinstance(model, Model):
-        return  # (the verdict linearises an element model about the start)
     try:
         lin = linearize(model, start, mass_flow=mdot)
-        n = model.n_dofs
+        n = lin.M.shape[0]
         lam = eigenvalues(lin).values if n < SPARSE_MIN_DOFS else eigenvalues(lin, n_modes=6).values
         lam = np.abs(lam[np.abs(lam) > 0.0])
         slowest = 2.0 * np.pi / float(lam.min())
@@ -712,9 +580,9 @@ def orbit_guess(model, *, node: int, step: float, component: int = 1, state=None
     from ..signals import zero_crossings
     from .transient import simulate
 
-    element = isinstance(model, Model)
-    chart = None if element else _chart(model, state)
-    n_points = model.n_nodes if element else chart.positions(np.zeros(chart.n)).shape[1]
+    chart = _chart(model, state)
+    element = chart.guess_by_simulate
+    n_points = chart.positions(np.zeros(chart.n)).shape[1]
     node = _checks.non_negative_int("node", node)
     if node >= n_points:
         raise ValueError(f"node must be in [0, {n_points}), got {node}")
@@ -728,7 +596,7 @@ def orbit_guess(model, *, node: int, step: float, component: int = 1, state=None
         raise ValueError(f"t_max = {t_max:g} s is {t_max / h:.3g} steps of step = {h:g} s; at most MAX_GUESS_STEPS = "
                          f"{MAX_GUESS_STEPS:.0e}: lower t_max (a cycle that attracts settles within some hundred "
                          "periods) or raise step")
-    size = model.length_scale if element else chart.length_scale
+    size = chart.length_scale
     t, st = 0.0, state
     ts, ys = [np.zeros(0)], [np.zeros(0)]
     # each chunk ends at t + chunk >= t + 4 step (or t_max): a bounded count
@@ -766,16 +634,6 @@ def orbit_guess(model, *, node: int, step: float, component: int = 1, state=None
             break
     raise ConvergenceError(f"orbit_guess: fewer than two cycles of node {node}'s coordinate {component} "
                            f"by t_max = {t_max:g} s (no oscillation to settle on)", mass_flow=mass_flow)
-
-
-def _reduced(basis, full, chart, start):
-    if not np.allclose(chart.frames, start.frames, atol=1e-12):
-        raise ValueError("state and base have different node frames: pass states in the same chart "
-                         "(e.g. base=None)")
-    # least squares through the sparse basis (its columns have full rank): the normal
-    # equations stay sparse, where a dense basis would be (6 n_nodes x n_dofs)
-    B = sp.csc_matrix(basis)
-    return np.atleast_1d(spla.spsolve((B.T @ B).tocsc(), B.T @ full))
 
 
 @blas_pinned
@@ -818,7 +676,7 @@ def continue_orbits(model, *, start, mass_flow_end: float, amplitude: float = 1e
     mc, wc = float(start.mass_flow), float(start.frequency)
     static = static_equilibrium(model, mass_flow=mc, state=state)
     # a coupled system's chart is its whole static result (element and body states)
-    chart = _chart(model, static if loaded_instance(model, "pipeflex.coupled", "CoupledSystem") else static.state)
+    chart = _chart(model, model._equilibrium_state(static))
     steps = _checks.flow_map_steps("steps", steps, chart.n)
     shooter = _Shooter(model, chart, steps, _options(chart, newton_tol, rho_inf))
     n = chart.n

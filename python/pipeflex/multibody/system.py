@@ -523,6 +523,13 @@ class MultibodySystem:
         """Nodes of all bodies."""
         return sum(b.n_nodes for b in self.bodies)
 
+    def _orbit_chart(self, base: Optional[MultibodyState]):
+        """The periodic orbits' chart about ``base`` (None: the assembly at rest): per body
+        r - r_base, log(R R_base^T), eta - eta_base."""
+        from ..charts import BodyChart
+
+        return BodyChart(self, self.initial_state() if base is None else base)
+
     def _static_start(self, state: Optional[MultibodyState]) -> MultibodyState:
         """The static driver's working state: a copy of ``state`` (checked; None: the
         assembly) at rest, the loads at its time ``t``."""
