@@ -22,7 +22,9 @@ largest qualifying step of each setting is timed again, best of `--repeat` alter
 the cheapest of each code as whole processes (`benchmarks/processes/peer_exudyn.py` for the
 peer), alternating pairs, one BLAS thread each; ratio pipeflex / peer (< 1: pipeflex faster).
 
-Run: .venv/bin/python benchmarks/bench_limit_cycle.py [--repeat 5] [--quick]
+With `--rtol`: `pf.simulate` with no option but rtol (error-controlled steps) at rtol 1e-2 ... 1e-6.
+
+Run: .venv/bin/python benchmarks/bench_limit_cycle.py [--repeat 5] [--quick] [--rtol]
      PYTHONPATH=<EXUDYN>/main/pythonDev .venv/bin/python benchmarks/bench_limit_cycle.py --peer [--repeat 5]
 """
 import argparse
@@ -229,11 +231,36 @@ def side_by_side(es, repeat, ref_pf, ref_peer):
               f"load average {os.getloadavg()[0]:.2f}")
 
 
+RTOLS = (1e-2, 1e-3, 1e-4, 1e-5, 1e-6)
+
+
+def rtol_sweep(model, n, st, ref, repeat):
+    """pf.simulate with no option but rtol (error-controlled generalised-alpha): the error
+    against the reference, the estimate the result reports, the steps, the solve time (best
+    of ``repeat``), and the ratio to the peer's best tuned solve for the accuracy reached."""
+    print(f"\nrtol alone (load average {os.getloadavg()[0]:.2f}; BLAS threads: {blas_threads()})")
+    print(f"{'rtol':>7s} {'error [m]':>10s} {'estimate [m]':>12s} {'steps':>6s} {'redone':>6s} "
+          f"{'h min':>9s} {'h max':>9s} {'solve [s]':>10s} {'/ PEER (recorded) for that error':>33s}")
+    for rtol in RTOLS:
+        best = np.inf
+        for _ in range(repeat):
+            t0 = time.perf_counter()
+            res = pf.simulate(model, T_END, state=st, n_outputs=2, progress=False, rtol=rtol)
+            best = min(best, time.perf_counter() - t0)
+        err, s = abs(float(res.x[-1, n, 1]) - ref), res.stats
+        # the tightest of the peer's recorded targets this run meets
+        peer = [(t, v[0]) for t, v in sorted(PEER.items()) if err <= t]
+        vs = f"{best / peer[0][1]:.2f} of {peer[0][1]:.3f} s ({peer[0][0]:.0e} m)" if peer else "-"
+        print(f"{rtol:7.0e} {err:10.2e} {s['error_estimate']:12.2e} {s['steps']:6d} {s['failed_steps']:6d} "
+              f"{s['smallest_step']:9.2e} {s['largest_step']:9.2e} {best:10.4f} {vs:>33s}")
+
+
 def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("--repeat", type=int, default=5)
     ap.add_argument("--quick", action="store_true", help="fewer steps, one repeat")
     ap.add_argument("--peer", action="store_true", help="the peer (exudyn) beside pipeflex, alternating")
+    ap.add_argument("--rtol", action="store_true", help="only the rtol sweep (error-controlled steps)")
     ap.add_argument("--peer-reference", action="store_true",
                     help="with --peer: recompute the peer's reference (about 40 s) instead of the recorded one")
     args = ap.parse_args()
@@ -243,6 +270,9 @@ def main():
     ref, ref_err = reference(model, n, st)
     print(f"reference tip displacement at 2 s = {ref:.12f} m (extrapolations differ by {ref_err:.1e} m)")
     print(f"load average {os.getloadavg()[0]:.2f}; BLAS threads: {blas_threads()}")
+    if args.rtol:
+        rtol_sweep(model, n, st, ref, repeat)
+        return
     if args.peer:
         es = load_peer()
         if es is not None:

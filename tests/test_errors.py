@@ -32,7 +32,7 @@ def test_generalized_alpha_failure_carries_time_iteration_residual():
 def test_ida_failure_carries_time():
     m, st = fluttering_cantilever()
     with pytest.raises(ConvergenceError, match="IDA failed at t =") as err:
-        pf.simulate(m, 0.1, state=st, progress=False, rtol=1e-30, atol=1e-30)
+        pf.simulate(m, 0.1, state=st, progress=False, integrator="ida", rtol=1e-30, atol=1e-30)
     assert isinstance(err.value.time, float) and 0.0 <= err.value.time < 0.1
     assert err.value.iteration is None and err.value.residual is None
 

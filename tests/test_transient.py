@@ -115,13 +115,16 @@ def test_auto_follows_the_options():
     name); an explicit integrator is run as asked."""
     m, st, _ = swinging_cantilever(2)
     run = lambda **kw: pf.simulate(m, 0.05, state=st, n_outputs=6, progress=False, **kw)
-    ida, by_rtol = run(integrator="ida"), run(rtol=1e-6, atol=1e-8)  # IDA's defaults
-    for r in (ida, by_rtol):
+    ida, by_order = run(integrator="ida"), run(max_order=5)  # IDA's default
+    for r in (ida, by_order):
         assert r.metadata["integrator"] == "ida" and r.metadata["step"] is None
-    assert by_rtol.metadata["requested"] == "auto"
+    assert by_order.metadata["requested"] == "auto"
     for k in pf.TransientResult._ARRAYS:
-        assert np.array_equal(getattr(ida, k), getattr(by_rtol, k), equal_nan=True)
-    assert ida.stats["steps"] == by_rtol.stats["steps"]
+        assert np.array_equal(getattr(ida, k), getattr(by_order, k), equal_nan=True)
+    assert ida.stats["steps"] == by_order.stats["steps"]
+    # rtol alone: generalised-alpha with its error-controlled step
+    by_rtol = run(rtol=1e-4)
+    assert by_rtol.metadata["integrator"] == "generalized_alpha" and by_rtol.metadata["rtol"] == 1e-4
     ga, by_step = run(integrator="generalized_alpha", step=2e-3), run(step=2e-3)
     assert by_step.metadata["integrator"] == "generalized_alpha" and by_step.metadata["step"] == 2e-3
     for k in pf.TransientResult._ARRAYS:
@@ -135,10 +138,12 @@ def test_auto_follows_the_options():
     (dict(t_end=-1.0), "t_end must be > t_start"),
     (dict(t_end=math.nan), "t_end must be finite"),
     (dict(t_end=1.0, rtol=0.0), "rtol must be > 0"),
-    (dict(t_end=1.0, atol=-1e-9), "atol must be > 0"),
+    (dict(t_end=1.0, integrator="ida", atol=-1e-9), "atol must be > 0"),
+    (dict(t_end=1.0, rtol=1e-6, atol=-1e-9), "atol must be >= 0"),
+    (dict(t_end=1.0, rtol=1e-13), "rtol must be >= 1e-12"),
     (dict(t_end=1.0, integrator="rk4"), "unknown integrator 'rk4'"),
     (dict(t_end=1.0, integrator="ida", step=1e-3), "unknown option.*'step'.*'ida'"),
-    (dict(t_end=1.0, rtol=1e-6, step=1e-3), "options of both integrators.*'rtol'.*'step'"),
+    (dict(t_end=1.0, max_order=2, step=1e-3), "options of both integrators.*'max_order'.*'step'"),
     (dict(t_end=1.0, integrator="generalized_alpha", rho_inf=1.5), "rho_inf must be in"),
     (dict(t_end=1.0, times=[0.0, 0.5, 0.4]), "strictly increasing"),
     (dict(t_end=1.0, mass_flow=([0.0, 1.0], [1.0])), "mass_flow table.*equal length"),
@@ -281,6 +286,8 @@ def test_richardson_refuses_what_has_no_error_expansion():
         pf.simulate(m, 0.1, state=st, n_outputs=3, progress=False, integrator="generalized_alpha", step=0.03,
                     extrapolate=True)
     with pytest.raises(ValueError, match="needs generalised-alpha"):
+        pf.simulate(m, 0.1, state=st, progress=False, integrator="ida", rtol=1e-6, extrapolate=True)
+    with pytest.raises(ValueError, match="error-controlled"):
         pf.simulate(m, 0.1, state=st, progress=False, rtol=1e-6, extrapolate=True)
     from pipeflex.analysis.transient import richardson
 

@@ -317,7 +317,18 @@ void GeneralizedAlpha::advance_to(double t_out) {
         if (opt_.error_rate > 0.0) {
             const double err = local_error(hs);
             const double factor = err > 0.0 ? kSafety / std::sqrt(err) : kGrowMax;
-            if (err > 1.0 && hs > opt_.min_step) {
+            if (err > 1.0) {
+                if (hs <= opt_.min_step) {
+                    ConvergenceError::Where where;
+                    where.time = t_;
+                    where.mass_flow = eq_.mass_flow(t_);
+                    throw ConvergenceError("generalised-alpha's error control failed at t = " + fmt(t_) +
+                                               " s: the local error (" + fmt(err) +
+                                               " tolerances) asks for a step below min_step = " +
+                                               fmt(opt_.min_step) + " s: a tolerance below round-off, or a motion "
+                                               "that is not smooth there (an impact, a diverging mode)",
+                                           where);
+                }
                 ++stats_.rejected_steps;
                 lam_ = lam_start_;
                 h_ = std::max(opt_.min_step, hs * std::clamp(factor, kShrinkMax, kSafety));

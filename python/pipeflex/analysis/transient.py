@@ -24,10 +24,16 @@ from ..time_functions import Sine, time_function
 from ._protocol import require_system
 
 INTEGRATORS = ("auto", "ida", "generalized_alpha")
+#: generalised-alpha with rtol: Newton's tolerance unless given, a cap only (each step's
+#: tolerance is 0.1 of its share of the error, in the core)
+CONTROLLED_NEWTON_TOL = 1e-6
+#: the smallest rtol of generalised-alpha's error control (its estimate differences two
+#: accelerations, whose round-off is ~1e-14 of their size)
+MIN_RTOL = 1e-12
 _OPTIONS = {
     "ida": {"rtol", "atol", "rebase_angle", "max_steps", "max_order", "divergence_limit", "work"},
     "generalized_alpha": {"step", "rho_inf", "newton_tol", "max_newton", "min_step", "max_steps",
-                          "divergence_limit", "work"},
+                          "divergence_limit", "work", "rtol", "atol"},
 }
 _OPTIONS["auto"] = _OPTIONS["ida"] | _OPTIONS["generalized_alpha"]
 #: options that only IDA takes: passing one with ``integrator="auto"`` selects IDA.
@@ -53,8 +59,8 @@ _DENSE_MAX_DOFS = 2000  # sparse path: all eigenvalues (dense) up to this size f
 
 def choose_integrator(integrator: str, options) -> str:
     """The integrator ``simulate`` runs: ``integrator`` itself unless it is ``"auto"``;
-    then ``"ida"`` if an IDA-only option (``rtol``, ``atol``, ``rebase_angle``,
-    ``max_order``) is given, else ``"generalized_alpha"``. The structural models have no
+    then ``"ida"`` if an IDA-only option (``rebase_angle``, ``max_order``) is given, else
+    ``"generalized_alpha"`` (with ``rtol``: its error-controlled step). The structural models have no
     damping: IDA's error control resolves the undamped axial and bending modes a flow
     start excites (~1e6 steps per second of motion on the fluid-conveying pipes),
     where generalised-alpha's numerical damping (``rho_inf``) leaves them behind at a
@@ -355,9 +361,9 @@ def simulate(model, t_end: float, *, integrator: str = "auto", state=None, t_sta
             (SUNDIALS IDA, variable-order variable-step BDF with error control: for smooth,
             damped motions; on the undamped pipe and beam models it resolves every axial
             and bending mode the start excites, ~1e6 steps per second of motion).
-            ``"auto"`` runs IDA if an IDA-only option (``rtol``, ``atol``,
-            ``rebase_angle``, ``max_order``) is given, else generalised-alpha, with the
-            ``step`` given or else :func:`default_step`: 400 steps per period
+            ``"auto"`` runs IDA if an IDA-only option (``rebase_angle``, ``max_order``)
+            is given, else generalised-alpha: with ``rtol`` its error-controlled step (see
+            ``**options``), else with the ``step`` given or :func:`default_step`: 400 steps per period
             ``2 pi/|lambda_1|`` of the slowest non-rigid eigenvalue of the model linearised
             about ``state`` (at the largest ``mass_flow`` of the run), and at most
             ``h |lambda_g| = 0.05`` for the fastest eigenvalue lambda_g that grows by a
@@ -393,7 +399,19 @@ def simulate(model, t_end: float, *, integrator: str = "auto", state=None, t_sta
             stderr); False: nothing (:mod:`pipeflex._progress`; docs/user_guide.md,
             Progress and logging).
         **options: for ``ida``: ``rtol`` (1e-6), ``atol`` (1e-8), ``rebase_angle`` [rad]
-            (1.0), ``max_steps``; for ``generalized_alpha``: ``step`` [s] (1e-3 with
+            (1.0), ``max_steps``; for ``generalized_alpha``: ``rtol`` [-] and ``atol``
+            [m] (0): the accuracy asked for, error-controlled steps: each step's local
+            error estimate (the displacement's, Zienkiewicz & Xie's (beta - 1/6) h^2
+            (a' - a); a rotation's error counts times the model size) is kept below
+            ``(rtol L + atol) h / (t_end - t_start)``, L the model's size
+            (``length_scale``), so the estimates of the whole run add up to at most
+            ``rtol L + atol`` (``stats["error_estimate"]`` [m] is their sum:
+            where local errors add up, a bound of the global error; the measured error
+            of a fluttering cantilever is 0.1-0.2 of it); ``step`` is then the first
+            step (default (t_end - t_start) / 1000) and Newton's tolerance follows each
+            step's share of the error (``newton_tol``, if given, caps it);
+            ``stats["smallest_step"]``, ``["largest_step"]`` [s] and ``["failed_steps"]``
+            (steps redone for their error) tell how it went; ``step`` [s] (1e-3 with
             ``integrator="generalized_alpha"``, :func:`default_step` with ``"auto"``),
             ``rho_inf`` [-] (0.8, in [0, 1]: damps the unresolved high modes a step
             start of the flow excites; 1, no damping, is allowed for an element model,
@@ -431,6 +449,12 @@ def simulate(model, t_end: float, *, integrator: str = "auto", state=None, t_sta
                          f"valid: {sorted(_OPTIONS[integrator])}")
     if extrapolate and integrator != "generalized_alpha":
         raise ValueError("extrapolate=True needs generalised-alpha (its fixed step; IDA controls its own error)")
+    controlled = integrator == "generalized_alpha" and ("rtol" in options or "atol" in options)
+    if controlled and extrapolate:
+        raise ValueError("extrapolate=True combines two fixed-step runs; with rtol the step is error-controlled: "
+                         "give one of them")
+    if controlled and "rtol" not in options:
+        raise ValueError("atol [m] is generalised-alpha's absolute error floor beside rtol: give rtol too")
     model._check_transient()
     t0 = _checks.finite("t_start", t_start)
     t1 = _checks.finite("t_end", t_end)
@@ -456,9 +480,25 @@ def simulate(model, t_end: float, *, integrator: str = "auto", state=None, t_sta
     # one default per option for every formulation (pipeflex._options says why)
     opt.rho_inf, opt.newton_tol, opt.max_newton = RHO_INF, NEWTON_TOL, MAX_NEWTON
     opt.step, opt.max_steps = STEP, MAX_STEPS
-    for name in ("rtol", "atol", "step", "min_step", "newton_tol", "divergence_limit"):
+    for name in ("step", "min_step", "newton_tol", "divergence_limit"):
         if name in options:
             setattr(opt, name, _checks.positive(name, options[name]))
+    if controlled:
+        rtol = _checks.positive("rtol", options["rtol"])
+        if rtol < MIN_RTOL:
+            raise ValueError(f"rtol must be >= {MIN_RTOL:g} (generalised-alpha's error control: below it round-off "
+                             f"decides the error estimate), got {rtol:g}")
+        atol = _checks.non_negative("atol", options.get("atol", 0.0))
+        # the run's local errors add up to at most rtol L + atol (error per unit step)
+        opt.error_rate = (rtol * system.length_scale + atol) / (t1 - t0)
+        if "newton_tol" not in options:
+            opt.newton_tol = CONTROLLED_NEWTON_TOL  # each step's share of the error decides
+        if "step" not in options:
+            opt.step = (t1 - t0) / 1000.0
+    else:
+        for name in ("rtol", "atol"):
+            if name in options:
+                setattr(opt, name, _checks.positive(name, options[name]))
     if "rho_inf" in options:
         rho = _checks.finite("rho_inf", options["rho_inf"])
         if system.n_constraints:
@@ -483,7 +523,7 @@ def simulate(model, t_end: float, *, integrator: str = "auto", state=None, t_sta
         opt.work = bool(options["work"])
     flow = time_function("mass_flow", model.mass_flow if mass_flow is None else mass_flow)
     loads = time_function("load_factor", load_factor)
-    if requested == "auto" and integrator == "generalized_alpha" and "step" not in options:
+    if requested == "auto" and integrator == "generalized_alpha" and "step" not in options and not controlled:
         peak = float(np.asarray(flow.value)[np.argmax(np.abs(flow.value))])
         # about the run's start itself (bodies: no static solve, which a free hinge would refuse)
         opt.step = default_step(model, times, model._state_of(system), mass_flow=peak)
@@ -499,7 +539,7 @@ def simulate(model, t_end: float, *, integrator: str = "auto", state=None, t_sta
                    load_factor=load_factor, progress=progress)
         return richardson(*(simulate(model, t_end, **run, **{**options, "step": step}) for step in (h, 0.5 * h)))
 
-    step = _step_used(float(opt.step), times) if integrator == "generalized_alpha" else None
+    step = _step_used(float(opt.step), times) if integrator == "generalized_alpha" and not controlled else None
     logger.info("simulate: %s from t = %.6g to %.6g s, %d outputs, %d coordinates%s", integrator, t0, t1, len(times),
                 system.n_coordinates, "" if step is None else f", step {step:.6g} s")
     bar = _progress.Progress(progress, t1 - t0, desc=f"simulate ({integrator})", unit="s", leave=False)
@@ -514,6 +554,12 @@ def simulate(model, t_end: float, *, integrator: str = "auto", state=None, t_sta
         raise
     wall = _time.perf_counter() - wall
     stats = {k: int(out.pop(k)) for k in COUNTERS}
+    if controlled:  # the step control's figures
+        stats["error_estimate"] = float(out.pop("error_sum"))
+        stats["largest_local_error"] = float(out.pop("error_max"))
+        for k in ("smallest_step", "largest_step"):
+            stats[k] = float(out.pop(k))
+        step = stats["largest_step"]
     stats["wall_time"] = wall
     logger.info("simulate: %s done in %.3g s: %d steps (%d failed), %d Newton iterations", integrator, wall,
                 stats["steps"], stats["failed_steps"], stats["newton_iterations"])
@@ -523,6 +569,7 @@ def simulate(model, t_end: float, *, integrator: str = "auto", state=None, t_sta
                 out[name][:] = np.nan
     meta = {"integrator": integrator, "requested": requested,
             "step": step, "requested_step": float(opt.step) if step is not None else None,
+            "rtol": float(options["rtol"]) if controlled else None,
             "options": {k: float(v) for k, v in options.items()}, "t_start": t0, "t_end": t1,
             "mass_flow": [list(flow.t), list(flow.value), flow.omega, flow.phase],
             "load_factor": [list(loads.t), list(loads.value), loads.omega, loads.phase]}
