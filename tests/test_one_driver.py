@@ -11,19 +11,8 @@ from pipeflex.seeds.seed004.coupled_scenes import sprinkler_on_hub
 from test_any_system import on_stiff_hub
 
 
-@pytest.fixture(scope="module")
-def element():
-    return pf.scenes.cantilever_pipe(n_elements=3, polar_inertia=1e-4)
-
-
-@pytest.fixture(scope="module")
-def bodies():
-    return pf.scenes.ffrf_cantilever_pipe(n_bodies=2, elements_per_body=4, tip_force=1.5)
-
-
-@pytest.fixture(scope="module")
-def coupled():
-    return sprinkler_on_hub(n_elements=4, mass_flow=10.0)[0]
+# the three formulations' small scenes (fixtures element, bodies, coupled)
+from test_system import bodies, coupled, element  # noqa: F401
 
 
 def run(system, **options):
