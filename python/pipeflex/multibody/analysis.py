@@ -27,7 +27,6 @@ from .. import _checks
 from ..analysis.static import StaticResult
 from .._options import MAX_NEWTON, MAX_STEPS, NEWTON_TOL, RHO_INF, renamed
 from ..results import _REGISTRY
-from ..analysis.linearize import Linearization, linearize as _linearize
 from ..analysis.transient import TransientResult, simulate as _simulate
 # the statics' constants and helpers, where they were (docs and tests name them here)
 from .statics import (DEFORMATION_LIMIT, FORCE_FLOOR, RESIDUAL_TOL, _bending_force,  # noqa: F401
@@ -97,15 +96,24 @@ def static_equilibrium(system: MultibodySystem, *, state: Optional[MultibodyStat
                  max_iterations=max_iterations, max_bisections=max_bisections, **options)
 
 
-#: The linearisation of a system of bodies: :class:`pipeflex.Linearization` (one type for every
-#: formulation; ``state`` a :class:`~pipeflex.multibody.MultibodyState` with its multipliers).
-MultibodyLinearization = Linearization
+def __getattr__(name):
+    # MultibodyLinearization: the linearisation of a system of bodies is
+    # :class:`pipeflex.Linearization` (one type for every formulation; ``state`` a
+    # MultibodyState with its multipliers), imported when asked: a transient of bodies
+    # loads no scipy.sparse
+    if name == "MultibodyLinearization":
+        from ..analysis.linearize import Linearization
+
+        return Linearization
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 
 def linearize(system: MultibodySystem, state: Optional[MultibodyState] = None, *,
-              mass_flow: Optional[float] = None) -> Linearization:
+              mass_flow: Optional[float] = None):
     """:func:`pipeflex.linearize` of a system of bodies (the same driver): about ``state``
     with its multipliers, default the static equilibrium at ``mass_flow`` mdot [kg/s]."""
+    from ..analysis.linearize import linearize as _linearize
+
     return _linearize(system, state, mass_flow=mass_flow)
 
 
