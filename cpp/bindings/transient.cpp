@@ -85,6 +85,35 @@ void bind_transient(py::module_& m) {
         "residual [N] (at the last iterate evaluated), correction (the last, [m, rad]).",
         py::arg("model"), py::arg("free"), py::arg("state"), py::arg("load"), py::arg("centre"), py::arg("axis"),
         py::arg("omega"), py::arg("length_scale"), py::arg("tol"), py::arg("max_iterations"), py::arg("divergence"));
+    m.def(
+        "rigid_rotation_rates",
+        [](const Model& md, State& s, const std::array<double, 3>& centre, const std::array<double, 3>& axis,
+           double omega) {
+            check_state(md, s);
+            rigid_rotation_rates(md, s, Vec3<double>{{centre[0], centre[1], centre[2]}},
+                                 Vec3<double>{{axis[0], axis[1], axis[2]}}, omega);
+        },
+        "Sets state.v and state.a to the rates of the rigid rotation of the element model at rate omega [rad/s] "
+        "about the unit axis through the point centre [m], at phi = 0 (positions and ANCF slopes turning with "
+        "omega axis x, rotation vectors' rate omega axis): the kinematics of rotating_state's equations.",
+        py::arg("model"), py::arg("state"), py::arg("centre"), py::arg("axis"), py::arg("omega"));
+    m.def(
+        "rigid_rotation_operators",
+        [](const Model& md, const Model& free, const std::array<double, 3>& axis) {
+            RigidRotationOperators o = rigid_rotation_operators(md, free, Vec3<double>{{axis[0], axis[1], axis[2]}});
+            auto csc = [](CscMatrix& x) {
+                return py::make_tuple(owned_array(std::move(x.values)), owned_array(std::move(x.row_index)),
+                                      owned_array(std::move(x.col_ptr)), py::make_tuple(x.rows, x.cols));
+            };
+            return py::make_tuple(csc(o.T_rel), csc(o.A), csc(o.B));
+        },
+        "The rigid rotation's rate operators about the unit axis on the coordinates of free (the model's "
+        "unconstrained variant), block diagonal by node: (T_rel, A, B), each (data, indices, indptr, shape) in "
+        "compressed columns. T_rel = pinv(T_f) T: the model's coordinates in free's; A and B: the rates' "
+        "derivatives per unit omega and omega^2 at phi = 0 (S and S^2 for positions and ANCF slopes, S/2 and "
+        "S^2/6 for rotation vectors, S = skew(axis)). ValueError if free has other nodes or elements or the "
+        "rotation turns its increments out of them (planar ANCF nodes about an axis other than z).",
+        py::arg("model"), py::arg("free"), py::arg("axis"));
     m.attr("DENSE_LU_BELOW") = kDenseLuBelow;
     m.def(
         "gravity_potential",

@@ -32,7 +32,113 @@ Eigen::MatrixXd left_inverse(const Eigen::MatrixXd& T) {
     return G.ldlt().solve(T.transpose());
 }
 
+// F (the model or its unconstrained variant) has the model's nodes and elements
+void check_same_nodes(const Model& model, const Model& F) {
+    bool same = F.n_nodes() == model.n_nodes() && F.kinds == model.kinds && F.elements.size() == model.elements.size();
+    for (std::size_t k = 0; same && k < F.elements.size(); ++k)
+        same = typeid(F.elements[k]) == typeid(model.elements[k]) && F.elements[k].nodes() == model.elements[k].nodes();
+    if (!same)
+        throw std::invalid_argument("rigid rotation: the unconstrained model has other nodes or elements than the "
+                                    "model");
+}
+
+// Node i's rate operators on F's coordinates (kf of them): E = pinv(T_f) T (kf x k; the
+// identity if F is the model: `free` false), Av = pinv(T_f) Bv T_f and Aa = pinv(T_f) Ba
+// T_f (kf x kf), Bv and Ba the node's 6 x 6 blocks of the rates' derivatives per unit
+// omega and omega^2 (S = skew(axis), S2 = S^2). With `free`, the node's supported
+// increments must be F's and Bv must keep F's increments F's.
+struct NodeOperators {
+    Eigen::MatrixXd E, Av, Aa;
+};
+NodeOperators node_operators(const Model& model, const Model& F, bool free, int i, const Eigen::Matrix3d& S,
+                             const Eigen::Matrix3d& S2) {
+    const bool slopes = model.kinds[i] == NodeKind::ancf;
+    Eigen::Matrix<double, 6, 6> Bv = Eigen::Matrix<double, 6, 6>::Zero(), Ba = Bv;
+    Bv.topLeftCorner<3, 3>() = S;
+    Ba.topLeftCorner<3, 3>() = S2;
+    // rotation vectors: phi_dot = T(phi)^-1 omega a, T^-1 = I - skew(phi)/2 + ..., and
+    // phi_ddot = -T^-1 d/dt[T] phi_dot to first order in phi
+    Bv.bottomRightCorner<3, 3>() = slopes ? S : Eigen::Matrix3d(0.5 * S);
+    Ba.bottomRightCorner<3, 3>() = slopes ? S2 : Eigen::Matrix3d(S2 / 6.0);
+    const Eigen::MatrixXd &T = model.bases[i], &Tf = F.bases[i];
+    const int k = static_cast<int>(T.cols());
+    const Eigen::MatrixXd Tp = left_inverse(Tf);
+    NodeOperators out;
+    out.E = free ? Eigen::MatrixXd(Tp * T) : Eigen::MatrixXd::Identity(k, k);
+    if ((Tf * out.E - T).lpNorm<Eigen::Infinity>() > 1e-12)
+        throw std::invalid_argument("rigid rotation: a node's supported increments are not increments of the "
+                                    "unconstrained model");
+    if (free && (Tf * Tp * Bv * Tf - Bv * Tf).lpNorm<Eigen::Infinity>() > 1e-12)
+        throw std::invalid_argument("rigid rotation: the rotation turns a node's increments out of the "
+                                    "unconstrained model's (planar ANCF nodes can only turn about the z axis)");
+    out.Av = Tp * Bv * Tf;
+    out.Aa = Tp * Ba * Tf;
+    return out;
+}
+
+// the block diagonal CSC matrix (rows x cols) of per-node blocks at (row0[i], col0[i])
+CscMatrix block_diagonal(const std::vector<Eigen::MatrixXd>& blocks, const std::vector<int>& row0,
+                         const std::vector<int>& col0, int rows, int cols) {
+    CscMatrix X;
+    X.rows = rows;
+    X.cols = cols;
+    X.col_ptr.assign(cols + 1, 0);
+    for (std::size_t i = 0; i < blocks.size(); ++i) {
+        const Eigen::MatrixXd& b = blocks[i];
+        for (int c = 0; c < b.cols(); ++c) {
+            for (int r = 0; r < b.rows(); ++r)
+                if (b(r, c) != 0.0) {
+                    X.row_index.push_back(row0[i] + r);
+                    X.values.push_back(b(r, c));
+                }
+            X.col_ptr[col0[i] + c + 1] = static_cast<int>(X.values.size());
+        }
+    }
+    // columns of no block (none when the nodes' coordinates tile the matrix)
+    for (int c = 0; c < cols; ++c) X.col_ptr[c + 1] = std::max(X.col_ptr[c + 1], X.col_ptr[c]);
+    return X;
+}
+
 }  // namespace
+
+void rigid_rotation_rates(const Model& model, State& s, const Vec3<double>& centre, const Vec3<double>& axis,
+                          double omega) {
+    const Eigen::Vector3d a(axis[0], axis[1], axis[2]);
+    const Eigen::Vector3d xc(centre[0], centre[1], centre[2]);
+    for (int i = 0; i < model.n_nodes(); ++i) {
+        const Eigen::Vector3d r = s.q.segment<3>(6 * i) - xc;
+        const Eigen::Vector3d w = omega * a.cross(r);
+        s.v.segment<3>(6 * i) = w;
+        s.a.segment<3>(6 * i) = omega * a.cross(w);
+        if (model.kinds[i] == NodeKind::ancf) {
+            const Eigen::Vector3d d = s.q.segment<3>(6 * i + 3);
+            const Eigen::Vector3d wd = omega * a.cross(d);
+            s.v.segment<3>(6 * i + 3) = wd;
+            s.a.segment<3>(6 * i + 3) = omega * a.cross(wd);
+        } else {
+            s.v.segment<3>(6 * i + 3) = omega * a;
+            s.a.segment<3>(6 * i + 3).setZero();
+        }
+    }
+}
+
+RigidRotationOperators rigid_rotation_operators(const Model& model, const Model& free, const Vec3<double>& axis) {
+    check_same_nodes(model, free);
+    const Eigen::Matrix3d S = skew(axis), S2 = S * S;
+    const int n = model.n_nodes();
+    std::vector<Eigen::MatrixXd> E(n), Av(n), Aa(n);
+    for (int i = 0; i < n; ++i) {
+        NodeOperators o = node_operators(model, free, true, i, S, S2);
+        E[i] = std::move(o.E);
+        Av[i] = std::move(o.Av);
+        Aa[i] = std::move(o.Aa);
+    }
+    RigidRotationOperators out;
+    out.T_rel = block_diagonal(E, free.first_dof, model.first_dof, free.n_dofs, model.n_dofs);
+    out.A = block_diagonal(Av, free.first_dof, free.first_dof, free.n_dofs, free.n_dofs);
+    out.B = block_diagonal(Aa, free.first_dof, free.first_dof, free.n_dofs, free.n_dofs);
+    return out;
+}
 
 RigidRotationEquations::RigidRotationEquations(const Model& model, State& state, const LoadState& load,
                                                double length_scale, int hinge_node, const Vec3<double>& axis)
@@ -44,12 +150,7 @@ RigidRotationEquations::RigidRotationEquations(const Model& model, State& state,
     : statics_(model, state, load, length_scale), hinge_point_(hinge_point[0], hinge_point[1], hinge_point[2]),
       axis_(axis), assembled_(free != nullptr ? *free : model) {
     const Model& F = assembled_;
-    bool same = F.n_nodes() == model.n_nodes() && F.kinds == model.kinds && F.elements.size() == model.elements.size();
-    for (std::size_t k = 0; same && k < F.elements.size(); ++k)
-        same = typeid(F.elements[k]) == typeid(model.elements[k]) && F.elements[k].nodes() == model.elements[k].nodes();
-    if (free != nullptr && !same)
-        throw std::invalid_argument("rigid rotation: the unconstrained model has other nodes or elements than the "
-                                    "model");
+    if (free != nullptr) check_same_nodes(model, F);
     // the rates below hold at phi = 0: every iterate is re-based
     Eigen::VectorXd v, a;
     statics_.eq.rebase(0.0, v, a);
@@ -60,27 +161,12 @@ RigidRotationEquations::RigidRotationEquations(const Model& model, State& state,
     weight_.assign(n, 0);
     row_ptr_.assign(nf + 1, 0);
     for (int i = 0; i < model.n_nodes(); ++i) {
-        // per node: E = pinv(T_f) T, and pinv(T_f) B T_f E for the rates' 6 x 6 blocks B
-        const bool slopes = model.kinds[i] == NodeKind::ancf;
-        Eigen::Matrix<double, 6, 6> Bv = Eigen::Matrix<double, 6, 6>::Zero(), Ba = Bv;
-        Bv.topLeftCorner<3, 3>() = S;
-        Ba.topLeftCorner<3, 3>() = S2;
-        // rotation vectors: phi_dot = T(phi)^-1 omega a, T^-1 = I - skew(phi)/2 + ..., and
-        // phi_ddot = -T^-1 d/dt[T] phi_dot to first order in phi
-        Bv.bottomRightCorner<3, 3>() = slopes ? S : Eigen::Matrix3d(0.5 * S);
-        Ba.bottomRightCorner<3, 3>() = slopes ? S2 : Eigen::Matrix3d(S2 / 6.0);
-        const Eigen::MatrixXd &T = model.bases[i], &Tf = F.bases[i];
-        const int f = model.first_dof[i], k = static_cast<int>(T.cols());
-        const int ff = F.first_dof[i], kf = static_cast<int>(Tf.cols());
-        const Eigen::MatrixXd Tp = left_inverse(Tf);
-        const Eigen::MatrixXd E = free != nullptr ? Eigen::MatrixXd(Tp * T) : Eigen::MatrixXd::Identity(k, k);
-        if ((Tf * E - T).lpNorm<Eigen::Infinity>() > 1e-12)
-            throw std::invalid_argument("rigid rotation: a node's supported increments are not increments of the "
-                                        "unconstrained model");
-        if (free != nullptr && (Tf * Tp * Bv * Tf - Bv * Tf).lpNorm<Eigen::Infinity>() > 1e-12)
-            throw std::invalid_argument("rigid rotation: the rotation turns a node's increments out of the "
-                                        "unconstrained model's (planar ANCF nodes can only turn about the z axis)");
-        const Eigen::MatrixXd ev = Tp * Bv * Tf * E, ea = Tp * Ba * Tf * E;
+        // per node: E = pinv(T_f) T, and the rates' operators on E
+        const NodeOperators o = node_operators(model, F, free != nullptr, i, S, S2);
+        const Eigen::MatrixXd& E = o.E;
+        const int f = model.first_dof[i], k = static_cast<int>(model.bases[i].cols());
+        const int ff = F.first_dof[i], kf = static_cast<int>(F.bases[i].cols());
+        const Eigen::MatrixXd ev = o.Av * E, ea = o.Aa * E;
         for (int c = 0; c < k; ++c) {
             block_[f + c] = ff;
             block_end_[f + c] = ff + kf;
@@ -128,25 +214,8 @@ RigidRotationEquations::RigidRotationEquations(const Model& model, State& state,
 }
 
 void RigidRotationEquations::rigid_rates() {
-    State& s = statics_.eq.state;
-    const Model& model = statics_.eq.model;
-    const Eigen::Vector3d a(axis_[0], axis_[1], axis_[2]);
-    const Eigen::Vector3d& xc = hinge_point_;
-    for (int i = 0; i < model.n_nodes(); ++i) {
-        const Eigen::Vector3d r = s.q.segment<3>(6 * i) - xc;
-        const Eigen::Vector3d w = omega_ * a.cross(r);
-        s.v.segment<3>(6 * i) = w;
-        s.a.segment<3>(6 * i) = omega_ * a.cross(w);
-        if (model.kinds[i] == NodeKind::ancf) {
-            const Eigen::Vector3d d = s.q.segment<3>(6 * i + 3);
-            const Eigen::Vector3d wd = omega_ * a.cross(d);
-            s.v.segment<3>(6 * i + 3) = wd;
-            s.a.segment<3>(6 * i + 3) = omega_ * a.cross(wd);
-        } else {
-            s.v.segment<3>(6 * i + 3) = omega_ * a;
-            s.a.segment<3>(6 * i + 3).setZero();
-        }
-    }
+    const Vec3<double> centre{{hinge_point_[0], hinge_point_[1], hinge_point_[2]}};
+    rigid_rotation_rates(statics_.eq.model, statics_.eq.state, centre, axis_, omega_);
 }
 
 void RigidRotationEquations::set(const Eigen::VectorXd& z, const Eigen::VectorXd& v, const Eigen::VectorXd& a,

@@ -39,7 +39,6 @@ from ._assembly import KCM, require_model, residual_and_tangent, tangents
 from ._continuation import follow
 from .eigen import GROWTH_TOL, SPARSE_MIN_DOFS, eigenvalues
 from .linearize import Linearization
-from ..rotation import skew
 from .._blas import pinned as blas_pinned
 
 LINEARIZATIONS = ("small_deformation", "steady_state")
@@ -114,35 +113,14 @@ class _Frame:
 
     @functools.cached_property
     def _operators(self):
-        """T_rel, A, B on the unconstrained model's coordinates, made at their first use
-        (the rotating state, solved in the core, needs none of them)."""
-        model, form = self.model, self._form
-        S = skew(self.axis)
-        S2 = S @ S
-        n = model.n_nodes
-        # per node a position and a slope/rotation 3 x 3 block; rotation vectors: S/2, S^2/6
-        rot = np.ones(n)
-        rot[np.setdiff1d(np.arange(n), np.asarray(model.ancf_nodes, dtype=int))] = 0.0
-        a_scale = np.column_stack([np.ones(n), rot + 0.5 * (1.0 - rot)]).ravel()
-        b_scale = np.column_stack([np.ones(n), rot + (1.0 - rot) / 6.0]).ravel()
-        A = form(_block_diagonal(a_scale[:, None, None] * S))
-        B = form(_block_diagonal(b_scale[:, None, None] * S2))
-        Tf = form(sp.csr_matrix(self.free.basis))
-        T = self.T
-        # pinv(Tf) = (Tf^T Tf)^-1 Tf^T: a basis has full column rank; Tf^T Tf is diagonal
-        # when the basis selects coordinates (spsolve's sparse right-hand side is slow)
-        G = form(Tf.T @ Tf)
-        d = G.diagonal()
-        if _max_abs(G - form(sp.diags(d))) == 0.0:
-            Tfp = form(sp.diags(1.0 / d)) @ Tf.T
-        elif self.dense:
-            Tfp = np.linalg.solve(G, Tf.T)
-        else:
-            Tfp = sp.csr_matrix(spla.spsolve(sp.csc_matrix(G), sp.csc_matrix(Tf.T)))
-        T_rel, A_rel, B_rel = (X if self.dense else sp.csc_matrix(X) for X in (Tfp @ T, Tfp @ A @ Tf, Tfp @ B @ Tf))
-        if _max_abs(Tf @ A_rel - A @ Tf) > 1e-12 or _max_abs(Tf @ T_rel - T) > 1e-12:
-            raise ValueError("planar ANCF nodes can only turn about the z axis")
-        return T_rel, A_rel, B_rel
+        """T_rel, A, B on the unconstrained model's coordinates (the core's
+        ``rigid_rotation_operators``, the kinematics of its rotating state), made at their
+        first use (the rotating state, solved in the core, needs none of them)."""
+        # a ValueError "... planar ANCF nodes can only turn about the z axis" if the
+        # rotation turns the supported increments out of the unconstrained model's
+        parts = _core.rigid_rotation_operators(self.model.core, self.free.core, list(map(float, self.axis)))
+        ops = tuple(sp.csc_matrix((data, indices, indptr), shape=shape) for data, indices, indptr, shape in parts)
+        return tuple(X.toarray() for X in ops) if self.dense else ops
 
     @property
     def T_rel(self):
@@ -179,25 +157,11 @@ class _Frame:
         return er, np.cross(self.axis, er)
 
     def rigid_rotation(self, state, omega):
-        """Velocities and accelerations of the rigid rotation at rate omega (phi = 0)."""
-        S = skew(self.axis)
-        n = self.model.n_nodes
-        v = np.zeros(6 * n)
-        a = np.zeros(6 * n)
-        q = np.asarray(state.q)
-        ancf = set(self.model.ancf_nodes)
-        for i in range(n):
-            r = q[6 * i:6 * i + 3] - self.center
-            v[6 * i:6 * i + 3] = omega * S @ r
-            a[6 * i:6 * i + 3] = omega**2 * S @ S @ r
-            if i in ancf:
-                d = q[6 * i + 3:6 * i + 6]
-                v[6 * i + 3:6 * i + 6] = omega * S @ d
-                a[6 * i + 3:6 * i + 6] = omega**2 * S @ S @ d
-            else:
-                v[6 * i + 3:6 * i + 6] = omega * self.axis
-        state.v = v
-        state.a = a
+        """Sets the velocities and accelerations of ``state`` (a core state of the model) to
+        those of the rigid rotation at rate omega [rad/s], phi = 0 (the core's
+        ``rigid_rotation_rates``)."""
+        _core.rigid_rotation_rates(self.model.core, state, list(map(float, self.center)),
+                                   list(map(float, self.axis)), float(omega))
 
     def families(self):
         """Which of the directions radial, tangential, axial the structure can move in
@@ -219,21 +183,6 @@ class _Frame:
         parts = np.array([np.sum(np.abs(np.einsum("k,nkm->nm", d, u)) ** 2, axis=0)
                           for d in (self.radial, self.tangential, self.axis)])
         return parts / np.maximum(parts.sum(axis=0), 1e-300)
-
-
-def _block_diagonal(blocks):
-    """CSR matrix of the (m, 3, 3) blocks along its diagonal."""
-    m = len(blocks)
-    base = 3 * np.arange(m)[:, None, None]
-    rows = np.broadcast_to(base + np.arange(3)[None, :, None], blocks.shape)
-    cols = np.broadcast_to(base + np.arange(3)[None, None, :], blocks.shape)
-    return sp.csr_matrix((blocks.ravel(), (rows.ravel(), cols.ravel())), shape=(3 * m, 3 * m))
-
-
-def _max_abs(X) -> float:
-    """Largest |entry| of a sparse or dense matrix (0 if it has none)."""
-    n = X.nnz if sp.issparse(X) else X.size
-    return float(abs(X).max()) if n else 0.0
 
 
 def _matrices(model, state, dense=False):

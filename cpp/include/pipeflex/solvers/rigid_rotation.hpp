@@ -26,8 +26,28 @@
 #pragma once
 
 #include "pipeflex/solvers/element_equations.hpp"
+#include "pipeflex/solvers/tangent_csc.hpp"
 
 namespace pipeflex {
+
+// The rates of the rigid rotation at rate omega [rad/s] about the unit axis through the
+// point centre [m], at phi = 0 (the formulas above): state.v and state.a from state.q (a
+// state of the model: check_state's).
+void rigid_rotation_rates(const Model& model, State& state, const Vec3<double>& centre, const Vec3<double>& axis,
+                          double omega);
+
+// The rigid rotation's rate operators on the coordinates of `free` (the model's
+// unconstrained variant: the same nodes and elements, bases T_f), block diagonal by node:
+// T_rel = pinv(T_f) T (nf x n: the model's increments in free's coordinates), A =
+// pinv(T_f) Av T_f and B = pinv(T_f) Aa T_f (nf x nf), Av and Aa the rates' derivatives in
+// q per unit omega and omega^2 at phi = 0 (per node: S and S^2 for positions and ANCF
+// slopes, S/2 and S^2/6 for rotation vectors, S = skew(axis)). Throws
+// std::invalid_argument if free has other nodes or elements, a node's supported
+// increments are not free's, or the rotation turns free's increments out of them.
+struct RigidRotationOperators {
+    CscMatrix T_rel, A, B;
+};
+RigidRotationOperators rigid_rotation_operators(const Model& model, const Model& free, const Vec3<double>& axis);
 
 // The element model's statics in rigid rotation at rate omega [rad/s] about `axis` (unit)
 // through the position of `hinge_node`. Only the static tangent (wK) is provided: the
