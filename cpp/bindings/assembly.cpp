@@ -1,6 +1,7 @@
 #include "convert.hpp"
 #include "pipeflex/assembly/ancf_element.hpp"
 #include "pipeflex/assembly/axial_spring.hpp"
+#include "pipeflex/assembly/ground_spring.hpp"
 #include "pipeflex/assembly/model.hpp"
 #include "pipeflex/assembly/pipe_element.hpp"
 #include "pipeflex/solvers/system.hpp"
@@ -8,6 +9,7 @@
 #include <pybind11/stl.h>
 
 #include <algorithm>
+#include <optional>
 #include <tuple>
 
 namespace py = pybind11;
@@ -183,15 +185,35 @@ void bind_assembly(py::module_& m) {
              },
              py::arg("p"), py::arg("q"), py::arg("data"), "An ANCF element from node p to node q; its index.")
         .def("add_spring",
-             [](Model& md, int a, int b, double k) {
-                 auto e = std::make_unique<AxialSpring>(node_index(md, a, "node_a"), node_index(md, b, "node_b"), k);
+             [](Model& md, int a, int b, double k, double c) {
+                 auto e = std::make_unique<AxialSpring>(node_index(md, a, "node_a"), node_index(md, b, "node_b"), k, c);
                  changed(md);
                  md.elements.add(std::move(e));
                  return md.elements.count<AxialSpring>() - 1;
              },
-             py::arg("node_a"), py::arg("node_b"), py::arg("k"),
+             py::arg("node_a"), py::arg("node_b"), py::arg("k"), py::arg("c") = 0.0,
              "A linear axial spring of stiffness k [N/m] between the positions of node_a and node_b, "
-             "unstressed at their reference distance; its index among the springs.")
+             "unstressed at their reference distance, with a dashpot c [N s/m] in parallel; its index among "
+             "the springs.")
+        .def("add_ground_spring",
+             [](Model& md, int node, const Eigen::Vector3d& k, const Eigen::Vector3d& c,
+                const std::optional<Eigen::Vector3d>& anchor, const Eigen::Vector3d& k_phi,
+                const Eigen::Vector3d& c_phi) {
+                 auto e = std::make_unique<GroundSpring>(node_index(md, node, "node"), to_vec3(k), to_vec3(c),
+                                                         anchor.has_value(),
+                                                         anchor ? to_vec3(*anchor) : Vec3<double>{}, to_vec3(k_phi),
+                                                         to_vec3(c_phi));
+                 changed(md);
+                 md.elements.add(std::move(e));
+                 return md.elements.count<GroundSpring>() - 1;
+             },
+             py::arg("node"), py::arg("k"), py::arg("c"), py::arg("anchor") = py::none(),
+             py::arg("k_phi") = Eigen::Vector3d::Zero(), py::arg("c_phi") = Eigen::Vector3d::Zero(),
+             "A linear spring-damper from node to the ground: stiffness k (3) [N/m] and damping c (3) [N s/m] "
+             "along the global axes, unstressed at anchor (3) [m] (None: the node's reference position); at a "
+             "frame node also k_phi (3) [N m/rad] on the rotation vector from the reference orientation and "
+             "c_phi (3) [N m s/rad] on the angular velocity, about the global axes. Its index among the ground "
+             "springs.")
         .def("set_hub",
              [](Model& md, const std::vector<int>& nodes, const Eigen::Vector3d& axis, const Eigen::Vector3d& center,
                 double omega, double spin_up_time) {

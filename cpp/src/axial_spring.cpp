@@ -7,9 +7,12 @@
 
 namespace pipeflex {
 
-AxialSpring::AxialSpring(int a, int b, double k) : Element({a, b}), k_(k) {
+AxialSpring::AxialSpring(int a, int b, double k, double c) : Element({a, b}), k_(k), c_(c) {
     if (!(std::isfinite(k) && k >= 0.0))
         throw std::invalid_argument("axial spring: k must be a finite stiffness >= 0 [N/m], got " + std::to_string(k));
+    if (!(std::isfinite(c) && c >= 0.0))
+        throw std::invalid_argument("axial spring: c must be a finite damping coefficient >= 0 [N s/m], got " +
+                                    std::to_string(c));
 }
 
 double AxialSpring::chord(const Eigen::VectorXd& q, Vec3<double>* d) const {
@@ -36,21 +39,33 @@ void AxialSpring::kernel(const ElementInputs& in, const ElementOutputs& out) con
         throw std::domain_error("axial spring between nodes " + std::to_string(nodes()[0]) + " and " +
                                 std::to_string(nodes()[1]) + ": the nodes coincide (no axis)");
     const Vec3<double> e = (1.0 / l) * d;
-    const double N = k_ * (l - l0_);
+    // dv = v_b - v_a, its rate of extension l_dot = e . dv and its part across the axis P dv
+    Vec3<double> dv{}, pdv{};
+    double ldot = 0.0;
+    if (c_ != 0.0) {
+        const Eigen::VectorXd& v = in.state.v;
+        const int a = nodes()[0], b = nodes()[1];
+        for (int i = 0; i < 3; ++i) dv[i] = v[6 * b + i] - v[6 * a + i];
+        ldot = dot(e, dv);
+        for (int i = 0; i < 3; ++i) pdv[i] = dv[i] - ldot * e[i];
+    }
+    const double T = k_ * (l - l0_) + c_ * ldot;  // the axial force [N], tension positive
     if (out.r != nullptr)
         for (int i = 0; i < 3; ++i) {
-            out.r[i] = -N * e[i];
+            out.r[i] = -T * e[i];
             out.r[3 + i] = 0.0;
-            out.r[6 + i] = N * e[i];
+            out.r[6 + i] = T * e[i];
             out.r[9 + i] = 0.0;
         }
     for (int s = 0; s < out.nw; ++s) {
-        const double wK = out.weights[3 * s];
+        const double wK = out.weights[3 * s], wC = out.weights[3 * s + 1];
         double* J = out.J[s];
         for (int i = 0; i < 144; ++i) J[i] = 0.0;
         for (int i = 0; i < 3; ++i)
             for (int j = 0; j < 3; ++j) {
-                const double kij = wK * (k_ * e[i] * e[j] + N / l * ((i == j) - e[i] * e[j]));
+                const double eij = e[i] * e[j];
+                const double kij = wK * (k_ * eij + T / l * ((i == j) - eij) + c_ / l * e[i] * pdv[j]) +
+                                   wC * c_ * eij;
                 J[12 * i + j] = kij;
                 J[12 * (6 + i) + 6 + j] = kij;
                 J[12 * i + 6 + j] = -kij;

@@ -124,6 +124,27 @@ class ElementInfo:
 
 
 @dataclass(frozen=True)
+class SpringInfo:
+    """What the builder recorded of a spring-damper (massless, linear).
+
+    ``kind`` is ``"axial"`` (between ``nodes`` = (a, b), along the line between them:
+    ``stiffness`` k [N/m] and ``damping`` c [N s/m] numbers, unstressed at the nodes'
+    reference distance) or ``"ground"`` (from ``nodes`` = (node,) to the fixed ``anchor``
+    [m], the node's reference position if None: ``stiffness`` (kx, ky, kz) [N/m] and
+    ``damping`` (cx, cy, cz) [N s/m] along the global axes, ``rotational_stiffness``
+    k_phi (3) [N m/rad] and ``rotational_damping`` c_phi (3) [N m s/rad] about them,
+    tuples; None for an axial spring)."""
+
+    kind: str
+    nodes: Tuple[int, ...]
+    stiffness: object
+    damping: object
+    anchor: Optional[Tuple[float, float, float]] = None
+    rotational_stiffness: Optional[Tuple[float, float, float]] = None
+    rotational_damping: Optional[Tuple[float, float, float]] = None
+
+
+@dataclass(frozen=True)
 class HubInfo:
     """A rigid hub turning the ``nodes`` about ``axis`` through ``center`` [m]: angle
     theta(t) of Berzeri & Shabana's eq. 13 with final rate ``omega`` [rad/s] reached after
@@ -157,6 +178,7 @@ class ModelBuilder:
         self._gravity = np.zeros(3)
         self._ancf_nodes: dict = {}  # node -> reference slope
         self._ancf: List[dict] = []
+        self._springs: List[dict] = []
         self._hub: Optional[HubInfo] = None
 
     # -- nodes and elements -------------------------------------------------------
@@ -407,6 +429,85 @@ class ModelBuilder:
     def _n_elements(self) -> int:
         return len(self._elements) + len(self._ancf)
 
+    # -- spring-dampers -------------------------------------------------------------
+    def add_spring(self, node_a: int, node_b: int, *, stiffness: float, damping: float = 0.0) -> int:
+        """A linear axial spring-damper between the positions of two nodes (frame or ANCF),
+        massless, unstressed at their reference distance L0: axial force
+        T = k (l - L0) + c dl/dt along the line between them (tension positive), with l the
+        nodes' distance and dl/dt = e . (v_b - v_a) its rate (e the unit vector from a to b).
+        It holds no rotation. Returns its index among the springs (both kinds).
+
+        Args:
+            node_a, node_b: the two nodes [-]; they must not coincide in the reference
+                configuration (a spring of zero length has no axis: ValueError; to hold a
+                node at a point use :meth:`add_ground_spring`).
+            stiffness: k [N/m] >= 0.
+            damping: c [N s/m] >= 0, a dashpot in parallel.
+        """
+        a = self._node("node_a", node_a)
+        b = self._node("node_b", node_b)
+        k = _checks.non_negative("stiffness", stiffness)
+        c = _checks.non_negative("damping", damping)
+        if a == b:
+            raise ValueError(f"node_a and node_b are both node {a}: a spring needs two nodes "
+                             f"(to hold a node at a point use add_ground_spring)")
+        if not np.linalg.norm(self._positions[b] - self._positions[a]) > 0.0:
+            raise ValueError(f"nodes {a} and {b} coincide: an axial spring of zero length has no axis (its force "
+                             f"direction is undefined); use add_ground_spring at one of them, or move them apart")
+        self._springs.append(dict(kind="axial", nodes=(a, b), k=k, c=c))
+        return len(self._springs) - 1
+
+    def add_ground_spring(self, node: int, *, stiffness: Sequence[float] = (0.0, 0.0, 0.0),
+                          damping: Sequence[float] = (0.0, 0.0, 0.0),
+                          anchor: Optional[Sequence[float]] = None,
+                          rotational_stiffness: Sequence[float] = (0.0, 0.0, 0.0),
+                          rotational_damping: Sequence[float] = (0.0, 0.0, 0.0)) -> int:
+        """A linear spring-damper from a node (frame or ANCF node) to the ground, massless:
+        force -K (x - X) - C v on the node with K = diag(kx, ky, kz) and C = diag(cx, cy, cz)
+        along the global axes. At a frame node it may also hold the rotation: moment
+        -T(psi)^-T K_phi psi - C_phi w, with psi the rotation vector of the node's rotation
+        from its reference orientation (exact for any |psi| < pi: the elastic energy is
+        psi^T K_phi psi / 2; a rotation of pi raises an error), w its angular velocity and
+        K_phi, C_phi diagonal about the global axes. Counts as a support of its part of the
+        structure. Returns its index among the springs.
+
+        Args:
+            node: the node [-].
+            stiffness: (kx, ky, kz) [N/m] >= 0 each.
+            damping: (cx, cy, cz) [N s/m] >= 0 each.
+            anchor: X [m], the point where the spring is unstressed; default the node's
+                reference position.
+            rotational_stiffness: k_phi (3) [N m/rad] >= 0 each, about the global axes
+                (frame nodes only).
+            rotational_damping: c_phi (3) [N m s/rad] >= 0 each, about the global axes
+                (frame nodes only).
+        """
+        node = self._node("node", node)
+        k, c, kr, cr = (self._non_negative3(name, v, unit) for name, v, unit in
+                        (("stiffness", stiffness, "N/m"), ("damping", damping, "N s/m"),
+                         ("rotational_stiffness", rotational_stiffness, "N m/rad"),
+                         ("rotational_damping", rotational_damping, "N m s/rad")))
+        x = None if anchor is None else _checks.vector3("anchor", anchor)
+        if not (k.any() or c.any() or kr.any() or cr.any()):
+            raise ValueError("a ground spring needs a stiffness or a damping > 0 in some direction, "
+                             "got all zero")
+        if (kr.any() or cr.any()) and node in self._ancf_nodes:
+            raise ValueError(f"node {node} is an ANCF node: it has no rotation, so rotational_stiffness and "
+                             f"rotational_damping must be 0 there")
+        self._springs.append(dict(kind="ground", nodes=(node,), k=k, c=c, anchor=x, k_phi=kr, c_phi=cr))
+        return len(self._springs) - 1
+
+    @staticmethod
+    def _non_negative3(name: str, value, unit: str) -> np.ndarray:
+        """Three finite numbers >= 0 (kx, ky, kz or cx, cy, cz), else ValueError naming them."""
+        try:
+            shape = np.shape(value) if not isinstance(value, (str, bytes)) else ()
+        except ValueError:  # ragged
+            shape = ()
+        if shape != (3,):
+            raise ValueError(f"{name} must be 3 numbers along the global x, y, z [{unit}], got {value!r}")
+        return np.array([_checks.non_negative(f"{name}[{i}]", v) for i, v in enumerate(value)])
+
     # -- supports -------------------------------------------------------------------
     def _constrain(self, node: int, rows: Iterable[np.ndarray]) -> None:
         self._constraints.setdefault(node, []).extend(np.asarray(r, float) for r in rows)
@@ -529,11 +630,13 @@ class ModelBuilder:
                 analyses refuse its rigid-body motion as a mechanism).
         """
         mdot = _checks.finite("mass_flow", mass_flow)
-        if not self._elements and not self._ancf:
+        if not self._elements and not self._ancf and not self._springs:
             raise ValueError("the model has no elements")
-        if not self._constraints and not floating:
-            raise ValueError("the model has no supports: add clamp/pin/hinge/fix so it cannot drift (or build it "
-                             "with floating=True to join it to bodies in a pipeflex.CoupledSystem)")
+        grounded = {s["nodes"][0] for s in self._springs if s["kind"] == "ground"}  # tied to the ground
+        if not self._constraints and not grounded and not floating:
+            raise ValueError("the model has no supports: add clamp/pin/hinge/fix or a ground spring so it cannot "
+                             "drift (or build it with floating=True to join it to bodies in a "
+                             "pipeflex.CoupledSystem)")
         for n in self._ancf_nodes:  # planar: z and z' fixed
             rows = self._constraints.get(n, [])
             for k in (2, 5):
@@ -547,10 +650,10 @@ class ModelBuilder:
                 raise ValueError(f"load at ANCF node {ld['node']}: only dead forces are supported (no moments, "
                                  f"no follower loads)")
         els = self._elements + self._ancf
-        used = {e["p"] for e in els} | {e["q"] for e in els}
+        used = {e["p"] for e in els} | {e["q"] for e in els} | {n for s in self._springs for n in s["nodes"]}
         loose = sorted(set(range(len(self._positions))) - used)
         if loose:
-            raise ValueError(f"nodes {loose} are not connected to any element")
+            raise ValueError(f"nodes {loose} are not connected to any element or spring")
         if not floating:
             self._check_parts_supported(els)
         for e in self._elements:
@@ -569,18 +672,26 @@ class ModelBuilder:
         infos = [ElementInfo((e["p"], e["q"]), e["section"], e["l0"], e["flow_factor"]) for e in self._elements]
         infos += [ElementInfo((e["p"], e["q"]), e["section"], e["l"], 0.0, kind="ancf", elastic=e["elastic"])
                   for e in self._ancf]
+        def numbers(x):  # hashable, comparable
+            return None if x is None else float(x) if np.isscalar(x) else tuple(map(float, x))
+
+        springs = tuple(SpringInfo(s["kind"], s["nodes"], numbers(s["k"]), numbers(s["c"]), numbers(s.get("anchor")),
+                                   numbers(s.get("k_phi")), numbers(s.get("c_phi")))
+                        for s in self._springs)
         model = Model(core, positions, tuple(infos), bases, mdot, self._gravity.copy(),
                       hub=self._hub, ancf_nodes=tuple(sorted(self._ancf_nodes)),
-                      free=(free_core, free_bases), description=_snapshot(vars(self)))
+                      free=(free_core, free_bases), description=_snapshot(vars(self)), springs=springs)
         return model
 
     def _check_parts_supported(self, els) -> None:
         """Every connected part of the structure needs a support, as the whole model does:
         an unsupported part drifts (a mechanism whose round-off eigenvalues would decide
         a stability answer)."""
-        count, part = _parts(len(self._positions), np.array([e["p"] for e in els], dtype=np.int64),
-                             np.array([e["q"] for e in els], dtype=np.int64))
+        pairs = [(e["p"], e["q"]) for e in els] + [s["nodes"] for s in self._springs if s["kind"] == "axial"]
+        count, part = _parts(len(self._positions), np.array([p for p, _ in pairs], dtype=np.int64),
+                             np.array([q for _, q in pairs], dtype=np.int64))
         supported = {part[i] for i in self._constraints}
+        supported |= {part[s["nodes"][0]] for s in self._springs if s["kind"] == "ground"}
         for k in range(count):
             if k not in supported:
                 nodes = np.flatnonzero(part == k)
@@ -606,6 +717,11 @@ class ModelBuilder:
             core.set_hub(list(hub.nodes), hub.axis, hub.center, hub.omega, hub.spin_up_time)
         for ld in self._loads:
             core.add_load(ld["node"], ld["f"], ld["m"], ld["ff"], ld["fm"])
+        for s in self._springs:  # in the core's registry after the pipe and ANCF elements
+            if s["kind"] == "axial":
+                core.add_spring(*s["nodes"], s["k"], s["c"])
+            else:
+                core.add_ground_spring(s["nodes"][0], s["k"], s["c"], s.get("anchor"), s["k_phi"], s["c_phi"])
         for m in self._masses:
             core.add_mass(m["node"], m["mass"], m["inertia"])
         core.set_shared_bases(*_distinct(bases))
@@ -717,12 +833,14 @@ class Model:
         gravity: g [m/s^2].
         hub: the rotating hub (:class:`HubInfo`) or None.
         ancf_nodes: indices of the ANCF nodes.
+        springs: per-spring :class:`SpringInfo` (axial and ground spring-dampers).
         info: free-form description a scene attaches (e.g. reference frequencies).
     """
 
     def __init__(self, core, positions, elements, bases, mass_flow, gravity, *, hub=None, ancf_nodes=(),
-                 free=None, description=None, is_free=False):
+                 free=None, description=None, is_free=False, springs=()):
         self._description = description
+        self.springs = springs
         self._is_free = is_free
         self._core = core
         self.positions = positions
@@ -784,7 +902,8 @@ class Model:
             raise ValueError("this model has no unconstrained variant")
         core, bases = self._free
         return Model(core, self.positions.copy(), self.elements, bases, self.mass_flow, self.gravity.copy(),
-                     ancf_nodes=self.ancf_nodes, description=self._description, is_free=True)
+                     ancf_nodes=self.ancf_nodes, description=self._description, is_free=True,
+                     springs=self.springs)
 
     def __reduce__(self):
         if self._description is None:
@@ -797,7 +916,7 @@ class Model:
         for e in self.elements:
             kinds[e.kind] = kinds.get(e.kind, 0) + 1
         d = self._description or {}
-        rows = [("nodes", self.n_nodes), ("elements", ", ".join(f"{n} {k}" for k, n in kinds.items())),
+        rows = [("nodes", self.n_nodes), ("elements", ", ".join(f"{n} {k}" for k, n in kinds.items()) or "none"),
                 ("dofs", self.n_dofs), ("fixed_coordinates", 6 * self.n_nodes - self.n_dofs)]
         if self._is_free:
             rows.append(("supports", "none (free_model)"))
@@ -814,6 +933,9 @@ class Model:
                 rows.append((label, len(d[key])))
         if self.ancf_nodes:
             rows.append(("ancf_nodes", len(self.ancf_nodes)))
+        if self.springs:
+            rows.append(("springs", ", ".join(f"{sum(s.kind == k for s in self.springs)} {k}"
+                                              for k in ("axial", "ground") if any(s.kind == k for s in self.springs))))
         if self.hub is not None:
             rows.append(("hub", f"(omega {self.hub.omega:.6g} rad/s, nodes {list(self.hub.nodes)})"))
         if self.info:
@@ -1042,10 +1164,14 @@ class Model:
 
     def force_scale(self, *, mass_flow: Optional[float] = None) -> float:
         """A force level [N] of the model, to judge residuals: the largest of EI/l0^2 of
-        the elements, the weight, the nodal loads and the fluid momentum flux P."""
+        the elements, k L and k_phi / L of the springs (L the model's length scale), the
+        weight, the nodal loads and the fluid momentum flux P."""
         mdot = self.mass_flow if mass_flow is None else mass_flow
-        f = max((e.section.EIz if e.kind == "ancf" else max(e.section.EI, e.section.EIz)) / e.length**2
-                for e in self.elements)
+        f = max(((e.section.EIz if e.kind == "ancf" else max(e.section.EI, e.section.EIz)) / e.length**2
+                 for e in self.elements), default=0.0)
+        for s in self.springs:
+            f = max(f, float(np.max(s.stiffness)) * self.length_scale,
+                    max(s.rotational_stiffness or (0.0,)) / self.length_scale)
         f = max(f, self.total_mass * float(np.linalg.norm(self.gravity)))
         f = max(f, float(np.abs(_core.external_forces(self._core, self.initial_state())).max(initial=0.0)))
         for e in self.elements:
