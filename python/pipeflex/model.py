@@ -466,7 +466,7 @@ class ModelBuilder:
         force -K (x - X) - C v on the node with K = diag(kx, ky, kz) and C = diag(cx, cy, cz)
         along the global axes. At a frame node it may also hold the rotation: moment
         -T(psi)^-T K_phi psi - C_phi w, with psi the rotation vector of the node's rotation
-        from its reference orientation (exact for any |psi| < pi: the elastic energy is
+        from its reference orientation (exact for any ``|psi| < pi``: the elastic energy is
         psi^T K_phi psi / 2; a rotation of pi raises an error), w its angular velocity and
         K_phi, C_phi diagonal about the global axes. Counts as a support of its part of the
         structure. Returns its index among the springs.
