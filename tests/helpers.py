@@ -67,6 +67,24 @@ def tangent(data, q, v, a, ld, wK, wC, wM, frames=(np.eye(3), np.eye(3))):
     return J
 
 
+def residual_columns(model, state, load, which, h):
+    """Central differences of an element model's assembled residual (load factor 1) in its
+    reduced coordinates: ``which`` "q" (positions: the tangent's K) or "v" (rates: C), step
+    h, one column per coordinate."""
+    n = model.n_dofs
+    D = np.zeros((n, n))
+    for col in range(n):
+        dz = np.zeros(n)
+        dz[col] = h
+        sp, sm = state.copy(), state.copy()
+        _core.add_increment(model.core, sp, dz, which)
+        _core.add_increment(model.core, sm, -dz, which)
+        rp, _ = _core.assemble(model.core, sp, load, 1.0, 0.0, 0.0, 0.0, False)
+        rm, _ = _core.assemble(model.core, sm, load, 1.0, 0.0, 0.0, 0.0, False)
+        D[:, col] = (rp - rm) / (2 * h)
+    return D
+
+
 def fluttering_cantilever():
     """Two elements beyond the flutter flow (40 kg/s), with a small initial tip velocity."""
     b = pf.ModelBuilder()

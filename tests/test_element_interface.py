@@ -6,7 +6,8 @@ import pytest
 
 import pipeflex as pf
 from pipeflex import _core
-from pipeflex.model import ElementInfo
+
+from helpers import residual_columns
 
 L, EI, N_EL = 2.0, 40.0, 4  # cantilever length [m], bending stiffness [N m^2], elements
 SECTION = pf.PipeSection(EI=EI, EA=4e5, GJ=30.0, pipe_mass=1.5, fluid_mass=0.5, rotary_inertia=(1e-3, 0.0, 0.0))
@@ -68,17 +69,7 @@ def test_tangent_matches_central_differences():
     n = model.n_dofs
     K = np.zeros((n, n))
     np.add.at(K, (i, j), v)
-    h = 1e-6
-    Kfd = np.zeros((n, n))
-    for col in range(n):
-        dz = np.zeros(n)
-        dz[col] = h
-        sp, sm = s.copy(), s.copy()
-        _core.add_increment(model.core, sp, dz, "q")
-        _core.add_increment(model.core, sm, -dz, "q")
-        rp, _ = _core.assemble(model.core, sp, load, 1.0, 0.0, 0.0, 0.0, False)
-        rm, _ = _core.assemble(model.core, sm, load, 1.0, 0.0, 0.0, 0.0, False)
-        Kfd[:, col] = (rp - rm) / (2 * h)
+    Kfd = residual_columns(model, s, load, "q", 1e-6)
     scale = np.abs(K).max()
     assert np.abs(K - Kfd).max() <= 1e-6 * scale
     # the spring's own block: C's one coordinate (uy) against itself is k e_y^2 + N/l (1 - e_y^2)

@@ -14,6 +14,8 @@ from pipeflex.model import SpringInfo
 from pipeflex.rotation import rotation_exp
 from pipeflex.state import as_core
 
+from helpers import residual_columns
+
 L, EI, N_EL = 2.0, 40.0, 4  # cantilever length [m], bending stiffness [N m^2], elements
 SECTION = pf.PipeSection(EI=EI, EA=4e5, GJ=30.0, pipe_mass=1.5, fluid_mass=0.5, rotary_inertia=(1e-3, 1e-3, 1e-3))
 M, K, C = 2.0, 50.0, 0.8  # point mass [kg], stiffness [N/m], damping [N s/m]
@@ -181,16 +183,7 @@ def test_damping_matrix_matches_differences_in_the_velocities():
         return X
 
     Cm = matrix(0.0, 1.0)
-    Cfd = np.zeros((n, n))
-    for col in range(n):
-        dz = np.zeros(n)
-        dz[col] = h
-        sp, sm = s.copy(), s.copy()
-        _core.add_increment(model.core, sp, dz, "v")
-        _core.add_increment(model.core, sm, -dz, "v")
-        rp, _ = _core.assemble(model.core, sp, load, 1.0, 0.0, 0.0, 0.0, False)
-        rm, _ = _core.assemble(model.core, sm, load, 1.0, 0.0, 0.0, 0.0, False)
-        Cfd[:, col] = (rp - rm) / (2 * h)
+    Cfd = residual_columns(model, s, load, "v", h)
     assert np.abs(Cm).max() > 1.0  # the dashpots' c e e^T and diag(c)
     assert np.abs(Cm - Cfd).max() <= 1e-7 * np.abs(Cm).max()
     # the combined tangent is the weighted sum
