@@ -78,3 +78,57 @@ def test_rows_from_numpy_values_serialise():
     row = Row("s", "q [-]", np.float64(2.0), np.float64(2.0 + 1e-9), np.float64(1e-6), checked=np.bool_(True))
     d = json.loads(json.dumps(row.as_dict()))
     assert d["passed"] is True and d["checked"] is True and d["ours"] == 2.0 + 1e-9
+
+
+def test_run_static_and_simulate_write_results_and_figures(tmp_path, capsys):
+    from pathlib import Path
+
+    import numpy as np
+
+    import pipeflex as pf
+
+    b = pf.ModelBuilder()
+    n0 = b.add_node((0.0, 0.0, 0.0))
+    nodes = b.add_line(n0, (1.0, 0.0, 0.0), 4, pf.PipeSection(EI=10.0, pipe_mass=1.0, rotary_inertia=(1e-3, 0, 0)))
+    b.clamp(n0)
+    b.add_load(nodes[-1], force=(0.0, 0.0, -1.0))
+    model_file = b.build().save(tmp_path / "beam.yaml")
+    out = tmp_path / "out"
+    assert main(["run", str(model_file), "--analysis", "static", "--out", str(out), "--vtk"]) == 0
+    assert "static equilibrium" in capsys.readouterr().out
+    saved = pf.StaticResult.load(out / "beam_static.npz")
+    direct = pf.static_equilibrium(pf.load_model(model_file))
+    assert np.array_equal(saved.state.q, direct.state.q) and saved.state.q[6 * 4 + 2] < 0
+    assert (out / "beam_static.png").stat().st_size > 0 and (out / "vtk" / "beam.pvd").is_file()
+    assert main(["run", str(model_file), "--analysis", "simulate", "--t-end", "0.01", "--n-outputs", "5",
+                 "--out", str(out)]) == 0
+    written = {Path(line.split()[-1]).name for line in capsys.readouterr().out.splitlines() if line.startswith("wrote")}
+    assert written in ({"beam_simulate.nc", "beam_simulate.png"}, {"beam_simulate.npz", "beam_simulate.png"})
+
+
+def test_run_refuses_bad_input_with_status_2(tmp_path, capsys):
+    import pytest
+
+    bad = tmp_path / "bad.yaml"
+    bad.write_text("geometry:\n  - nod: [0, 0, 0]\n")
+    for argv, message in ((["run", str(bad)], "bad.yaml, line 2, geometry[0].nod: unknown key 'nod'"),
+                          (["run", str(bad), "--analysis", "simulate"], "needs --t-end"),
+                          (["run", str(tmp_path / "none.yaml")], "no such model file"),
+                          (["run", str(bad), "--t-end", "1"], "--t-end is for --analysis simulate")):
+        with pytest.raises(SystemExit) as exit_info:
+            main(argv + ["--out", str(tmp_path / "out")])
+        assert exit_info.value.code == 2
+        assert message in capsys.readouterr().err
+    assert not (tmp_path / "out").exists()  # refused before anything was written
+
+
+def test_run_reports_a_failed_analysis_with_status_1(tmp_path, capsys):
+    import pipeflex as pf
+
+    b = pf.ModelBuilder()
+    n0 = b.add_node((0.0, 0.0, 0.0))
+    b.add_line(n0, (1.0, 0.0, 0.0), 2, pf.PipeSection(EI=1.0, pipe_mass=1.0))  # no fluid: no critical flow
+    b.clamp(n0)
+    path = b.build().save(tmp_path / "dry.json")
+    assert main(["run", str(path), "--analysis", "critical", "--out", str(tmp_path / "out")]) == 1
+    assert "pipeflex run: critical of" in capsys.readouterr().err

@@ -6,7 +6,7 @@ packages=(build-essential cmake ninja-build libeigen3-dev libsundials-dev pybind
   python3-pytest-timeout python3-nbclient python3-nbformat python3-ipykernel python3-tqdm
   python3-venv python3-pip python3-setuptools python3-wheel python3-sphinx python3-myst-parser
   libopenblas0-pthread python3-distributed python3-xarray python3-netcdf4 python3-threadpoolctl
-  python3-hypothesis
+  python3-hypothesis python3-yaml python3-meshio
   python3-jedi jupyter-notebook jupyter-nbconvert)  # jedi: the editor test; the front end: `jupyter notebook`, `jupyter nbconvert`
 missing=()
 for p in "${packages[@]}"; do

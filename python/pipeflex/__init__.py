@@ -27,6 +27,7 @@ _LAZY = {"scenes": "pipeflex.scenes", "seeds": "pipeflex.seeds", "work_precision
          "coriolis": "pipeflex.seeds.seed000.coriolis", "limit_cycle": "pipeflex.seeds.seed000.limit_cycle",
          "sweep": "pipeflex.sweeps:sweep", "coupled": "pipeflex.coupled",
          "CoupledSystem": "pipeflex.coupled:CoupledSystem",
+         "load_model": "pipeflex.model_files:load_model", "save_model": "pipeflex.model_files:save_model",
          "stability_map": "pipeflex.analysis.stability_map:stability_map",
          **{name: f"pipeflex.analysis:{name}" for name in analysis.__all__ if name != "Sine"}}
 __getattr__, __dir__ = _lazy.attach(__name__, _LAZY)
@@ -40,6 +41,7 @@ if TYPE_CHECKING:  # the lazy names, spelt out for editors and type checkers (te
                            simulate, stability, static_equilibrium, steady_rotation)
     from .analysis.stability_map import stability_map
     from .coupled import CoupledSystem
+    from .model_files import load_model, save_model
     from .seeds.seed000 import coriolis, limit_cycle  # noqa: F401 (namespaces)
     from .sweeps import sweep
 
@@ -50,4 +52,4 @@ __all__ = ["CriticalFlow", "EigenResult", "Linearization", "StaticResult",
            "RotatingFrequencies", "resonance_speed", "rotating_frequencies", "rotating_state",
            "OrbitBranch", "OrbitGuess", "PeriodicOrbit", "continue_orbits", "orbit_guess", "periodic_orbit",
            "Campbell", "campbell", "stability_map", "sweep",
-           "ConvergenceError", "LimitPointError", "SingularMatrixError", "UnitWarning", "Model", "ModelBuilder", "PipeSection", "Result", "State", "CoupledSystem", "__version__"]
+           "ConvergenceError", "LimitPointError", "SingularMatrixError", "UnitWarning", "Model", "ModelBuilder", "PipeSection", "Result", "State", "CoupledSystem", "load_model", "save_model", "__version__"]

@@ -6,9 +6,16 @@ import json
 import sys
 from pathlib import Path
 
+import numpy as np
+
 DESCRIPTION = "pipeflex: flexible multibody dynamics of beams and fluid-conveying pipes."
 VALIDATE_HELP = ("Recompute the seeds' published numbers, print them beside ours and draw the "
                  "figures. Exit status 0 when every checked number is within its tolerance, 1 otherwise.")
+
+
+RUN_HELP = ("Load a model file (docs/model_files.md) and run an analysis: write its result (.npz; netCDF .nc "
+            "for a time integration when xarray and netCDF4 are installed) and a figure into --out.")
+ANALYSES = ("static", "critical", "simulate")
 
 
 def _parser() -> argparse.ArgumentParser:
@@ -26,6 +33,17 @@ def _parser() -> argparse.ArgumentParser:
     val.add_argument("--out", type=Path, default=Path("out"), metavar="DIR",
                      help="folder for the figures (default: out)")
     val.add_argument("--no-figures", action="store_true", help="skip the figures")
+    run = sub.add_parser("run", help="load a model file and run an analysis on it", description=RUN_HELP)
+    run.add_argument("model", type=Path, help="the model file (.yaml, .yml or .json; docs/model_files.md)")
+    run.add_argument("--analysis", choices=ANALYSES, default="static",
+                     help="static: equilibrium; critical: critical mass flow; simulate: time integration "
+                          "(default: static)")
+    run.add_argument("--t-end", type=float, metavar="SECONDS", help="end time [s] of --analysis simulate")
+    run.add_argument("--n-outputs", type=int, default=201, metavar="N",
+                     help="output times of --analysis simulate (default: 201)")
+    run.add_argument("--out", type=Path, default=Path("out"), metavar="DIR",
+                     help="folder for the results and the figure (default: out)")
+    run.add_argument("--vtk", action="store_true", help="also write ParaView files (DIR/vtk/<model>.pvd)")
     return parser
 
 
@@ -63,9 +81,100 @@ def _output_problem(path: Path, option: str, *, folder: bool):
     return None if why is None else f"{option} {path}: {why} (checked before the run; give a writable path)"
 
 
+def _run(parser, args) -> int:
+    """``pipeflex run``: the analysis of a model file, its result and a figure in ``args.out``."""
+    from .model_files import ModelFileError, load_model
+
+    if args.analysis == "simulate":
+        if args.t_end is None:
+            parser.error("--analysis simulate needs --t-end SECONDS (the end time [s])")
+        if not args.t_end > 0:
+            parser.error(f"--t-end must be > 0 s, got {args.t_end:g}")
+        if args.n_outputs < 2:
+            parser.error(f"--n-outputs must be >= 2, got {args.n_outputs}")
+    elif args.t_end is not None:
+        parser.error(f"--t-end is for --analysis simulate, not {args.analysis}")
+    try:
+        model = load_model(args.model)
+    except (ModelFileError, OSError, ValueError) as exc:
+        parser.error(str(exc))
+    problem = _output_problem(args.out, "--out", folder=True)  # after the model: a bad file makes no folder
+    if problem:
+        parser.error(problem)
+    import matplotlib
+
+    if matplotlib.get_backend().lower() not in ("agg", "pdf", "svg", "cairo"):
+        matplotlib.use("Agg")  # files only: no window
+    import matplotlib.pyplot as plt
+
+    from . import analysis, plot
+    from .errors import ConvergenceError
+
+    stem = args.model.stem
+    fig = plt.figure(figsize=(6.4, 4.8))
+    try:
+        if args.analysis == "static":
+            result = analysis.static_equilibrium(model)
+            print(f"static equilibrium of {args.model}: {result.iterations} Newton iterations, residual "
+                  f"{result.residual:.3g} N")
+            ax = fig.add_subplot(projection="3d")
+            plot.model(model, ax=ax, color="0.7", show_loads=False, show_flow=False, legend=False, label="reference")
+            plot.model(model, result.state, ax=ax, label="equilibrium")
+            ax.set_title(f"{stem}: static equilibrium")
+        elif args.analysis == "critical":
+            result = analysis.critical_mass_flow(model)
+            print(f"critical mass flow of {args.model}: {result.mass_flow:.6g} kg/s ({result.kind}, "
+                  f"frequency {result.frequency:.6g} rad/s)")
+            ax = fig.add_subplot(projection="3d")
+            plot.mode_shape(model, result.mode, ax=ax)
+            ax.set_title(f"{stem}: critical mode, mdot = {result.mass_flow:.4g} kg/s ({result.kind})")
+        else:
+            result = analysis.simulate(model, args.t_end, n_outputs=args.n_outputs)
+            d = np.linalg.norm(result.x - result.x[:1], axis=2)  # (nt, n_nodes) [m]
+            node = int(np.argmax(d.max(axis=0)))
+            print(f"simulated {args.model} to t = {args.t_end:g} s: {len(result.t)} outputs, largest displacement "
+                  f"{d[:, node].max():.4g} m at node {node}")
+            ax = fig.add_subplot()
+            plot.time_history(result.t, [result.x[:, node, i] - result.x[0, node, i] for i in range(3)],
+                              quantity=f"displacement of node {node}", unit="m", labels=["x", "y", "z"], ax=ax,
+                              title=f"{stem}: time integration")
+    except (ValueError, ConvergenceError) as exc:  # the model's, not the command line's: status 1
+        plt.close(fig)
+        print(f"pipeflex run: {args.analysis} of {args.model} failed: {exc}", file=sys.stderr)
+        return 1
+    files = [_save_result(result, args.out / f"{stem}_{args.analysis}")]
+    figure = args.out / f"{stem}_{args.analysis}.png"
+    fig.savefig(figure, dpi=120)
+    plt.close(fig)
+    files.append(figure)
+    if args.vtk and args.analysis != "critical":
+        files += result.to_vtk(args.out / "vtk", model, name=stem)
+    for f in files:
+        print(f"wrote {f}")
+    return 0
+
+
+def _save_result(result, stem: Path) -> Path:
+    """The result as netCDF (``stem.nc``) where it has ``to_xarray`` and netCDF4 is
+    there, else as .npz (:meth:`pipeflex.Result.save`)."""
+    if hasattr(result, "to_xarray"):
+        try:
+            import netCDF4  # noqa: F401 (xarray's netCDF engine)
+            import xarray  # noqa: F401
+        except ImportError:
+            pass
+        else:
+            path = stem.with_suffix(".nc")
+            result.to_xarray().to_netcdf(path)
+            return path
+    return result.save(stem.with_suffix(".npz"))
+
+
 def main(argv=None) -> int:
     parser = _parser()
     args = parser.parse_args(argv)
+    if args.command == "run":
+        return _run(parser, args)
 
     from .seeds import validate
 

@@ -11,8 +11,10 @@ position in m and the slope dr/dx [-] (z and z' are fixed: the element is planar
 from __future__ import annotations
 
 import copy
+import functools
 from itertools import chain
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Iterable, List, Optional, Sequence, Tuple
 
 import numpy as np
@@ -180,6 +182,10 @@ class ModelBuilder:
         self._ancf: List[dict] = []
         self._springs: List[dict] = []
         self._hub: Optional[HubInfo] = None
+        # the public calls that made the description, (method, args, kwargs): what
+        # Model.save writes (pipeflex.model_files); _depth > 0 inside a recorded call
+        self._recipe: List[tuple] = []
+        self._depth = 0
 
     # -- nodes and elements -------------------------------------------------------
     def add_node(self, position: Sequence[float]) -> int:
@@ -680,7 +686,8 @@ class ModelBuilder:
                         for s in self._springs)
         model = Model(core, positions, tuple(infos), bases, mdot, self._gravity.copy(),
                       hub=self._hub, ancf_nodes=tuple(sorted(self._ancf_nodes)),
-                      free=(free_core, free_bases), description=_snapshot(vars(self)), springs=springs)
+                      free=(free_core, free_bases), springs=springs,
+                      description=_snapshot({**vars(self), "_floating": bool(floating)}))
         return model
 
     def _check_parts_supported(self, els) -> None:
@@ -779,6 +786,43 @@ class ModelBuilder:
                     end_terms_q=np.array([x and e["q"] not in r for x, e, r in zip(ends, els, reservoir)], dtype=bool))
 
 
+def _frozen(value):
+    """A copy of a builder argument that the caller's later changes cannot reach
+    (arrays copied, sequences as tuples); sections and numbers as they are."""
+    if isinstance(value, np.ndarray):
+        return value.copy()
+    if isinstance(value, (list, tuple)):
+        return tuple(_frozen(v) for v in value)
+    return value
+
+
+def _recorded(method):
+    """``method`` of :class:`ModelBuilder` that appends its call to the builder's recipe
+    when it succeeds; calls made by another recorded method (clamp by rotating_hub) are
+    part of that one and not recorded."""
+    @functools.wraps(method)
+    def call(self, *args, **kwargs):
+        outer = self._depth == 0
+        self._depth += 1
+        try:
+            out = method(self, *args, **kwargs)
+        finally:
+            self._depth -= 1
+        if outer:
+            self._recipe.append((method.__name__, tuple(map(_frozen, args)),
+                                 {k: _frozen(v) for k, v in kwargs.items()}))
+        return out
+
+    return call
+
+
+# every public builder method but build, also those added later (one rule, no list to keep up)
+for _name, _method in list(vars(ModelBuilder).items()):
+    if not _name.startswith("_") and _name != "build" and callable(_method) and not isinstance(_method, staticmethod):
+        setattr(ModelBuilder, _name, _recorded(_method))
+del _name, _method
+
+
 def _distinct(objects: list) -> Tuple[list, np.ndarray]:
     """The distinct objects (by identity) of a list, in the order of first use, and each
     entry's index among them: e.g. the nodal bases (the builder hands one array to all
@@ -815,7 +859,7 @@ def _rebuild_model(description: dict, mass_flow: float, free: bool) -> "Model":
     """A model built again from :meth:`Model.__reduce__`'s description."""
     b = ModelBuilder()
     vars(b).update(copy.deepcopy(description))
-    model = b.build(mass_flow=mass_flow)
+    model = b.build(mass_flow=mass_flow, floating=description.get("_floating", False))
     return model.free_model() if free else model
 
 
@@ -904,6 +948,15 @@ class Model:
         return Model(core, self.positions.copy(), self.elements, bases, self.mass_flow, self.gravity.copy(),
                      ancf_nodes=self.ancf_nodes, description=self._description, is_free=True,
                      springs=self.springs)
+
+    def save(self, path) -> Path:
+        """Write the model as a model file (``.yaml``, ``.yml`` or ``.json`` by the suffix
+        of ``path``; schema in ``docs/model_files.md``) that :func:`pipeflex.load_model`
+        reads back to the same model; returns the path. ValueError if the model was not
+        built by :class:`ModelBuilder` or is a :meth:`free_model`."""
+        from .model_files import save_model
+
+        return save_model(self, path)
 
     def __reduce__(self):
         if self._description is None:

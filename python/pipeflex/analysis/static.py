@@ -57,6 +57,14 @@ class StaticResult(Result):
     body_state: Optional[object] = None
     coupling_forces: Optional[np.ndarray] = None
 
+    def to_vtk(self, folder, model=None, **options):
+        """Write the equilibrium for ParaView (one frame at t = 0, ``.pvd`` + ``.vtu`` in
+        ``folder``) through meshio; ``model``: the element model it was computed with.
+        Options and data: :func:`pipeflex.vtk.write_vtk`. Returns the .pvd paths."""
+        from ..vtk import write_vtk
+
+        return write_vtk(self, folder, model, **options)
+
 
 def _require_protocol(model):
     """``model`` is one of the package's model classes (it gives the static protocol), else

@@ -301,6 +301,14 @@ class TransientResult(Result):
         end = self.final_state
         return replace(self, bodies=None, coupling_forces=None, final_state=None if end is None else end.state)
 
+    def to_vtk(self, folder, model=None, **options):
+        """Write the result for ParaView (``.pvd`` + ``.vtu`` files in ``folder``) through
+        meshio; ``model``: the model it was computed with. Options and data:
+        :func:`pipeflex.vtk.write_vtk`. Returns the .pvd paths."""
+        from ..vtk import write_vtk
+
+        return write_vtk(self, folder, model, **options)
+
     @property
     def energy(self) -> np.ndarray:
         """Mechanical energy T + U + V_g [J]."""
