@@ -92,7 +92,7 @@ def test_run_static_and_simulate_write_results_and_figures(tmp_path, capsys):
     nodes = b.add_line(n0, (1.0, 0.0, 0.0), 4, pf.PipeSection(EI=10.0, pipe_mass=1.0, rotary_inertia=(1e-3, 0, 0)))
     b.clamp(n0)
     b.add_load(nodes[-1], force=(0.0, 0.0, -1.0))
-    model_file = b.build().save(tmp_path / "beam.yaml")
+    model_file = pf.save_model(b.build(), tmp_path / "beam.yaml")
     out = tmp_path / "out"
     assert main(["run", str(model_file), "--analysis", "static", "--out", str(out), "--vtk"]) == 0
     assert "static equilibrium" in capsys.readouterr().out
@@ -129,6 +129,6 @@ def test_run_reports_a_failed_analysis_with_status_1(tmp_path, capsys):
     n0 = b.add_node((0.0, 0.0, 0.0))
     b.add_line(n0, (1.0, 0.0, 0.0), 2, pf.PipeSection(EI=1.0, pipe_mass=1.0))  # no fluid: no critical flow
     b.clamp(n0)
-    path = b.build().save(tmp_path / "dry.json")
+    path = pf.save_model(b.build(), tmp_path / "dry.json")
     assert main(["run", str(path), "--analysis", "critical", "--out", str(tmp_path / "out")]) == 1
     assert "pipeflex run: critical of" in capsys.readouterr().err

@@ -30,7 +30,7 @@ SOURCE = ROOT / "python" / "pipeflex"
 # (L = 1 m, EI = 10 N m^2, 8 kg/m, 2 kg/m) with 4 elements, 8 significant digits printed
 TABLE2_4_ELEMENTS = 25.054732
 TOL_TABLE2 = 2e-7  # relative: the seed's validation tolerance (pipeflex.seeds.seed000.validation)
-EXTRAS = {"sweeps", "dask", "notebooks", "docs", "test", "all"}
+EXTRAS = {"sweeps", "dask", "notebooks", "docs", "files", "test", "all"}
 
 SMOKE = textwrap.dedent("""
     import json
@@ -109,8 +109,9 @@ def test_wheel_ships_the_core_every_module_py_typed_and_declares_the_extras(whee
     assert {"pipeflex[sweeps]", "dask", "distributed"} <= extra("dask")
     assert {"pipeflex[dask]", "notebook", "ipykernel"} <= extra("notebooks")
     assert {"sphinx", "myst-parser"} <= extra("docs")
-    assert {"pipeflex[dask]", "pytest", "pytest-timeout", "hypothesis", "nbclient", "nbformat"} <= extra("test")
-    assert extra("all") == {"pipeflex[dask,docs,notebooks,test]"}
+    assert {"pipeflex[dask,files]", "pytest", "pytest-timeout", "hypothesis", "nbclient", "nbformat"} <= extra("test")
+    assert {"pyyaml", "meshio"} <= extra("files")
+    assert extra("all") == {"pipeflex[dask,docs,files,notebooks,test]"}
 
 
 def _requirement(line):

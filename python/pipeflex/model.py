@@ -14,7 +14,6 @@ import copy
 import functools
 from itertools import chain
 from dataclasses import dataclass
-from pathlib import Path
 from typing import Iterable, List, Optional, Sequence, Tuple
 
 import numpy as np
@@ -183,7 +182,7 @@ class ModelBuilder:
         self._springs: List[dict] = []
         self._hub: Optional[HubInfo] = None
         # the public calls that made the description, (method, args, kwargs): what
-        # Model.save writes (pipeflex.model_files); _depth > 0 inside a recorded call
+        # pipeflex.save_model writes; _depth > 0 inside a recorded call
         self._recipe: List[tuple] = []
         self._depth = 0
 
@@ -948,15 +947,6 @@ class Model:
         return Model(core, self.positions.copy(), self.elements, bases, self.mass_flow, self.gravity.copy(),
                      ancf_nodes=self.ancf_nodes, description=self._description, is_free=True,
                      springs=self.springs)
-
-    def save(self, path) -> Path:
-        """Write the model as a model file (``.yaml``, ``.yml`` or ``.json`` by the suffix
-        of ``path``; schema in ``docs/model_files.md``) that :func:`pipeflex.load_model`
-        reads back to the same model; returns the path. ValueError if the model was not
-        built by :class:`ModelBuilder` or is a :meth:`free_model`."""
-        from .model_files import save_model
-
-        return save_model(self, path)
 
     def __reduce__(self):
         if self._description is None:

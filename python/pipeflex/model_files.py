@@ -1,5 +1,5 @@
 """Model files: an element model as YAML or JSON, read by :func:`load_model` and written by
-:func:`save_model` (:meth:`pipeflex.Model.save`). The schema is in ``docs/model_files.md``.
+:func:`save_model`. The schema is in ``docs/model_files.md``.
 
 A model file is the list of :class:`~pipeflex.ModelBuilder` calls that make the model,
 grouped by kind: the loader makes a builder, calls it entry by entry and builds; the

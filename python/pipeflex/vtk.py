@@ -44,13 +44,10 @@ def _folder(folder) -> Path:
 
 def _element_model(model):
     """The element model of ``model`` (a Model, or a CoupledSystem's ``model``)."""
-    from .model import Model
-
-    if isinstance(model, Model):
-        return model
-    inner = getattr(model, "model", None)
-    if isinstance(inner, Model):
-        return inner
+    # by what it has, not its class: this module sits below the models and results
+    for m in (model, getattr(model, "model", None)):
+        if m is not None and hasattr(m, "initial_state") and hasattr(m, "n_nodes"):
+            return m
     raise TypeError(f"model must be the pipeflex.Model (or CoupledSystem) the result was computed with, "
                     f"got {type(model).__name__}")
 
@@ -125,11 +122,9 @@ def _body_frames(bodies, radius) -> _Frames:
 
 
 def _frames(result, model, radius) -> List[_Frames]:
-    from .analysis.static import StaticResult
-    from .analysis.transient import TransientResult
     from .state import State
 
-    if isinstance(result, TransientResult):
+    if hasattr(result, "t"):  # a TransientResult (duck-typed: the results import this module)
         out = []
         if result.x is not None:
             if model is None:
@@ -140,7 +135,7 @@ def _frames(result, model, radius) -> List[_Frames]:
         if result.bodies is not None:
             out.append(_body_frames(result.bodies, radius))
         return out
-    if isinstance(result, StaticResult):
+    if hasattr(result, "state"):  # a StaticResult
         if not isinstance(result.state, State):
             raise TypeError("to_vtk of a static result needs an element model's state (a pipeflex.State); a "
                             "system of bodies alone is not supported")
