@@ -166,6 +166,13 @@ CHECKS = {
         near("shift[6.0] * 1e3", 8.8, 0.05,
              "ours, not the seed's: docs/validation.md (seed 004, section 8.3), nozzle shift at 6 m/s [mm]"),
     ],
+    "pulsating_flow.ipynb": [
+        near("apex_unstable", 1.0, 0.0, "the principal tongue of the undamped pinned pipe opens from mu = 0: "
+             "unstable at 2 omega_1 at mu = 0.01 (Paidoussis & Issid 1974)"),
+        near("growth_vs_floquet", 1.0, 0.03, "a transient inside the tongue grows at the largest Floquet "
+             "multiplier's rate per period (tests/test_parametric.py: 3 %)"),
+        within("decay_outside", 0.0, 0.9, "a transient 3 % outside the tongue's edge decays"),
+    ],
     "stability_map.ipynb": [
         # fast mode: 16 elements, beta in steps of 0.02 (full: 32 elements, steps of 0.0025)
         near("u_cr_02", 5.6, 0.06, "Gregory & Paidoussis (1966): u_cr = 5.6 at beta = 0.2 without gravity "

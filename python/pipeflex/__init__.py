@@ -34,11 +34,13 @@ __getattr__, __dir__ = _lazy.attach(__name__, _LAZY)
 
 if TYPE_CHECKING:  # the lazy names, spelt out for editors and type checkers (tests/test_static_api.py)
     from . import coupled, multibody, plot, plotting, scenes, seeds, work_precision  # noqa: F401 (namespaces)
-    from .analysis import (Campbell, CriticalFlow, EigenResult, Linearization, OrbitBranch, OrbitGuess,
-                           PeriodicOrbit, RotatingFrequencies, StaticResult, SteadyRotation, SystemSteadyRotation,
-                           TransientResult, campbell, continue_orbits, critical_mass_flow, eigenvalues, linearize,
-                           orbit_guess, periodic_orbit, resonance_speed, rotating_frequencies, rotating_state,
-                           simulate, stability, static_equilibrium, steady_rotation)
+    from .analysis import (Campbell, CriticalFlow, EigenResult, InstabilityChart, Linearization, OrbitBranch,
+                           OrbitGuess, ParametricStability, PeriodicOrbit, RotatingFrequencies, StaticResult,
+                           SteadyRotation, SystemSteadyRotation, TransientResult, campbell, continue_orbits,
+                           critical_mass_flow, eigenvalues, instability_chart, linearize, orbit_guess,
+                           parametric_stability, periodic_orbit, pulsating_flow, resonance_speed,
+                           rotating_frequencies, rotating_state, simulate, stability, static_equilibrium,
+                           steady_rotation)
     from .analysis.stability_map import stability_map
     from .coupled import CoupledSystem
     from .model_files import load_model, save_model
@@ -52,4 +54,5 @@ __all__ = ["CriticalFlow", "EigenResult", "Linearization", "StaticResult",
            "RotatingFrequencies", "resonance_speed", "rotating_frequencies", "rotating_state",
            "OrbitBranch", "OrbitGuess", "PeriodicOrbit", "continue_orbits", "orbit_guess", "periodic_orbit",
            "Campbell", "campbell", "stability_map", "sweep",
+           "InstabilityChart", "ParametricStability", "instability_chart", "parametric_stability", "pulsating_flow",
            "ConvergenceError", "LimitPointError", "SingularMatrixError", "UnitWarning", "Model", "ModelBuilder", "PipeSection", "Result", "State", "CoupledSystem", "load_model", "save_model", "__version__"]

@@ -1061,8 +1061,9 @@ class Model:
     #: element model's supports are eliminated: no reactions to balance).
     _linearize_at_equilibrium = False
 
-    def _linearization(self, system, mass_flow: float) -> dict:
-        """:func:`~pipeflex.linearize`'s fields for ``system`` at mdot [kg/s] ``mass_flow``:
+    def _linearization(self, system, mass_flow: float, mass_flow_rate: float = 0.0) -> dict:
+        """:func:`~pipeflex.linearize`'s fields for ``system`` at mdot [kg/s] ``mass_flow``
+        changing at ``mass_flow_rate`` [kg/s^2]:
         the reduced coordinates' M, C, K (CSC) from the element assembler straight into the
         model's cached pattern (:func:`pipeflex.analysis._assembly.tangents`' core call;
         the core's ``linear_matrices`` gives the same numbers through triplets, 3-10 times
@@ -1073,7 +1074,8 @@ class Model:
 
         s = system.element_state  # a copy
         s.rebase(0.0)
-        _, data, indices, indptr = _core.assemble_csc(self._core, s, self.load_state(mass_flow=mass_flow), 1.0,
+        load = self.load_state(mass_flow=mass_flow, mass_flow_rate=mass_flow_rate)
+        _, data, indices, indptr = _core.assemble_csc(self._core, s, load, 1.0,
                                                       [(1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.0, 0.0, 1.0)], False)
         n = self.n_dofs
         K, C, M = (sp.csc_matrix((d, indices if k == 0 else indices.copy(), indptr if k == 0 else indptr.copy()),

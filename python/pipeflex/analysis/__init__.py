@@ -8,10 +8,13 @@ from typing import TYPE_CHECKING
 from .. import _lazy
 
 #: the public names of each analysis module
-_MODULES = {"campbell": ["Campbell", "campbell"],
+_MODULES = {"campbell": ["Campbell", "campbell",
+           "InstabilityChart", "ParametricStability", "instability_chart", "parametric_stability", "pulsating_flow"],
             "critical": ["CriticalFlow", "critical_mass_flow"],
             "eigen": ["EigenResult", "eigenvalues", "stability"],
             "linearize": ["Linearization", "linearize"],
+            "parametric": ["InstabilityChart", "ParametricStability", "instability_chart", "parametric_stability",
+                           "pulsating_flow"],
             "periodic": ["OrbitBranch", "OrbitGuess", "PeriodicOrbit", "continue_orbits", "orbit_guess",
                          "periodic_orbit"],
             "rotating": ["RotatingFrequencies", "resonance_speed", "rotating_frequencies", "rotating_state"],
@@ -26,6 +29,8 @@ if TYPE_CHECKING:  # the lazy names, spelt out for editors and type checkers (te
     from .critical import CriticalFlow, critical_mass_flow
     from .eigen import EigenResult, eigenvalues, stability
     from .linearize import Linearization, linearize
+    from .parametric import (InstabilityChart, ParametricStability, instability_chart, parametric_stability,
+                             pulsating_flow)
     from .periodic import OrbitBranch, OrbitGuess, PeriodicOrbit, continue_orbits, orbit_guess, periodic_orbit
     from .rotating import RotatingFrequencies, resonance_speed, rotating_frequencies, rotating_state
     from .static import StaticResult, static_equilibrium
@@ -36,4 +41,5 @@ __all__ = ["CriticalFlow", "critical_mass_flow", "EigenResult", "eigenvalues", "
            "Linearization", "linearize", "OrbitBranch", "OrbitGuess", "PeriodicOrbit", "continue_orbits", "orbit_guess", "periodic_orbit",
            "StaticResult", "static_equilibrium",
            "Sine", "TransientResult", "simulate", "SteadyRotation", "SystemSteadyRotation", "steady_rotation",
-           "RotatingFrequencies", "resonance_speed", "rotating_frequencies", "rotating_state", "Campbell", "campbell"]
+           "RotatingFrequencies", "resonance_speed", "rotating_frequencies", "rotating_state", "Campbell", "campbell",
+           "InstabilityChart", "ParametricStability", "instability_chart", "parametric_stability", "pulsating_flow"]
