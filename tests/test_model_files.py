@@ -241,3 +241,25 @@ def test_save_refuses_an_order_the_file_cannot_keep(tmp_path):
     with pytest.raises(ValueError, match="would not rebuild it exactly .the elements differ"):
         pf.save_model(b.build(), tmp_path / "m.yaml")
     assert not (tmp_path / "m.yaml").exists()
+
+
+def test_damping_round_trips(tmp_path):
+    """Kelvin-Voigt and viscous section damping and Rayleigh damping are model-file data:
+    the reloaded model has the same damping matrix C (zero flow: C is damping alone)."""
+    b = pf.ModelBuilder()
+    n0 = b.add_node((0.0, 0.0, 0.0))
+    section = pf.PipeSection(EI=10.0, pipe_mass=1.0, eta_bending=2e-3, eta_axial=1e-3, c_ext=0.3)
+    b.add_line(n0, (1.0, 0.0, 0.0), 3, section)
+    b.clamp(n0)
+    b.rayleigh_damping(alpha=0.2, beta=1e-4)
+    model = b.build()
+    again = pf.load_model(pf.save_model(model, tmp_path / "damped.yaml"))
+    C0, C1 = pf.linearize(model).C.toarray(), pf.linearize(again).C.toarray()
+    assert np.abs(C0).max() > 0
+    np.testing.assert_array_equal(C0, C1)
+    text = (tmp_path / "damped.yaml").read_text()
+    assert "rayleigh_damping" in text and "eta_bending" in text
+    bad = text.replace("eta_bending: 0.002", "eta_bending: -0.002")
+    (tmp_path / "bad.yaml").write_text(bad)
+    with pytest.raises(ValueError, match="eta_bending"):
+        pf.load_model(tmp_path / "bad.yaml")

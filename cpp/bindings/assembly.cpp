@@ -104,7 +104,8 @@ void bind_assembly(py::module_& m) {
                 const Doubles& EIy, const Doubles& EIz, const Doubles& Phi_y, const Doubles& Phi_z,
                 const Doubles& offset_p, const Doubles& offset_q, const Doubles& pipe_mass,
                 const Doubles& fluid_mass, const Doubles& kv, const Doubles& rotary_inertia,
-                const Doubles& flow_factor, const Bools& end_terms_p, const Bools& end_terms_q) {
+                const Doubles& flow_factor, const Bools& end_terms_p, const Bools& end_terms_q,
+                const std::optional<Doubles>& eta, const std::optional<Doubles>& c_ext) {
                  const py::ssize_t n = p.size();
                  const int* pp = rows(p, n, 1, "p");
                  const int* qq = rows(q, n, 1, "q");
@@ -118,6 +119,8 @@ void bind_assembly(py::module_& m) {
                  const double* ri = rows(rotary_inertia, n, 3, "rotary_inertia");
                  const bool* ep = rows(end_terms_p, n, 1, "end_terms_p");
                  const bool* eq = rows(end_terms_q, n, 1, "end_terms_q");
+                 const double* et = eta ? rows(*eta, n, 3, "eta") : nullptr;
+                 const double* ce = c_ext ? rows(*c_ext, n, 1, "c_ext") : nullptr;
                  for (py::ssize_t k = 0; k < n; ++k) {  // all indices checked before the model changes
                      node_index(md, pp[k], "p");
                      node_index(md, qq[k], "q");
@@ -142,15 +145,23 @@ void bind_assembly(py::module_& m) {
                      d.flow_factor = s[10][k];
                      d.end_terms_p = ep[k];
                      d.end_terms_q = eq[k];
+                     if (et != nullptr) {
+                         d.eta_axial = et[3 * k];
+                         d.eta_torsion = et[3 * k + 1];
+                         d.eta_bending = et[3 * k + 2];
+                     }
+                     if (ce != nullptr) d.c_ext = ce[k];
                      md.elements.add(std::make_unique<PipeElement>(pp[k], qq[k], d));
                  }
              },
              py::arg("p"), py::arg("q"), py::kw_only(), py::arg("l0"), py::arg("EA"), py::arg("GJ"), py::arg("EIy"),
              py::arg("EIz"), py::arg("Phi_y"), py::arg("Phi_z"), py::arg("offset_p"), py::arg("offset_q"),
              py::arg("pipe_mass"), py::arg("fluid_mass"), py::arg("kv"), py::arg("rotary_inertia"),
-             py::arg("flow_factor"), py::arg("end_terms_p"), py::arg("end_terms_q"),
+             py::arg("flow_factor"), py::arg("end_terms_p"), py::arg("end_terms_q"), py::arg("eta") = py::none(),
+             py::arg("c_ext") = py::none(),
              "Pipe elements from nodes p to q (arrays of n indices), the fields of PipeElementData "
-             "one array each: n values, offset_p/offset_q (n, 3, 3), rotary_inertia (n, 3).")
+             "one array each: n values, offset_p/offset_q (n, 3, 3), rotary_inertia (n, 3); eta (n, 3): "
+             "eta_axial, eta_torsion, eta_bending [s] (None: undamped), c_ext (n) [N s/m^2] (None: 0).")
         .def("add_load",
              [](Model& md, int node, const Eigen::Vector3d& f, const Eigen::Vector3d& mo,
                 const Eigen::Vector3d& ff, const Eigen::Vector3d& fm) {

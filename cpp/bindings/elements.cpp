@@ -45,7 +45,11 @@ void bind_elements(py::module_& m) {
         .def_readwrite("rotary_inertia", &PipeElementData::rotary_inertia)
         .def_readwrite("flow_factor", &PipeElementData::flow_factor)
         .def_readwrite("end_terms_p", &PipeElementData::end_terms_p)
-        .def_readwrite("end_terms_q", &PipeElementData::end_terms_q);
+        .def_readwrite("end_terms_q", &PipeElementData::end_terms_q)
+        .def_readwrite("eta_axial", &PipeElementData::eta_axial)
+        .def_readwrite("eta_torsion", &PipeElementData::eta_torsion)
+        .def_readwrite("eta_bending", &PipeElementData::eta_bending)
+        .def_readwrite("c_ext", &PipeElementData::c_ext);
 
     py::class_<LoadState>(m, "LoadState")
         .def(py::init<>())
@@ -163,6 +167,9 @@ void bind_elements(py::module_& m) {
         .def_readwrite("EI", &AncfElementData::EI)
         .def_readwrite("mass", &AncfElementData::mass)
         .def_readwrite("tip_mass", &AncfElementData::tip_mass)
+        .def_readwrite("eta_axial", &AncfElementData::eta_axial)
+        .def_readwrite("eta_bending", &AncfElementData::eta_bending)
+        .def_readwrite("c_ext", &AncfElementData::c_ext)
         .def_property(
             "elastic", [](const AncfElementData& d) { return d.elastic == AncfElastic::model_a ? "A" : "0"; },
             [](AncfElementData& d, const std::string& m) {

@@ -37,7 +37,8 @@ void bind_ffrf(py::module_& m) {
 
     py::class_<FfrfBodyData>(m, "FfrfBodyData")
         .def(py::init([](MatX M, MatX K, VecX eta0, std::vector<MatX> A, std::vector<MatX> Bk, std::vector<MatX> GPhi,
-                         std::vector<VecX> Gx, MatX CPhi, MatX HPhi, VecX Cx, VecX Hx, MatX Ng) {
+                         std::vector<VecX> Gx, MatX CPhi, MatX HPhi, VecX Cx, VecX Hx, MatX Ng,
+                         std::optional<MatX> D) {
                  if (A.size() != 3 || Bk.size() != 3 || GPhi.size() != 3 || Gx.size() != 3)
                      throw std::invalid_argument("A, Bk, GPhi, Gx need 3 entries (k = x, y, z)");
                  FfrfBodyData d;
@@ -55,16 +56,19 @@ void bind_ffrf(py::module_& m) {
                  d.Cx = std::move(Cx);
                  d.Hx = std::move(Hx);
                  d.Ng = std::move(Ng);
+                 if (D) d.D = std::move(*D);
                  check_ffrf_body(d);
                  return d;
              }),
              py::arg("M"), py::arg("K"), py::arg("eta0"), py::arg("A"), py::arg("Bk"), py::arg("GPhi"),
-             py::arg("Gx"), py::arg("CPhi"), py::arg("HPhi"), py::arg("Cx"), py::arg("Hx"), py::arg("Ng"))
+             py::arg("Gx"), py::arg("CPhi"), py::arg("HPhi"), py::arg("Cx"), py::arg("Hx"), py::arg("Ng"),
+             py::arg("D") = py::none())
         .def_property_readonly("n", [](const FfrfBodyData& d) { return d.M.rows(); })
         .def_readonly("M", &FfrfBodyData::M)
         .def_readonly("K", &FfrfBodyData::K)
         .def_readonly("eta0", &FfrfBodyData::eta0)
         .def_readonly("Ng", &FfrfBodyData::Ng)
+        .def_readonly("D", &FfrfBodyData::D)
         .def(
             "forces",
             [](const FfrfBodyData& d, const Mat3d& R, const Vec3d& omega, const VecX& a, const VecX& eta,

@@ -125,6 +125,104 @@ void model_0_forces(const AncfElementData& d, const double* e, double* Q, double
     }
 }
 
+// Model 0's dissipation function R(e, e_dot) (see the header): U's quadratic form on the
+// rates of the local displacements.
+template <class S>
+S model_0_dissipation(const AncfElementData& d, const S* e, const S* v) {
+    using std::sqrt;
+    const double l = d.l;
+    const S dx = e[4] - e[0], dy = e[5] - e[1];
+    const S dxt = v[4] - v[0], dyt = v[5] - v[1];
+    const S len = sqrt(dx * dx + dy * dy);
+    const S cx = dx / len, cy = dy / len;
+    const S rate = cx * dxt + cy * dyt;  // d len / dt
+    const S cxt = (dxt - cx * rate) / len, cyt = (dyt - cy * rate) / len;
+    S ux[4], uy[4];
+    ux[0] = uy[0] = uy[2] = S(0.0);
+    ux[2] = rate;
+    for (int k : {1, 3}) {
+        const S* s = e + 2 * k;
+        const S* st = v + 2 * k;
+        ux[k] = (cxt * s[0] + cyt * s[1] + cx * st[0] + cy * st[1]) * l;
+        uy[k] = (cxt * s[1] - cyt * s[0] + cx * st[1] - cy * st[0]) * l;
+    }
+    S R = S(0.0);
+    for (int i = 0; i < 4; ++i)
+        for (int j = 0; j < 4; ++j)
+            R += 0.5 * (d.eta_axial * d.EA / l * hermite::stretch[i][j] * ux[i] * ux[j] +
+                        d.eta_bending * d.EI / (l * l * l) * hermite::bend[i][j] * uy[i] * uy[j]);
+    return R;
+}
+
+// Model A's Kelvin-Voigt forces (see the header) on S, e and e_dot.
+template <class S>
+void model_a_damping(const AncfElementData& d, const ModelAMatrices& m, const S* e, const S* v, S* Q) {
+    using std::sqrt;
+    const S dx = e[4] - e[0], dy = e[5] - e[1];
+    S rate[3];  // eps_dot_X
+    rate[0] = (e[2] * v[2] + e[3] * v[3]) / sqrt(e[2] * e[2] + e[3] * e[3]);
+    rate[1] = (dx * (v[4] - v[0]) + dy * (v[5] - v[1])) / (sqrt(dx * dx + dy * dy) * d.l);
+    rate[2] = (e[6] * v[6] + e[7] * v[7]) / sqrt(e[6] * e[6] + e[7] * e[7]);
+    for (int i = 0; i < 8; ++i) {
+        S q = S(0.0);
+        for (int j = 0; j < 8; ++j)
+            q += d.eta_axial * (rate[0] * m.K[0][8 * i + j] + rate[1] * m.K[1][8 * i + j] + rate[2] * m.K[2][8 * i + j]) *
+                     e[j] +
+                 (d.eta_bending * m.K[3][8 * i + j]) * v[j];
+        Q[i] = q;
+    }
+}
+
+// The damping forces Q (8, added to) and their derivatives dQ/de (K) and dQ/de_dot (C)
+// (8x8 each, overwritten), by forward AD in e and e_dot.
+void damping_forces(const AncfElementData& d, const double* e, const double* v, double* Q, double* K, double* C) {
+    for (int k = 0; k < 64; ++k) K[k] = C[k] = 0.0;
+    if (d.eta_axial != 0.0 || d.eta_bending != 0.0) {
+        if (d.elastic == AncfElastic::model_a) {
+            using D = Dual<double, 16>;
+            D ed[8], vd[8], Qd[8];
+            for (int i = 0; i < 8; ++i) {
+                ed[i] = D(e[i], i);
+                vd[i] = D(v[i], 8 + i);
+            }
+            model_a_damping(d, model_a_matrices(d), ed, vd, Qd);
+            for (int i = 0; i < 8; ++i) {
+                Q[i] += Qd[i].v;
+                for (int j = 0; j < 8; ++j) {
+                    K[8 * i + j] += Qd[i].d[j];
+                    C[8 * i + j] += Qd[i].d[8 + j];
+                }
+            }
+        } else {
+            // Q = dR/de_dot; its derivatives are R's second derivatives
+            using D = Dual<double, 16>;
+            using DD = Dual<D, 16>;
+            DD ed[8], vd[8];
+            for (int i = 0; i < 8; ++i) {
+                ed[i] = DD(D(e[i], i), i);
+                vd[i] = DD(D(v[i], 8 + i), 8 + i);
+            }
+            const DD R = model_0_dissipation(d, ed, vd);
+            for (int i = 0; i < 8; ++i) {
+                Q[i] += R.d[8 + i].v;
+                for (int j = 0; j < 8; ++j) {
+                    K[8 * i + j] += R.d[8 + i].d[j];
+                    C[8 * i + j] += R.d[8 + i].d[8 + j];
+                }
+            }
+        }
+    }
+    if (d.c_ext != 0.0) {
+        double Mc[64];
+        expand(hermite::mass, d.l, d.c_ext * d.l, Mc);
+        for (int i = 0; i < 8; ++i)
+            for (int j = 0; j < 8; ++j) {
+                Q[i] += Mc[8 * i + j] * v[j];
+                C[8 * i + j] += Mc[8 * i + j];
+            }
+    }
+}
+
 }  // namespace
 
 void ancf_model_a_matrix(const AncfElementData& d, int which, double* out) {
@@ -182,8 +280,16 @@ void ancf_tangent(const AncfElementData& d, const double* e, const double* v, co
             }
         }
     }
+    double Qd[8] = {}, Kd[64], Cd[64];
+    if (d.damped()) {
+        damping_forces(d, e, v, Qd, Kd, Cd);
+        if (r != nullptr)
+            for (int i = 0; i < 8; ++i) r[i] += Qd[i];
+    }
     if (J == nullptr) return;
     for (int k = 0; k < 64; ++k) J[k] = (need_K ? wK * K[k] : 0.0) + wM * M[k];
+    if (d.damped())
+        for (int k = 0; k < 64; ++k) J[k] += wK * Kd[k] + wC * Cd[k];
     if (turning) {
         // d f / d e = w^2 S^2 + w_dot S = -w^2 I + w_dot S; d f / d e_dot = 2 w S (S on pairs:
         // column 2k+1 -> row 2k with -1, column 2k -> row 2k+1 with +1)

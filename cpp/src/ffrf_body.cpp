@@ -116,6 +116,7 @@ void check_ffrf_body(const FfrfBodyData& d) {
     shape("Cx", d.Cx, n, 1);
     shape("Hx", d.Hx, n, 1);
     shape("Ng", d.Ng, n, 3);
+    if (d.D.size() != 0) shape("D", d.D, m, m);
 }
 
 void ffrf_body_forces(const FfrfBodyData& d, const FfrfBodyMotion& s, double wK, double wC, double wM,
@@ -163,6 +164,8 @@ void ffrf_body_forces(const FfrfBodyData& d, const FfrfBodyMotion& s, double wK,
     residual.segment<3>(3) = R * L.segment<3>(3);
     residual.tail(m) = L.tail(m);
     residual.tail(m).noalias() += d.K * (s.eta - d.eta0);
+    const bool damped = d.D.size() != 0;
+    if (damped) residual.tail(m).noalias() += d.D * s.eta_dot;
     if (!with_tangent) return;
 
     tangent.setZero();
@@ -203,6 +206,7 @@ void ffrf_body_forces(const FfrfBodyData& d, const FfrfBodyMotion& s, double wK,
         rot_rows(dQe, 6, wK);
         tangent.block(6, 6, m, m) += wK * d.K;
     }
+    if (damped && wC != 0.0) tangent.block(6, 6, m, m) += wC * d.D;
 }
 
 }  // namespace pipeflex

@@ -131,6 +131,29 @@ template <class S> std::array<S, 6> stresses(const PipeElementData& e, const std
     return s;
 }
 
+// Kelvin-Voigt forces D^T sigma_d (added to f): the strain rates eps_dot = D u_dot of the
+// virtual-space velocities u_dot = [xdot^p, w^p, xdot^q, w^q] (w the spatial angular
+// velocities), sigma_d = C eta eps_dot with C of stresses() (one eta per strain group).
+template <class S>
+void add_kelvin_voigt(const PipeElementData& e, const Strains<S>& st, const S* ud, S* f) {
+    std::array<S, 6> bar_rate, rate;
+    for (int k = 0; k < 6; ++k) {
+        S x = S(0.0);
+        for (int j = 0; j < 12; ++j) x += st.bar_grad[k][j] * ud[j];
+        bar_rate[k] = x;
+    }
+    for (int i = 0; i < 6; ++i) {
+        S x = S(0.0);
+        for (int k = 0; k < 6; ++k) x += st.jac[i][k] * bar_rate[k];
+        rate[i] = x;
+    }
+    std::array<S, 6> s = stresses(e, rate);
+    s[0] *= e.eta_axial;
+    s[1] *= e.eta_torsion;
+    for (int i = 2; i < 6; ++i) s[i] *= e.eta_bending;
+    add_strain_work(st, s.data(), f);
+}
+
 template <class S>
 std::array<S, 6> strain_deviation(const PipeElementData& e, const std::array<S, 6>& eps) {
     std::array<S, 6> de;
@@ -159,6 +182,16 @@ void pipe_residual(const PipeElementData& e, const NodeFrames& ref, const LoadSt
     const Strains<S> st = strains(l0, xp, xq, Ep, Eq);
     const std::array<S, 6> sig = stresses(e, strain_deviation(e, st.eps));
     add_strain_work(st, sig.data(), f);
+    if (e.kelvin_voigt()) {
+        S ud[12];
+        for (int i = 0; i < 3; ++i) {
+            ud[i] = vxp[i];
+            ud[3 + i] = wp[i];
+            ud[6 + i] = vxq[i];
+            ud[9 + i] = wq[i];
+        }
+        add_kelvin_voigt(e, st, ud, f);
+    }
 
     // Centre-line inertia and fluid, on a = [x^p, l0 e^p_x, x^q, l0 e^q_x].
     const Vec3<S> exp_ = Ep.col(0), exq = Eq.col(0);
@@ -174,11 +207,12 @@ void pipe_residual(const PipeElementData& e, const NodeFrames& ref, const LoadSt
     for (int i = 0; i < 3; ++i) g[i] = load.gravity[i] * load.gravity_factor * mtot * l0;
     Vec3<S> F[4];
     // terms with a zero factor (no flow, a steady flow) skipped: adding zeros changes no value
-    const bool flow = mdot != 0.0, unsteady = mdd != 0.0, pressure = P != 0.0;
+    const bool flow = mdot != 0.0, unsteady = mdd != 0.0, pressure = P != 0.0, viscous = e.c_ext != 0.0;
     for (int i = 0; i < 4; ++i) {
         F[i] = -hermite::load[i] * promote<S>(g);
         for (int j = 0; j < 4; ++j) {
             F[i] += (mtot * l0 * hermite::mass[i][j]) * add[j];
+            if (viscous) F[i] += (e.c_ext * l0 * hermite::mass[i][j]) * ad[j];
             if (flow) F[i] += (2.0 * mdot * hermite::first[i][j]) * ad[j];
             if (unsteady) F[i] += (mdd * hermite::first[i][j]) * a[j];
             if (pressure) F[i] += (P / l0 * hermite::second[i][j]) * a[j];
@@ -469,6 +503,64 @@ void elastic(const PipeElementData& e, const V3& xp, const V3& xq, const M3& Ep,
     bend(5, -1.0, eyq, 1);
 }
 
+// Kelvin-Voigt forces (added to f) and their derivatives (added to df). dR/du_dot =
+// D^T C eta D from the strain gradient D; d/du at fixed rates by forward AD in the 12
+// directions x and theta of both nodes: the variation E -> exp(skew(dtheta)) E of the
+// triads is (I + skew(dtheta)) E to first order, so the columns are those of df.
+void kelvin_voigt(const PipeElementData& e, const V3& xp, const V3& xq, const M3& Ep, const M3& Eq,
+                  const V3 (&vel)[4], double* f, M3 (*df)[n_col]) {
+    using D = Dual<double, 12>;
+    const V3 xs[2] = {xp, xq};
+    const M3 Es[2] = {Ep, Eq};
+    Vec3<D> x[2];
+    Mat3<D> E[2];
+    for (int n = 0; n < 2; ++n) {
+        Vec3<D> th;
+        for (int i = 0; i < 3; ++i) {
+            x[n][i] = D(xs[n][i], 6 * n + i);
+            th[i] = D(0.0, 6 * n + 3 + i);
+        }
+        E[n] = promote<D>(Es[n]);
+        const Mat3<D> dE = skew(th) * E[n];
+        for (int k = 0; k < 9; ++k) E[n].c[k] += dE.c[k];
+    }
+    const Strains<D> st = strains(e.l0, x[0], x[1], E[0], E[1]);
+    D ud[12], fd[12];
+    for (int b = 0; b < 4; ++b)
+        for (int i = 0; i < 3; ++i) {
+            ud[3 * b + i] = D(vel[b][i]);
+            fd[3 * b + i] = D(0.0);
+        }
+    add_kelvin_voigt(e, st, ud, fd);
+    static constexpr int pos[4] = {cX, cTH, cX + 2, cTH + 2}, rate[4] = {cVX, cW, cVX + 2, cW + 2};
+    for (int i = 0; i < 12; ++i) {
+        f[i] += fd[i].v;
+        for (int j = 0; j < 12; ++j) df[i / 3][pos[j / 3]](i % 3, j % 3) += fd[i].d[j];
+    }
+    // D = (d eps/d eps_bar)(d eps_bar/du) and C eta D, column by column
+    double Dm[6][12], CD[6][12];
+    for (int i = 0; i < 6; ++i)
+        for (int j = 0; j < 12; ++j) {
+            double h = 0.0;
+            for (int k = 0; k < 6; ++k) h += st.jac[i][k].v * st.bar_grad[k][j].v;
+            Dm[i][j] = h;
+        }
+    for (int j = 0; j < 12; ++j) {
+        std::array<double, 6> col;
+        for (int i = 0; i < 6; ++i) col[i] = Dm[i][j];
+        const std::array<double, 6> c = stresses(e, col);
+        CD[0][j] = e.eta_axial * c[0];
+        CD[1][j] = e.eta_torsion * c[1];
+        for (int i = 2; i < 6; ++i) CD[i][j] = e.eta_bending * c[i];
+    }
+    for (int a = 0; a < 12; ++a)
+        for (int b = 0; b < 12; ++b) {
+            double h = 0.0;
+            for (int i = 0; i < 6; ++i) h += Dm[i][a] * CD[i][b];
+            df[a / 3][rate[b / 3]](a % 3, b % 3) += h;
+        }
+}
+
 }  // namespace
 
 // By hand, 10x faster than AD: the virtual-space forces f depend on phi only through the
@@ -495,6 +587,10 @@ void pipe_tangents(const PipeElementData& e, const NodeFrames& ref, const LoadSt
     double f[12] = {}, fg[12] = {};
     M3 df[4][n_col] = {};
     elastic(e, xp, xq, nd[0].E, nd[1].E, sigma_geometric, f, fg, df);
+    if (e.kelvin_voigt()) {
+        const V3 vel[4] = {vxp, nd[0].w, vxq, nd[1].w};
+        kelvin_voigt(e, xp, xq, nd[0].E, nd[1].E, vel, f, df);
+    }
 
     // Centre-line inertia and fluid on a = [x^p, l0 e^p_x, x^q, l0 e^q_x]: the Hermite
     // forces F_i and their derivatives dF (then mapped like f: l0 e x F at the slopes).
@@ -510,10 +606,12 @@ void pipe_tangents(const PipeElementData& e, const NodeFrames& ref, const LoadSt
     V3 g;
     for (int i = 0; i < 3; ++i) g[i] = load.gravity[i] * load.gravity_factor * mtot * l0;
     V3 F[4];
+    const bool viscous = e.c_ext != 0.0;
     for (int i = 0; i < 4; ++i) {
         F[i] = -hermite::load[i] * g;
         for (int j = 0; j < 4; ++j) {
             F[i] += (mtot * l0 * hermite::mass[i][j]) * add[j];
+            if (viscous) F[i] += (e.c_ext * l0 * hermite::mass[i][j]) * ad[j];
             F[i] += (2.0 * mdot * hermite::first[i][j]) * ad[j];
             F[i] += (mdd * hermite::first[i][j]) * a[j];
             F[i] += (P / l0 * hermite::second[i][j]) * a[j];
@@ -530,15 +628,17 @@ void pipe_tangents(const PipeElementData& e, const NodeFrames& ref, const LoadSt
                 const double cm = mtot * l0 * hermite::mass[i][j];
                 const double cg = 2.0 * mdot * hermite::first[i][j];
                 const double ck = mdd * hermite::first[i][j] + P / l0 * hermite::second[i][j];
+                // the viscous force enters like the Coriolis one (both on ad_j)
+                const double cv = viscous ? cg + e.c_ext * l0 * hermite::mass[i][j] : cg;
                 if (j == 2 * n) {
                     add_diag(dF[i][cX + 2 * n], ck);
-                    add_diag(dF[i][cVX + 2 * n], cg);
+                    add_diag(dF[i][cVX + 2 * n], cv);
                     add_diag(dF[i][cAX + 2 * n], cm);
                 } else {
                     axpy(dF[i][cTH + 2 * n], ck, Xk);
-                    axpy(dF[i][cTH + 2 * n], cg, Xg);
+                    axpy(dF[i][cTH + 2 * n], cv, Xg);
                     axpy(dF[i][cTH + 2 * n], cm, Xm);
-                    axpy(dF[i][cW + 2 * n], cg, Xk);
+                    axpy(dF[i][cW + 2 * n], cv, Xk);
                     axpy(dF[i][cW + 2 * n], cm, Ym);
                     axpy(dF[i][cAL + 2 * n], cm, Xk);
                 }

@@ -185,6 +185,7 @@ class ModelBuilder:
         # pipeflex.save_model writes; _depth > 0 inside a recorded call
         self._recipe: List[tuple] = []
         self._depth = 0
+        self._rayleigh = (0.0, 0.0)  # (alpha [1/s], beta [s]) of rayleigh_damping
 
     # -- nodes and elements -------------------------------------------------------
     def add_node(self, position: Sequence[float]) -> int:
@@ -218,9 +219,10 @@ class ModelBuilder:
             section: ``EA`` [N] axial stiffness, ``EIz`` [N m^2] in-plane bending
                 stiffness (bending about z; the section's EI unless EIz is given: ``EI``,
                 the out-of-plane ``E I_y``, is otherwise unused), ``pipe_mass`` [kg/m]
-                rho A; ``fluid_mass`` must be 0 (no flow in ANCF elements) and ``kv``,
-                ``GAy``, ``GAz``, ``rotary_inertia``, ``GJ`` at their defaults (refused by
-                name otherwise: the element has none of them).
+                rho A, the damping ``eta_axial``, ``eta_bending`` [s] and ``c_ext``
+                [N s/m^2]; ``fluid_mass`` must be 0 (no flow in ANCF elements) and ``kv``,
+                ``GAy``, ``GAz``, ``rotary_inertia``, ``GJ``, ``eta_torsion`` at their
+                defaults (refused by name otherwise: the element has none of them).
             elastic: elastic force model, ``"A"`` (continuum strain, captures centrifugal
                 stiffening) or ``"0"`` (linear strain in a local element frame).
         """
@@ -233,7 +235,8 @@ class ModelBuilder:
                                      "GAy": "the ANCF beam is rigid in shear (Euler-Bernoulli)",
                                      "GAz": "the ANCF beam is rigid in shear (Euler-Bernoulli)",
                                      "rotary_inertia": "the ANCF beam has no rotary inertia of the cross-section",
-                                     "GJ": "the planar ANCF beam has no torsion"}, "add_ancf_beam")
+                                     "GJ": "the planar ANCF beam has no torsion",
+                                     "eta_torsion": "the planar ANCF beam has no torsion"}, "add_ancf_beam")
         n = _checks.element_count("n_elements", n_elements, self._n_elements())
         x1 = _checks.vector3("end", end)
         if isinstance(start, (int, np.integer)) and not isinstance(start, bool):
@@ -620,6 +623,28 @@ class ModelBuilder:
         if not found:
             raise ValueError(f"node {node} is not the inlet of any flow-carrying element")
 
+    def rayleigh_damping(self, *, alpha: float = 0.0, beta: float = 0.0) -> None:
+        """Rayleigh damping ``alpha M + beta K`` of every element (pipe and ANCF), added to
+        the damping of their sections; a later call replaces the earlier one.
+
+        Args:
+            alpha: alpha [1/s] mass-proportional part. ``M`` is the centre line's consistent
+                mass (pipe and fluid, Hermite-interpolated as the inertia): each element gets
+                the external viscous damping ``c_ext = alpha (pipe_mass + fluid_mass)``. The
+                sections' rotary inertia, point masses and springs are not damped; a
+                rigid-body motion is (as by any mass-proportional damping).
+            beta: beta [s] stiffness-proportional part. ``K`` is each element's own elastic
+                stiffness at its stress-free reference: the Kelvin-Voigt times
+                ``eta_bending = eta_torsion = eta_axial = beta`` (in motion the damping
+                follows the current configuration's material stiffness, which leaves rigid
+                motions undamped; no geometric stiffness, no flow terms).
+
+        A mode of angular frequency omega [rad/s] of an undamped model then has the damping
+        ratio ``alpha / (2 omega) + beta omega / 2`` (exactly at the stress-free reference
+        without point masses or rotary inertia).
+        """
+        self._rayleigh = (_checks.non_negative("alpha", alpha), _checks.non_negative("beta", beta))
+
     def set_gravity(self, g: Sequence[float]) -> None:
         """Gravitational acceleration vector g [m/s^2], e.g. ``(0, 0, -9.81)``."""
         self._gravity = _checks.gravity("gravity", g)
@@ -718,6 +743,9 @@ class ModelBuilder:
             d = _core.AncfElementData()
             sec = e["section"]
             d.l, d.EA, d.EI, d.mass, d.elastic = e["l"], sec.EA, sec.EIz, sec.pipe_mass, e["elastic"]
+            alpha, beta = getattr(self, "_rayleigh", (0.0, 0.0))
+            d.eta_axial, d.eta_bending = sec.eta_axial + beta, sec.eta_bending + beta
+            d.c_ext = sec.c_ext + alpha * sec.pipe_mass
             core.add_ancf(e["p"], e["q"], d)
         if hub is not None:
             core.set_hub(list(hub.nodes), hub.axis, hub.center, hub.omega, hub.spin_up_time)
@@ -774,6 +802,13 @@ class ModelBuilder:
         Phi_y = np.where(shear[:, 1], 12.0 * EIz / (GA[:, 1] * l0sq), 0.0)
         ends = [e["fluid_end_terms"] for e in els]
         reservoir = [e.get("reservoir", ()) for e in els]
+        damping = {}
+        alpha, beta = getattr(self, "_rayleigh", (0.0, 0.0))
+        if alpha != 0.0 or beta != 0.0 or any(s.damped for s in sections):  # else none: the kernels skip it
+            damping = dict(eta=np.array([[s.eta_axial + beta, s.eta_torsion + beta, s.eta_bending + beta]
+                                         for s in sections], dtype=float).reshape(-1, 3)[k],
+                           c_ext=np.array([s.c_ext + alpha * (s.pipe_mass + s.fluid_mass) for s in sections],
+                                          dtype=float)[k])
         return dict(p=np.array([e["p"] for e in els], dtype=np.int32),
                     q=np.array([e["q"] for e in els], dtype=np.int32),
                     l0=l0, EA=EA, GJ=GJ, EIy=EI, EIz=EIz, Phi_y=Phi_y, Phi_z=Phi_z,
@@ -782,7 +817,8 @@ class ModelBuilder:
                     pipe_mass=table[:, 4], fluid_mass=table[:, 5], kv=table[:, 6], rotary_inertia=table[:, 7:10],
                     flow_factor=np.array([e["flow_factor"] for e in els], dtype=float),
                     end_terms_p=np.array([x and e["p"] not in r for x, e, r in zip(ends, els, reservoir)], dtype=bool),
-                    end_terms_q=np.array([x and e["q"] not in r for x, e, r in zip(ends, els, reservoir)], dtype=bool))
+                    end_terms_q=np.array([x and e["q"] not in r for x, e, r in zip(ends, els, reservoir)], dtype=bool),
+                    **damping)
 
 
 def _frozen(value):

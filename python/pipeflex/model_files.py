@@ -74,13 +74,15 @@ HUB = ("rotating_hub", {"node": "node", "omega": "number", "spin_up_time": "nonn
 MASS = ("add_point_mass", {"node": "node", "mass": "nonneg", "inertia": "nonneg3"}, None)
 LOAD = ("add_load", {"node": "node", "force": "point", "moment": "point", "follower": "bool"}, None)
 SECTION = {"EI": "positive", "pipe_mass": "nonneg", "fluid_mass": "nonneg", "EIz": "positive", "EA": "positive",
-           "GJ": "positive", "GAy": "positive", "GAz": "positive", "kv": "positive", "rotary_inertia": "nonneg3"}
+           "GJ": "positive", "GAy": "positive", "GAz": "positive", "kv": "positive", "rotary_inertia": "nonneg3",
+           "eta_bending": "nonneg", "eta_torsion": "nonneg", "eta_axial": "nonneg", "c_ext": "nonneg"}
 TUBE = {"outer_diameter": "positive", "inner_diameter": "nonneg", "E": "positive", "G": "positive",
         "density": "positive", "fluid_density": "nonneg", "kv": "positive", "shear": "bool",
         "rotary_inertia": "bool", "fluid_bulk_modulus": "positive"}
 FLOW = {"mass_flow": "number", "reservoir_inlets": "nodes"}
+RAYLEIGH = ("rayleigh_damping", {"alpha": "nonneg", "beta": "nonneg"}, None)
 TOP = ("pipeflex_model", "info", "sections", "geometry", "supports", "hub", "springs", "masses", "loads", "flow",
-       "gravity", "floating")
+       "gravity", "rayleigh_damping", "floating")
 _REQUIRED_TOP = ("geometry",)
 
 
@@ -368,6 +370,9 @@ def _model_from(r: _Reader) -> Model:
     for key, spec in (("masses", MASS), ("loads", LOAD)):
         for i, entry in enumerate(_listing(r, (key,), data.get(key, []))):
             _call(r, (key, i), b, spec[0], _arguments(r, (key, i), entry, spec, b, sections))
+    if "rayleigh_damping" in data:
+        where = ("rayleigh_damping",)
+        _call(r, where, b, RAYLEIGH[0], _arguments(r, where, data["rayleigh_damping"], RAYLEIGH, b, sections))
     if "gravity" in data:
         _call(r, ("gravity",), b, "set_gravity", dict(g=_value(r, ("gravity",), "point", data["gravity"], b,
                                                                 sections)))
@@ -413,10 +418,12 @@ _PLACES = {**{spec[0]: ("geometry", k) for k, spec in GEOMETRY.items()},
            **{spec[0]: ("supports", k) for k, spec in SUPPORTS.items()},
            **{spec[0]: ("springs", k) for k, spec in SPRINGS.items()},
            HUB[0]: ("hub", None), MASS[0]: ("masses", None), LOAD[0]: ("loads", None),
-           "reservoir_inlet": ("flow", None), "set_gravity": ("gravity", None)}
+           "reservoir_inlet": ("flow", None), "set_gravity": ("gravity", None),
+           RAYLEIGH[0]: ("rayleigh_damping", None)}
 
 
-_FIELDS = {spec[0]: spec[1] for spec in (*GEOMETRY.values(), *SUPPORTS.values(), *SPRINGS.values(), HUB, MASS, LOAD)}
+_FIELDS = {spec[0]: spec[1] for spec in (*GEOMETRY.values(), *SUPPORTS.values(), *SPRINGS.values(), HUB, MASS, LOAD,
+                                          RAYLEIGH)}
 _FIELDS.update(reservoir_inlet={"node": "node"}, set_gravity={"g": "point"})
 _FLOATS = ("number", "nonneg", "positive", "point", "nonneg3")
 
@@ -479,6 +486,7 @@ def model_data(model: Model) -> dict:
     sections: dict = {}
     lists: dict = {k: [] for k in ("geometry", "supports", "hub", "springs", "masses", "loads")}
     inlets = []
+    rayleigh = None
     for method, args, kwargs in desc["_recipe"]:
         if method not in _PLACES:
             raise ValueError(f"model: its builder call {method}() has no model-file key: the model cannot be saved")
@@ -508,6 +516,8 @@ def model_data(model: Model) -> dict:
             inlets.append(entry["node"])
         elif place == "gravity":
             continue  # the model's gravity, below
+        elif place == "rayleigh_damping":
+            rayleigh = entry  # a later call replaces an earlier one, as in the builder
         elif kind is None:
             lists[place].append(entry)
         else:
@@ -537,6 +547,8 @@ def model_data(model: Model) -> dict:
     data["flow"] = flow
     if np.any(model.gravity):
         data["gravity"] = [float(g) for g in model.gravity]
+    if rayleigh:
+        data["rayleigh_damping"] = rayleigh
     if desc.get("_floating"):
         data["floating"] = True
     return data

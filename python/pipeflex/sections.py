@@ -16,6 +16,9 @@ from . import _checks
 #: Largest momentum-flux factor k_v accepted [-] (physical profiles give 1 to 2).
 KV_MAX = 10.0
 
+#: The damping coefficients of a section and their units (each >= 0, default 0).
+DAMPING_FIELDS = {"eta_bending": "s", "eta_torsion": "s", "eta_axial": "s", "c_ext": "N s/m^2"}
+
 
 @dataclass(frozen=True)
 class PipeSection:
@@ -41,12 +44,20 @@ class PipeSection:
         rotary_inertia: ``(rho I_p, rho I_y, rho I_z)`` [kg m] mass moments of inertia per
             unit length about the local x, y, z axes, lumped at the nodes (default zero,
             as in Meijaard & Hakvoort's tables).
+        eta_bending, eta_torsion, eta_axial: ``eta`` [s] Kelvin-Voigt retardation times of
+            the internal damping, stress = E (eps + eta eps_dot) for the bending, torsional
+            and axial generalised strains (default 0: undamped). A mode of angular frequency
+            omega [rad/s] dominated by bending gets the damping ratio eta_bending omega / 2.
+        c_ext: ``c`` [N s/m^2] external viscous damping per unit length: a distributed
+            force -c times the centre line's velocity (default 0).
 
     Which formulation reads what: the 3D pipe element reads every field; the
     floating-frame body (:func:`~pipeflex.multibody.flexible_body`) has no shear
-    flexibility and plug flow only, and refuses ``GAy``, ``GAz`` and ``kv != 1``; the
-    planar ANCF beam reads ``EA``, ``EIz`` and ``pipe_mass`` and refuses ``fluid_mass``,
-    ``kv``, ``GAy``, ``GAz``, ``rotary_inertia`` and a ``GJ`` other than its default.
+    flexibility and plug flow, and refuses ``GAy``, ``GAz``, ``kv != 1`` and the damping
+    coefficients (its modes take ``modal_damping`` ratios instead); the planar ANCF beam
+    reads ``EA``, ``EIz``, ``pipe_mass``, ``eta_axial``, ``eta_bending`` and ``c_ext`` and
+    refuses ``fluid_mass``, ``kv``, ``GAy``, ``GAz``, ``rotary_inertia``, ``eta_torsion``
+    and a ``GJ`` other than its default.
     A field a formulation cannot honour is refused by name, never silently dropped.
     """
 
@@ -60,6 +71,10 @@ class PipeSection:
     GAz: Optional[float] = None
     kv: float = 1.0
     rotary_inertia: Tuple[float, float, float] = field(default=(0.0, 0.0, 0.0))
+    eta_bending: float = 0.0
+    eta_torsion: float = 0.0
+    eta_axial: float = 0.0
+    c_ext: float = 0.0
 
     def __post_init__(self):
         ok = _checks
@@ -87,6 +102,16 @@ class PipeSection:
                              f"z, got {self.rotary_inertia!r} (leave it out for none: (0, 0, 0))")
         ri = tuple(ok.non_negative(f"rotary_inertia[{i}]", x) for i, x in enumerate(self.rotary_inertia))
         object.__setattr__(self, "rotary_inertia", ri)
+        for name, unit in DAMPING_FIELDS.items():
+            try:
+                object.__setattr__(self, name, ok.non_negative(name, getattr(self, name)))
+            except ValueError as err:
+                raise ValueError(f"{err} ({name} [{unit}] is a damping coefficient: 0 for none)") from None
+
+    @property
+    def damped(self) -> bool:
+        """Whether any damping coefficient (``eta_*``, ``c_ext``) is non-zero."""
+        return any(getattr(self, name) != 0.0 for name in DAMPING_FIELDS)
 
     @classmethod
     def tube(cls, *, outer_diameter: float, inner_diameter: float, E: float, G: float,
@@ -161,8 +186,10 @@ def require_section(section, name: str = "section") -> PipeSection:
 def refuse_unsupported(section: PipeSection, reasons: Dict[str, str], where: str) -> None:
     """Raise ValueError naming every field in ``reasons`` that ``section`` sets to other
     than its default (``GAy``/``GAz`` None, ``kv`` 1, ``rotary_inertia`` zero, ``GJ``
-    EI / 1.3): ``where`` would ignore it; ``reasons[name]`` says why."""
-    default = {"GAy": None, "GAz": None, "kv": 1.0, "rotary_inertia": (0.0, 0.0, 0.0), "GJ": section.EI / 1.3}
+    EI / 1.3, the damping coefficients 0): ``where`` would ignore it; ``reasons[name]``
+    says why."""
+    default = {"GAy": None, "GAz": None, "kv": 1.0, "rotary_inertia": (0.0, 0.0, 0.0), "GJ": section.EI / 1.3,
+               **{name: 0.0 for name in DAMPING_FIELDS}}
     shown = {"GJ": "EI / 1.3"}
     bad = [f"section.{name} = {getattr(section, name)!r}: {why} (leave it at its default, "
            f"{shown.get(name, repr(default[name]))})" for name, why in reasons.items()

@@ -113,6 +113,29 @@ def _rebuild_body(arguments: dict) -> "FlexibleBody":
     return flexible_body(**arguments)
 
 
+def _modal_damping_matrix(zeta, K: np.ndarray, M: np.ndarray) -> Optional[np.ndarray]:
+    """D = M Phi diag(2 zeta omega) Phi^T M of the modes K phi = omega^2 M phi (phi^T M phi
+    = 1, ascending omega [rad/s]) for the ratios zeta [-] (a number or one per mode, >= 0);
+    None when all are zero (the kernel then skips the term)."""
+    m = K.shape[0]
+    if np.ndim(zeta) == 0:
+        z = np.full(m, _checks.non_negative("modal_damping", zeta))
+    else:
+        z = np.asarray([_checks.non_negative(f"modal_damping[{i}]", x) for i, x in enumerate(np.ravel(zeta))])
+        if z.size != m:
+            raise ValueError(f"modal_damping must be one ratio or one per elastic coordinate ({m}), got {z.size}")
+    if not np.any(z):
+        return None
+    # M phi = mu K phi (K is positive definite, M may be singular: a rotation without rotary
+    # inertia), phi^T K phi = 1, mu = 1/omega^2 descending; with M phi = mu K phi the
+    # mass-normalised form is D = sum_i 2 zeta_i sqrt(mu_i) (K phi_i)(K phi_i)^T, and a
+    # massless mode (mu = 0) takes no damping
+    mu, Phi = sla.eigh(M, K)
+    mu, Phi = mu[::-1], Phi[:, ::-1]
+    KPhi = K @ Phi
+    return (KPhi * (2.0 * z * np.sqrt(np.maximum(mu, 0.0)))) @ KPhi.T
+
+
 def _assemble(length, n_el, sec: PipeSection):
     """Full body matrices (6 n_nodes square) from the element kernels."""
     n = 6 * (n_el + 1)
@@ -229,7 +252,7 @@ def check_no_rigid_motion(Psi0: np.ndarray, Phi: np.ndarray, K: np.ndarray) -> N
 
 def flexible_body(*, length: float, n_elements: int, section: PipeSection, internal_modes: int = 0,
                   reduction: str = "craig_bampton", curvature: float = 0.0,
-                  basis: Optional[np.ndarray] = None) -> FlexibleBody:
+                  basis: Optional[np.ndarray] = None, modal_damping=0.0) -> FlexibleBody:
     """Build a reduced straight (or preimposed-curved) body.
 
     Args:
@@ -249,6 +272,15 @@ def flexible_body(*, length: float, n_elements: int, section: PipeSection, inter
             stress-free by the stiffness compensation K (eta - eta0).
         basis: a custom Phi (6 (n_elements + 1) x m) in place of ``reduction``; it must not
             contain rigid-body motion.
+        modal_damping: zeta [-] damping ratios of the body's elastic modes: one number for
+            all, or one per elastic coordinate (m, lowest frequency first); each >= 0. The
+            modes are those of the elastic coordinates with the floating frame held,
+            K_eta phi = omega^2 M_eta phi (M_eta the elastic block of the body's mass
+            matrix, phi mass-normalised), and the damping force on the elastic equations is
+            D eta_dot, D = M_eta Phi diag(2 zeta omega) Phi^T M_eta (default 0: none). A
+            massless mode (a rotation without rotary inertia) has no dynamics and takes no
+            damping (its ratio is ignored). The section's own damping coefficients are
+            refused: a body is damped by this argument.
     """
     L = _checks.magnitude("length", length, "m")
     n_el = _checks.positive_int("n_elements", n_elements)
@@ -261,7 +293,10 @@ def flexible_body(*, length: float, n_elements: int, section: PipeSection, inter
     refuse_unsupported(section, {
         "kv": "the FFRF body does not support a momentum-flux factor kv != 1 yet (its fluid forces are plug flow's)",
         "GAy": "the FFRF body does not support shear flexibility yet (Euler-Bernoulli elements)",
-        "GAz": "the FFRF body does not support shear flexibility yet (Euler-Bernoulli elements)"}, "flexible_body")
+        "GAz": "the FFRF body does not support shear flexibility yet (Euler-Bernoulli elements)",
+        **{name: "the FFRF body is damped by its modes' ratios (flexible_body(..., modal_damping=zeta)), not by "
+                 "the section's coefficients" for name in ("eta_bending", "eta_torsion", "eta_axial", "c_ext")}},
+        "flexible_body")
     internal_modes = _checks.non_negative_int("internal_modes", internal_modes)
     kappa = _checks.finite("curvature", curvature)
     if abs(kappa) * L >= np.pi:
@@ -308,13 +343,15 @@ def flexible_body(*, length: float, n_elements: int, section: PipeSection, inter
 
     B = np.hstack([Psi0, Phi])
     Psi_r0 = Psi0[:, 3:]
+    Mr = B.T @ M @ B
     data = _core.FfrfBodyData(
-        M=B.T @ M @ B, K=Kr, eta0=eta0,
+        M=Mr, K=Kr, eta0=eta0, D=_modal_damping_matrix(modal_damping, Kr, Mr[6:, 6:]),
         A=[B.T @ S[k] @ Psi_r0 for k in range(3)], Bk=[B.T @ S[k] @ Phi for k in range(3)],
         GPhi=[B.T @ G[k] @ Phi for k in range(3)], Gx=[B.T @ G[k] @ xbar for k in range(3)],
         CPhi=B.T @ C @ Phi, HPhi=B.T @ H @ Phi, Cx=B.T @ C @ xbar, Hx=B.T @ H @ xbar, Ng=B.T @ Ng)
     mass = L * (section.pipe_mass + section.fluid_mass)
     arguments = dict(length=L, n_elements=n_el, section=section, internal_modes=internal_modes,
-                     reduction=reduction, curvature=kappa, basis=None if basis is None else Phi)
+                     reduction=reduction, curvature=kappa, basis=None if basis is None else Phi,
+                     modal_damping=modal_damping)
     return FlexibleBody(L, n_el, section, reduction, internal_modes if reduction == "craig_bampton" else 0,
                         s, Phi, eta0, data, mass, arguments)

@@ -27,6 +27,11 @@ struct AncfElementData {
     double mass = 0.0;       // rho A [kg/m] mass per length
     double tip_mass = 0.0;   // m_t [kg] concentrated at node B (kernel use; models use nodal masses)
     AncfElastic elastic = AncfElastic::model_a;
+    // Kelvin-Voigt damping: retardation times eta [s] of the axial and bending strains
+    // (see ancf_tangent); c_ext [N s/m^2] external viscous damping per unit length. Zero:
+    // skipped (the undamped results bit for bit).
+    double eta_axial = 0.0, eta_bending = 0.0, c_ext = 0.0;
+    bool damped() const { return eta_axial != 0.0 || eta_bending != 0.0 || c_ext != 0.0; }
 };
 
 // A frame turning about z through `center` at rate `rate` [rad/s] with angular
@@ -38,6 +43,12 @@ struct AncfFrame {
     double center[2] = {0.0, 0.0};
 };
 
+// Damping forces Q_d(e, e_dot) (added to the residual), linear in e_dot:
+//  * Model A: eta_axial sum_X eps_dot_X K_X e + eta_bending K_t e_dot (the elastic forces
+//    with the strains eps_X replaced by eta eps_dot_X, the bending by its rate);
+//  * Model 0: dR/de_dot of R = 1/2 int (eta_axial EA (u_x'_t)^2 + eta_bending EI (u_y''_t)^2) dx,
+//    u_t the rate of the local displacement (a rigid motion has u_t = 0);
+//  * both: c_ext l int S^T S dxi e_dot (the consistent viscous force).
 // Residual (8) and weighted tangent wK dr/de + wC dr/de_dot + wM M (row-major 8x8).
 // gravity: g [m/s^2] (2), may be null; frame may be null (inertial coordinates).
 // r or J may be null.

@@ -10,7 +10,7 @@
 // reduction basis) the simplified equations of motion of eq. 70, per body,
 //
 //   R^ [ M_loc R^T a + Q_v(w, eta, eta_dot, sdot, sddot) - N_g R^T g ]
-//       + [0; 0; K_eta (eta - eta0)] = Q_external (+ constraint forces),
+//       + [0; 0; K_eta (eta - eta0) + D_eta eta_dot] = Q_external (+ constraint forces),
 //
 // with global coordinates [r; pi; eta], global velocities v = [r_dot; omega; eta_dot],
 // accelerations a = v_dot, R^ = diag(R, R, I), w = R^T omega (body components), and
@@ -62,6 +62,8 @@ struct FfrfBodyData {
     MatX CPhi, HPhi;               // n x m
     VecX Cx, Hx;                   // n
     MatX Ng;                       // n x 3  B^T int N^T (mu_p + mu_f) ds
+    MatX D;                        // m x m  damping of the elastic coordinates [N s/m ...]
+                                   // (modal damping; empty: undamped, skipped)
 };
 
 // Throws std::invalid_argument naming the first member whose size does not fit

@@ -4,13 +4,15 @@
 // spatial rotation vectors phi [rad] relative to the nodes' reference rotations.
 // The element residual is
 //     r(q, q_dot, q_ddot) = M(q) q_ddot + f_in(q, q_dot) + f_fluid(q, q_dot)
-//                           + D(q)^T sigma(q) - f_gravity(q)
+//                           + D(q)^T (sigma(q) + sigma_d(q, q_dot)) + f_c(q, q_dot) - f_gravity(q)
 // so the equations of motion are sum_e r_e = external nodal loads. Inertia: Hermite
 // interpolation of the centre line (eqs. 9-14) with the cross-section rotary inertia
 // lumped at the nodes; fluid (eqs. 15-20): entrainment, relative (mdot_dot), Coriolis
 // and centripetal terms in their unsplit form, which equals eqs. 19-20 plus their
 // split-off end terms (so a kink automatically receives the forces of eqs. 21-22 and a
 // free outlet none). Elastic: generalised strains eqs. 1-2, constitutive eqs. 6-7.
+// Damping (PipeElementData::eta_*, c_ext): Kelvin-Voigt stresses sigma_d = C eta eps_dot
+// of the generalised strains' rate and the external viscous force f_c of the centre line.
 #pragma once
 
 #include "pipeflex/core/dual.hpp"
@@ -43,6 +45,15 @@ struct PipeElementData {
     // pipe, accelerates the fluid (the additional force of seed 000 cancels the term).
     bool end_terms_p = true;
     bool end_terms_q = true;
+    // Kelvin-Voigt internal damping: sigma = C (eps - eps^0 + eta eps_dot) with the
+    // retardation times eta [s] of the axial, torsional and bending strains (eps_dot the
+    // rate of the objective generalised strains: no damping of a rigid motion). Zero: the
+    // damping is skipped (no cost, the undamped results bit for bit).
+    double eta_axial = 0.0, eta_torsion = 0.0, eta_bending = 0.0;
+    // c_ext [N s/m^2]: external viscous damping per unit length, force -c_ext times the
+    // centre line's velocity (Hermite-interpolated like the inertia).
+    double c_ext = 0.0;
+    bool kelvin_voigt() const { return eta_axial != 0.0 || eta_torsion != 0.0 || eta_bending != 0.0; }
 };
 
 // Time-dependent loading shared by all elements of a model.
