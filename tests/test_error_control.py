@@ -1,12 +1,14 @@
 """Error-controlled generalised-alpha: ``pf.simulate(model, t_end, rtol=...)``.
 
 Each step's local error estimate (Zienkiewicz & Xie's (beta - 1/6) h^2 (a' - a)) is kept
-below (rtol L + atol) h / T, so the estimates of a run add up to at most rtol L + atol.
-Checked against converged references computed by the library's fixed-step integrator
-(Richardson-extrapolated from two fine steps with a tight Newton tolerance): the error
-meets the request, shrinks in proportion to rtol, is below the reported estimate, and the
-steps follow the motion (short while a step start of the flow rings, long after). The
-same on floating-frame bodies (their rotations counted at the model size)."""
+below (rtol L + atol) h / (ERROR_ACCUMULATION T), so that the run's error, a fraction
+ERROR_ACCUMULATION of the summed estimates, lands near rtol L + atol. Checked against
+converged references computed by the library's fixed-step integrator (Richardson-
+extrapolated from two fine steps with a tight Newton tolerance): on the flutter limit cycle
+the error lands within a factor 3 of the request either way, elsewhere below it (never
+above 3x); it shrinks in proportion to rtol; Newton's tolerance follows rtol; the steps
+follow the motion (short while a step start of the flow rings, long after). The same on
+floating-frame bodies (their rotations counted at the model size)."""
 import numpy as np
 import pytest
 
@@ -59,13 +61,92 @@ def test_rtol_alone_meets_the_request_and_the_error_follows_it(cantilever, refer
         assert res.metadata["integrator"] == "generalized_alpha" and res.metadata["rtol"] == rtol
         err = float(np.abs(_tip(res, model) - reference).max())
         errors[rtol] = err
-        # the request: within rtol L (the estimates add up to at most it)
-        assert err <= rtol * L, (rtol, err)
-        # the estimate reported bounds the error and stays within the request
-        assert err <= res.stats["error_estimate"] <= rtol * L * (1 + 1e-12)
+        # the request: within 3 rtol L above; below it by at most 30 here, a growing
+        # flutter whose stiff modes' local errors do not add up (measured 0.07-0.11 rtol L)
+        assert rtol * L / 30.0 <= err <= 3.0 * rtol * L, (rtol, err)
+        # the estimate reported stays within the request
+        assert 0.0 < res.stats["error_estimate"] <= rtol * L * (1 + 1e-12)
         assert res.stats["failed_steps"] <= 0.25 * res.stats["steps"]  # steps redone for their error
     # tolerance proportionality: ten times tighter, about ten times smaller (error per unit step)
     assert 3.0 <= errors[1e-3] / errors[1e-4] <= 30.0
+
+
+@pytest.fixture(scope="module")
+def limit_cycle():
+    """The flutter limit cycle of benchmarks/bench_limit_cycle.py: 8 elements, 30 kg/s from
+    the static deflection without flow, 2 s (the tip settles on its limit cycle); the
+    model, its start and the tip's lateral position at 2 s converged (Richardson from 0.1
+    and 0.05 ms: the finer run errs by 1.8e-7 m, the combination by ~5e-10 m, against one
+    from 0.05 and 0.025 ms)."""
+    sec = pf.PipeSection(EI=10.0, pipe_mass=8.0, fluid_mass=2.0, EA=1e5, rotary_inertia=(1e-3, 0.0, 0.0))
+    b = pf.ModelBuilder()
+    n0 = b.add_node((0.0, 0.0, 0.0))
+    nodes = b.add_line(n0, (1.0, 0.0, 0.0), 8, sec)
+    b.clamp(n0)
+    b.add_load(nodes[-1], force=(0.0, 1.5, 0.0))
+    model = b.build(mass_flow=FLOW)
+    state = pf.static_equilibrium(model, mass_flow=0.0).state
+    tip = model.n_nodes - 1
+    a, b = (pf.simulate(model, 2.0, n_outputs=2, progress=False, state=state, integrator="generalized_alpha",
+                        step=h, newton_tol=1e-13, work=False).x[-1, tip, 1] for h in (1e-4, 5e-5))
+    assert abs(b - a) / 3.0 < 1e-6
+    return model, state, b + (b - a) / 3.0
+
+
+def test_rtol_lands_on_the_request_on_the_limit_cycle(limit_cycle):
+    """On the limit cycle the error lands within a factor 3 of rtol L either way (measured
+    0.57-0.69 at rtol 1e-3 and 1e-4; 0.6-1.0 over 1e-2 ... 1e-8, docs/performance.md)."""
+    model, state, ref = limit_cycle
+    run = lambda **o: pf.simulate(model, 2.0, n_outputs=2, progress=False, state=state, **o).x[-1, -1, 1]
+    for rtol in (1e-3, 1e-4):
+        ratio = abs(run(rtol=rtol) - ref) / (rtol * model.length_scale)
+        assert 1.0 / 3.0 <= ratio <= 3.0, (rtol, ratio)
+
+
+def test_below_the_rule_the_run_is_extrapolated_over_the_controlled_mesh(limit_cycle):
+    """rtol < EXTRAPOLATE_BELOW: Richardson over a controlled mesh halved until the
+    estimate meets the request. On the limit cycle at rtol 1e-6: within 3x above and 30x
+    below (measured 0.11), in a fifth of the second-order control's 33483 steps (4480
+    measured), its estimate within a factor 10 of the error either way."""
+    model, state, ref = limit_cycle
+    rtol = 1e-6
+    res = pf.simulate(model, 2.0, n_outputs=2, progress=False, state=state, rtol=rtol)
+    err = abs(res.x[-1, -1, 1] - ref)
+    assert rtol * model.length_scale / 30.0 <= err <= 3.0 * rtol * model.length_scale, err
+    assert res.metadata["extrapolated"]["halvings"] >= 2 and res.stats["steps"] < 33483 / 5
+    assert 0.1 <= res.stats["error_estimate"] / err <= 10.0
+    assert res.stats["error_estimate"] <= rtol * model.length_scale
+    assert res.metadata["rtol"] == rtol and res.metadata["integrator"] == "generalized_alpha"
+
+
+def test_extrapolated_runs_meet_the_request_on_a_growing_flutter(cantilever, reference):
+    """The 4-element flutter from the flow's start: extrapolation gains less there per
+    halving (3-4x instead of 16x: the motion is not smooth on the coarse meshes), which
+    the estimate (the finest combination against the next coarser one, / 3) allows for:
+    within 3x above (measured 0.34 and 1.9 at rtol 1e-5 and 1e-6); the error falls as
+    rtol does."""
+    model, state = cantilever
+    errors = {}
+    for rtol in (1e-5, 1e-6):
+        res = pf.simulate(model, T_END, n_outputs=2, progress=False, state=state, rtol=rtol)
+        assert "extrapolated" in res.metadata
+        errors[rtol] = float(np.abs(_tip(res, model) - reference).max())
+        assert rtol * model.length_scale / 30.0 <= errors[rtol] <= 3.0 * rtol * model.length_scale, (rtol, errors)
+    assert errors[1e-6] < errors[1e-5]
+
+
+def test_newton_tolerance_follows_rtol(cantilever):
+    """Each step's Newton tolerance is 0.1 of its share of the request (at rtol 1e-4 here
+    below 1e-6 model sizes): a looser newton_tol given is only a cap (the same run), a
+    tighter one costs iterations."""
+    model, state = cantilever
+    run = lambda **o: pf.simulate(model, T_END, n_outputs=2, progress=False, state=state, **o)
+    base = run(rtol=1e-4)
+    capped = run(rtol=1e-4, newton_tol=1e-5)
+    assert np.array_equal(base.x, capped.x) and base.stats["newton_iterations"] == capped.stats["newton_iterations"]
+    tight = run(rtol=1e-4, newton_tol=1e-13)
+    per_step = lambda r: r.stats["newton_iterations"] / r.stats["steps"]
+    assert per_step(tight) > 1.5 * per_step(base)
 
 
 def test_the_steps_follow_the_motion(cantilever):
@@ -108,8 +189,8 @@ def test_bodies_meet_the_request():
     rtol = 1e-4
     res = pf.simulate(system, t_end, n_outputs=2, progress=False, rtol=rtol)
     err = float(np.abs(res.node_position(1, "end")[-1] - ref).max())
-    assert err <= rtol * system.length_scale, err
-    assert err <= res.stats["error_estimate"]
+    assert err <= 3.0 * rtol * system.length_scale, err
+    assert res.stats["error_estimate"] <= rtol * system.length_scale * (1 + 1e-12)
 
 
 @pytest.mark.parametrize("options, match", [
@@ -137,5 +218,22 @@ def test_ida_keeps_its_own_rtol(cantilever):
 def test_a_tolerance_that_needs_a_step_below_min_step_fails_with_where(cantilever):
     model, state = cantilever
     with pytest.raises(pf.ConvergenceError, match="error control failed at t = .*min_step") as err:
-        pf.simulate(model, 0.1, n_outputs=2, progress=False, state=state, rtol=1e-12, min_step=1e-5)
+        pf.simulate(model, 0.1, n_outputs=2, progress=False, state=state, rtol=1e-4, step=0.01, min_step=5e-3)
     assert 0.0 <= err.value.time < 0.1 and err.value.mass_flow == pytest.approx(FLOW)
+
+
+def test_extrapolation_falls_back_to_the_controlled_run(limit_cycle, monkeypatch, caplog):
+    """A coarse mesh whose run differs from the halved one by more than a discretisation
+    error (frames 0.16 rad apart at rtol_mesh 0.18) is not extrapolated: the second-order
+    run at rtol is returned (logged), still within 3x of the request."""
+    from pipeflex.analysis import transient
+
+    monkeypatch.setattr(transient, "MESH_FACTOR", 3300.0)
+    monkeypatch.setattr(transient, "MAX_MESH_RTOL", 1.0)
+    model, state, ref = limit_cycle
+    rtol = 1e-5
+    with caplog.at_level("INFO", logger="pipeflex"):
+        res = pf.simulate(model, 2.0, n_outputs=2, progress=False, state=state, rtol=rtol)
+    assert "extrapolation over the controlled mesh failed" in caplog.text
+    assert "extrapolated" not in res.metadata and res.metadata["rtol"] == rtol
+    assert abs(res.x[-1, -1, 1] - ref) <= 3.0 * rtol * model.length_scale

@@ -87,6 +87,11 @@ py::dict record_dict(const Record& r) {
     }
     for (const auto& [name, value] : r.counters) d[py::str(name)] = value;
     for (const auto& [name, value] : r.estimates) d[py::str(name)] = value;
+    if (!r.steps.empty()) {
+        py::array_t<double> h(static_cast<py::ssize_t>(r.steps.size()));
+        std::copy(r.steps.begin(), r.steps.end(), h.mutable_data());
+        d["step_sizes"] = h;
+    }
     return d;
 }
 

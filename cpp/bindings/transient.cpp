@@ -52,6 +52,7 @@ void bind_transient(py::module_& m) {
         .def_readwrite("max_order", &TransientOptions::max_order)
         .def_readwrite("step", &TransientOptions::step)
         .def_readwrite("error_rate", &TransientOptions::error_rate)
+        .def_readwrite("steps", &TransientOptions::steps)
         .def_readwrite("min_step", &TransientOptions::min_step)
         .def_readwrite("rho_inf", &TransientOptions::rho_inf)
         .def_readwrite("newton_tol", &TransientOptions::newton_tol)

@@ -31,6 +31,9 @@ constexpr double kSafety = 0.8, kGrowMin = 1.5, kGrowMax = 2.0, kShrinkMax = 0.2
 // (at most newton_tol) is at most this fraction of the step's error_rate h, so that Newton
 // neither over-solves nor adds noise to the accelerations the error estimate differences.
 constexpr double kNewtonShare = 0.1;
+// A given step (AlphaOptions::steps) within this fraction of the time left to the output
+// time ends there: the sum of a recorded mesh's steps meets its output times to round-off.
+constexpr double kMeshRoundOff = 1e-6;
 
 }  // namespace
 
@@ -222,6 +225,8 @@ AlphaOptions checked(const AlphaOptions& o) {
     if (!(o.error_rate >= 0.0) || !std::isfinite(o.error_rate))
         throw std::invalid_argument("error_rate must be >= 0 and finite (0: a fixed step)");
     if (o.max_newton < 1) throw std::invalid_argument("max_newton must be >= 1");
+    for (const double h : o.steps)
+        if (!std::isfinite(h) || !(h > 0.0)) throw std::invalid_argument("steps must be > 0 and finite");
     return o;
 }
 
@@ -281,9 +286,23 @@ void GeneralizedAlpha::advance_to(double t_out) {
     while (t_ < t_out - 1e-14 * std::max(1.0, std::abs(t_))) {
         poll_interrupt();
         const double left = t_out - t_;
+        const bool replay = !opt_.steps.empty();
         // error control: the controlled step until the output time is near (then the rest
         // in one or two equal steps), so that the iteration matrix is kept
-        const double hs = opt_.error_rate > 0.0 && left > 2.0 * h_ ? h_ : left / std::ceil(left / h_ - 1e-9);
+        double hs = opt_.error_rate > 0.0 && left > 2.0 * h_ ? h_ : left / std::ceil(left / h_ - 1e-9);
+        if (replay) {
+            if (replayed_ == opt_.steps.size())
+                throw std::invalid_argument("generalised-alpha: the steps given end at t = " + fmt(t_) +
+                                            " s, before the output time " + fmt(t_out) + " s");
+            hs = opt_.steps[replayed_];
+            // the output time, up to the round-off of the steps' sum (far below a step)
+            if (std::abs(hs - left) <= kMeshRoundOff * hs)
+                hs = left;
+            else if (hs > left)
+                throw std::invalid_argument("generalised-alpha: the steps given pass the output time " + fmt(t_out) +
+                                            " s (step " + fmt(hs) + " s from t = " + fmt(t_) +
+                                            " s): each output time must end a step");
+        }
         const double tn = t_ + hs;
         // Predictor (see Prediction): on smooth motion the extrapolated acceleration
         // (error O(h^2) instead of O(h): one correction usually converges); where stiff
@@ -307,6 +326,7 @@ void GeneralizedAlpha::advance_to(double t_out) {
             newton_.set_tolerance(std::min(opt_.newton_tol, kNewtonShare * opt_.error_rate * hs / eq_.length_scale()));
         AlphaNewton::Failure failure;
         if (!newton_.solve(t_, hs, zero_, v_, a_, pa_, an_, pan_, zn_, vn_, lam_, stats_, failure)) {
+            if (replay) throw_newton_failure(eq_, t_, hs, failure);  // a given mesh is not changed
             ++stats_.failed_steps;
             lam_ = lam_start_;
             h_prev_ = 0.0;  // retry from the constant predictor: extrapolation may have misled
@@ -369,6 +389,8 @@ void GeneralizedAlpha::advance_to(double t_out) {
         h_prev_ = hs;
         t_ = tn;
         ++stats_.steps;
+        if (replay) ++replayed_;
+        if (opt_.error_rate > 0.0) taken_.push_back(hs);
         stats_.smallest_step = stats_.steps == 1 ? hs : std::min(stats_.smallest_step, hs);
         stats_.largest_step = std::max(stats_.largest_step, hs);
         if (opt_.error_rate == 0.0 && h_ < opt_.step) h_ = std::min(opt_.step, 2.0 * h_);

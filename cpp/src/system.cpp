@@ -173,6 +173,7 @@ Record integrate(System& sys, const Drive& drive, const std::vector<double>& tim
                          {"error_max", st.error_max},
                          {"smallest_step", st.smallest_step},
                          {"largest_step", st.largest_step}};
+    out.steps = alpha.steps_taken();
     return out;
 }
 

@@ -315,6 +315,7 @@ inline AlphaOptions alpha_options(const TransientOptions& opt) {
     a.max_newton = opt.max_newton;
     a.max_steps = opt.max_steps;
     a.error_rate = opt.error_rate;
+    a.steps = opt.steps;
     return a;
 }
 

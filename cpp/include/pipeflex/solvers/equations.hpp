@@ -126,6 +126,11 @@ struct AlphaOptions {
     // error_rate T (error per unit step: the global error proportional to the tolerance);
     // 0: the fixed step `step`.
     double error_rate = 0.0;
+    // [s] non-empty: the steps to take, in order, in place of step and error_rate: a mesh
+    // recorded by an error-controlled run (GeneralizedAlpha::steps_taken), e.g. each step
+    // halved for Richardson extrapolation over the mesh. Each output time must fall on a
+    // step's end (to round-off); a failed Newton iteration throws (no halving).
+    std::vector<double> steps;
 };
 
 // Chung-Hulbert parameters from rho_inf and the update formulas of one step
@@ -387,7 +392,8 @@ inline StaticNewtonResult static_newton(Equations& eq, double t, Eigen::VectorXd
 
 // The Lie-group generalised-alpha integrator (Arnold & Bruls 2007) of any system: equal
 // steps within each interval between output times, halved after a failed Newton
-// iteration and doubled back after; the frames re-based after every step.
+// iteration and doubled back after (or error-controlled steps, or the steps given:
+// AlphaOptions); the frames re-based after every step.
 class GeneralizedAlpha {
    public:
     // Starts at time t0 from the state's rates v (n) with consistent a and lambda.
@@ -403,6 +409,8 @@ class GeneralizedAlpha {
     const Eigen::VectorXd& acceleration() const { return a_; }
     const Eigen::VectorXd& multipliers() const { return lam_; }
     const AlphaStats& stats() const { return stats_; }
+    // [s] the accepted steps in order (error-controlled runs only: error_rate > 0)
+    const std::vector<double>& steps_taken() const { return taken_; }
 
    private:
     Equations& eq_;
@@ -424,6 +432,8 @@ class GeneralizedAlpha {
     Prediction prediction_ = Prediction::extrapolated;
     bool adaptive_prediction_;
     double t_ = 0.0, h_ = 0.0, h_prev_ = 0.0;
+    std::vector<double> taken_;
+    std::size_t replayed_ = 0;  // steps of opt_.steps taken
     Eigen::VectorXd v_, a_, pa_, lam_, an_, pan_, zn_, vn_, a_prev_, zero_, offset_, lam_start_;
     Eigen::VectorXd error_weights_;  // s_i / error_rate: a coordinate's error in [s]
     // The local error of the step just converged (step hs) in tolerances error_rate hs

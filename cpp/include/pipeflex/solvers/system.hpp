@@ -37,6 +37,7 @@ struct Record {
     // the step control's figures (error-controlled generalised-alpha): error_sum and
     // error_max [m] (AlphaStats), smallest_step and largest_step [s]; none with a fixed step
     std::vector<std::pair<std::string, double>> estimates;
+    std::vector<double> steps;  // [s] the accepted steps of an error-controlled run, in order
     // The series `name`, added with `shape` the first time.
     Series& operator()(const std::string& name, const std::vector<long>& shape);
 };
