@@ -413,7 +413,8 @@ def simulate(model, t_end: float, *, integrator: str = "auto", state=None, t_sta
             runs at that spacing (``step=0.05`` with 5 ms between outputs steps 5 ms),
             and ``metadata["step"]`` is the largest step taken (``["requested_step"]``
             the h asked for); steps halved after a failed Newton iteration are counted
-            in ``stats["failed_steps"]``.
+            in ``stats["convergence_failures"]``, steps redone for their error estimate
+            (``rtol``) in ``stats["failed_steps"]``.
         state: initial state (an element model's :class:`~pipeflex.state.State` or
             ``_core.State``; bodies' :class:`~pipeflex.multibody.MultibodyState`; a coupled
             system's :class:`~pipeflex.coupled.CoupledState` or a static result; default:
