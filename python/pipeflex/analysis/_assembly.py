@@ -1,4 +1,7 @@
-"""Calls into the C++ assembler, returning scipy sparse matrices."""
+"""The element assembler's own calls, returning scipy sparse matrices: the residual
+(static and rotating analyses' checks) and, as the tests' reference, the tangents of one
+pass over the elements (``_core.assemble_csc``). The analyses linearise through the one
+system object (``Model._linearization``: the core's ``linear_matrices``)."""
 from __future__ import annotations
 
 import numpy as np
@@ -45,7 +48,8 @@ KCM = ((1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.0, 0.0, 1.0))
 def tangents(model, state, load, weights, *, load_factor=1.0, residual=False):
     """Tangents wK dR/dq + wC dR/dq_dot + wM M (CSC) for each (wK, wC, wM) in ``weights``,
     assembled by the core in one pass over the elements straight into the model's cached
-    CSC pattern (no triplets); with ``residual``, (R, [matrices]) else [matrices]."""
+    CSC pattern (no triplets), at ``state`` as it is (not re-based); with ``residual``,
+    (R, [matrices]) else [matrices]. The tests' reference: no analysis calls it."""
     if isinstance(state, State):
         state = state.to_core(model)
     r, data, indices, indptr = _core.assemble_csc(model.core, state, load, load_factor,
