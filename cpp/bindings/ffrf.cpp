@@ -38,7 +38,7 @@ void bind_ffrf(py::module_& m) {
     py::class_<FfrfBodyData>(m, "FfrfBodyData")
         .def(py::init([](MatX M, MatX K, VecX eta0, std::vector<MatX> A, std::vector<MatX> Bk, std::vector<MatX> GPhi,
                          std::vector<VecX> Gx, MatX CPhi, MatX HPhi, VecX Cx, VecX Hx, MatX Ng,
-                         std::optional<MatX> D) {
+                         std::optional<MatX> D, double mu_f, MatX Ubar, MatX Us, MatX Ue, MatX dUs, MatX dUe) {
                  if (A.size() != 3 || Bk.size() != 3 || GPhi.size() != 3 || Gx.size() != 3)
                      throw std::invalid_argument("A, Bk, GPhi, Gx need 3 entries (k = x, y, z)");
                  FfrfBodyData d;
@@ -57,12 +57,22 @@ void bind_ffrf(py::module_& m) {
                  d.Hx = std::move(Hx);
                  d.Ng = std::move(Ng);
                  if (D) d.D = std::move(*D);
+                 d.mu_f = mu_f;
+                 d.Ubar = std::move(Ubar);
+                 d.Us = std::move(Us);
+                 d.Ue = std::move(Ue);
+                 d.dUs = std::move(dUs);
+                 d.dUe = std::move(dUe);
                  check_ffrf_body(d);
                  return d;
              }),
              py::arg("M"), py::arg("K"), py::arg("eta0"), py::arg("A"), py::arg("Bk"), py::arg("GPhi"),
              py::arg("Gx"), py::arg("CPhi"), py::arg("HPhi"), py::arg("Cx"), py::arg("Hx"), py::arg("Ng"),
-             py::arg("D") = py::none())
+             py::arg("D") = py::none(), py::arg("mu_f") = 0.0, py::arg("Ubar") = MatX(0, 0), py::arg("Us") = MatX(0, 0),
+             py::arg("Ue") = MatX(0, 0), py::arg("dUs") = MatX(0, 0), py::arg("dUe") = MatX(0, 0),
+             "A body's reduced constants (ffrf_body.hpp); D (m x m) the elastic coordinates' damping (None: undamped); mu_f [kg/m], Ubar = int N Phi mu_f ds [kg], Us, Ue "
+             "(Phi's translation rows at the start and end node) and dUs, dUe (du/ds there per eta), 3 x m, give "
+             "the fluid forces' moment on the deformed lever arm (all empty: left out).")
         .def_property_readonly("n", [](const FfrfBodyData& d) { return d.M.rows(); })
         .def_readonly("M", &FfrfBodyData::M)
         .def_readonly("K", &FfrfBodyData::K)

@@ -258,19 +258,20 @@ void bind_system(py::module_& m) {
         py::arg("previous_dt"));
     m.def(
         "linear_matrices",
-        [](System& sys, double mass_flow, double differences_step) {
+        [](System& sys, double mass_flow, double differences_step, double mass_flow_rate) {
             LinearMatrices lm;
             {
                 py::gil_scoped_release release;
-                lm = linearize(sys, mass_flow, TransientOptions(), differences_step);
+                lm = linearize(sys, mass_flow, TransientOptions(), differences_step, mass_flow_rate);
             }
             return linear_dict(std::move(lm));
         },
         "The linearised equations about the system's state (its rates and multipliers; an element model's frames "
         "re-based in place) under the mass flow [kg/s]: K, C, M (n x n, one pattern) and C_q (nc x n) as (data, "
         "indices, indptr) in compressed columns, on a pattern the system keeps for its later calls; with "
-        "differences_step > 0 also the residual's central differences ('differences', tests).",
-        py::arg("system"), py::arg("mass_flow"), py::arg("differences_step") = 0.0);
+        "differences_step > 0 also the residual's central differences ('differences', tests); mass_flow_rate "
+        "[kg/s^2] the flow's rate (an element model's fluid acceleration terms).",
+        py::arg("system"), py::arg("mass_flow"), py::arg("differences_step") = 0.0, py::arg("mass_flow_rate") = 0.0);
     m.def(
         "integrate",
         [](System& sys, const TimeTable& mass_flow, const TimeTable& load_factor, const std::vector<double>& times,

@@ -2,6 +2,7 @@
 
 #include "pipeflex/elements/hermite.hpp"
 
+#include <cmath>
 #include <stdexcept>
 #include <string>
 
@@ -117,6 +118,15 @@ void check_ffrf_body(const FfrfBodyData& d) {
     shape("Hx", d.Hx, n, 1);
     shape("Ng", d.Ng, n, 3);
     if (d.D.size() != 0) shape("D", d.D, m, m);
+    if (d.Ubar.size() != 0 || d.Us.size() != 0 || d.Ue.size() != 0) {
+        shape("Ubar", d.Ubar, 3, m);
+        shape("Us", d.Us, 3, m);
+        shape("Ue", d.Ue, 3, m);
+        shape("dUs", d.dUs, 3, m);
+        shape("dUe", d.dUe, 3, m);
+    }
+    if (!std::isfinite(d.mu_f) || d.mu_f < 0.0)
+        throw std::invalid_argument("FfrfBodyData: mu_f must be finite and >= 0, got " + std::to_string(d.mu_f));
 }
 
 void ffrf_body_forces(const FfrfBodyData& d, const FfrfBodyMotion& s, double wK, double wC, double wM,
@@ -159,6 +169,48 @@ void ffrf_body_forces(const FfrfBodyData& d, const FfrfBodyMotion& s, double wK,
         Aw += w[k] * d.A[k];
     }
     dQdw += Aw;
+    // Q_u (header): the Coriolis forces' moment on the lever arm u; Du its eta derivative
+    // (the K block; zero at rest), Ge the eta_dot derivative (the C block)
+    const bool lever = d.Ubar.cols() == m && m > 0 && sd != 0.0;
+    Mat3d Dw = Mat3d::Zero();
+    MatX Du, Ge;
+    if (lever) {
+        const Vec3d ub = d.Ubar * s.eta, ue = d.Ue * s.eta, us = d.Us * s.eta;
+        const Vec3d ex = Vec3d::UnitX();
+        Dw = ub.x() * Mat3d::Identity() - ex * ub.transpose();
+        Du.noalias() = w * d.Ubar.row(0) - ex * (w.transpose() * d.Ubar);
+        Vec3d centrifugal = Vec3d::Zero();  // [u x u'] mu_f
+        MatX Dc = MatX::Zero(3, m);         // its eta derivative
+        auto end = [&](const Vec3d& u, const MatX& P, const MatX& dP, double sign) {
+            const double c = sign * d.mu_f;
+            Dw += (0.5 * c) * (u.squaredNorm() * Mat3d::Identity() - u * u.transpose());
+            Du.noalias() += c * (w * (u.transpose() * P) - 0.5 * u.dot(w) * P - 0.5 * u * (w.transpose() * P));
+            const Vec3d du = dP * s.eta;
+            centrifugal += c * u.cross(du);
+            Dc.noalias() += c * (skew(u) * dP - skew(du) * P);
+        };
+        end(ue, d.Ue, d.dUe, 1.0);
+        end(us, d.Us, d.dUs, -1.0);
+        Dw *= 2.0 * sd;
+        Du *= 2.0 * sd;
+        Du += (sd * sd) * Dc;
+        L.segment<3>(3) += (sd * sd) * centrifugal;
+        Ge.resize(3, m);
+        Vec3d c, q;  // q = int u x u' mu_f: the skew part of int u x (w x u') is -q x w / 2
+        MatX dq(3, m);
+        for (int k = 0; k < 3; ++k) {
+            const auto Gk = d.GPhi[k].bottomRows(m);
+            Ge.row(k).noalias() = (-2.0 * sd) * (Gk.transpose() * s.eta).transpose();
+            Du.row(k).noalias() -= (2.0 * sd) * (Gk * s.eta_dot).transpose();
+            c[k] = Ge.row(k).dot(s.eta_dot);
+            q[k] = -s.eta.dot(Gk * s.eta);
+            dq.row(k).noalias() = -((Gk + Gk.transpose()) * s.eta).transpose();
+        }
+        Dw -= sd * skew(q);
+        Du.noalias() += sd * (skew(w) * dq);
+        L.segment<3>(3) += Dw * w + c;
+        dQdw.middleRows(3, 3) += Dw;
+    }
 
     residual.head<3>() = R * L.head<3>();
     residual.segment<3>(3) = R * L.segment<3>(3);
@@ -188,6 +240,7 @@ void ffrf_body_forces(const FfrfBodyData& d, const FfrfBodyMotion& s, double wK,
         auto dQde = X.rightCols(m);
         dQde = (2.0 * sd) * d.CPhi;
         for (int k = 0; k < 3; ++k) dQde += (2.0 * w[k]) * d.Bk[k];
+        if (lever) dQde.middleRows(3, 3) += Ge;
         rot_rows(X, 0, wC);
     }
     if (wK != 0.0) {
@@ -203,6 +256,7 @@ void ffrf_body_forces(const FfrfBodyData& d, const FfrfBodyMotion& s, double wK,
         auto dQe = X.rightCols(m);
         dQe = sd * sd * d.HPhi + sdd * d.CPhi;
         for (int k = 0; k < 3; ++k) dQe += (2.0 * sd * w[k]) * d.GPhi[k];
+        if (lever) dQe.middleRows(3, 3) += Du;
         rot_rows(dQe, 6, wK);
         tangent.block(6, 6, m, m) += wK * d.K;
     }

@@ -129,9 +129,14 @@ bool static_arc_tangent(System& sys, const ArcPath& path, double tau, const Eige
     return true;
 }
 
-LinearMatrices linearize(System& sys, double mdot, const TransientOptions& options, double differences_step) {
+LinearMatrices linearize(System& sys, double mdot, const TransientOptions& options, double differences_step,
+                         double mdot_rate) {
     Drive drive;
     drive.mass_flow = TimeTable::constant(mdot);
+    if (mdot_rate != 0.0) {  // a flow leaving mdot (exactly) at the run's start t0 = 0 at the rate mdot_rate
+        drive.mass_flow.t = {0.0, 1.0};
+        drive.mass_flow.value = {mdot, mdot + mdot_rate};
+    }
     drive.options = options;
     const std::unique_ptr<Run> run = sys.start(drive, System::Mode::dynamics);
     return linear_matrices(run->equations(), run->v, run->a, run->lam, run->t0, differences_step, &sys.tangent_csc());

@@ -934,6 +934,9 @@ class Model:
         self.ancf_nodes = ancf_nodes
         self.info: dict = {}
         self._free = free
+        # (core State, System on it) pairs for _linearization: each keeps its tangent's CSC
+        # pattern across calls (not pickled: __reduce__ rebuilds the model)
+        self._linear_systems: list = []
         first_dof = np.asarray(core.first_dof, dtype=np.int64)  # one conversion: each access copies it
         ancf = np.zeros(len(bases), dtype=bool)
         ancf[list(ancf_nodes)] = True
@@ -1100,26 +1103,27 @@ class Model:
     def _linearization(self, system, mass_flow: float, mass_flow_rate: float = 0.0) -> dict:
         """:func:`~pipeflex.linearize`'s fields for ``system`` at mdot [kg/s] ``mass_flow``
         changing at ``mass_flow_rate`` [kg/s^2]:
-        the reduced coordinates' M, C, K (CSC) from the element assembler straight into the
-        model's cached pattern (:func:`pipeflex.analysis._assembly.tangents`' core call;
-        the core's ``linear_matrices`` gives the same numbers through triplets, 3-10 times
-        slower), about the state re-based (phi = 0), and the coordinates' labels."""
-        import scipy.sparse as sp
-
+        the reduced coordinates' M, C, K (CSC) from the core's ``linear_matrices`` on the
+        one system object, about the state re-based (phi = 0), and the coordinates' labels.
+        The state is copied into a system the model keeps, so that repeated linearisations
+        (critical_mass_flow's scan, campbell, stability maps) reuse its tangent's pattern;
+        one per concurrent caller (a thread takes one from the pool or makes one)."""
+        from .analysis.constrained import from_core
         from .state import State
 
         s = system.element_state  # a copy
-        s.rebase(0.0)
-        load = self.load_state(mass_flow=mass_flow, mass_flow_rate=mass_flow_rate)
-        _, data, indices, indptr = _core.assemble_csc(self._core, s, load, 1.0,
-                                                      [(1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.0, 0.0, 1.0)], False)
-        n = self.n_dofs
-        K, C, M = (sp.csc_matrix((d, indices if k == 0 else indices.copy(), indptr if k == 0 else indptr.copy()),
-                                 shape=(n, n), copy=False) for k, d in enumerate(data))
-        for X in (K, C, M):  # the core's pattern: rows ascending, no repeats
-            X.has_sorted_indices = True
-            X.has_canonical_format = True
-        return dict(M=M, C=C, K=K, state=State.from_core(s, self), dof_labels=self.dof_labels)
+        try:
+            held, linear = self._linear_systems.pop()  # atomic: no two threads get the same one
+        except IndexError:
+            held = s.copy()
+            linear = _core.element_system(self._core, held, self.load_state())
+        held.q, held.v, held.a, held.frames = s.q, s.v, s.a, s.frames
+        try:
+            K, C, M, _ = from_core(_core.linear_matrices(linear, mass_flow, mass_flow_rate=mass_flow_rate))  # held re-based in place
+            state = State.from_core(held, self)  # a copy
+        finally:
+            self._linear_systems.append((held, linear))
+        return dict(M=M, C=C, K=K, state=state, dof_labels=self.dof_labels)
 
     def _equilibrium_state(self, result):
         """The state a static result holds (what :meth:`_system` takes): its ``state``."""
@@ -1209,9 +1213,10 @@ class Model:
 
         from .analysis.eigen import describe_coordinates, null_coordinates
 
-        _, (data,), indices, indptr = _core.assemble_csc(self._core, state, load, load_factor, [(1.0, 0.0, 0.0)],
-                                                         False)
-        free = null_coordinates(sp.csc_matrix((data, indices, indptr), shape=(self.n_dofs, self.n_dofs)))
+        # the system object's tangent (its loads at the full factor: the null space of a
+        # mechanism does not depend on them)
+        out = _core.linear_matrices(_core.element_system(self._core, state.copy(), load), load.mass_flow)
+        free = null_coordinates(sp.csc_matrix(out["K"], shape=(self.n_dofs, self.n_dofs)))
         named = f"; {describe_coordinates(free, self.dof_labels)}" if len(free) else ""
         return f"the tangent is singular (a mechanism: missing supports, or a bifurcation point{named})"
 

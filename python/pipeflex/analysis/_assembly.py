@@ -1,4 +1,7 @@
-"""Calls into the C++ assembler, returning scipy sparse matrices."""
+"""The element assembler's own calls, returning scipy sparse matrices: the residual
+(static and rotating analyses' checks) and, as the tests' reference, the tangents of one
+pass over the elements (``_core.assemble_csc``). The analyses linearise through the one
+system object (``Model._linearization``: the core's ``linear_matrices``)."""
 from __future__ import annotations
 
 import numpy as np
@@ -27,17 +30,6 @@ def require_model(model, name: str = "model", *, why: str = ""):
     return model
 
 
-def _csc(data, indices, indptr, n, *, rows=None):
-    """The core's compressed columns (rows ascending, no repeats) as a scipy CSC matrix,
-    ``rows`` (default n) x n, without a copy."""
-    import scipy.sparse as sp
-
-    A = sp.csc_matrix((data, indices, indptr), shape=(n if rows is None else rows, n), copy=False)
-    A.has_sorted_indices = True  # the core's pattern: rows ascending, no repeats
-    A.has_canonical_format = True
-    return A
-
-
 # the weights of K, C and M, for tangents()
 KCM = ((1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.0, 0.0, 1.0))
 
@@ -45,7 +37,10 @@ KCM = ((1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.0, 0.0, 1.0))
 def tangents(model, state, load, weights, *, load_factor=1.0, residual=False):
     """Tangents wK dR/dq + wC dR/dq_dot + wM M (CSC) for each (wK, wC, wM) in ``weights``,
     assembled by the core in one pass over the elements straight into the model's cached
-    CSC pattern (no triplets); with ``residual``, (R, [matrices]) else [matrices]."""
+    CSC pattern (no triplets), at ``state`` as it is (not re-based); with ``residual``,
+    (R, [matrices]) else [matrices]. The tests' reference: no analysis calls it."""
+    from .constrained import _csc  # scipy: on first use
+
     if isinstance(state, State):
         state = state.to_core(model)
     r, data, indices, indptr = _core.assemble_csc(model.core, state, load, load_factor,

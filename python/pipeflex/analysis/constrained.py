@@ -39,7 +39,15 @@ import numpy as np
 import scipy.sparse as sp
 
 from ..results import Result
-from ._assembly import _csc
+
+
+def _csc(data, indices, indptr, n, *, rows=None):
+    """The core's compressed columns (rows ascending, no repeats) as a scipy CSC matrix,
+    ``rows`` (default n) x n, without a copy."""
+    A = sp.csc_matrix((data, indices, indptr), shape=(n if rows is None else rows, n), copy=False)
+    A.has_sorted_indices = True  # the core's pattern: rows ascending, no repeats
+    A.has_canonical_format = True
+    return A
 
 
 @dataclass(frozen=True)

@@ -324,8 +324,7 @@ def critical_mass_flow(model, *, tol: float = 1e-10, mass_flow_max: Optional[flo
             _check_not_at_zero(lo, unit, hi, eig_hi, ev.model)
             iw = int(np.argmax(eig_hi.values.real))
             worst = eig_hi.values[iw]
-            why = ("a weakly growing mode near the noise level (e.g. of a loaded floating-frame body, "
-                   "docs/theory.md)")
+            why = "a weakly growing mode near the noise level"
             if ev.sparse:
                 why += (f"; or round-off: at {ev.model.n_dofs} coordinates the scan's eigenvalues (shift-invert "
                         f"Arnoldi in double) are only good to about {eig_hi.noise[iw]:.2g} 1/s (it grows like N^4 "
@@ -464,8 +463,8 @@ def _stiffness_eigenvalues_near_zero(K, k=3):
 
 def _check_not_at_zero(mc, unit, hi, eig_hi, model):
     """A flutter crossing at mdot -> 0 is no critical flow: the equilibrium is only
-    marginally stable without flow and the first flow destabilises it (e.g. a weakly
-    growing mode of a loaded floating-frame body, docs/theory.md). Say so instead of
+    marginally stable without flow and the first flow destabilises it (a weakly growing
+    mode at the noise level). Say so instead of
     returning ~0 kg/s."""
     if mc <= AT_ZERO_FLOW * unit:
         lam = eig_hi.values

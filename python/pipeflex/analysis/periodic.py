@@ -222,15 +222,19 @@ def _chart(model, base):
 
 def _critical_direction(model, equilibrium, start):
     """The critical mode of ``start`` (a CriticalFlow) in the chart's coordinates: an
-    element model's as it is; with constraints the mode's independent coordinates
-    through the null-space basis of the linearisation at the Hopf equilibrium."""
+    element model's as it is; with constraints the mode of the linearisation at the Hopf
+    equilibrium nearest ``start.eigenvalue``, in that linearisation's own independent
+    coordinates (its null-space basis may pivot otherwise than the scan's, in which
+    ``start.mode`` is), through its basis."""
     phi = np.asarray(start.mode, complex)
     if equilibrium.independent:
         return phi
+    from .eigen import eigenvalues
     from .linearize import linearize
 
     lin = linearize(model, equilibrium.base, mass_flow=float(start.mass_flow))
-    return np.asarray(lin.basis @ phi)
+    mode = eigenvalues(lin, vectors=True, n_modes=1, sigma=complex(start.eigenvalue)).vectors[:, 0]
+    return np.asarray(lin.basis @ mode)
 
 
 class _Shooter:

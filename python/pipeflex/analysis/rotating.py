@@ -35,7 +35,7 @@ from .._options import renamed
 from ..errors import ConvergenceError
 from ..results import Result
 from ..state import State, as_core
-from ._assembly import KCM, require_model, residual_and_tangent, tangents
+from ._assembly import require_model, residual_and_tangent
 from ._continuation import follow
 from .eigen import GROWTH_TOL, SPARSE_MIN_DOFS, eigenvalues
 from .linearize import Linearization
@@ -186,8 +186,10 @@ class _Frame:
 
 
 def _matrices(model, state, dense=False):
-    """K, C, M of ``model`` at ``state``: sparse CSC, or dense arrays."""
-    K, C, M = tangents(model, state, model.load_state(), KCM)  # one assembly pass
+    """K, C, M of ``model`` at ``state`` (its linearisation through the system object):
+    sparse CSC, or dense arrays."""
+    lin = model._linearization(model._system(state), model.mass_flow)  # the one system object
+    K, C, M = lin["K"], lin["C"], lin["M"]
     if dense:
         return K.toarray(), C.toarray(), M.toarray()
     return sp.csc_matrix(K), sp.csc_matrix(C), sp.csc_matrix(M)

@@ -137,7 +137,8 @@ def _modal_damping_matrix(zeta, K: np.ndarray, M: np.ndarray) -> Optional[np.nda
 
 
 def _assemble(length, n_el, sec: PipeSection):
-    """Full body matrices (6 n_nodes square) from the element kernels."""
+    """Full body matrices (6 n_nodes square) from the element kernels, the weight
+    integral Ng and int N^T ds (6 n_nodes x 3)."""
     n = 6 * (n_el + 1)
     le = length / n_el
     ints = _core.beam_integrals(le)
@@ -146,7 +147,7 @@ def _assemble(length, n_el, sec: PipeSection):
     Z = lambda: np.zeros((n, n))  # noqa: E731
     M, C, H, K = Z(), Z(), Z(), Z()
     S, G = [Z() for _ in range(3)], [Z() for _ in range(3)]
-    Ng = np.zeros((n, 3))
+    N_int = np.zeros((n, 3))  # int N^T ds
     for e in range(n_el):
         s = slice(6 * e, 6 * e + 12)
         M[s, s] += (mu_p + mu_f) * ints["NN"]
@@ -156,13 +157,21 @@ def _assemble(length, n_el, sec: PipeSection):
         for k in range(3):
             S[k][s, s] += (mu_p + mu_f) * ints["NSN"][k]
             G[k][s, s] += mu_f * ints["NSdN"][k]
-        Ng[s] += (mu_p + mu_f) * ints["N"]
+        N_int[s] += ints["N"]
     # section rotary inertia (rho I_p, rho I_y, rho I_z) lumped at the nodes
     J = np.asarray(sec.rotary_inertia, float)
     for i in range(n_el + 1):
         w = le * (0.5 if i in (0, n_el) else 1.0)
         M[6 * i + 3:6 * i + 6, 6 * i + 3:6 * i + 6] += np.diag(w * J)
-    return M, C, H, K, S, G, Ng
+    return M, C, H, K, S, G, (mu_p + mu_f) * N_int, N_int
+
+
+def _end_slopes(Phi, node):
+    """The bending slopes (0, u_y', u_z') (3 x m) per elastic coordinate at the end node
+    whose rows start at ``node``: its rotations (u_y' = theta_z, u_z' = -theta_y, the
+    kernel's convention). No axial entry: the linear axial shape has no u'' in the flow
+    integrals (int N^T N''), whose end terms these slopes give."""
+    return np.vstack([np.zeros(Phi.shape[1]), Phi[node + 5], -Phi[node + 4]])
 
 
 def _craig_bampton(K, M, n_el, internal_modes):
@@ -302,7 +311,7 @@ def flexible_body(*, length: float, n_elements: int, section: PipeSection, inter
     if abs(kappa) * L >= np.pi:
         raise ValueError(f"curvature * length must be < pi (a body turns by less than 180 degrees), got {kappa * L}")
     s = np.linspace(-L / 2, L / 2, n_el + 1)
-    M, C, H, K, S, G, Ng = _assemble(L, n_el, section)
+    M, C, H, K, S, G, Ng, N_int = _assemble(L, n_el, section)
     n = 6 * (n_el + 1)
     xbar = np.zeros(n)
     xbar[0::6] = s
@@ -348,7 +357,10 @@ def flexible_body(*, length: float, n_elements: int, section: PipeSection, inter
         M=Mr, K=Kr, eta0=eta0, D=_modal_damping_matrix(modal_damping, Kr, Mr[6:, 6:]),
         A=[B.T @ S[k] @ Psi_r0 for k in range(3)], Bk=[B.T @ S[k] @ Phi for k in range(3)],
         GPhi=[B.T @ G[k] @ Phi for k in range(3)], Gx=[B.T @ G[k] @ xbar for k in range(3)],
-        CPhi=B.T @ C @ Phi, HPhi=B.T @ H @ Phi, Cx=B.T @ C @ xbar, Hx=B.T @ H @ xbar, Ng=B.T @ Ng)
+        CPhi=B.T @ C @ Phi, HPhi=B.T @ H @ Phi, Cx=B.T @ C @ xbar, Hx=B.T @ H @ xbar, Ng=B.T @ Ng,
+        # the Coriolis forces' moment on the deformed lever arm N Phi eta (cpp/include/pipeflex/elements/ffrf_body.hpp)
+        mu_f=section.fluid_mass, Ubar=section.fluid_mass * (N_int.T @ Phi), Us=Phi[0:3], Ue=Phi[6 * n_el:6 * n_el + 3],
+        dUs=_end_slopes(Phi, 0), dUe=_end_slopes(Phi, 6 * n_el))
     mass = L * (section.pipe_mass + section.fluid_mass)
     arguments = dict(length=L, n_elements=n_el, section=section, internal_modes=internal_modes,
                      reduction=reduction, curvature=kappa, basis=None if basis is None else Phi,

@@ -461,11 +461,15 @@ class MultibodySystem:
 
     def _system(self, state: Optional[MultibodyState] = None, *, mass_flow: Optional[float] = None) -> "_core.System":
         """The core system on a copy of ``state`` (a :class:`MultibodyState`, or a result
-        holding one in ``body_state``, e.g. a steady rotation; checked; None: the assembly
-        configuration at rest); ``mass_flow`` mdot [kg/s] is the analyses' argument (the
-        bodies' system holds no flow)."""
-        if state is not None and not isinstance(state, MultibodyState) and hasattr(state, "body_state"):
-            state = state.body_state
+        holding one in ``body_state``, e.g. a steady rotation, or in ``state``, a static
+        result; checked; None: the assembly configuration at rest); ``mass_flow`` mdot
+        [kg/s] is the analyses' argument (the bodies' system holds no flow)."""
+        if state is not None and not isinstance(state, MultibodyState):
+            for name in ("body_state", "state"):  # (a static result's body_state is None)
+                held = getattr(state, name, None)
+                if isinstance(held, MultibodyState):
+                    state = held
+                    break
         if state is not None:
             self.check_state(state)
         return self.system(state)

@@ -16,7 +16,16 @@
 // accelerations a = v_dot, R^ = diag(R, R, I), w = R^T omega (body components), and
 //
 //   Q_v = sum_k w_k [A_k w + 2 B_k eta_dot + 2 sdot (Gx_k + GPhi_k eta)]
-//         + 2 sdot CPhi eta_dot + sdot^2 (Hx + HPhi eta) + sddot (Cx + CPhi eta),
+//         + 2 sdot CPhi eta_dot + sdot^2 (Hx + HPhi eta) + sddot (Cx + CPhi eta) + Q_u,
+//
+// Q_u the moment rows' part of the Coriolis forces f = 2 mu_f sdot dv/ds on the lever arm
+// u = N Phi eta (B's rows take s e_x): int u x f = 2 sdot [D(eta) w - (eta^T GPhi_k,eta eta_dot)_k]
+// with D = Ubar_x I - e_x Ubar^T + mu_f/2 [|u|^2 I - u u^T]_start^end - q~/2 (Ubar = int u mu_f,
+// q = int u x u' mu_f = -(eta^T GPhi_k,eta eta)_k, GPhi_k,eta the elastic rows). Then the
+// Coriolis forces' power is mu_f sdot [|v|^2] over the body's ends, v the nodes' velocities
+// the joints tie, so that it cancels across a rigid joint at every deformation (without Q_u
+// a loaded, deformed chain of bodies gains energy from the flow: a spurious flutter).
+// Likewise the centrifugal forces mu_f sdot^2 u'' add int u x u'' = [u x u']_start^end.
 //
 // where A_k = B^T S_k Psi_r0, B_k = B^T S_k Phi, Gx_k = B^T G_k xbar, GPhi_k = B^T G_k Phi,
 // Cx = B^T C xbar, CPhi = B^T C Phi, Hx, HPhi likewise (S_k = int N^T n~_k N (mu_p + mu_f),
@@ -64,6 +73,12 @@ struct FfrfBodyData {
     MatX Ng;                       // n x 3  B^T int N^T (mu_p + mu_f) ds
     MatX D;                        // m x m  damping of the elastic coordinates [N s/m ...]
                                    // (modal damping; empty: undamped, skipped)
+    // The Coriolis forces' moment about the frame on the deformed lever arm u = N Phi eta
+    // (ffrf_body_forces); all empty (0 columns): left out.
+    MatX Ubar;                     // 3 x m  int N Phi mu_f ds [kg]
+    MatX Us, Ue;                   // 3 x m  the translation rows of Phi at the start and end node
+    MatX dUs, dUe;                 // 3 x m  du/ds per eta there
+    double mu_f = 0.0;             // fluid mass per length [kg/m]
 };
 
 // Throws std::invalid_argument naming the first member whose size does not fit

@@ -181,7 +181,10 @@ bool static_arc_tangent(System& sys, const ArcPath& path, double tau, const Eige
 
 // The linearised equations (linear_matrices) about the system's state (its rates and
 // multipliers) under the constant mass flow mdot [kg/s].
-LinearMatrices linearize(System& sys, double mdot, const TransientOptions& options, double differences_step = 0.0);
+// mdot_rate [kg/s^2]: the flow's rate at the state (the fluid's acceleration terms of an
+// element model; floating-frame bodies have none).
+LinearMatrices linearize(System& sys, double mdot, const TransientOptions& options, double differences_step = 0.0,
+                         double mdot_rate = 0.0);
 
 // Generalised-alpha from the system's state (time times.front(), its rates, consistent
 // accelerations and multipliers) through the output times; the end state stays in the
