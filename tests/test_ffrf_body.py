@@ -180,8 +180,6 @@ def test_bad_input():
 
 def test_clear_errors_for_misuse():
     s = scenes.ffrf_cantilever_pipe(n_bodies=1)
-    with pytest.raises(ValueError, match="index 3, which IDA does not take"):
-        pf.simulate(s, 1.0, integrator="ida")  # bodies: generalised-alpha only
     with pytest.raises(ValueError, match=r"rho_inf must be in \[0, 1\) \(index-3 constraints"):
         pf.simulate(s, 0.01, step=1e-3, rho_inf=1.0)  # joints' multipliers need numerical damping
     late = pf.simulate(s, 0.52, t_start=0.5, step=5e-3, n_outputs=3)  # the same driver: any start time

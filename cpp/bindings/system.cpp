@@ -4,6 +4,7 @@
 #include "outputs.hpp"
 #include "pipeflex/core/format.hpp"
 #include "pipeflex/solvers/coupled.hpp"
+#include "pipeflex/solvers/ida.hpp"
 #include "pipeflex/solvers/system.hpp"
 
 #include <pybind11/eigen.h>
@@ -288,7 +289,7 @@ void bind_system(py::module_& m) {
             Record out;
             {
                 py::gil_scoped_release release;
-                out = ida ? sys.integrate_ida(drive, times, cb) : integrate(sys, drive, times, cb);
+                out = ida ? integrate_ida(sys, drive, times, cb) : integrate(sys, drive, times, cb);
             }
             return record_dict(out);
         },

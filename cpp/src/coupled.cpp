@@ -149,6 +149,26 @@ class CoupledEquations final : public Equations {
         return k;
     }
 
+    void chart_rates(const VecX& w, VecX& zd) const override {
+        VecX z1, z2;
+        el_eq_.chart_rates(w.head(n1_), z1);
+        mb_eq_.chart_rates(w.tail(n2_), z2);
+        zd.resize(n1_ + n2_);
+        zd << z1, z2;
+    }
+    void rate_increments(const VecX& dz, VecX& w) const override {
+        VecX w1, w2;
+        el_eq_.rate_increments(dz.head(n1_), w1);
+        mb_eq_.rate_increments(dz.tail(n2_), w2);
+        w.resize(n1_ + n2_);
+        w << w1, w2;
+    }
+    double chart_rotation() const override { return std::max(el_eq_.chart_rotation(), mb_eq_.chart_rotation()); }
+    void set_rebase_angle(double angle) override {
+        el_eq_.set_rebase_angle(angle);
+        mb_eq_.set_rebase_angle(angle);
+    }
+
     void accept(double t, double h) override {
         el_eq_.accept(t, h);
         mb_eq_.accept(t, h);

@@ -62,7 +62,13 @@ double model_length_scale(const Model& model) {
 
 void record_element(const ElementEquations& eq, double t, Record& out) {
     TransientOutput o;
-    eq.record(t, o, eq.fluid_work, eq.load_work);
+    double fw = eq.fluid_work, lw = eq.load_work;
+    if (t < eq.last_power_t && eq.last_power_t > eq.previous_power_t) {  // inside the last step (IDA's outputs)
+        const double s = (t - eq.previous_power_t) / (eq.last_power_t - eq.previous_power_t);
+        fw = eq.previous_fluid_work + s * (fw - eq.previous_fluid_work);
+        lw = eq.previous_load_work + s * (lw - eq.previous_load_work);
+    }
+    eq.record(t, o, fw, lw);
     append_element_outputs(o, eq.model.n_nodes(), out);
 }
 
@@ -132,16 +138,6 @@ class ElementSystem final : public System {
     Eigen::VectorXd length_coordinates() const override { return element_length_coordinates(model_); }
     const State* element_state() const override { return &state_; }
     double record_size() const override { return 18.0 * model_.n_nodes() + 5.0; }
-    Record integrate_ida(const Drive& drive, const std::vector<double>& times, const ProgressFn& progress) override {
-        Drive d = drive;
-        d.options.length_scale = model_length_scale(model_);
-        const TransientOutput o = pipeflex::integrate_ida(
-            model_, state_, load_, TimeFunctions{d.mass_flow, d.load_factor}, times, d.options, progress);
-        Record out;
-        out.t = o.t;
-        append_element_outputs(o, model_.n_nodes(), out, true);
-        return out;
-    }
 
    private:
     const Model& model_;

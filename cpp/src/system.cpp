@@ -17,12 +17,6 @@ Record::Series& Record::operator()(const std::string& name, const std::vector<lo
     return series.back().second;
 }
 
-Record System::integrate_ida(const Drive&, const std::vector<double>&, const ProgressFn&) {
-    throw std::invalid_argument(
-        "integrator='ida' integrates an element model's ODE; a system with joints is a differential-algebraic "
-        "system of index 3, which IDA does not take: use integrator='generalized_alpha'");
-}
-
 StaticNewtonResult static_equilibrium(System& sys, double mdot, double load_factor, StaticNewtonOptions opt,
                                       const TransientOptions& options, bool mechanism) {
     Drive drive;

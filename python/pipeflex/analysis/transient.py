@@ -387,7 +387,9 @@ def simulate(model, t_end: float, *, integrator: str = "auto", state=None, t_sta
             :class:`~pipeflex.multibody.MultibodySystem` or a :class:`~pipeflex.CoupledSystem`
             (elements and floating-frame bodies): the same driver and options for each;
             bodies and joints make the equations differential-algebraic of index 3, which
-            generalised-alpha integrates (not IDA), with ``rho_inf`` < 1.
+            generalised-alpha integrates as they are (with ``rho_inf`` < 1) and IDA in their
+            stabilised index-2 form (positions and velocities on the constraints;
+            docs/theory.md).
         t_end: final time [s] (> t_start).
         integrator: ``"auto"`` (default), ``"generalized_alpha"`` (second order, numerical
             damping set by ``rho_inf``; fixed step, halved when Newton fails) or ``"ida"``
@@ -513,10 +515,6 @@ def simulate(model, t_end: float, *, integrator: str = "auto", state=None, t_sta
             raise ValueError("times must start at t_start and end at or before t_end")
     system = model._system(state)
     bodies = system.body_state is not None
-    if bodies and integrator == "ida":
-        raise ValueError("integrator='ida' integrates an element model's ODE; joints make the equations "
-                         "differential-algebraic of index 3, which IDA does not take: use "
-                         "integrator='generalized_alpha'")
     if bodies and extrapolate:
         raise ValueError("extrapolate=True is for element models (pipeflex.Model) only")
     opt = _core.TransientOptions()

@@ -49,6 +49,7 @@ class MultibodyEquations final : public Equations {
             cur_.R[j] = rotation_exp(Vec3d(z.segment<3>(o + 3))) * base_.R[j];
             cur_.eta.segment(o + 6, m) = base_.eta.segment(o + 6, m) + z.segment(o + 6, m);
         }
+        z_ = z;
         cur_.v = v;
         cur_.a = a;
         cur_.lam = lam;
@@ -84,7 +85,33 @@ class MultibodyEquations final : public Equations {
 
     int rebase(Eigen::VectorXd&, Eigen::VectorXd&) override {
         base_ = cur_;
+        z_.setZero();
         return 0;
+    }
+    // The frames' rotation coordinates (R = exp(z~) R0) move at zd = T(z)^-1 omega.
+    void chart_rates(const Eigen::VectorXd& w, Eigen::VectorXd& zd) const override {
+        zd = w;
+        if (z_.size() != n_) return;  // nothing set yet: z = 0
+        for (int j = 0; j < sys_.n_bodies(); ++j) {
+            const int o = sys_.offset(j) + 3;
+            const Vec3d phi = z_.segment<3>(o);
+            if (phi.squaredNorm() > 0.0) zd.segment<3>(o) = rotation_jacobian(phi).partialPivLu().solve(Vec3d(w.segment<3>(o)));
+        }
+    }
+    void rate_increments(const Eigen::VectorXd& dz, Eigen::VectorXd& w) const override {
+        w = dz;
+        if (z_.size() != n_) return;
+        for (int j = 0; j < sys_.n_bodies(); ++j) {
+            const int o = sys_.offset(j) + 3;
+            const Vec3d phi = z_.segment<3>(o);
+            if (phi.squaredNorm() > 0.0) w.segment<3>(o) = rotation_jacobian(phi) * Vec3d(dz.segment<3>(o));
+        }
+    }
+    double chart_rotation() const override {
+        double big = 0.0;
+        if (z_.size() != n_) return big;
+        for (int j = 0; j < sys_.n_bodies(); ++j) big = std::max(big, z_.segment<3>(sys_.offset(j) + 3).norm());
+        return big;
     }
 
     void accept(double t, double h) override {
@@ -132,6 +159,7 @@ class MultibodyEquations final : public Equations {
 
     const MultibodySystemCore& sys_;
     MbState base_, cur_;
+    Eigen::VectorXd z_;  // the chart coordinates set
     const TimeTable& flow_;
     int n_, nc_;
     std::vector<Vec3d> start_r_;

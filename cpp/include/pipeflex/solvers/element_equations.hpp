@@ -52,6 +52,9 @@ class ElementEquations final : public Equations {
     double rebase_angle = 0.0;  // [rad] frames with |phi| beyond it are re-based by rebase()
     double fluid_work = 0.0, load_work = 0.0, last_power_t = 0.0, last_fluid_power = 0.0,
            last_load_power = 0.0;
+    // the work at the accumulation before the last one (output times inside a step, IDA's:
+    // interpolated linearly, record_element)
+    double previous_fluid_work = 0.0, previous_load_work = 0.0, previous_power_t = 0.0;
 
     LoadState load_at(double t) const {
         LoadState l = base_load;
@@ -181,6 +184,8 @@ class ElementEquations final : public Equations {
         if (predicted) predicted_stresses(model, state, full(dz->head(n)), geometric_stresses);
     }
     int rebase(Eigen::VectorXd& v, Eigen::VectorXd& a) override { return rebase(rebase_angle, v, a); }
+    double chart_rotation() const override { return state.max_rotation(); }
+    void set_rebase_angle(double angle) override { rebase_angle = angle; }
     // a fine mesh started off balance rings in its stiff modes (bench_galpha_step.py)
     bool adaptive_prediction() const override { return true; }
     void accept(double t, double h) override {
@@ -238,6 +243,9 @@ class ElementEquations final : public Equations {
         double pf, pl;
         powers(t, &pf, &pl);
         const double dt = t - last_power_t;
+        previous_fluid_work = fluid_work;
+        previous_load_work = load_work;
+        previous_power_t = last_power_t;
         fluid_work += 0.5 * dt * (pf + last_fluid_power);
         load_work += 0.5 * dt * (pl + last_load_power);
         last_fluid_power = pf;

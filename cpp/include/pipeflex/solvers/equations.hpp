@@ -106,6 +106,23 @@ class Equations {
     // coordinate), the model size for rotations and slopes (an angle error e moves a
     // point at that distance by e times it).
     virtual void error_scales(Eigen::VectorXd& s) const { s = Eigen::VectorXd::Ones(n_coordinates()); }
+
+    // The kinematics IDA (ida.hpp) integrates, z' = N(z) v, at the state set. The defaults
+    // are an element model's: its rates are chart rates (N = I).
+    // zd = N(z) w: the chart's rate of the rates w (n); a floating frame's rotation
+    // coordinates: T(z)^-1 w (T the left Jacobian of exp; w spatial).
+    virtual void chart_rates(const Eigen::VectorXd& w, Eigen::VectorXd& zd) const { zd = w; }
+    // w = N(z)^-1 dz: a chart increment as an increment of the rates' kind (spatial for a
+    // frame: T(z) dz), the one the tangent's columns are taken in.
+    virtual void rate_increments(const Eigen::VectorXd& dz, Eigen::VectorXd& w) const { w = dz; }
+    // c_t (nc) at the state set: the constraints' rate at fixed q (driven joints; zero
+    // unless a joint moves with time), so that the velocity constraint is C_q v + c_t = 0.
+    virtual void constraint_rate(Eigen::VectorXd& ct) const { ct = Eigen::VectorXd::Zero(n_constraints()); }
+    // [rad] The largest rotation of the state set's frames from the chart's base (what
+    // rebase() resets): IDA re-bases and restarts once it exceeds the run's rebase_angle.
+    virtual double chart_rotation() const { return 0.0; }
+    // rebase() re-bases the frames turned beyond angle [rad] (all of them by default).
+    virtual void set_rebase_angle(double angle) { (void)angle; }
 };
 
 // Scales the constraint rows and columns of an (n + nc) tangent's triplets by s (so that

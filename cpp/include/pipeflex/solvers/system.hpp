@@ -100,9 +100,6 @@ class System {
     virtual Eigen::VectorXd length_coordinates() const = 0;
     // Values recorded per output time (Run::record), to bound a run's output memory.
     virtual double record_size() const = 0;
-    // Formulation-specific runs without a general implementation yet: IDA (an element
-    // model's ODE); the others say why not.
-    virtual Record integrate_ida(const Drive& drive, const std::vector<double>& times, const ProgressFn& progress);
     // The system in rigid rotation about its hinge at the mass flow mdot [kg/s] (the
     // formulation's rigid-rotation equations), from its state; pin (n): the hinge angle's
     // row, lam: the state's multipliers. RotatingSystem::finish leaves the end state here.

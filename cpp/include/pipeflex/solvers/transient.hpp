@@ -1,9 +1,8 @@
 // Time integration of  R(q, q_dot, q_ddot, t) = 0  (reduced coordinates).
 //
-// Two integrators share the assembler:
-//  * IDA (SUNDIALS, variable-order BDF) on y = [z, v] interleaved per coordinate,
-//    F = [z_dot - v; R(q(z), v, v_dot)], analytic band Jacobian
-//    [[c_j I, -I], [K, C + c_j M]] (two weighted assemblies);
+// Two integrators, each written once on the Equations of any system:
+//  * IDA (SUNDIALS, variable-order BDF; ida.hpp), on the stabilised index-2 form with
+//    constraints;
 //  * generalised-alpha (Arnold & Bruls 2007, Chung-Hulbert parameters from rho_inf),
 //    Newton on the accelerations with the iteration matrix M + gamma' C + beta' K.
 // Rotations are integrated in the rotation-vector chart of the nodes' reference frames
@@ -75,9 +74,6 @@ struct TimeFunctions {
     TimeTable mass_flow, load_factor;
 };
 
-TransientOutput integrate_ida(const Model& model, State& state, const LoadState& load,
-                              const TimeFunctions& functions, const std::vector<double>& times,
-                              const TransientOptions& opt, const ProgressFn& progress);
 
 
 // The tangent-linear map of a generalised-alpha flow map, kept step by step: K and C at
