@@ -87,6 +87,24 @@ ROUNDOFF_SHIFT = 0.2
 ROUNDOFF_LIMIT = 1e-3
 
 #: Large models: the followed eigenvalue's Newton refinement is trusted within this
+#: A flutter crossing whose growth over the flow's own scale, dRe(lambda)/dmdot * mdot_c,
+#: stays below WEAK_CROSSING |lambda| is reported with a RuntimeWarning: any structural
+#: damping ratio above about WEAK_CROSSING / 2 suppresses it. Pipe flutter gains ~0.1-1
+#: |lambda| (the cantilever's: 0.9 at 25 kg/s); the spurious growth of 4 loaded floating-
+#: frame bodies (the flow's stiffness at their joints, docs/theory.md) ~1e-7.
+WEAK_CROSSING = 1e-4
+
+
+def _check_weak_crossing(mc, lam, slope):
+    gain = abs(slope) * mc / max(abs(lam), 1e-300)
+    if gain < WEAK_CROSSING:
+        warnings.warn(f"critical_mass_flow: the flutter at {mc:.6g} kg/s ({abs(lam.imag):.6g} rad/s) is weak: its "
+                      f"growth rate rises by {abs(slope) * mc:.3g} 1/s over the flow's scale, {gain:.2g} of |lambda| "
+                      f"(below WEAK_CROSSING = {WEAK_CROSSING:g}), which a damping ratio of {gain / 2:.2g} would "
+                      "remove: check it against a finer or an element model (loaded floating-frame bodies show such "
+                      "spurious crossings: docs/theory.md), or add structural damping", RuntimeWarning, stacklevel=4)
+
+
 #: fraction of |lambda| of its prediction (the eigenvalues of a pipe's lowest modes lie
 #: tens of percent apart); farther, it is restarted from shift-invert Arnoldi.
 TRACK_TRUST = 0.05
@@ -748,6 +766,7 @@ def _result(ev, mc, kind, eig_c=None, crossing=None):
         freq = abs(lam_c.imag)
         roundoff = _roundoff_estimate(block, lam_c, x, crossing.slope)
         _check_roundoff(mc, roundoff, ev.model.n_dofs)
+        _check_weak_crossing(mc, lam_c, crossing.slope)
     else:
         # null vector of the stiffness block through zero
         best = None
