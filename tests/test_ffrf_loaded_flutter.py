@@ -17,7 +17,8 @@ TIP_FORCE = 1.5  # [N] along z: a tip deflection of about 5 % of the length
 
 
 def loaded(n_bodies):
-    return scenes.ffrf_cantilever_pipe(n_bodies=n_bodies, elements_per_body=20, tip_force=TIP_FORCE)
+    return scenes.ffrf_cantilever_pipe(n_bodies=n_bodies, elements_per_body=20, tip_force=TIP_FORCE,
+                                       fluid_lever_arm="deformed")
 
 
 def dense(lin):

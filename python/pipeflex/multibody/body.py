@@ -261,7 +261,8 @@ def check_no_rigid_motion(Psi0: np.ndarray, Phi: np.ndarray, K: np.ndarray) -> N
 
 def flexible_body(*, length: float, n_elements: int, section: PipeSection, internal_modes: int = 0,
                   reduction: str = "craig_bampton", curvature: float = 0.0,
-                  basis: Optional[np.ndarray] = None, modal_damping=0.0) -> FlexibleBody:
+                  basis: Optional[np.ndarray] = None, modal_damping=0.0,
+                  fluid_lever_arm: str = "deformed") -> FlexibleBody:
     """Build a reduced straight (or preimposed-curved) body.
 
     Args:
@@ -290,9 +291,17 @@ def flexible_body(*, length: float, n_elements: int, section: PipeSection, inter
             massless mode (a rotation without rotary inertia) has no dynamics and takes no
             damping (its ratio is ignored). The section's own damping coefficients are
             refused: a body is damped by this argument.
+        fluid_lever_arm: the lever arm of the flow's Coriolis and centrifugal forces about
+            the body's frame: ``"deformed"`` (default: the deformed centre line, so that the
+            flow does no work inside a bent chain of bodies, docs/theory.md) or
+            ``"reference"`` (the undeformed s e_x, seed 004's formulation: its scenes use
+            it to reproduce the published figures; a loaded chain can then report a
+            spurious weakly growing mode).
     """
     L = _checks.magnitude("length", length, "m")
     n_el = _checks.positive_int("n_elements", n_elements)
+    if fluid_lever_arm not in ("deformed", "reference"):
+        raise ValueError(f"fluid_lever_arm must be 'deformed' or 'reference', got {fluid_lever_arm!r}")
     if n_el > MAX_BODY_ELEMENTS:
         raise ValueError(f"n_elements must be at most {MAX_BODY_ELEMENTS} per floating-frame body (its matrices "
                          f"are dense, 6 (n_elements + 1) square), got {n_el}")
@@ -359,11 +368,12 @@ def flexible_body(*, length: float, n_elements: int, section: PipeSection, inter
         GPhi=[B.T @ G[k] @ Phi for k in range(3)], Gx=[B.T @ G[k] @ xbar for k in range(3)],
         CPhi=B.T @ C @ Phi, HPhi=B.T @ H @ Phi, Cx=B.T @ C @ xbar, Hx=B.T @ H @ xbar, Ng=B.T @ Ng,
         # the Coriolis forces' moment on the deformed lever arm N Phi eta (cpp/include/pipeflex/elements/ffrf_body.hpp)
-        mu_f=section.fluid_mass, Ubar=section.fluid_mass * (N_int.T @ Phi), Us=Phi[0:3], Ue=Phi[6 * n_el:6 * n_el + 3],
-        dUs=_end_slopes(Phi, 0), dUe=_end_slopes(Phi, 6 * n_el))
+        **(dict(mu_f=section.fluid_mass, Ubar=section.fluid_mass * (N_int.T @ Phi), Us=Phi[0:3],
+                Ue=Phi[6 * n_el:6 * n_el + 3], dUs=_end_slopes(Phi, 0), dUe=_end_slopes(Phi, 6 * n_el))
+           if fluid_lever_arm == "deformed" else {}))
     mass = L * (section.pipe_mass + section.fluid_mass)
     arguments = dict(length=L, n_elements=n_el, section=section, internal_modes=internal_modes,
                      reduction=reduction, curvature=kappa, basis=None if basis is None else Phi,
-                     modal_damping=modal_damping)
+                     modal_damping=modal_damping, fluid_lever_arm=fluid_lever_arm)
     return FlexibleBody(L, n_el, section, reduction, internal_modes if reduction == "craig_bampton" else 0,
                         s, Phi, eta0, data, mass, arguments)

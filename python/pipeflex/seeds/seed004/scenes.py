@@ -41,7 +41,7 @@ def _elements_per_body(value) -> int:
 def ffrf_cantilever_pipe(*, n_bodies: int, elements_per_body: int = 20, internal_modes: int = 0,
                          reduction: str = "craig_bampton", mass_flow: Optional[float] = None,
                          flow_speed: Optional[float] = None, tip_force: float = 0.0, length: float = 1.0,
-                         section: PipeSection = None):
+                         section: PipeSection = None, fluid_lever_arm: str = "reference"):
     """Straight cantilever pipe of seed 004, section 8.1, as a chain of floating-frame bodies.
 
     Along global x from the clamped origin; the free end carries ``tip_force`` [N] along
@@ -60,6 +60,9 @@ def ffrf_cantilever_pipe(*, n_bodies: int, elements_per_body: int = 20, internal
             to the pipe, mdot = fluid_mass sdot (the seed's 15 m/s is 30 kg/s).
         tip_force: [N] along global z at the free end. length: L [m].
         section: replaces the default :class:`~pipeflex.PipeSection`.
+        fluid_lever_arm: ``"reference"`` (default: seed 004's formulation, which its figures
+            come from) or ``"deformed"`` (the bodies' default; with a tip force the chain
+            then flutters as the element model): :func:`~pipeflex.multibody.flexible_body`.
 
     Returns a :class:`~pipeflex.multibody.MultibodySystem`; ``info["tip"]`` = (body, node).
     """
@@ -74,7 +77,7 @@ def ffrf_cantilever_pipe(*, n_bodies: int, elements_per_body: int = 20, internal
     section = require_section(section)
     mdot = scene_mass_flow(mass_flow, flow_speed, section.fluid_mass)
     body = flexible_body(length=L / nb, n_elements=_elements_per_body(elements_per_body), section=section,
-                         internal_modes=internal_modes, reduction=reduction)
+                         internal_modes=internal_modes, reduction=reduction, fluid_lever_arm=fluid_lever_arm)
     b, ids = _ffrf_chain([body] * nb, [(((k + 0.5) * L / nb, 0.0, 0.0), None) for k in range(nb)])
     b.fix(ids[0], "start")
     if tip_force:
@@ -116,7 +119,7 @@ def ffrf_curved_pipe(*, E: float, n_bodies: int = 8, elements_per_body: int = 20
     mdot = scene_mass_flow(mass_flow, flow_speed, sec.fluid_mass, default=sec.fluid_mass * 10.0)
     Lb = np.pi * R / nb
     body = flexible_body(length=Lb, n_elements=_elements_per_body(elements_per_body), section=sec, internal_modes=internal_modes,
-                         reduction=reduction, curvature=1.0 / R)
+                         reduction=reduction, curvature=1.0 / R, fluid_lever_arm="reference")  # the seed's formulation
     places = []
     for k in range(nb):
         th = (k + 0.5) * np.pi / nb
@@ -197,7 +200,8 @@ def concrete_printer(*, mass_flow: Optional[float] = None, flow_speed: Optional[
     pipe = {}
     for name in ("OE", "EB", "BF", "FD"):
         p, q = P[name[0]], P[name[1]]
-        body = flexible_body(length=float(np.linalg.norm(q - p)), n_elements=4, section=tube)
+        body = flexible_body(length=float(np.linalg.norm(q - p)), n_elements=4, section=tube,
+                             fluid_lever_arm="reference")  # the seed's formulation
         pipe[name] = b.add_body_between(body, p, q, up=(0.0, 1.0, 0.0))
     z, y = (0.0, 0.0, 1.0), (0.0, 1.0, 0.0)
 

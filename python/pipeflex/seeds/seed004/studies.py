@@ -173,8 +173,9 @@ def ffrf_orbit_branch(*, n_bodies: int, mass_flow_end: Optional[float] = None, m
     Hopf flow + 4 kg/s). With ``reference_elements`` the element model of the same pipe
     (:func:`element_cantilever_model`, that many elements) is continued the same way.
 
-    The tip force is 0 by default (with the seed's 1.5 N, 2 bodies flutter as the element
-    model, 4 report a spurious weakly growing mode: docs/theory.md). The straight pipe is axisymmetric: its
+    The tip force is 0 by default (with the seed's 1.5 N and its formulation, the scene's
+    ``fluid_lever_arm="reference"``, the loaded bodies report a spurious weakly growing mode
+    near zero flow: docs/theory.md). The straight pipe is axisymmetric: its
     orbits are planar, in a plane the critical mode picks, and turning that plane about
     the axis is another orbit (a second multiplier 1)."""
     from ...analysis.periodic import continue_orbits
