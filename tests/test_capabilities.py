@@ -112,6 +112,17 @@ def run_rotating_frequencies(kind):
     pf.rotating_frequencies(rotating(kind), gamma=[1.0])
 
 
+def run_parametric(kind):
+    pf.parametric_stability(cantilever(kind), mean_flow=1.0, amplitude=0.1, frequency=20.0)
+
+
+def run_model_file(kind, tmp=Path(os.environ.get("TMPDIR", "/tmp"))):
+    import tempfile
+
+    with tempfile.TemporaryDirectory(dir=tmp) as folder:
+        pf.load_model(pf.save_model(cantilever(kind), Path(folder) / "m.yaml"))
+
+
 ANALYSES = {
     "static_equilibrium (load steps)": run_static,
     "static_equilibrium (arc-length)": run_arclength,
@@ -127,6 +138,8 @@ ANALYSES = {
     "continue_orbits": run_continue,
     "campbell": run_campbell,
     "rotating_frequencies": run_rotating_frequencies,
+    "parametric_stability, instability_chart": run_parametric,
+    "save_model, load_model": run_model_file,
 }
 
 

@@ -479,7 +479,8 @@ def model_data(model: Model) -> dict:
     :class:`~pipeflex.ModelBuilder`, or a :meth:`~pipeflex.Model.free_model`)."""
     desc = getattr(model, "_description", None)
     if desc is None or "_recipe" not in desc:
-        raise ValueError("model: only a model built by pipeflex.ModelBuilder can be saved as a model file")
+        raise ValueError(f"model: a model file describes an element model built by pipeflex.ModelBuilder (the "
+                         f"schema has no floating-frame bodies or coupled systems yet), got a {type(model).__name__}")
     if model._is_free:
         raise ValueError("model: a free_model() cannot be saved (it has no supports): save the model it came from")
     names: dict = {}

@@ -89,7 +89,9 @@ class _FlowModel:
 
         if not isinstance(model, Model):
             raise ValueError(f"model: the parametric analysis takes an element Model (3D pipe or planar ANCF "
-                             f"elements), got a {type(model).__name__}")
+                             f"elements), got a {type(model).__name__}: the linearisation of floating-frame bodies "
+                             f"and coupled systems takes no flow rate yet (linearize's mass_flow_rate is "
+                             f"element-only)")
         mdot0 = self.mean_flow = float(mean_flow)
         base = as_core(model, static_equilibrium(model, mass_flow=mdot0).state)
         base.rebase(0.0)  # rotation increments about the equilibrium's own orientation
