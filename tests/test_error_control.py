@@ -19,18 +19,25 @@ T_END = 0.5
 FLOW = 30.0  # kg/s, above the 4-element cantilever's flutter flow (~25 kg/s): a growing motion
 
 
-@pytest.fixture(scope="module")
-def cantilever():
-    """Seed 000's cantilever (4 elements, polar inertia for time integration) with a tip
-    force, from its static deflection without flow, the flow switched on at t = 0."""
+def tip_loaded_cantilever(n_elements):
+    """Seed 000's cantilever (``n_elements``, polar inertia for time integration, the
+    peer scene's section) with a 1.5 N tip force at FLOW, and its static deflection without
+    flow (the start: the flow switched on at t = 0)."""
     sec = pf.PipeSection(EI=10.0, pipe_mass=8.0, fluid_mass=2.0, EA=1e5, rotary_inertia=(1e-3, 0.0, 0.0))
     b = pf.ModelBuilder()
     n0 = b.add_node((0.0, 0.0, 0.0))
-    nodes = b.add_line(n0, (1.0, 0.0, 0.0), 4, sec)
+    nodes = b.add_line(n0, (1.0, 0.0, 0.0), n_elements, sec)
     b.clamp(n0)
     b.add_load(nodes[-1], force=(0.0, 1.5, 0.0))
     model = b.build(mass_flow=FLOW)
     return model, pf.static_equilibrium(model, mass_flow=0.0).state
+
+
+@pytest.fixture(scope="module")
+def cantilever():
+    """Seed 000's cantilever (4 elements, polar inertia for time integration) with a tip
+    force, from its static deflection without flow, the flow switched on at t = 0."""
+    return tip_loaded_cantilever(4)
 
 
 def _tip(res, model):
@@ -78,14 +85,7 @@ def limit_cycle():
     model, its start and the tip's lateral position at 2 s converged (Richardson from 0.1
     and 0.05 ms: the finer run errs by 1.8e-7 m, the combination by ~5e-10 m, against one
     from 0.05 and 0.025 ms)."""
-    sec = pf.PipeSection(EI=10.0, pipe_mass=8.0, fluid_mass=2.0, EA=1e5, rotary_inertia=(1e-3, 0.0, 0.0))
-    b = pf.ModelBuilder()
-    n0 = b.add_node((0.0, 0.0, 0.0))
-    nodes = b.add_line(n0, (1.0, 0.0, 0.0), 8, sec)
-    b.clamp(n0)
-    b.add_load(nodes[-1], force=(0.0, 1.5, 0.0))
-    model = b.build(mass_flow=FLOW)
-    state = pf.static_equilibrium(model, mass_flow=0.0).state
+    model, state = tip_loaded_cantilever(8)
     tip = model.n_nodes - 1
     a, b = (pf.simulate(model, 2.0, n_outputs=2, progress=False, state=state, integrator="generalized_alpha",
                         step=h, newton_tol=1e-13, work=False).x[-1, tip, 1] for h in (1e-4, 5e-5))

@@ -294,7 +294,7 @@ def flexible_body(*, length: float, n_elements: int, section: PipeSection, inter
         fluid_lever_arm: the lever arm of the flow's Coriolis and centrifugal forces about
             the body's frame: ``"deformed"`` (default: the deformed centre line, so that the
             flow does no work inside a bent chain of bodies, docs/theory.md) or
-            ``"reference"`` (the undeformed s e_x, seed 004's formulation: its scenes use
+            ``"reference"`` (the undeformed s e_x, van Voorthuizen et al.'s form: their scenes use
             it to reproduce the published figures; a loaded chain can then report a
             spurious weakly growing mode).
     """
