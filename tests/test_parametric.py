@@ -227,7 +227,7 @@ def test_a_transient_grows_inside_the_tongue_and_decays_just_outside():
         periods, per = 16, 40
         T = periods * 2 * np.pi / Omega
         run = pf.simulate(model, T, state=start, times=np.linspace(0.0, T, periods * per + 1), progress=False,
-                          mass_flow=pf.pulsating_flow(mean_flow=CANT_FLOW, amplitude=mu, frequency=Omega, duration=T))
+                          mass_flow=pf.pulsating_flow(mean_flow=CANT_FLOW, amplitude=mu, frequency=Omega))
         y = run.x[:, nodes[-1], 1]
         early, late = np.abs(y[2 * per:4 * per]).max(), np.abs(y[-2 * per:]).max()
         ratio = (late / early) ** (1.0 / (periods - 4))  # per period, over 12 periods
@@ -290,5 +290,16 @@ def test_bad_input_is_named():
         pf.instability_chart(model, mean_flow=SS_FLOW, frequencies=[1.0], amplitudes=[-0.1])
     with pytest.raises(ValueError, match="element Model"):
         pf.parametric_stability(object(), mean_flow=1.0, amplitude=0.1, frequency=1.0)
-    with pytest.raises(ValueError, match="points_per_period"):
-        pf.pulsating_flow(mean_flow=1.0, amplitude=0.1, frequency=1.0, duration=1.0, points_per_period=4)
+    with pytest.raises(ValueError, match="amplitude"):
+        pf.pulsating_flow(mean_flow=1.0, amplitude=-0.1, frequency=1.0)
+
+
+def test_pulsating_flow_is_the_sine_about_its_mean():
+    """pf.Sine(mean=) carries the mean into the core's table: the flow and its rate at any
+    time are mdot0 (1 + mu sin(Omega t)) and mdot0 mu Omega cos(Omega t)."""
+    from pipeflex.time_functions import time_function
+
+    tab = time_function("mass_flow", pf.pulsating_flow(mean_flow=2.0, amplitude=0.25, frequency=3.0))
+    for t in (0.0, 0.1, 0.77, 5.3):
+        assert tab.at(t) == pytest.approx(2.0 * (1.0 + 0.25 * np.sin(3.0 * t)), rel=1e-15, abs=1e-15)
+        assert tab.rate(t) == pytest.approx(2.0 * 0.25 * 3.0 * np.cos(3.0 * t), rel=1e-14, abs=1e-14)

@@ -43,6 +43,7 @@ void bind_transient(py::module_& m) {
         .def_readwrite("value", &TimeTable::value)
         .def_readwrite("omega", &TimeTable::omega)
         .def_readwrite("phase", &TimeTable::phase)
+        .def_readwrite("mean", &TimeTable::mean)
         .def("at", &TimeTable::at, py::arg("time"), "The function's value at time [s].")
         .def("rate", &TimeTable::rate, py::arg("time"), "The function's derivative at time [s] (per second).");
     py::class_<TransientOptions>(m, "TransientOptions")

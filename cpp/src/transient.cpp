@@ -31,7 +31,7 @@ double table_rate(const TimeTable& f, double time) {
 
 double TimeTable::at(double time) const {
     const double env = table_value(*this, time);
-    return omega == 0.0 ? env : env * std::sin(omega * time + phase);
+    return omega == 0.0 ? env : mean + env * std::sin(omega * time + phase);
 }
 
 double TimeTable::rate(double time) const {

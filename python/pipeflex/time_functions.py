@@ -11,18 +11,22 @@ from . import _checks, _core
 
 @dataclass(frozen=True)
 class Sine:
-    """A time function envelope(t) * sin(omega t + phase).
+    """A time function mean + envelope(t) * sin(omega t + phase).
 
     Attributes:
         omega: angular frequency [rad/s] (> 0).
         envelope: a number, or a table (times [s], values) interpolated linearly (e.g. a
             ramp that starts a drive smoothly).
         phase: [rad].
+        mean: a constant [the function's unit] about which it oscillates (default 0), e.g.
+            the mean flow mdot0 of a pulsating flow mdot0 (1 + mu sin(Omega t)) =
+            ``Sine(omega=Omega, envelope=mu * mdot0, mean=mdot0)``.
     """
 
     omega: float
     envelope: Union[float, Tuple[Sequence[float], Sequence[float]]] = 1.0
     phase: float = 0.0
+    mean: float = 0.0
 
 
 def time_function(name, f) -> "_core.TimeTable":
@@ -32,6 +36,7 @@ def time_function(name, f) -> "_core.TimeTable":
         tab = time_function(f"{name}.envelope", f.envelope)
         tab.omega = _checks.positive(f"{name}.omega", f.omega)
         tab.phase = _checks.finite(f"{name}.phase", f.phase)
+        tab.mean = _checks.finite(f"{name}.mean", f.mean)
         return tab
     if np.isscalar(f):
         tab.t, tab.value = [0.0], [_checks.finite(name, f)]

@@ -513,24 +513,17 @@ def instability_chart(model, *, mean_flow: float, frequencies: Sequence[float], 
                             truncation_change=change, fit_error=mats.fit_error, tol=float(tol))
 
 
-def pulsating_flow(*, mean_flow: float, amplitude: float, frequency: float, duration: float,
-                   points_per_period: int = 256):
-    """The pulsating flow mdot0 (1 + mu sin(Omega t)) as a table ``(times [s], values [kg/s])``
-    for :func:`~pipeflex.simulate` (a :class:`~pipeflex.Sine` has no mean), from t = 0 to
-    ``duration`` [s]; linear between ``points_per_period`` points per period, so its rate
-    (the relative-acceleration term) is piecewise constant.
+def pulsating_flow(*, mean_flow: float, amplitude: float, frequency: float):
+    """The pulsating flow mdot0 (1 + mu sin(Omega t)) for :func:`~pipeflex.simulate`: a
+    :class:`~pipeflex.Sine` about the mean, exact in the flow and its rate (the fluid's
+    acceleration term).
 
     Args:
         mean_flow: mdot0 [kg/s]. amplitude: mu [-] (>= 0). frequency: Omega [rad/s] (> 0).
-        duration: [s] (> 0). points_per_period: table points per period (>= 8).
     """
+    from ..time_functions import Sine
+
     mdot0 = _checks.finite("mean_flow", mean_flow)
     mu = _checks.non_negative("amplitude", amplitude)
     W = _checks.positive("frequency", frequency)
-    T = _checks.positive("duration", duration)
-    k = _checks.positive_int("points_per_period", points_per_period)
-    if k < 8:
-        raise ValueError(f"points_per_period must be >= 8, got {points_per_period!r}")
-    n = int(np.ceil(T * W / (2 * np.pi) * k)) + 1
-    t = np.linspace(0.0, T, n)
-    return t, mdot0 * (1.0 + mu * np.sin(W * t))
+    return Sine(omega=W, envelope=mu * mdot0, mean=mdot0)

@@ -28,6 +28,7 @@ struct TimeTable {
     std::vector<double> t, value;
     double omega = 0.0;  // carrier angular frequency [rad/s] (0: no carrier)
     double phase = 0.0;  // carrier phase [rad]
+    double mean = 0.0;   // constant added to the carried envelope (a pulsating flow's mean)
     double at(double time) const;
     double rate(double time) const;  // derivative
     static TimeTable constant(double value) {
