@@ -314,6 +314,15 @@ void ancf_geometric_stiffness(const AncfElementData& d, const double* e, const d
     for (int k = 0; k < 64; ++k) G[k] = eps[0].d[0] * m.K[0][k] + eps[1].d[0] * m.K[1][k] + eps[2].d[0] * m.K[2][k];
 }
 
+double ancf_damping_power(const AncfElementData& d, const double* e, const double* v) {
+    if (!d.damped()) return 0.0;
+    double Q[8] = {}, K[64], C[64];
+    damping_forces(d, e, v, Q, K, C);
+    double P = 0.0;
+    for (int i = 0; i < 8; ++i) P += v[i] * Q[i];
+    return P;
+}
+
 void ancf_energies(const AncfElementData& d, const double* e, const double* v, double* kinetic, double* elastic) {
     double M[64];
     ancf_model_a_matrix(d, 4, M);

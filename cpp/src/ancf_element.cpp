@@ -82,6 +82,13 @@ void AncfElement::add_gravity_potential(const State& s, const Vec3<double>& g, d
         for (int k = 0; k < 3; ++k) *V -= c[i] * g[k] * s.q[at[i] + k];
 }
 
+void AncfElement::add_damping_power(const State& state, double* P) const {
+    double e[8], v8[8];
+    gather8(state.q, e);
+    gather8(state.v, v8);
+    *P += ancf_damping_power(data, e, v8);
+}
+
 const char* AncfElement::prestress_unavailable() const {
     if (data.elastic == AncfElastic::model_a) return nullptr;
     return "the small-deformation prestress stiffness is defined for ANCF Model A elements only (Model 0 has no "

@@ -712,6 +712,19 @@ double fluid_power(const Model& model, const State& state, const LoadState& load
     return P;
 }
 
+bool model_damped(const Model& model) {
+    for (const auto& e : model.elements)
+        if (e->damped()) return true;
+    return false;
+}
+
+double damping_power(const Model& model, const State& state) {
+    double P = 0.0;
+    for (const auto& e : model.elements)
+        if (e->damped()) e->add_damping_power(state, &P);
+    return P;
+}
+
 void energies(const Model& model, const State& state, double* kinetic, double* elastic) {
     check_state(model, state);
     double T = 0.0, U = 0.0;

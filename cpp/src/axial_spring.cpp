@@ -81,4 +81,15 @@ void AxialSpring::energies(const State& state, double* kinetic, double* elastic)
     *elastic = 0.5 * k_ * stretch * stretch;
 }
 
+void AxialSpring::add_damping_power(const State& state, double* P) const {
+    if (c_ == 0.0) return;
+    Vec3<double> d;
+    const double l = chord(state.q, &d);
+    if (!(l > 0.0)) return;  // no axis: the kernel has refused the state
+    const int a = nodes()[0], b = nodes()[1];
+    double ldot = 0.0;
+    for (int i = 0; i < 3; ++i) ldot += d[i] / l * (state.v[6 * b + i] - state.v[6 * a + i]);
+    *P += c_ * ldot * ldot;
+}
+
 }  // namespace pipeflex

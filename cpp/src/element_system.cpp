@@ -21,6 +21,7 @@ void append_element_outputs(const TransientOutput& o, long N, Record& out, bool 
     put("gravity_potential", {}, o.gravity_potential);
     put("fluid_work", {}, o.fluid_work);
     put("load_work", {}, o.load_work);
+    put("dissipated", {}, o.dissipated);
     if (counters)
         out.counters = {{"steps", o.steps},     {"newton_iterations", o.newton_iterations},
                         {"jacobians", o.jacobians}, {"rebases", o.rebases},
@@ -62,13 +63,14 @@ double model_length_scale(const Model& model) {
 
 void record_element(const ElementEquations& eq, double t, Record& out) {
     TransientOutput o;
-    double fw = eq.fluid_work, lw = eq.load_work;
+    double fw = eq.fluid_work, lw = eq.load_work, dw = eq.dissipated;
     if (t < eq.last_power_t && eq.last_power_t > eq.previous_power_t) {  // inside the last step (IDA's outputs)
         const double s = (t - eq.previous_power_t) / (eq.last_power_t - eq.previous_power_t);
         fw = eq.previous_fluid_work + s * (fw - eq.previous_fluid_work);
         lw = eq.previous_load_work + s * (lw - eq.previous_load_work);
+        if (eq.damped) dw = eq.previous_dissipated + s * (dw - eq.previous_dissipated);
     }
-    eq.record(t, o, fw, lw);
+    eq.record(t, o, fw, lw, dw);
     append_element_outputs(o, eq.model.n_nodes(), out);
 }
 

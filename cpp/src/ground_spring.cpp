@@ -147,4 +147,22 @@ void GroundSpring::energies(const State& state, double* kinetic, double* elastic
     }
 }
 
+bool GroundSpring::damped() const {
+    for (int i = 0; i < 3; ++i)
+        if (c_[i] != 0.0 || cr_[i] != 0.0) return true;
+    return false;
+}
+
+void GroundSpring::add_damping_power(const State& state, double* P) const {
+    const int n = nodes()[0];
+    const Eigen::VectorXd& v = state.v;
+    for (int i = 0; i < 3; ++i) *P += c_[i] * v[6 * n + i] * v[6 * n + i];
+    if (!rotational_ || state.kinds[n] != NodeKind::frame) return;
+    // the kernel's T^T C_phi T phi_dot: its power is sum c_phi,i w_i^2
+    const Vec3<double> phi = {{state.q[6 * n + 3], state.q[6 * n + 4], state.q[6 * n + 5]}};
+    const Vec3<double> phid = {{v[6 * n + 3], v[6 * n + 4], v[6 * n + 5]}};
+    const Vec3<double> w = rotation_jacobian(phi) * phid;
+    for (int i = 0; i < 3; ++i) *P += cr_[i] * w[i] * w[i];
+}
+
 }  // namespace pipeflex

@@ -773,6 +773,35 @@ void pipe_fluid_forces(const PipeElementData& e, const NodeFrames& ref, const Lo
     }
 }
 
+double pipe_damping_power(const PipeElementData& e, const NodeFrames& ref, const double* q, const double* v) {
+    const bool viscous = e.c_ext != 0.0;
+    if (!e.kelvin_voigt() && !viscous) return 0.0;
+    const double l0 = e.l0;
+    const V3 php = vec(q + 3), phq = vec(q + 9);
+    const M3 Ep = end_triad(php, ref.p, e.offset_p), Eq = end_triad(phq, ref.q, e.offset_q);
+    const V3 wp = rotation_jacobian(php) * vec(v + 3), wq = rotation_jacobian(phq) * vec(v + 9);
+    // the residual's forces are in virtual-displacement space [dx^p, dtheta^p, dx^q,
+    // dtheta^q] (pipe_residual): their power is u_dot . f with u_dot = [xdot^p, w^p, xdot^q, w^q]
+    double P = 0.0;
+    if (e.kelvin_voigt()) {
+        double ud[12], f[12] = {};
+        for (int i = 0; i < 3; ++i) {
+            ud[i] = v[i];
+            ud[3 + i] = wp[i];
+            ud[6 + i] = v[6 + i];
+            ud[9 + i] = wq[i];
+        }
+        add_kelvin_voigt(e, strains(l0, vec(q), vec(q + 6), Ep, Eq), ud, f);
+        for (int i = 0; i < 12; ++i) P += ud[i] * f[i];
+    }
+    if (viscous) {  // c_ext l0 ad^T M ad on the centre-line rates ad of pipe_residual
+        const V3 ad[4] = {vec(v), l0 * cross(wp, Ep.col(0)), vec(v + 6), l0 * cross(wq, Eq.col(0))};
+        for (int i = 0; i < 4; ++i)
+            for (int j = 0; j < 4; ++j) P += e.c_ext * l0 * hermite::mass[i][j] * dot(ad[i], ad[j]);
+    }
+    return P;
+}
+
 void pipe_mass_matrix(const PipeElementData& e, const NodeFrames& ref, const double* q, double* M) {
     const double l0 = e.l0;
     const Mat3<double> Ep = end_triad(vec(q + 3), ref.p, e.offset_p);

@@ -76,6 +76,13 @@ void PipeElement::add_fluid_power(const State& state, const LoadState& load, dou
     for (int i = 0; i < 12; ++i) *P -= ve[i] * fe[i];
 }
 
+void PipeElement::add_damping_power(const State& state, double* P) const {
+    double qe[12], ve[12];
+    gather(state.q, qe);
+    gather(state.v, ve);
+    *P += pipe_damping_power(data, frames(state), qe, ve);
+}
+
 void PipeElement::predicted_stresses(const State& state, const Eigen::VectorXd& dq, double* sigma) const {
     double qe[12], de[12];
     gather(state.q, qe);

@@ -341,6 +341,7 @@ FIELDS: Dict[str, Dict[str, tuple]] = {
         "gravity_potential": ("J", "gravitational potential energy", ("time",)),
         "fluid_work": ("J", "work of the fluid forces since the start", ("time",)),
         "load_work": ("J", "work of the nodal loads since the start", ("time",)),
+        "dissipated": ("J", "energy dissipated by the damping forces since the start", ("time",)),
     },
     "PeriodicOrbit": {
         "mass_flow": ("kg/s", "mass flow", ()),

@@ -271,7 +271,11 @@ class TransientResult(Result):
         fluid_work: (nt,) work done by the fluid forces on the structure since t[0] [J]
             (momentum flux in and out, Coriolis and centripetal forces).
         load_work: (nt,) work of the nodal loads [J].
-            (x ... load_work: the element model's, of an element model or a coupled
+        dissipated: (nt,) energy D [J] the damping forces (Kelvin-Voigt and external
+            viscous damping of the sections, dashpots of the springs) took out of the
+            motion since t[0]: the integral of v . f_d >= 0, so D >= 0 and never
+            decreasing; exactly 0 for an undamped model.
+            (x ... dissipated: the element model's, of an element model or a coupled
             system; None for bodies alone.)
         final_state: the state at the end (to continue the run, or to start a periodic
             orbit from a settled transient): a :class:`~pipeflex.state.State`, a
@@ -301,13 +305,15 @@ class TransientResult(Result):
     gravity_potential: Optional[np.ndarray] = None
     fluid_work: Optional[np.ndarray] = None
     load_work: Optional[np.ndarray] = None
+    dissipated: Optional[np.ndarray] = None
     stats: dict = field(default_factory=dict)
     metadata: dict = field(default_factory=dict)
     final_state: Optional[object] = None
     bodies: Optional[Result] = None
     coupling_forces: Optional[np.ndarray] = None
 
-    _ARRAYS = ("t", "x", "R", "xd", "omega", "kinetic", "elastic", "gravity_potential", "fluid_work", "load_work")
+    _ARRAYS = ("t", "x", "R", "xd", "omega", "kinetic", "elastic", "gravity_potential", "fluid_work", "load_work",
+               "dissipated")
 
     def __getattr__(self, name):
         # only for names not found otherwise: a result of bodies alone answers its bodies' accessors
@@ -340,8 +346,14 @@ class TransientResult(Result):
         return self.kinetic + self.elastic + self.gravity_potential
 
     def energy_balance(self) -> np.ndarray:
-        """E(t) - E(0) - W_fluid(t) - W_loads(t) [J]: zero up to the integration error."""
-        return self.energy - self.energy[0] - self.fluid_work - self.load_work
+        """E(t) - E(0) - W_fluid(t) - W_loads(t) + D(t) [J]: zero up to the integration error.
+
+        E = T + U + V_g is the mechanical energy (:attr:`energy`), W the work done on the
+        structure by the fluid forces and the loads, D = :attr:`dissipated` >= 0 the energy
+        the damping forces took out (the energy equation E - E(0) = W - D): damped models
+        balance as undamped ones do. A result whose ``dissipated`` is None counts D = 0."""
+        D = 0.0 if self.dissipated is None else self.dissipated
+        return self.energy - self.energy[0] - self.fluid_work - self.load_work + D
 
     def angle(self, node: int, axis: Sequence[float] = (0.0, 0.0, 1.0)) -> np.ndarray:
         """Unwrapped rotation angle [rad] of a node about a fixed ``axis`` (for planar
@@ -371,7 +383,7 @@ class TransientResult(Result):
     @classmethod
     def _load_legacy(cls, f) -> "TransientResult":
         """A file of the earlier format: the arrays, stats and metadata as JSON."""
-        return cls(**{k: f[k] for k in cls._ARRAYS}, stats=json.loads(str(f["stats"])),
+        return cls(**{k: f[k] for k in cls._ARRAYS if k in f}, stats=json.loads(str(f["stats"])),
                    metadata=json.loads(str(f["metadata"])))
 
 
@@ -467,8 +479,9 @@ def simulate(model, t_end: float, *, integrator: str = "auto", state=None, t_sta
             (:mod:`pipeflex._options` says why). Both: ``divergence_limit`` (1e3): a node
             farther than this many model sizes from its reference position stops the run
             with :class:`~pipeflex.ConvergenceError`; ``work`` (True): integrate the work of the
-            fluid forces and loads at every step (two extra residual evaluations per
-            step; without it ``fluid_work`` and ``load_work`` are NaN).
+            fluid forces and loads, and the energy the damping dissipates, at every step
+            (two extra residual evaluations per step; without it ``fluid_work``,
+            ``load_work`` and ``dissipated`` are NaN).
         extrapolate: generalised-alpha only: run at the step h and at h/2 and combine the
             outputs by Richardson extrapolation, y = y_h/2 + (y_h/2 - y_h)/3, which removes
             the h^2 term of the global error (:func:`richardson`): fourth order with
@@ -623,7 +636,7 @@ def simulate(model, t_end: float, *, integrator: str = "auto", state=None, t_sta
         logger.info("simulate: %s done in %.3g s: %d steps (%d failed), %d Newton iterations", integrator, wall,
                     stats["steps"], stats["failed_steps"], stats["newton_iterations"])
         if not opt.work:  # the works were not integrated (an element part's; bodies record none)
-            for name in ("fluid_work", "load_work"):
+            for name in ("fluid_work", "load_work", "dissipated"):
                 if name in out:
                     out[name][:] = np.nan
         meta = {"integrator": integrator, "requested": requested,

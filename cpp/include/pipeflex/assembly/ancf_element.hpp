@@ -22,6 +22,8 @@ public:
     void kernel(const ElementInputs& in, const ElementOutputs& out) const override;
     void energies(const State& state, double* kinetic, double* elastic) const override;
     void add_gravity_potential(const State& state, const Vec3<double>& g, double* V) const override;
+    bool damped() const override { return data.damped(); }
+    void add_damping_power(const State& state, double* P) const override;
     const char* prestress_unavailable() const override;
     void prestress_stiffness(const State& state, const Eigen::VectorXd& dq, double* G) const override;
     bool in_co_rotating_frame() const override { return true; }

@@ -6,7 +6,7 @@
 //     dr_b/dx_b = k e e^T + (T / l) P + (c / l) e (P dv)^T, P = I - e e^T, dv = v_b - v_a
 //         (exact: the damping force's dependence on the positions through e),
 //     dr_b/dv_b = c e e^T (and the signs of a, b), no M;
-//     elastic energy U = k (l - L0)^2 / 2 (the dashpot stores none).
+//     elastic energy U = k (l - L0)^2 / 2 (the dashpot stores none; it dissipates c l_dot^2).
 // The example of docs/elements.md: an element type through the Element interface only.
 #pragma once
 
@@ -28,6 +28,8 @@ public:
     void kernel(const ElementInputs& in, const ElementOutputs& out) const override;
     void energies(const State& state, double* kinetic, double* elastic) const override;
     void add_gravity_potential(const State&, const Vec3<double>&, double*) const override {}  // massless
+    bool damped() const override { return c_ != 0.0; }
+    void add_damping_power(const State& state, double* P) const override;  // c l_dot^2
     bool in_co_rotating_frame() const override { return true; }  // massless: no fictitious forces
 
 private:

@@ -88,6 +88,12 @@ public:
     virtual void add_fluid_power(const State& state, const LoadState& load, double* P) const {
         (void)state, (void)load, (void)P;
     }
+    // Whether it has damping forces (structural or viscous damping, dashpots): only then
+    // can add_damping_power add anything.
+    virtual bool damped() const { return false; }
+    // Adds v . f_d [W] (>= 0) to *P: the power its damping forces f_d (the velocity-
+    // dependent dissipative part of its residual) take out of the motion.
+    virtual void add_damping_power(const State& state, double* P) const { (void)state, (void)P; }
 
     // The stresses of the mixed Newton (the static Newton of pipe elements): how many
     // (0: none), and their prediction along the full-coordinate increment dq.

@@ -37,6 +37,9 @@ public:
     void kernel(const ElementInputs& in, const ElementOutputs& out) const override;
     void energies(const State& state, double* kinetic, double* elastic) const override;
     void add_gravity_potential(const State&, const Vec3<double>&, double*) const override {}  // massless
+    bool damped() const override;
+    // sum c_i v_i^2 + (frame node) sum c_phi,i w_i^2, w = T(phi) phi_dot
+    void add_damping_power(const State& state, double* P) const override;
     bool in_co_rotating_frame() const override { return !rotational_; }  // massless; a hub frame would turn R0
 
 private:

@@ -189,6 +189,11 @@ Eigen::VectorXd reduce(const Model& model, const Eigen::VectorXd& full);  // T^T
 // (the flow-dependent part of the pipe elements' residuals).
 double fluid_power(const Model& model, const State& state, const LoadState& load);
 
+// Whether an element has damping forces (Element::damped), and the power v . f_d [W]
+// (>= 0) those forces take out of the motion, summed over the elements.
+bool model_damped(const Model& model);
+double damping_power(const Model& model, const State& state);
+
 // Energies [J]: kinetic, elastic; potential of gravity is separate.
 void energies(const Model& model, const State& state, double* kinetic, double* elastic);
 

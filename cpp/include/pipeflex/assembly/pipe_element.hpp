@@ -25,6 +25,8 @@ public:
     void energies(const State& state, double* kinetic, double* elastic) const override;
     void add_gravity_potential(const State& state, const Vec3<double>& g, double* V) const override;
     void add_fluid_power(const State& state, const LoadState& load, double* P) const override;
+    bool damped() const override { return data.kelvin_voigt() || data.c_ext != 0.0; }
+    void add_damping_power(const State& state, double* P) const override;
     int n_stresses() const override { return 6; }
     void predicted_stresses(const State& state, const Eigen::VectorXd& dq, double* sigma) const override;
     const char* prestress_unavailable() const override {

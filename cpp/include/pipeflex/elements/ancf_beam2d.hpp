@@ -62,6 +62,10 @@ void ancf_geometric_stiffness(const AncfElementData& d, const double* e, const d
 
 // Elastic energy [J] (Model A: 1/2 EA int eps^2 dx with eps interpolated from eps_A,
 // eps_M, eps_B, plus bending; Model 0: U above) and kinetic energy 1/2 v^T M v [J].
+// Power v . Q_d [W] (>= 0) of the damping forces Q_d at e, e_dot = v (Kelvin-Voigt
+// eta_axial, eta_bending and viscous c_ext; see ancf_tangent); 0 without damping.
+double ancf_damping_power(const AncfElementData& d, const double* e, const double* v);
+
 void ancf_energies(const AncfElementData& d, const double* e, const double* v, double* kinetic, double* elastic);
 
 // The constant matrices of the appendix (row-major 8x8): which = 0: K_A, 1: K_M, 2: K_B,

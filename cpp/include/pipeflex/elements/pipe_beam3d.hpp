@@ -118,6 +118,11 @@ void pipe_tangent_ad(const PipeElementData& e, const NodeFrames& ref, const Load
 void pipe_fluid_forces(const PipeElementData& e, const NodeFrames& ref, const LoadState& load,
                        const double* q, const double* v, double* f);
 
+// Power v . f_d [W] (>= 0) of the damping part f_d of the residual at q, v: the
+// Kelvin-Voigt forces (eta_axial, eta_torsion, eta_bending) and the external viscous
+// forces (c_ext); 0 without damping.
+double pipe_damping_power(const PipeElementData& e, const NodeFrames& ref, const double* q, const double* v);
+
 // Mass matrix M(q) (row-major 12x12).
 void pipe_mass_matrix(const PipeElementData& e, const NodeFrames& ref, const double* q,
                       double* M);

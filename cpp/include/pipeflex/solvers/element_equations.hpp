@@ -21,7 +21,7 @@ class ElementEquations final : public Equations {
    public:
     ElementEquations(const Model& m, State& s, const LoadState& load, const TimeFunctions& f, const TransientOptions& o)
         : model(m), state(s), base_load(load), flow(f.mass_flow), loads(f.load_factor), opt(o), n(m.n_dofs),
-          base_q(s.q) {
+          base_q(s.q), damped(model_damped(m)) {
         if (n == 0)
             throw std::invalid_argument("the model has no free coordinates (every node is fixed): there is no "
                                         "motion to integrate");
@@ -35,6 +35,7 @@ class ElementEquations final : public Equations {
     const TransientOptions& opt;
     int n;
     Eigen::VectorXd base_q;
+    const bool damped;  // an element has damping forces: the dissipated energy is integrated
     double t_set = 0.0;
     // statics' load factor (loads and gravity) if set; any real value: the arc-length
     // border differences it, beyond the loads' range
@@ -50,11 +51,13 @@ class ElementEquations final : public Equations {
     std::vector<double> geometric_stresses;
     std::vector<std::vector<double>> tangent_values;  // tangents(): the assembler's CSC values
     double rebase_angle = 0.0;  // [rad] frames with |phi| beyond it are re-based by rebase()
-    double fluid_work = 0.0, load_work = 0.0, last_power_t = 0.0, last_fluid_power = 0.0,
-           last_load_power = 0.0;
+    // the works of the fluid forces and the loads [J], and the energy the damping forces
+    // dissipated [J] (>= 0; exactly 0 without damping), since the start
+    double fluid_work = 0.0, load_work = 0.0, dissipated = 0.0, last_power_t = 0.0, last_fluid_power = 0.0,
+           last_load_power = 0.0, last_damping_power = 0.0;
     // the work at the accumulation before the last one (output times inside a step, IDA's:
     // interpolated linearly, record_element)
-    double previous_fluid_work = 0.0, previous_load_work = 0.0, previous_power_t = 0.0;
+    double previous_fluid_work = 0.0, previous_load_work = 0.0, previous_dissipated = 0.0, previous_power_t = 0.0;
 
     LoadState load_at(double t) const {
         LoadState l = base_load;
@@ -224,36 +227,42 @@ class ElementEquations final : public Equations {
         }
     }
 
-    // Power of the fluid forces and of the external loads on the structure [W].
-    void powers(double t, double* fluid, double* loads) const {
+    // Power of the fluid forces and of the external loads on the structure [W], and the
+    // power the damping forces dissipate [W] (0 without damping: no work done).
+    void powers(double t, double* fluid, double* loads, double* damping) const {
         *fluid = fluid_power(model, state, load_at(t));
         // state.v is B v_z, so v . f equals v_z . B^T f
         *loads = load_factor(t) * state.v.dot(external_forces(model, state));
+        *damping = damped ? damping_power(model, state) : 0.0;
     }
 
     void start_work(double t) {
         if (!opt.work) return;
-        powers(t, &last_fluid_power, &last_load_power);
+        powers(t, &last_fluid_power, &last_load_power, &last_damping_power);
         last_power_t = t;
     }
 
     // Trapezoidal accumulation of the work from the last step to time t (current state).
     void accumulate_work(double t) {
         if (!opt.work) return;
-        double pf, pl;
-        powers(t, &pf, &pl);
+        double pf, pl, pd;
+        powers(t, &pf, &pl, &pd);
         const double dt = t - last_power_t;
         previous_fluid_work = fluid_work;
         previous_load_work = load_work;
+        previous_dissipated = dissipated;
         previous_power_t = last_power_t;
         fluid_work += 0.5 * dt * (pf + last_fluid_power);
         load_work += 0.5 * dt * (pl + last_load_power);
+        if (damped) dissipated += 0.5 * dt * (pd + last_damping_power);
         last_fluid_power = pf;
         last_load_power = pl;
+        last_damping_power = pd;
         last_power_t = t;
     }
 
-    void record(double t, TransientOutput& out, double fw, double lw) const {
+    // fw, lw, dw: the works of the fluid and the loads and the dissipated energy at t [J]
+    void record(double t, TransientOutput& out, double fw, double lw, double dw) const {
         out.t.push_back(t);
         const int N = model.n_nodes();
         for (int i = 0; i < N; ++i) {
@@ -276,6 +285,7 @@ class ElementEquations final : public Equations {
         out.gravity_potential.push_back(gravity_potential(model, state, load_at(t)));
         out.fluid_work.push_back(fw);
         out.load_work.push_back(lw);
+        out.dissipated.push_back(dw);
     }
 };
 

@@ -62,7 +62,8 @@ struct TransientOutput {
     std::vector<double> t;
     std::vector<double> x, R, xd, w;  // per output: 3N positions, 9N rotations (row-major),
                                       // 3N velocities, 3N spatial angular velocities
-    std::vector<double> kinetic, elastic, gravity_potential, fluid_work, load_work;
+    // energies and works [J]; dissipated: the energy the damping forces took out since the start
+    std::vector<double> kinetic, elastic, gravity_potential, fluid_work, load_work, dissipated;
     long steps = 0, newton_iterations = 0, jacobians = 0, rebases = 0, failed_steps = 0,
          convergence_failures = 0;
 };
