@@ -82,16 +82,13 @@ class _FlowModel:
 
     def __init__(self, model, mean_flow: float):
         from ..charts import ElementChart
-        from ..model import Model
         from ..state import State, as_core
+        from ._assembly import require_model
         from .linearize import linearize
         from .static import static_equilibrium
 
-        if not isinstance(model, Model):
-            raise ValueError(f"model: the parametric analysis takes an element Model (3D pipe or planar ANCF "
-                             f"elements), got a {type(model).__name__}: the linearisation of floating-frame bodies "
-                             f"and coupled systems takes no flow rate yet (linearize's mass_flow_rate is "
-                             f"element-only)")
+        require_model(model, why="the linearisation of floating-frame bodies and coupled systems takes no flow "
+                                 "rate yet (linearize's mass_flow_rate is element-only)")
         mdot0 = self.mean_flow = float(mean_flow)
         base = as_core(model, static_equilibrium(model, mass_flow=mdot0).state)
         base.rebase(0.0)  # rotation increments about the equilibrium's own orientation
