@@ -105,7 +105,8 @@ void bind_assembly(py::module_& m) {
                 const Doubles& offset_p, const Doubles& offset_q, const Doubles& pipe_mass,
                 const Doubles& fluid_mass, const Doubles& kv, const Doubles& rotary_inertia,
                 const Doubles& flow_factor, const Bools& end_terms_p, const Bools& end_terms_q,
-                const std::optional<Doubles>& eta, const std::optional<Doubles>& c_ext) {
+                const std::optional<Doubles>& eta, const std::optional<Doubles>& c_ext,
+                const std::optional<Doubles>& k_found) {
                  const py::ssize_t n = p.size();
                  const int* pp = rows(p, n, 1, "p");
                  const int* qq = rows(q, n, 1, "q");
@@ -121,6 +122,7 @@ void bind_assembly(py::module_& m) {
                  const bool* eq = rows(end_terms_q, n, 1, "end_terms_q");
                  const double* et = eta ? rows(*eta, n, 3, "eta") : nullptr;
                  const double* ce = c_ext ? rows(*c_ext, n, 1, "c_ext") : nullptr;
+                 const double* kf = k_found ? rows(*k_found, n, 1, "k_found") : nullptr;
                  for (py::ssize_t k = 0; k < n; ++k) {  // all indices checked before the model changes
                      node_index(md, pp[k], "p");
                      node_index(md, qq[k], "q");
@@ -151,6 +153,7 @@ void bind_assembly(py::module_& m) {
                          d.eta_bending = et[3 * k + 2];
                      }
                      if (ce != nullptr) d.c_ext = ce[k];
+                     if (kf != nullptr) d.k_found = kf[k];
                      md.elements.add(std::make_unique<PipeElement>(pp[k], qq[k], d));
                  }
              },
@@ -158,10 +161,11 @@ void bind_assembly(py::module_& m) {
              py::arg("EIz"), py::arg("Phi_y"), py::arg("Phi_z"), py::arg("offset_p"), py::arg("offset_q"),
              py::arg("pipe_mass"), py::arg("fluid_mass"), py::arg("kv"), py::arg("rotary_inertia"),
              py::arg("flow_factor"), py::arg("end_terms_p"), py::arg("end_terms_q"), py::arg("eta") = py::none(),
-             py::arg("c_ext") = py::none(),
+             py::arg("c_ext") = py::none(), py::arg("k_found") = py::none(),
              "Pipe elements from nodes p to q (arrays of n indices), the fields of PipeElementData "
              "one array each: n values, offset_p/offset_q (n, 3, 3), rotary_inertia (n, 3); eta (n, 3): "
-             "eta_axial, eta_torsion, eta_bending [s] (None: undamped), c_ext (n) [N s/m^2] (None: 0).")
+             "eta_axial, eta_torsion, eta_bending [s] (None: undamped), c_ext (n) [N s/m^2] (None: 0), "
+             "k_found (n) [N/m^2] elastic foundation per length (None: 0).")
         .def("add_load",
              [](Model& md, int node, const Eigen::Vector3d& f, const Eigen::Vector3d& mo,
                 const Eigen::Vector3d& ff, const Eigen::Vector3d& fm) {

@@ -49,7 +49,8 @@ void bind_elements(py::module_& m) {
         .def_readwrite("eta_axial", &PipeElementData::eta_axial)
         .def_readwrite("eta_torsion", &PipeElementData::eta_torsion)
         .def_readwrite("eta_bending", &PipeElementData::eta_bending)
-        .def_readwrite("c_ext", &PipeElementData::c_ext);
+        .def_readwrite("c_ext", &PipeElementData::c_ext)
+        .def_readwrite("k_found", &PipeElementData::k_found);
 
     py::class_<LoadState>(m, "LoadState")
         .def(py::init<>())
@@ -170,6 +171,7 @@ void bind_elements(py::module_& m) {
         .def_readwrite("eta_axial", &AncfElementData::eta_axial)
         .def_readwrite("eta_bending", &AncfElementData::eta_bending)
         .def_readwrite("c_ext", &AncfElementData::c_ext)
+        .def_readwrite("k_found", &AncfElementData::k_found)
         .def_property(
             "elastic", [](const AncfElementData& d) { return d.elastic == AncfElastic::model_a ? "A" : "0"; },
             [](AncfElementData& d, const std::string& m) {

@@ -258,6 +258,15 @@ void ancf_tangent(const AncfElementData& d, const double* e, const double* v, co
                 for (int j = 0; j < 8; ++j) K[8 * i + j] = Qd[i].d[j];
         }
     }
+    if (d.k_found != 0.0) {  // the foundation K_f (e - e0), an elastic force
+        double Kf[64];
+        expand(hermite::mass, d.l, d.k_found * d.l, Kf);
+        for (int i = 0; i < 8; ++i)
+            for (int j = 0; j < 8; ++j) {
+                Q[i] += Kf[8 * i + j] * (e[j] - d.e0[j]);
+                if (need_K) K[8 * i + j] += Kf[8 * i + j];
+            }
+    }
     // Frame terms: f = 2 w S e_dot + (w^2 S^2 + w_dot S)(e - c), multiplied by M.
     const bool turning = frame != nullptr && (frame->rate != 0.0 || frame->acceleration != 0.0);
     const double w = turning ? frame->rate : 0.0, wd = turning ? frame->acceleration : 0.0;
@@ -330,8 +339,15 @@ void ancf_energies(const AncfElementData& d, const double* e, const double* v, d
     for (int i = 0; i < 8; ++i)
         for (int j = 0; j < 8; ++j) T += 0.5 * v[i] * M[8 * i + j] * v[j];
     *kinetic = T;
+    double Uf = 0.0;  // the foundation's 1/2 (e - e0)^T K_f (e - e0)
+    if (d.k_found != 0.0) {
+        double Kf[64];
+        expand(hermite::mass, d.l, d.k_found * d.l, Kf);
+        for (int i = 0; i < 8; ++i)
+            for (int j = 0; j < 8; ++j) Uf += 0.5 * (e[i] - d.e0[i]) * Kf[8 * i + j] * (e[j] - d.e0[j]);
+    }
     if (d.elastic == AncfElastic::model_0) {
-        *elastic = model_0_energy<double>(d, e);
+        *elastic = model_0_energy<double>(d, e) + Uf;
         return;
     }
     const Integrals& I = integrals();
@@ -344,7 +360,7 @@ void ancf_energies(const AncfElementData& d, const double* e, const double* v, d
     ancf_model_a_matrix(d, 3, Kt);
     for (int i = 0; i < 8; ++i)
         for (int j = 0; j < 8; ++j) U += 0.5 * e[i] * Kt[8 * i + j] * e[j];
-    *elastic = U;
+    *elastic = U + Uf;
 }
 
 }  // namespace pipeflex

@@ -41,6 +41,13 @@ void AncfElement::finalize(const Model& model) {
     for (int i : nodes())
         if (model.bases[i].row(2).norm() != 0.0 || model.bases[i].row(5).norm() != 0.0)
             throw std::invalid_argument("ANCF node " + std::to_string(i) + " must have z and z' fixed (planar element)");
+    // the foundation's reference coordinates: the built positions and slopes
+    for (int k = 0; k < 2; ++k) {
+        data.e0[k] = model.positions[p()][k];
+        data.e0[2 + k] = model.slopes[p()][k];
+        data.e0[4 + k] = model.positions[q()][k];
+        data.e0[6 + k] = model.slopes[q()][k];
+    }
 }
 
 void AncfElement::kernel(const ElementInputs& in, const ElementOutputs& out) const {

@@ -208,11 +208,13 @@ void pipe_residual(const PipeElementData& e, const NodeFrames& ref, const LoadSt
     Vec3<S> F[4];
     // terms with a zero factor (no flow, a steady flow) skipped: adding zeros changes no value
     const bool flow = mdot != 0.0, unsteady = mdd != 0.0, pressure = P != 0.0, viscous = e.c_ext != 0.0;
+    const bool found = e.k_found != 0.0;
     for (int i = 0; i < 4; ++i) {
         F[i] = -hermite::load[i] * promote<S>(g);
         for (int j = 0; j < 4; ++j) {
             F[i] += (mtot * l0 * hermite::mass[i][j]) * add[j];
             if (viscous) F[i] += (e.c_ext * l0 * hermite::mass[i][j]) * ad[j];
+            if (found) F[i] += (e.k_found * l0 * hermite::mass[i][j]) * (a[j] - promote<S>(e.found0[j]));
             if (flow) F[i] += (2.0 * mdot * hermite::first[i][j]) * ad[j];
             if (unsteady) F[i] += (mdd * hermite::first[i][j]) * a[j];
             if (pressure) F[i] += (P / l0 * hermite::second[i][j]) * a[j];
@@ -606,12 +608,13 @@ void pipe_tangents(const PipeElementData& e, const NodeFrames& ref, const LoadSt
     V3 g;
     for (int i = 0; i < 3; ++i) g[i] = load.gravity[i] * load.gravity_factor * mtot * l0;
     V3 F[4];
-    const bool viscous = e.c_ext != 0.0;
+    const bool viscous = e.c_ext != 0.0, found = e.k_found != 0.0;
     for (int i = 0; i < 4; ++i) {
         F[i] = -hermite::load[i] * g;
         for (int j = 0; j < 4; ++j) {
             F[i] += (mtot * l0 * hermite::mass[i][j]) * add[j];
             if (viscous) F[i] += (e.c_ext * l0 * hermite::mass[i][j]) * ad[j];
+            if (found) F[i] += (e.k_found * l0 * hermite::mass[i][j]) * (a[j] - e.found0[j]);
             F[i] += (2.0 * mdot * hermite::first[i][j]) * ad[j];
             F[i] += (mdd * hermite::first[i][j]) * a[j];
             F[i] += (P / l0 * hermite::second[i][j]) * a[j];
@@ -627,7 +630,10 @@ void pipe_tangents(const PipeElementData& e, const NodeFrames& ref, const LoadSt
             for (int j = 2 * n; j <= 2 * n + 1; ++j) {
                 const double cm = mtot * l0 * hermite::mass[i][j];
                 const double cg = 2.0 * mdot * hermite::first[i][j];
-                const double ck = mdd * hermite::first[i][j] + P / l0 * hermite::second[i][j];
+                // the foundation enters like the terms on a_j (its reference a0 is constant)
+                const double ck = found ? mdd * hermite::first[i][j] + P / l0 * hermite::second[i][j] +
+                                              e.k_found * l0 * hermite::mass[i][j]
+                                        : mdd * hermite::first[i][j] + P / l0 * hermite::second[i][j];
                 // the viscous force enters like the Coriolis one (both on ad_j)
                 const double cv = viscous ? cg + e.c_ext * l0 * hermite::mass[i][j] : cg;
                 if (j == 2 * n) {
@@ -873,6 +879,13 @@ void pipe_energies(const PipeElementData& e, const NodeFrames& ref, const double
     const auto sig = stresses(e, de);
     double U = 0.0;
     for (int i = 0; i < 6; ++i) U += 0.5 * sig[i] * de[i];
+    if (e.k_found != 0.0) {  // 1/2 k_found l0 (a - a0)^T (int N^T N dxi) (a - a0)
+        const Vec3<double> a[4] = {vec(q), l0 * Ep.col(0), vec(q + 6), l0 * Eq.col(0)};
+        Vec3<double> u[4];
+        for (int i = 0; i < 4; ++i) u[i] = a[i] - e.found0[i];
+        for (int i = 0; i < 4; ++i)
+            for (int j = 0; j < 4; ++j) U += 0.5 * e.k_found * l0 * hermite::mass[i][j] * dot(u[i], u[j]);
+    }
     *elastic = U;
     double M[144];
     pipe_mass_matrix(e, ref, q, M);

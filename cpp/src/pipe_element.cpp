@@ -19,6 +19,10 @@ void PipeElement::finalize(const Model& model) {
     }
     data.strain0 = {};
     pipe_strains(data, identity, qe, data.strain0.data());
+    // the foundation's reference centre line: the built positions and the offsets' e_x
+    // (the state's frames are rebased later, so the reference is kept here)
+    data.found0 = {model.positions[p()], data.l0 * data.offset_p.col(0), model.positions[q()],
+                   data.l0 * data.offset_q.col(0)};
 }
 
 void PipeElement::kernel(const ElementInputs& in, const ElementOutputs& out) const {

@@ -220,8 +220,8 @@ class ModelBuilder:
                 stiffness (bending about z; the section's EI unless EIz is given: ``EI``,
                 the out-of-plane ``E I_y``, is otherwise unused), ``pipe_mass`` [kg/m]
                 rho A, the damping ``eta_axial``, ``eta_bending`` [s] and ``c_ext``
-                [N s/m^2]; ``fluid_mass`` must be 0 (no flow in ANCF elements) and ``kv``,
-                ``GAy``, ``GAz``, ``rotary_inertia``, ``GJ``, ``eta_torsion`` at their
+                [N s/m^2], the foundation ``k_found`` [N/m^2]; ``fluid_mass`` must be 0
+                (no flow in ANCF elements) and ``kv``, ``GAy``, ``GAz``, ``rotary_inertia``, ``GJ``, ``eta_torsion`` at their
                 defaults (refused by name otherwise: the element has none of them).
             elastic: elastic force model, ``"A"`` (continuum strain, captures centrifugal
                 stiffening) or ``"0"`` (linear strain in a local element frame).
@@ -746,6 +746,7 @@ class ModelBuilder:
             alpha, beta = getattr(self, "_rayleigh", (0.0, 0.0))
             d.eta_axial, d.eta_bending = sec.eta_axial + beta, sec.eta_bending + beta
             d.c_ext = sec.c_ext + alpha * sec.pipe_mass
+            d.k_found = sec.k_found
             core.add_ancf(e["p"], e["q"], d)
         if hub is not None:
             core.set_hub(list(hub.nodes), hub.axis, hub.center, hub.omega, hub.spin_up_time)
@@ -802,13 +803,15 @@ class ModelBuilder:
         Phi_y = np.where(shear[:, 1], 12.0 * EIz / (GA[:, 1] * l0sq), 0.0)
         ends = [e["fluid_end_terms"] for e in els]
         reservoir = [e.get("reservoir", ()) for e in els]
-        damping = {}
+        optional = {}  # damping and foundation arrays, only where a section has them
         alpha, beta = getattr(self, "_rayleigh", (0.0, 0.0))
         if alpha != 0.0 or beta != 0.0 or any(s.damped for s in sections):  # else none: the kernels skip it
-            damping = dict(eta=np.array([[s.eta_axial + beta, s.eta_torsion + beta, s.eta_bending + beta]
+            optional = dict(eta=np.array([[s.eta_axial + beta, s.eta_torsion + beta, s.eta_bending + beta]
                                          for s in sections], dtype=float).reshape(-1, 3)[k],
                            c_ext=np.array([s.c_ext + alpha * (s.pipe_mass + s.fluid_mass) for s in sections],
                                           dtype=float)[k])
+        if any(s.k_found != 0.0 for s in sections):  # else none: the kernels skip it
+            optional["k_found"] = np.array([s.k_found for s in sections], dtype=float)[k]
         return dict(p=np.array([e["p"] for e in els], dtype=np.int32),
                     q=np.array([e["q"] for e in els], dtype=np.int32),
                     l0=l0, EA=EA, GJ=GJ, EIy=EI, EIz=EIz, Phi_y=Phi_y, Phi_z=Phi_z,
@@ -818,7 +821,7 @@ class ModelBuilder:
                     flow_factor=np.array([e["flow_factor"] for e in els], dtype=float),
                     end_terms_p=np.array([x and e["p"] not in r for x, e, r in zip(ends, els, reservoir)], dtype=bool),
                     end_terms_q=np.array([x and e["q"] not in r for x, e, r in zip(ends, els, reservoir)], dtype=bool),
-                    **damping)
+                    **optional)
 
 
 def _frozen(value):

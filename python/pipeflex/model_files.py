@@ -75,7 +75,8 @@ MASS = ("add_point_mass", {"node": "node", "mass": "nonneg", "inertia": "nonneg3
 LOAD = ("add_load", {"node": "node", "force": "point", "moment": "point", "follower": "bool"}, None)
 SECTION = {"EI": "positive", "pipe_mass": "nonneg", "fluid_mass": "nonneg", "EIz": "positive", "EA": "positive",
            "GJ": "positive", "GAy": "positive", "GAz": "positive", "kv": "positive", "rotary_inertia": "nonneg3",
-           "eta_bending": "nonneg", "eta_torsion": "nonneg", "eta_axial": "nonneg", "c_ext": "nonneg"}
+           "eta_bending": "nonneg", "eta_torsion": "nonneg", "eta_axial": "nonneg", "c_ext": "nonneg",
+           "k_found": "nonneg"}
 TUBE = {"outer_diameter": "positive", "inner_diameter": "nonneg", "E": "positive", "G": "positive",
         "density": "positive", "fluid_density": "nonneg", "kv": "positive", "shear": "bool",
         "rotary_inertia": "bool", "fluid_bulk_modulus": "positive"}

@@ -50,13 +50,17 @@ class PipeSection:
             omega [rad/s] dominated by bending gets the damping ratio eta_bending omega / 2.
         c_ext: ``c`` [N s/m^2] external viscous damping per unit length: a distributed
             force -c times the centre line's velocity (default 0).
+        k_found: ``k_f`` [N/m^2] elastic (Winkler) foundation stiffness per unit length: a
+            distributed force -k_f (r - r0) pulling the centre line r back to its position
+            r0 as built, in every direction (default 0: no foundation). Its energy is
+            elastic energy.
 
     Which formulation reads what: the 3D pipe element reads every field; the
     floating-frame body (:func:`~pipeflex.multibody.flexible_body`) has no shear
-    flexibility and plug flow, and refuses ``GAy``, ``GAz``, ``kv != 1`` and the damping
-    coefficients (its modes take ``modal_damping`` ratios instead); the planar ANCF beam
-    reads ``EA``, ``EIz``, ``pipe_mass``, ``eta_axial``, ``eta_bending`` and ``c_ext`` and
-    refuses ``fluid_mass``, ``kv``, ``GAy``, ``GAz``, ``rotary_inertia``, ``eta_torsion``
+    flexibility and plug flow, and refuses ``GAy``, ``GAz``, ``kv != 1``, ``k_found`` and
+    the damping coefficients (its modes take ``modal_damping`` ratios instead); the planar
+    ANCF beam reads ``EA``, ``EIz``, ``pipe_mass``, ``eta_axial``, ``eta_bending``,
+    ``c_ext`` and ``k_found`` and refuses ``fluid_mass``, ``kv``, ``GAy``, ``GAz``, ``rotary_inertia``, ``eta_torsion``
     and a ``GJ`` other than its default.
     A field a formulation cannot honour is refused by name, never silently dropped.
     """
@@ -75,6 +79,7 @@ class PipeSection:
     eta_torsion: float = 0.0
     eta_axial: float = 0.0
     c_ext: float = 0.0
+    k_found: float = 0.0
 
     def __post_init__(self):
         ok = _checks
@@ -107,6 +112,10 @@ class PipeSection:
                 object.__setattr__(self, name, ok.non_negative(name, getattr(self, name)))
             except ValueError as err:
                 raise ValueError(f"{err} ({name} [{unit}] is a damping coefficient: 0 for none)") from None
+        try:
+            object.__setattr__(self, "k_found", ok.non_negative("k_found", self.k_found))
+        except ValueError as err:
+            raise ValueError(f"{err} (k_found [N/m^2] is a foundation stiffness per length: 0 for none)") from None
 
     @property
     def damped(self) -> bool:
@@ -186,10 +195,10 @@ def require_section(section, name: str = "section") -> PipeSection:
 def refuse_unsupported(section: PipeSection, reasons: Dict[str, str], where: str) -> None:
     """Raise ValueError naming every field in ``reasons`` that ``section`` sets to other
     than its default (``GAy``/``GAz`` None, ``kv`` 1, ``rotary_inertia`` zero, ``GJ``
-    EI / 1.3, the damping coefficients 0): ``where`` would ignore it; ``reasons[name]``
-    says why."""
+    EI / 1.3, the damping coefficients and ``k_found`` 0): ``where`` would ignore it;
+    ``reasons[name]`` says why."""
     default = {"GAy": None, "GAz": None, "kv": 1.0, "rotary_inertia": (0.0, 0.0, 0.0), "GJ": section.EI / 1.3,
-               **{name: 0.0 for name in DAMPING_FIELDS}}
+               "k_found": 0.0, **{name: 0.0 for name in DAMPING_FIELDS}}
     shown = {"GJ": "EI / 1.3"}
     bad = [f"section.{name} = {getattr(section, name)!r}: {why} (leave it at its default, "
            f"{shown.get(name, repr(default[name]))})" for name, why in reasons.items()

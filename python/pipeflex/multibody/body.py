@@ -313,7 +313,8 @@ def flexible_body(*, length: float, n_elements: int, section: PipeSection, inter
         "GAy": "the FFRF body does not support shear flexibility yet (Euler-Bernoulli elements)",
         "GAz": "the FFRF body does not support shear flexibility yet (Euler-Bernoulli elements)",
         **{name: "the FFRF body is damped by its modes' ratios (flexible_body(..., modal_damping=zeta)), not by "
-                 "the section's coefficients" for name in ("eta_bending", "eta_torsion", "eta_axial", "c_ext")}},
+                 "the section's coefficients" for name in ("eta_bending", "eta_torsion", "eta_axial", "c_ext")},
+        "k_found": "the FFRF body has no elastic foundation (its modes are those of the free body)"},
         "flexible_body")
     internal_modes = _checks.non_negative_int("internal_modes", internal_modes)
     kappa = _checks.finite("curvature", curvature)

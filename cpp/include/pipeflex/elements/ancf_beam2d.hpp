@@ -31,6 +31,11 @@ struct AncfElementData {
     // (see ancf_tangent); c_ext [N s/m^2] external viscous damping per unit length. Zero:
     // skipped (the undamped results bit for bit).
     double eta_axial = 0.0, eta_bending = 0.0, c_ext = 0.0;
+    // k_found [N/m^2]: elastic (Winkler) foundation per unit length, force -k_found (r - r0),
+    // consistent: k_found l int S^T S dxi (e - e0), with e0 the reference coordinates [m, -]
+    // (set by AncfElement::finalize). Zero: skipped.
+    double k_found = 0.0;
+    double e0[8] = {};
     bool damped() const { return eta_axial != 0.0 || eta_bending != 0.0 || c_ext != 0.0; }
 };
 
@@ -49,6 +54,7 @@ struct AncfFrame {
 //  * Model 0: dR/de_dot of R = 1/2 int (eta_axial EA (u_x'_t)^2 + eta_bending EI (u_y''_t)^2) dx,
 //    u_t the rate of the local displacement (a rigid motion has u_t = 0);
 //  * both: c_ext l int S^T S dxi e_dot (the consistent viscous force).
+// The foundation K_f (e - e0), K_f = k_found l int S^T S dxi, adds to Q and K.
 // Residual (8) and weighted tangent wK dr/de + wC dr/de_dot + wM M (row-major 8x8).
 // gravity: g [m/s^2] (2), may be null; frame may be null (inertial coordinates).
 // r or J may be null.
@@ -61,7 +67,8 @@ void ancf_tangent(const AncfElementData& d, const double* e, const double* v, co
 void ancf_geometric_stiffness(const AncfElementData& d, const double* e, const double* de, double* G);
 
 // Elastic energy [J] (Model A: 1/2 EA int eps^2 dx with eps interpolated from eps_A,
-// eps_M, eps_B, plus bending; Model 0: U above) and kinetic energy 1/2 v^T M v [J].
+// eps_M, eps_B, plus bending; Model 0: U above; both plus the foundation's
+// 1/2 (e - e0)^T K_f (e - e0)) and kinetic energy 1/2 v^T M v [J].
 // Power v . Q_d [W] (>= 0) of the damping forces Q_d at e, e_dot = v (Kelvin-Voigt
 // eta_axial, eta_bending and viscous c_ext; see ancf_tangent); 0 without damping.
 double ancf_damping_power(const AncfElementData& d, const double* e, const double* v);

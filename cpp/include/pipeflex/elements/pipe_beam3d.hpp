@@ -13,6 +13,8 @@
 // free outlet none). Elastic: generalised strains eqs. 1-2, constitutive eqs. 6-7.
 // Damping (PipeElementData::eta_*, c_ext): Kelvin-Voigt stresses sigma_d = C eta eps_dot
 // of the generalised strains' rate and the external viscous force f_c of the centre line.
+// Foundation (k_found): the elastic counterpart of c_ext, k_found l0 int N^T N dxi (a - a0)
+// on the Hermite vectors a of the centre line, part of the elastic forces and energy.
 #pragma once
 
 #include "pipeflex/core/dual.hpp"
@@ -53,6 +55,12 @@ struct PipeElementData {
     // c_ext [N s/m^2]: external viscous damping per unit length, force -c_ext times the
     // centre line's velocity (Hermite-interpolated like the inertia).
     double c_ext = 0.0;
+    // k_found [N/m^2]: elastic (Winkler) foundation per unit length, force -k_found times the
+    // centre line's displacement r - r0 (Hermite-interpolated like the inertia). found0 [m]:
+    // the reference centre line's Hermite vectors a0 = [X^p, l0 e0^p_x, X^q, l0 e0^q_x] (set by
+    // PipeElement::finalize from the reference positions and offsets). Zero k_found: skipped.
+    double k_found = 0.0;
+    std::array<Vec3<double>, 4> found0{};
     bool kelvin_voigt() const { return eta_axial != 0.0 || eta_torsion != 0.0 || eta_bending != 0.0; }
 };
 
@@ -131,7 +139,8 @@ void pipe_mass_matrix(const PipeElementData& e, const NodeFrames& ref, const dou
 void pipe_strains(const PipeElementData& e, const NodeFrames& ref, const double* q,
                   double* strain);
 
-// Kinetic energy [J] (pipe and fluid carried along, rotary inertia) and elastic energy [J].
+// Kinetic energy [J] (pipe and fluid carried along, rotary inertia) and elastic energy [J]
+// (strains and the foundation's 1/2 k_found int (r - r0)^2 ds).
 void pipe_energies(const PipeElementData& e, const NodeFrames& ref, const double* q,
                    const double* v, double* kinetic, double* elastic);
 
