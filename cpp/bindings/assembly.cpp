@@ -4,8 +4,12 @@
 #include "pipeflex/assembly/ground_spring.hpp"
 #include "pipeflex/assembly/model.hpp"
 #include "pipeflex/assembly/pipe_element.hpp"
+#include "pipeflex/core/format.hpp"
+#include "pipeflex/core/user_function_error.hpp"
 #include "pipeflex/solvers/system.hpp"
+#include "pipeflex/solvers/transient.hpp"
 
+#include <pybind11/numpy.h>
 #include <pybind11/stl.h>
 
 #include <algorithm>
@@ -26,6 +30,56 @@ int node_index(const Model& md, int i, const char* what) {
         throw std::invalid_argument(std::string(what) + " must be a node index in [0, " + std::to_string(md.n_nodes()) +
                                     "), got " + std::to_string(i));
     return i;
+}
+
+// A Python callable fn(t, position, velocity) -> (force, moment) as a core LoadFunction.
+// The integrators release the GIL: each call takes it. The callable is held through a
+// shared_ptr whose deleter takes the GIL, so that the core may copy and drop models on
+// any thread. Python errors become C++ exceptions that hold no Python object (IDA keeps
+// them across SUNDIALS, user_function_error.hpp): fn's own as RuntimeError with its type
+// and message, a bad return as ValueError.
+LoadFunction python_load(py::object fn, const std::string& label) {
+    std::shared_ptr<py::object> held(new py::object(std::move(fn)), [](py::object* p) {
+        py::gil_scoped_acquire gil;
+        delete p;
+    });
+    return [held, label](double t, const double* x, const double* v, double* f, double* m) {
+        py::gil_scoped_acquire gil;
+        py::object out;
+        try {
+            out = (*held)(t, py::array_t<double>(3, x), py::array_t<double>(3, v));
+        } catch (py::error_already_set& e) {
+            const std::string type = py::str(e.type().attr("__name__"));
+            throw UserFunctionError(label + " raised at t = " + fmt(t) + " s: " + type + ": " +
+                                    std::string(py::str(e.value())));
+        }
+        const auto bad = [&](const std::string& why) {
+            return UserFunctionValueError(label + " at t = " + fmt(t) + " s: " + why);
+        };
+        if (!py::isinstance<py::tuple>(out) && !py::isinstance<py::list>(out))
+            throw bad("must return a pair (force (3) [N], moment (3) [N m]), got " +
+                      std::string(py::str(py::type::of(out).attr("__name__"))));
+        const py::sequence seq = out;
+        if (seq.size() != 2)
+            throw bad("must return a pair (force (3) [N], moment (3) [N m]), got " + std::to_string(seq.size()) +
+                      " items");
+        for (int k = 0; k < 2; ++k) {
+            const char* what = k == 0 ? "force" : "moment";
+            py::array_t<double> a;
+            try {
+                a = py::array_t<double, py::array::forcecast>::ensure(seq[k]);
+            } catch (py::error_already_set&) {
+                a = py::array_t<double>();
+            }
+            if (!a || a.ndim() != 1 || a.shape(0) != 3) throw bad(std::string(what) + " must have 3 components");
+            double* dst = k == 0 ? f : m;
+            for (int i = 0; i < 3; ++i) {
+                dst[i] = a.at(i);
+                if (!std::isfinite(dst[i]))
+                    throw bad(std::string(what) + "[" + std::to_string(i) + "] is not finite (" + fmt(dst[i]) + ")");
+            }
+        }
+    };
 }
 
 void changed(Model& md) {
@@ -168,12 +222,28 @@ void bind_assembly(py::module_& m) {
              "k_found (n) [N/m^2] elastic foundation per length (None: 0).")
         .def("add_load",
              [](Model& md, int node, const Eigen::Vector3d& f, const Eigen::Vector3d& mo,
-                const Eigen::Vector3d& ff, const Eigen::Vector3d& fm) {
+                const Eigen::Vector3d& ff, const Eigen::Vector3d& fm, std::optional<TimeTable> time_function) {
                  changed(md);
-                 md.loads.push_back({node_index(md, node, "node"), to_vec3(f), to_vec3(mo), to_vec3(ff), to_vec3(fm)});
+                 NodalLoad l{node_index(md, node, "node"), to_vec3(f), to_vec3(mo), to_vec3(ff), to_vec3(fm)};
+                 if (time_function) l.time_function = std::make_shared<const TimeTable>(*time_function);
+                 md.loads.push_back(std::move(l));
              },
              py::arg("node"), py::arg("force"), py::arg("moment"), py::arg("follower_force"), py::arg("follower_moment"),
-             "Dead force [N] and moment [N m], and follower force and moment in the node frame, at node.")
+             py::arg("time_function") = py::none(),
+             "Dead force [N] and moment [N m], and follower force and moment in the node frame, at node; "
+             "time_function (None: 1) scales it (besides the load factor).")
+        .def("add_load_function",
+             [](Model& md, int node, py::function fn, const std::string& label) {
+                 changed(md);
+                 NodalLoad l;
+                 l.node = node_index(md, node, "node");
+                 l.label = label;
+                 l.function = python_load(std::move(fn), label);
+                 md.loads.push_back(std::move(l));
+             },
+             py::arg("node"), py::arg("fn"), py::arg("label"),
+             "A load fn(t [s], position (3) [m], velocity (3) [m/s]) -> (force (3) [N], moment (3) [N m]) in "
+             "global axes at node, scaled by the load factor; label names it in error messages.")
         .def("add_mass",
              [](Model& md, int node, double mass, const Eigen::Vector3d& inertia) {
                  changed(md);
@@ -394,8 +464,8 @@ void bind_assembly(py::module_& m) {
         },
         py::arg("model"), py::arg("state"), py::arg("dq"),
         "Prestress stiffness triplets of the first-order strains of the full displacement dq.");
-    m.def("external_forces", &external_forces, py::arg("model"), py::arg("state"),
-          "The nodal loads at the state, 6 per node [N, N m] (load factor 1).");
+    m.def("external_forces", &external_forces, py::arg("model"), py::arg("state"), py::arg("t") = 0.0,
+          "The nodal loads at the state and time t [s], 6 per node [N, N m] (load factor 1).");
     m.def(
         "add_increment",
         [](const Model& md, State& s, const Eigen::VectorXd& dz, const std::string& which) {

@@ -4,6 +4,7 @@
 
 #include "pipeflex/core/format.hpp"
 #include "pipeflex/core/interrupt.hpp"
+#include "pipeflex/core/user_function_error.hpp"
 #include "pipeflex/errors.hpp"
 #include "pipeflex/solvers/sparse_lu.hpp"
 
@@ -110,6 +111,7 @@ struct IdaData {
     SpMat C;
     long jacobians = 0;
     std::string error;
+    std::exception_ptr user_error;  // a user function's failure, rethrown as it is
 };
 
 int ida_residual(sunrealtype t, N_Vector yy, N_Vector yp, N_Vector rr, void* user) {
@@ -143,6 +145,7 @@ int ida_residual(sunrealtype t, N_Vector yy, N_Vector yp, N_Vector rr, void* use
         if (!d->r.allFinite()) return 1;
     } catch (const std::exception& e) {
         d->error = e.what();
+        if (is_user_function_error(e)) d->user_error = std::current_exception();
         return -1;
     }
     return 0;
@@ -161,6 +164,7 @@ int ida_jacobian(sunrealtype t, sunrealtype cj, N_Vector yy, N_Vector yp, N_Vect
         d->eq.tangents_csc({{1.0, 0.0, 0.0}, {1.0, cj, cj * cj}}, nm->tangent);
     } catch (const std::exception& e) {
         d->error = e.what();
+        if (is_user_function_error(e)) d->user_error = std::current_exception();
         return -1;
     }
     if (nm->built != nm->tangent.builds) nm->pattern();
@@ -216,6 +220,7 @@ int newton_solve(SUNLinearSolver LS, SUNMatrix A, N_Vector xv, N_Vector bv, sunr
         d->eq.rate_increments(nm->b1, nm->u);
     } catch (const std::exception& e) {
         d->error = e.what();
+        if (is_user_function_error(e)) d->user_error = std::current_exception();
         return SUNLS_PACKAGE_FAIL_UNREC;
     }
     const SpMap K = nm->K();
@@ -308,7 +313,7 @@ Record integrate_ida(System& sys, const Drive& drive, const std::vector<double>&
     const int n = lay.n, nc = lay.nc, N = lay.size();
     double t = times.front();
     IdaData data{eq, lay, Vec::Zero(n), Vec::Zero(n), Vec::Zero(n), Vec::Zero(n), Vec::Zero(nc), Vec::Zero(nc),
-                 Vec(), Vec(), Vec(), Triplets(), SpMat(), 0, {}};
+                 Vec(), Vec(), Vec(), Triplets(), SpMat(), 0, {}, nullptr};
 
     SUNContext ctx = nullptr;
     if (SUNContext_Create(nullptr, &ctx) != 0) throw std::runtime_error("SUNDIALS: could not create a context");
@@ -406,6 +411,7 @@ Record integrate_ida(System& sys, const Drive& drive, const std::vector<double>&
             double h = 0.0, tc = 0.0;
             IDAGetLastStep(mem, &h);
             IDAGetCurrentTime(mem, &tc);
+            if (data.user_error) std::rethrow_exception(data.user_error);
             const std::string why = data.error.empty() ? IDAGetReturnFlagName(flag) : data.error;
             ConvergenceError::Where where;
             where.time = tc;

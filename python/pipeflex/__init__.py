@@ -15,7 +15,7 @@ from .model import Model, ModelBuilder
 from .results import Result
 from .sections import PipeSection
 from .state import State
-from .time_functions import Sine
+from .time_functions import Pulse, Sine
 
 __version__ = "0.1.0"
 
@@ -50,7 +50,7 @@ if TYPE_CHECKING:  # the lazy names, spelt out for editors and type checkers (te
 
 __all__ = ["CriticalFlow", "EigenResult", "Linearization", "StaticResult",
            "critical_mass_flow", "eigenvalues", "linearize", "simulate", "stability", "static_equilibrium",
-           "Sine", "TransientResult", "SteadyRotation", "SystemSteadyRotation", "steady_rotation",
+           "Pulse", "Sine", "TransientResult", "SteadyRotation", "SystemSteadyRotation", "steady_rotation",
            "RotatingFrequencies", "resonance_speed", "rotating_frequencies", "rotating_state",
            "OrbitBranch", "OrbitGuess", "PeriodicOrbit", "continue_orbits", "orbit_guess", "periodic_orbit",
            "Campbell", "campbell", "stability_map", "sweep",

@@ -21,6 +21,7 @@ import numpy as np
 from . import _checks, _core
 from .rotation import skew
 from .sections import PipeSection, refuse_unsupported, require_section
+from .time_functions import time_function as as_time_table
 
 COMPONENTS = ("ux", "uy", "uz", "rx", "ry", "rz")
 ANCF_COMPONENTS = ("ux", "uy", "uz", "dx", "dy", "dz")  # position, slope dr/dx
@@ -572,16 +573,66 @@ class ModelBuilder:
 
     # -- loads and masses -------------------------------------------------------------
     def add_load(self, node: int, *, force: Sequence[float] = (0.0, 0.0, 0.0),
-                 moment: Sequence[float] = (0.0, 0.0, 0.0), follower: bool = False) -> None:
+                 moment: Sequence[float] = (0.0, 0.0, 0.0), follower: bool = False,
+                 time_function=None) -> None:
         """Nodal force [N] and moment [N m]; dead (global axes) or, with ``follower=True``,
         given in the node's frame and turning with it (the frame is the global one in the
-        reference configuration)."""
+        reference configuration).
+
+        Args:
+            node: the node [-].
+            force: F (3) [N].
+            moment: M (3) [N m].
+            follower: whether F and M are given in the node's frame and turn with it.
+            time_function: s(t) [-] of this load alone, evaluated in the compiled core
+                (no Python call): a number, a table (times [s], values), a :class:`Sine`
+                or a :class:`Pulse` (an impulse ``F * pulse.integral`` [N s]). The load
+                is ``s(t) lambda(t) (F, M)`` with lambda the analysis' load factor
+                (``simulate(load_factor=)``, default 1); statics take s(0). None: s = 1.
+        """
         node = self._node("node", node)
         f = _checks.vector3("force", force)
         m = _checks.vector3("moment", moment)
+        if time_function is not None:
+            as_time_table("time_function", time_function)  # checked now, converted by build (pickles)
         z = np.zeros(3)
         self._loads.append(dict(node=node, f=z if follower else f, m=z if follower else m,
-                                ff=f if follower else z, fm=m if follower else z))
+                                ff=f if follower else z, fm=m if follower else z, tf=_frozen(time_function)))
+
+    def add_load_function(self, node: int, fn, *, name: Optional[str] = None) -> None:
+        """A nodal load computed by a Python function of time and the node's motion.
+
+        ``fn(t, position, velocity) -> (force, moment)``: t [s], the node's position (3)
+        [m] and velocity (3) [m/s] (ANCF node: of its position r), returning force (3) [N]
+        and moment (3) [N m] in global axes (an ANCF node takes no moment). The load is
+        scaled by the analysis' load factor (default 1); static analyses call fn at
+        t = 0. Exceptions raised by fn stop the analysis with a RuntimeError naming the
+        load, the time and fn's message; a return that is not two finite 3-vectors is a
+        ValueError naming the load.
+
+        Its tangent stiffness and damping are central differences of fn in position and
+        velocity (12 more calls per Jacobian; exact up to rounding for linear springs and
+        dashpots), so Newton converges as for the built-in loads.
+
+        Cost: one Python call per residual evaluation, taking the GIL (parallel runs of
+        such models wait for each other in fn). A 10-element cantilever over 1 s called
+        a trivial fn about 30,000 times with IDA (0.24 s -> 0.28 s) and 3,200 times with
+        the generalised-alpha method (12 ms -> 16 ms): about 1.3 us per call plus fn's
+        own time. Prefer :meth:`add_load` with ``time_function=`` when the load does not
+        depend on the motion. A model with a load function cannot be saved to a model
+        file, nor pickled unless fn can be.
+
+        Args:
+            node: the node [-].
+            fn: the callable.
+            name: its name in error messages (default fn's ``__name__``).
+        """
+        node = self._node("node", node)
+        if not callable(fn):
+            raise TypeError(f"fn must be callable fn(t, position, velocity) -> (force, moment), got {fn!r}")
+        label = f"load function {name or getattr(fn, '__name__', type(fn).__name__)!s} at node {node}"
+        z = np.zeros(3)
+        self._loads.append(dict(node=node, f=z, m=z, ff=z, fm=z, tf=None, fn=fn, label=label))
 
     def add_point_mass(self, node: int, mass: float, inertia: Sequence[float] = (0.0, 0.0, 0.0)) -> None:
         """Concentrated mass [kg] and principal rotary inertia [kg m^2] (node frame).
@@ -751,7 +802,12 @@ class ModelBuilder:
         if hub is not None:
             core.set_hub(list(hub.nodes), hub.axis, hub.center, hub.omega, hub.spin_up_time)
         for ld in self._loads:
-            core.add_load(ld["node"], ld["f"], ld["m"], ld["ff"], ld["fm"])
+            if ld.get("fn") is not None:
+                core.add_load_function(ld["node"], ld["fn"], ld["label"])
+            else:
+                tf = ld.get("tf")
+                core.add_load(ld["node"], ld["f"], ld["m"], ld["ff"], ld["fm"],
+                              None if tf is None else as_time_table("time_function", tf))
         for s in self._springs:  # in the core's registry after the pipe and ANCF elements
             if s["kind"] == "axial":
                 core.add_spring(*s["nodes"], s["k"], s["c"])

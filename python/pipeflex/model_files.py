@@ -490,6 +490,13 @@ def model_data(model: Model) -> dict:
     inlets = []
     rayleigh = None
     for method, args, kwargs in desc["_recipe"]:
+        if method == "add_load_function":  # code, not data
+            fn = kwargs.get("fn", args[1] if len(args) > 1 else None)
+            raise ValueError(f"model: its load function {getattr(fn, '__name__', fn)!s} (add_load_function) is a "
+                             f"Python callable, which a model file cannot hold: the model cannot be saved")
+        if method == "add_load" and kwargs.get("time_function") is not None:
+            raise ValueError("model: add_load(time_function=...) has no model-file key yet: the model cannot be "
+                             "saved (give the time function to the analysis as load_factor= instead)")
         if method not in _PLACES:
             raise ValueError(f"model: its builder call {method}() has no model-file key: the model cannot be saved")
         place, kind = _PLACES[method]

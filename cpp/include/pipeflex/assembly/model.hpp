@@ -14,8 +14,10 @@
 #include "pipeflex/elements/pipe_beam3d.hpp"
 
 #include <Eigen/Core>
+#include <functional>
 #include <memory>
 #include <stdexcept>
+#include <string>
 #include <vector>
 
 namespace pipeflex {
@@ -41,11 +43,24 @@ struct HubDrive {
     void angle(double t, double* th, double* thd, double* thdd) const;
 };
 
-// Nodal load: dead force/moment in global axes, follower force/moment in the node frame.
+struct TimeTable;  // solvers/transient.hpp
+
+// A load given by a function (the bindings' Python callables): at time t [s], the node's
+// position x (3) [m] and velocity v (3) [m/s] (its first 3 coordinates and their rates),
+// writes the force f (3) [N] and moment m (3) [N m] in global axes; it throws on failure
+// (the message names the load and t).
+using LoadFunction = std::function<void(double t, const double* x, const double* v, double* f, double* m)>;
+
+// Nodal load: dead force/moment in global axes, follower force/moment in the node frame,
+// or (function set) the function's force and moment. Each is scaled by the load factor
+// and, if set, by its own time function at the load state's time (LoadState::time).
 struct NodalLoad {
     int node = 0;
     Vec3<double> force{}, moment{};                  // [N], [N m] dead
     Vec3<double> follower_force{}, follower_moment{};  // [N], [N m] in the node frame
+    std::shared_ptr<const TimeTable> time_function;  // null: 1
+    LoadFunction function;                           // empty: the constant load above
+    std::string label;                               // the function's name in error messages
 };
 
 // Concentrated mass at a node: mass [kg] and rotary inertia [kg m^2] in the node frame.
@@ -177,8 +192,9 @@ void assemble_geometric(const Model& model, const State& state, const Eigen::Vec
 void apply_hub(const Model& model, State& state, double t);
 void apply_hub_frame(const Model& model, LoadState& load, double t);
 
-// Full (6 per node) generalised force of the external nodal loads at load factor 1.
-Eigen::VectorXd external_forces(const Model& model, const State& state);
+// Full (6 per node) generalised force of the external nodal loads at load factor 1 and
+// time t [s] (the loads' time functions and load functions at t).
+Eigen::VectorXd external_forces(const Model& model, const State& state, double t = 0.0);
 
 // Add the reduced increment dz to the coordinates (q <- q + T dz); dz has n_dofs
 // entries, full 6 per node (both checked).

@@ -70,6 +70,7 @@ struct LoadState {
     double mass_flow_rate = 0.0;  // d(mdot)/dt [kg/s^2]
     std::array<double, 3> gravity{};  // g [m/s^2]
     double gravity_factor = 1.0;  // [-] multiplier (load stepping)
+    double time = 0.0;  // t [s] of the nodal loads' time functions and load functions (statics: 0)
     // Co-rotating hub frame (ANCF models; see HubDrive): rate [rad/s], its rate [rad/s^2]
     // and the axis point [m]; the frame turns about global z.
     double frame_rate = 0.0, frame_acceleration = 0.0;

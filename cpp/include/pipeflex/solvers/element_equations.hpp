@@ -63,6 +63,7 @@ class ElementEquations final : public Equations {
         LoadState l = base_load;
         l.mass_flow = flow.at(t);
         l.mass_flow_rate = flow.rate(t);
+        l.time = statics ? 0.0 : t;  // statics: the loads at t = 0
         if (!statics) apply_hub_frame(model, l, t);
         return l;
     }
@@ -232,7 +233,7 @@ class ElementEquations final : public Equations {
     void powers(double t, double* fluid, double* loads, double* damping) const {
         *fluid = fluid_power(model, state, load_at(t));
         // state.v is B v_z, so v . f equals v_z . B^T f
-        *loads = load_factor(t) * state.v.dot(external_forces(model, state));
+        *loads = load_factor(t) * state.v.dot(external_forces(model, state, t));
         *damping = damped ? damping_power(model, state) : 0.0;
     }
 
