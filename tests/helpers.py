@@ -150,3 +150,27 @@ def l_sprinkler(EI, mass_flow=2.0):
     b.rigid(j0, "end", j1, "start")
     b.hinge(j0, "start", (0, 0, 1))
     return b.build(mass_flow=mass_flow)
+
+
+def assembled_matrix(model, s, wK, wC, wM=0.0):
+    """The element assembler's weighted tangent wK K + wC C + wM M (dense) at core state s."""
+    n = model.n_dofs
+    _, (i, j, v) = _core.assemble(model.core, s, model.load_state(), 1.0, wK, wC, wM)
+    X = np.zeros((n, n))
+    np.add.at(X, (i, j), v)
+    return X
+
+
+def assembled_residual(model, s):
+    """The element assembler's reduced residual at core state s."""
+    return _core.assemble(model.core, s, model.load_state(), 1.0, 0.0, 0.0, 0.0, False)[0]
+
+
+def moving_state(model, seed=1):
+    """A deformed, moving and accelerating core state (rotations of order 0.3 rad)."""
+    rng = np.random.default_rng(seed)
+    s = model.initial_state()
+    _core.add_increment(model.core, s, 0.1 * rng.standard_normal(model.n_dofs), "q")
+    _core.add_increment(model.core, s, 0.7 * rng.standard_normal(model.n_dofs), "v")
+    _core.add_increment(model.core, s, rng.standard_normal(model.n_dofs), "a")
+    return s

@@ -12,6 +12,7 @@ from pipeflex.references import continuous_pipe as cp
 from pipeflex.state import as_core
 
 from helpers import assert_close_ulps, residual_columns
+from helpers import assembled_matrix as matrix, assembled_residual as residual, moving_state as moving
 
 DAMPING = dict(eta_bending=0.03, eta_torsion=0.02, eta_axial=0.01, c_ext=0.7)
 
@@ -28,28 +29,6 @@ def arc(mass_flow=1.5, **damping):
     b.add_arc(n0, center=(0.1, 0.8, 0.3), angle=np.pi / 2, normal=(0, 0, 1), n_elements=3, section=section(**damping))
     b.clamp(n0)
     return b.build(mass_flow=mass_flow)
-
-
-def moving(model, seed=1):
-    """A deformed, moving and accelerating state (rotations of order 0.3 rad)."""
-    rng = np.random.default_rng(seed)
-    s = model.initial_state()
-    _core.add_increment(model.core, s, 0.1 * rng.standard_normal(model.n_dofs), "q")
-    _core.add_increment(model.core, s, 0.7 * rng.standard_normal(model.n_dofs), "v")
-    _core.add_increment(model.core, s, rng.standard_normal(model.n_dofs), "a")
-    return s
-
-
-def matrix(model, s, wK, wC, wM=0.0):
-    n = model.n_dofs
-    _, (i, j, v) = _core.assemble(model.core, s, model.load_state(), 1.0, wK, wC, wM)
-    X = np.zeros((n, n))
-    np.add.at(X, (i, j), v)
-    return X
-
-
-def residual(model, s):
-    return _core.assemble(model.core, s, model.load_state(), 1.0, 0.0, 0.0, 0.0, False)[0]
 
 
 # ---------------------------------------------------------------------------------------

@@ -9,28 +9,7 @@ import pipeflex as pf
 from pipeflex import _core
 
 from helpers import residual_columns
-
-
-def matrix(model, s, wK, wC, wM=0.0):
-    n = model.n_dofs
-    _, (i, j, v) = _core.assemble(model.core, s, model.load_state(), 1.0, wK, wC, wM)
-    X = np.zeros((n, n))
-    np.add.at(X, (i, j), v)
-    return X
-
-
-def residual(model, s):
-    return _core.assemble(model.core, s, model.load_state(), 1.0, 0.0, 0.0, 0.0, False)[0]
-
-
-def moving(model, seed=1):
-    """A deformed, moving and accelerating state (rotations of order 0.3 rad)."""
-    rng = np.random.default_rng(seed)
-    s = model.initial_state()
-    _core.add_increment(model.core, s, 0.1 * rng.standard_normal(model.n_dofs), "q")
-    _core.add_increment(model.core, s, 0.7 * rng.standard_normal(model.n_dofs), "v")
-    _core.add_increment(model.core, s, rng.standard_normal(model.n_dofs), "a")
-    return s
+from helpers import assembled_matrix as matrix, assembled_residual as residual, moving_state as moving
 
 
 def arc(**extra):
