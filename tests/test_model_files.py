@@ -106,7 +106,8 @@ SEEDS = {
 
 
 def test_every_seed_file_is_tested():
-    assert {p.stem for p in MODELS.glob("*.yaml")} == set(SEEDS)
+    # element models (the files of bodies and coupled systems: tests/test_model_files_bodies.py)
+    assert {p.stem for p in MODELS.glob("*.yaml") if "\nkind: " not in p.read_text()} == set(SEEDS)
 
 
 @pytest.mark.parametrize("name", sorted(SEEDS))

@@ -110,3 +110,64 @@ def test_missing_meshio_says_how_to_install(monkeypatch, tmp_path, meter_run):
     monkeypatch.setitem(sys.modules, "meshio", None)  # import meshio then raises ImportError
     with pytest.raises(ImportError, match="apt install python3-meshio"):
         res.to_vtk(tmp_path, model)
+
+
+def cantilever(force, moment=(0.0, 0.0, 0.0), *, n=8, L=2.0):
+    """A clamped tube along x under a tip force and moment; its static result."""
+    section = pf.PipeSection.tube(outer_diameter=0.06, inner_diameter=0.05, E=2e11, G=8e10, density=7800.0)
+    b = pf.ModelBuilder()
+    n0 = b.add_node((0.0, 0.0, 0.0))
+    tip = b.add_line(n0, (L, 0.0, 0.0), n, section)[-1]
+    b.clamp(n0)
+    b.add_load(tip, force=force, moment=moment)
+    model = b.build()
+    return model, pf.static_equilibrium(model)
+
+
+def test_section_forces_of_a_cantilever(tmp_path):
+    """Cell data from the elements' constitutive law: under a tip force F the bending moment
+    at each element midpoint is the statics' F (L - x) (M_y = -F_z (L - x) on the +x face,
+    M_z = +F_y (L - x)), the shear force F; an axial force and a torque carry through."""
+    F, L, n = 40.0, 2.0, 8
+    x_mid = (np.arange(n) + 0.5) * L / n
+    cases = [((0.0, 0.0, F), (0.0, 0.0, 0.0), {"bending_moment_y": -F * (L - x_mid), "shear_force_z": F}),
+             ((0.0, F, 0.0), (0.0, 0.0, 0.0), {"bending_moment_z": F * (L - x_mid), "shear_force_y": F}),
+             ((F, 0.0, 0.0), (0.0, 0.0, 0.0), {"axial_force": F}),
+             ((0.0, 0.0, 0.0), (F, 0.0, 0.0), {"torsion_moment": F})]
+    for k, (force, moment, expected) in enumerate(cases):
+        model, static = cantilever(force, moment, n=n, L=L)
+        (pvd,) = static.to_vtk(tmp_path / str(k), model)
+        mesh = meshio.read(tmp_path / str(k) / pvd_entries(pvd)[0][1])
+        assert set(pf.vtk.SECTION_FORCES) <= set(mesh.cell_data)
+        for name in pf.vtk.SECTION_FORCES:
+            value = mesh.cell_data[name][0]
+            # the tip deflects by ~1e-4 L: the moments' lever arms change by that much
+            np.testing.assert_allclose(value, np.broadcast_to(expected.get(name, 0.0), (n,)), rtol=1e-3,
+                                       atol=1e-3 * F * L, err_msg=name)
+
+
+def test_section_forces_in_a_transient_and_nan_on_ancf(tmp_path, meter_run):
+    model, res = meter_run
+    (pvd,) = res.to_vtk(tmp_path, model)
+    mesh = meshio.read(tmp_path / pvd_entries(pvd)[-1][1])
+    forces = np.array([mesh.cell_data[name][0] for name in pf.vtk.SECTION_FORCES])
+    assert forces.shape == (6, len(model.elements)) and np.all(np.isfinite(forces))
+    assert np.abs(forces[2:4]).max() > 0  # the drive bends the legs
+    beam = pf.scenes.rotating_cantilever(n_elements=3, omega=2.0, spin_up_time=1.0)
+    (pvd,) = pf.simulate(beam, 0.05, n_outputs=2).to_vtk(tmp_path / "ancf", beam)
+    mesh = meshio.read(tmp_path / "ancf" / pvd_entries(pvd)[-1][1])
+    assert all(np.all(np.isnan(mesh.cell_data[name][0])) for name in pf.vtk.SECTION_FORCES)
+
+
+def test_tube_radius_from_the_section(tmp_path):
+    """PipeSection.tube records its outer diameter; to_vtk draws the tube with it when
+    radius= is not given; a section without one falls back to 2 % of the model's size."""
+    model, static = cantilever((0.0, 0.0, 1.0))
+    assert model.elements[0].section.outer_diameter == 0.06
+    paths = static.to_vtk(tmp_path, model, tube=True, n_sides=6)
+    tube = meshio.read(tmp_path / pvd_entries(paths[1])[0][1])
+    ends = static.state.q.reshape(-1, 6)[:, :3][np.repeat(np.array([e.nodes for e in model.elements]), 6,
+                                                            axis=1).ravel()]
+    np.testing.assert_allclose(np.linalg.norm(tube.points - ends, axis=1), 0.03, rtol=1e-12)
+    with pytest.raises(ValueError, match="outer_diameter"):
+        pf.PipeSection(EI=1.0, pipe_mass=1.0, outer_diameter=-0.1)

@@ -13,8 +13,9 @@ VALIDATE_HELP = ("Recompute the seeds' published numbers, print them beside ours
                  "figures. Exit status 0 when every checked number is within its tolerance, 1 otherwise.")
 
 
-RUN_HELP = ("Load a model file (docs/model_files.md) and run an analysis: write its result (.npz; netCDF .nc "
-            "for a time integration when xarray and netCDF4 are installed) and a figure into --out.")
+RUN_HELP = ("Load a model file (docs/model_files.md: an element model, a system of floating-frame bodies or a "
+            "coupled system) and run an analysis: write its result (.npz; netCDF .nc for a time integration when "
+            "xarray and netCDF4 are installed) and a figure into --out.")
 ANALYSES = ("static", "critical", "simulate")
 
 
@@ -110,7 +111,12 @@ def _run(parser, args) -> int:
     from . import analysis, plot
     from .errors import ConvergenceError
 
+    from .model import Model
+
     stem = args.model.stem
+    # the parts of what the file holds: an element model, bodies, or both (a coupled system)
+    elements = model if isinstance(model, Model) else getattr(model, "model", None)
+    bodies = None if isinstance(model, Model) else (model if elements is None else model.bodies)
     fig = plt.figure(figsize=(6.4, 4.8))
     try:
         if args.analysis == "static":
@@ -118,25 +124,36 @@ def _run(parser, args) -> int:
             print(f"static equilibrium of {args.model}: {result.iterations} Newton iterations, residual "
                   f"{result.residual:.3g} N")
             ax = fig.add_subplot(projection="3d")
-            plot.model(model, ax=ax, color="0.7", show_loads=False, show_flow=False, legend=False, label="reference")
-            plot.model(model, result.state, ax=ax, label="equilibrium")
+            if elements is not None:
+                plot.model(elements, ax=ax, color="0.7", show_loads=False, show_flow=False, legend=False,
+                           label="reference")
+                plot.model(elements, result.state, ax=ax, label="equilibrium")
+            if bodies is not None:
+                _draw_bodies(ax, bodies, bodies.initial_state(), color="0.7")
+                _draw_bodies(ax, bodies, result.state if elements is None else result.body_state, color="C0")
             ax.set_title(f"{stem}: static equilibrium")
         elif args.analysis == "critical":
             result = analysis.critical_mass_flow(model)
             print(f"critical mass flow of {args.model}: {result.mass_flow:.6g} kg/s ({result.kind}, "
                   f"frequency {result.frequency:.6g} rad/s)")
             ax = fig.add_subplot(projection="3d")
-            plot.mode_shape(model, result.mode, ax=ax)
+            if bodies is None:
+                plot.mode_shape(model, result.mode, ax=ax)
+            else:  # the mode of bodies has no drawing yet: the assembly
+                if elements is not None:
+                    plot.model(elements, ax=ax, legend=False)
+                _draw_bodies(ax, bodies, bodies.initial_state(), color="C0")
             ax.set_title(f"{stem}: critical mode, mdot = {result.mass_flow:.4g} kg/s ({result.kind})")
         else:
             result = analysis.simulate(model, args.t_end, n_outputs=args.n_outputs)
-            d = np.linalg.norm(result.x - result.x[:1], axis=2)  # (nt, n_nodes) [m]
+            names, x = _node_paths(result)
+            d = np.linalg.norm(x - x[:1], axis=2)  # (nt, n_nodes) [m]
             node = int(np.argmax(d.max(axis=0)))
             print(f"simulated {args.model} to t = {args.t_end:g} s: {len(result.t)} outputs, largest displacement "
-                  f"{d[:, node].max():.4g} m at node {node}")
+                  f"{d[:, node].max():.4g} m at {names[node]}")
             ax = fig.add_subplot()
-            plot.time_history(result.t, [result.x[:, node, i] - result.x[0, node, i] for i in range(3)],
-                              quantity=f"displacement of node {node}", unit="m", labels=["x", "y", "z"], ax=ax,
+            plot.time_history(result.t, [x[:, node, i] - x[0, node, i] for i in range(3)],
+                              quantity=f"displacement of {names[node]}", unit="m", labels=["x", "y", "z"], ax=ax,
                               title=f"{stem}: time integration")
     except (ValueError, ConvergenceError) as exc:  # the model's, not the command line's: status 1
         plt.close(fig)
@@ -148,15 +165,38 @@ def _run(parser, args) -> int:
     plt.close(fig)
     files.append(figure)
     if args.vtk and args.analysis != "critical":
-        files += result.to_vtk(args.out / "vtk", model, name=stem)
+        if args.analysis == "static" and elements is None:
+            print("no ParaView files: a static result of bodies alone has no VTK export yet")
+        else:
+            files += result.to_vtk(args.out / "vtk", model, name=stem)
     for f in files:
         print(f"wrote {f}")
     return 0
 
 
+def _draw_bodies(ax, bodies, state, *, color) -> None:
+    """The floating-frame bodies' centre lines (through their nodes) at ``state``."""
+    for x in bodies.centre_line(state):
+        ax.plot(x[:, 0], x[:, 1], x[:, 2], color=color, marker=".", markersize=3)
+
+
+def _node_paths(result):
+    """(names, (n_out, n, 3) positions [m]) of every node of a transient: element nodes,
+    then each body's nodes."""
+    names, parts = [], []
+    if result.x is not None:
+        names += [f"node {n}" for n in range(result.x.shape[1])]
+        parts.append(np.asarray(result.x))
+    if result.bodies is not None:
+        for j, s in enumerate(result.bodies.nodes_s):
+            names += [f"body {j} node {i}" for i in range(len(s))]
+            parts.append(np.stack([result.bodies.node_position(j, i) for i in range(len(s))], axis=1))
+    return names, np.concatenate(parts, axis=1)
+
+
 def _save_result(result, stem: Path) -> Path:
-    """The result as netCDF (``stem.nc``) where it has ``to_xarray`` and netCDF4 is
-    there, else as .npz (:meth:`pipeflex.Result.save`)."""
+    """The result as netCDF (``stem.nc``) where it has ``to_xarray`` (element nodes) and
+    netCDF4 is there, else as .npz (:meth:`pipeflex.Result.save`)."""
     if hasattr(result, "to_xarray"):
         try:
             import netCDF4  # noqa: F401 (xarray's netCDF engine)
@@ -164,9 +204,14 @@ def _save_result(result, stem: Path) -> Path:
         except ImportError:
             pass
         else:
-            path = stem.with_suffix(".nc")
-            result.to_xarray().to_netcdf(path)
-            return path
+            try:
+                data = result.to_xarray()
+            except ValueError:  # a run of bodies alone: no element nodes to hold
+                data = None
+            if data is not None:
+                path = stem.with_suffix(".nc")
+                data.to_netcdf(path)
+                return path
     return result.save(stem.with_suffix(".npz"))
 
 

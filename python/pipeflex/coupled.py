@@ -23,7 +23,7 @@ prescribed hub angle.
 """
 from __future__ import annotations
 
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 from typing import List, Optional, Sequence, Tuple
 
 import numpy as np
@@ -54,6 +54,8 @@ class CouplingJoint:
     body: int
     body_node: int
     axis: Optional[Tuple[float, float, float]] = None
+    # the axis as passed, which a model file writes (normalising twice may change the last bit)
+    given_axis: Optional[Tuple[float, float, float]] = field(default=None, compare=False, repr=False)
 
 
 class CoupledSystem:
@@ -95,13 +97,14 @@ class CoupledSystem:
 
     def hinge(self, node: int, body: int, body_node, axis: Sequence[float]) -> None:
         """Hinge about ``axis`` (global unit vector in the assembly configuration)."""
-        self._add("hinge", node, body, body_node, tuple(_checks.unit_vector("axis", axis)))
+        self._add("hinge", node, body, body_node, tuple(_checks.unit_vector("axis", axis)),
+                  tuple(float(x) for x in _checks.vector3("axis", axis)))
 
     def spherical(self, node: int, body: int, body_node="start") -> None:
         """Spherical joint: equal positions, free relative rotation."""
         self._add("spherical", node, body, body_node)
 
-    def _add(self, kind, node, body, body_node, axis=None) -> None:
+    def _add(self, kind, node, body, body_node, axis=None, given_axis=None) -> None:
         n = _checks.non_negative_int("node", node)
         if n >= self.model.n_nodes:
             raise ValueError(f"node must be a node of the element model, in [0, {self.model.n_nodes}), got {node}")
@@ -115,7 +118,7 @@ class CoupledSystem:
         if gap > 1e-9 * max(1.0, float(np.linalg.norm(p_el))):
             raise ValueError(f"{kind} coupling of element node {n} and body {j} node {i}: the nodes do not coincide "
                              f"in the assembly configuration (gap {gap:.3g} m)")
-        self._joints.append(CouplingJoint(kind, n, j, i, axis))
+        self._joints.append(CouplingJoint(kind, n, j, i, axis, given_axis))
 
     def core_couplings(self) -> list:
         """The couplings as the core takes them: (node, kind, body, body node, C0, axis_b,

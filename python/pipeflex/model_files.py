@@ -1,5 +1,6 @@
-"""Model files: an element model as YAML or JSON, read by :func:`load_model` and written by
-:func:`save_model`. The schema is in ``docs/model_files.md``.
+"""Model files: an element model, a system of floating-frame bodies or a coupled system as
+YAML or JSON, read by :func:`load_model` and written by :func:`save_model`. The schema is
+in ``docs/model_files.md``.
 
 A model file is the list of :class:`~pipeflex.ModelBuilder` calls that make the model,
 grouped by kind: the loader makes a builder, calls it entry by entry and builds; the
@@ -7,6 +8,13 @@ builder stays the one way to build a model (every rule it checks holds for a fil
 Saving writes the calls the builder recorded (the model's recipe) and reads the text back
 to check that it builds the same model (node positions, element data, supports, loads
 and springs equal to the last bit), so a saved file always reproduces its model.
+
+A file of ``kind: multibody`` is likewise the calls of
+:class:`~pipeflex.multibody.MultibodyBuilder` (bodies made by
+:func:`~pipeflex.multibody.flexible_body`, placed, joined and loaded); saving writes the
+description that builder kept (bodies by their arguments, placements as position and
+rotation, joints, loads with their time functions). A ``kind: coupled`` file holds an
+element model, a system of bodies and the couplings of a :class:`~pipeflex.CoupledSystem`.
 
 Errors in a file are :class:`ModelFileError` (a ValueError) naming the file, the line and
 the key, e.g. ``frame.yaml, line 12, geometry[2].line.n_elements: must be an integer
@@ -27,6 +35,7 @@ import numpy as np
 
 from .model import Model, ModelBuilder
 from .sections import PipeSection
+from .time_functions import Pulse, Sine, time_function
 
 #: The format's version, the value of the file's ``pipeflex_model`` key.
 FORMAT_VERSION = 1
@@ -38,7 +47,12 @@ _KIND_TEXT = {"point": "3 numbers", "number": "a number", "nonneg": "a number >=
               "count": "an integer >= 1", "node": "a node index", "bool": "true or false",
               "section": "the name of a section", "components": "a component name or a list of them",
               "nonneg3": "3 numbers >= 0", "node_or_point": "a node index or 3 numbers",
-              "elastic": "'A' or '0'", "nodes": "a list of node indices"}
+              "elastic": "'A' or '0'", "nodes": "a list of node indices", "index": "a body index (an integer >= 0)",
+              "body_node": "a node index or one of 'start', 'center', 'end'", "count0": "an integer >= 0",
+              "text": "a text", "damping": "a number >= 0 or a list of them", "matrix": "3 rows of 3 numbers",
+              "time_function": "a time function: a number, {table: {times, values}}, {sine: {omega, envelope, "
+                               "phase, mean}} or {pulse: {start, duration, shape, amplitude}}",
+              "time_functions": "3 time functions"}
 
 _PIPE_OPTIONS = {"flow_factor": "number", "fluid_end_terms": "bool", "length": "positive"}
 
@@ -72,19 +86,53 @@ SPRINGS = {
 HUB = ("rotating_hub", {"node": "node", "omega": "number", "spin_up_time": "nonneg", "center": "point",
                         "axis": "point"}, None)
 MASS = ("add_point_mass", {"node": "node", "mass": "nonneg", "inertia": "nonneg3"}, None)
-LOAD = ("add_load", {"node": "node", "force": "point", "moment": "point", "follower": "bool"}, None)
+LOAD = ("add_load", {"node": "node", "force": "point", "moment": "point", "follower": "bool",
+                     "time_function": "time_function"}, None)
 SECTION = {"EI": "positive", "pipe_mass": "nonneg", "fluid_mass": "nonneg", "EIz": "positive", "EA": "positive",
            "GJ": "positive", "GAy": "positive", "GAz": "positive", "kv": "positive", "rotary_inertia": "nonneg3",
            "eta_bending": "nonneg", "eta_torsion": "nonneg", "eta_axial": "nonneg", "c_ext": "nonneg",
-           "k_found": "nonneg"}
+           "k_found": "nonneg", "outer_diameter": "positive"}
 TUBE = {"outer_diameter": "positive", "inner_diameter": "nonneg", "E": "positive", "G": "positive",
         "density": "positive", "fluid_density": "nonneg", "kv": "positive", "shear": "bool",
         "rotary_inertia": "bool", "fluid_bulk_modulus": "positive"}
 FLOW = {"mass_flow": "number", "reservoir_inlets": "nodes"}
 RAYLEIGH = ("rayleigh_damping", {"alpha": "nonneg", "beta": "nonneg"}, None)
-TOP = ("pipeflex_model", "info", "sections", "geometry", "supports", "hub", "springs", "masses", "loads", "flow",
-       "gravity", "rayleigh_damping", "floating")
+TOP = ("pipeflex_model", "kind", "info", "sections", "geometry", "supports", "hub", "springs", "masses", "loads",
+       "flow", "gravity", "rayleigh_damping", "floating")
 _REQUIRED_TOP = ("geometry",)
+#: The file's ``kind``: what :func:`load_model` returns.
+KINDS = ("elements", "multibody", "coupled")
+
+# -- systems of floating-frame bodies (kind: multibody) --
+#: flexible_body's arguments
+BODY = {"length": "positive", "n_elements": "count", "section": "section", "internal_modes": "count0",
+        "reduction": "text", "curvature": "number", "modal_damping": "damping", "fluid_lever_arm": "text"}
+#: an assembly entry: add_body (position, rotation) or add_body_between (start, end, up)
+PLACEMENT = {"body": "text", "position": "point", "rotation": "matrix", "start": "point", "end": "point",
+             "up": "point", "flow_factor": "number"}
+JOINTS = {
+    "fix": ("fix", {"body": "index", "node": "body_node"}, None),
+    "rigid": ("rigid", {"body_a": "index", "node_a": "body_node", "body_b": "index", "node_b": "body_node"}, None),
+    "hinge": ("hinge", {"body_a": "index", "node_a": "body_node", "axis": "point", "body_b": "index",
+                        "node_b": "body_node", "torque": "time_function"}, None),
+    "spherical": ("spherical", {"body_a": "index", "node_a": "body_node", "body_b": "index",
+                                "node_b": "body_node"}, None),
+    "roller": ("roller", {"body": "index", "node": "body_node", "direction": "point"}, None),
+}
+BODY_LOAD = ("add_load", {"body": "index", "node": "body_node", "force": "time_functions",
+                          "moment": "time_functions"}, None)
+BODY_FLOW = {"mass_flow": "number", "junction_forces": "bool"}
+TOP_MULTIBODY = ("pipeflex_model", "kind", "info", "sections", "bodies", "assembly", "joints", "loads", "gravity",
+                 "flow")
+# -- an element model joined to bodies (kind: coupled) --
+COUPLINGS = {"rigid": {"node": "node", "body": "index", "body_node": "body_node"},
+             "hinge": {"node": "node", "body": "index", "body_node": "body_node", "axis": "point"},
+             "spherical": {"node": "node", "body": "index", "body_node": "body_node"}}
+TOP_COUPLED = ("pipeflex_model", "kind", "elements", "bodies", "couplings")
+#: a time function's kinds (a bare number is a constant)
+TIME_FUNCTIONS = {"table": {"times": "numbers", "values": "numbers"},
+                  "sine": {"omega": "positive", "envelope": "envelope", "phase": "number", "mean": "number"},
+                  "pulse": {"start": "number", "duration": "positive", "shape": "text", "amplitude": "number"}}
 
 
 class ModelFileError(ValueError):
@@ -173,6 +221,21 @@ class _Reader:
         return ModelFileError(message, path=self.path, line=self.line(where), key=_text(where) or None)
 
 
+class _View:
+    """A part of the file (e.g. a coupled file's ``elements``) read as a file of its own:
+    its keys' paths and lines are those of the whole file."""
+
+    def __init__(self, reader, prefix: tuple, data):
+        self.reader, self.prefix, self.data = reader, prefix, data
+        self.path = reader.path
+
+    def line(self, where: tuple) -> Optional[int]:
+        return self.reader.line(self.prefix + where)
+
+    def error(self, where: tuple, message: str) -> ModelFileError:
+        return self.reader.error(self.prefix + where, message)
+
+
 def _text(where: tuple) -> str:
     """``geometry[2].line.n_elements`` for the path ("geometry", 2, "line", "n_elements")."""
     out = ""
@@ -223,6 +286,10 @@ def _value(r: _Reader, where: tuple, kind: str, value, b: Optional[ModelBuilder]
     if kind == "node":
         if isinstance(value, bool) or not isinstance(value, int):
             raise bad()
+        if not isinstance(b, ModelBuilder):  # a coupling's element node: the coupled system checks it
+            if value < 0:
+                raise bad()
+            return value
         n = len(b._positions)
         if not 0 <= value < n:
             raise r.error(where, f"unknown node {value}: the model has nodes 0..{n - 1} at this entry (nodes are "
@@ -253,6 +320,33 @@ def _value(r: _Reader, where: tuple, kind: str, value, b: Optional[ModelBuilder]
         if not isinstance(names, list) or not all(isinstance(c, str) for c in names):
             raise bad()
         return value if isinstance(value, str) else tuple(names)
+    if kind in ("index", "count0"):
+        if isinstance(value, bool) or not isinstance(value, int) or value < 0:
+            raise bad()
+        return value
+    if kind == "body_node":
+        if value in ("start", "center", "end") or (isinstance(value, int) and not isinstance(value, bool)
+                                                   and value >= 0):
+            return value
+        raise bad()
+    if kind == "text":
+        if not isinstance(value, str):
+            raise bad()
+        return value
+    if kind == "damping":
+        if isinstance(value, list):
+            return [_value(r, where + (i,), "nonneg", v, b, sections) for i, v in enumerate(value)]
+        return _value(r, where, "nonneg", value, b, sections)
+    if kind == "matrix":
+        if not isinstance(value, list) or len(value) != 3:
+            raise bad()
+        return np.array([_value(r, where + (i,), "point", v, b, sections) for i, v in enumerate(value)])
+    if kind == "time_function":
+        return _time_function(r, where, value)
+    if kind == "time_functions":
+        if not isinstance(value, list) or len(value) != 3:
+            raise bad()
+        return tuple(_time_function(r, where + (i,), v) for i, v in enumerate(value))
     if kind == "elastic":
         if value in ("A", "0") or (type(value) is int and value == 0):  # YAML reads a bare 0 as a number
             return str(value)
@@ -260,7 +354,48 @@ def _value(r: _Reader, where: tuple, kind: str, value, b: Optional[ModelBuilder]
     raise AssertionError(kind)
 
 
-def _arguments(r: _Reader, where: tuple, value, spec, b: ModelBuilder, sections: dict) -> dict:
+def _time_function(r: _Reader, where: tuple, value, *, envelope: bool = False):
+    """A time function from the file: a number, or one of {table: {times, values}},
+    {sine: {...}}, {pulse: {...}} (a sine's envelope: a number or a table)."""
+    kinds = {"table": TIME_FUNCTIONS["table"]} if envelope else TIME_FUNCTIONS
+    rule = "a number or {table: {times, values}}" if envelope else _KIND_TEXT["time_function"]
+    if not isinstance(value, dict):
+        if isinstance(value, (list, bool)) or value is None:
+            raise r.error(where, f"must be {rule}, got {value!r}")
+        return _number(r, where, value)
+    if len(value) != 1:
+        raise r.error(where, f"must be {rule} (one key), got {value!r}")
+    (kind, fields), = value.items()
+    if kind not in kinds:
+        raise r.error(where + (kind,), _unknown_key(kind, kinds))
+    inner = where + (kind,)
+    fields = _mapping(r, inner, fields)
+    spec = kinds[kind]
+    for key in fields:
+        if key not in spec:
+            raise r.error(inner + (key,), _unknown_key(key, spec))
+    required = {"table": ("times", "values"), "sine": ("omega",), "pulse": ("start", "duration")}[kind]
+    for key in required:
+        if key not in fields:
+            raise r.error(inner, f"missing required key {key!r}")
+    args = {}
+    for key, v in fields.items():
+        at = inner + (key,)
+        if spec[key] == "numbers":
+            args[key] = tuple(_number(r, at + (i,), x) for i, x in enumerate(_listing(r, at, v)))
+        elif spec[key] == "envelope":
+            args[key] = _time_function(r, at, v, envelope=True)
+        else:
+            args[key] = _value(r, at, spec[key], v, None, {})
+    f = (args["times"], args["values"]) if kind == "table" else (Sine if kind == "sine" else Pulse)(**args)
+    try:
+        time_function(_text(where), f)
+    except (ValueError, TypeError) as exc:
+        raise r.error(where, str(exc)) from None
+    return f
+
+
+def _arguments(r: _Reader, where: tuple, value, spec, b, sections: dict) -> dict:
     """The keyword arguments of the builder call ``spec`` from the file's ``value`` (a
     mapping, or the shorthand's bare value); required keys are the builder's."""
     method, fields, shorthand = spec
@@ -271,7 +406,7 @@ def _arguments(r: _Reader, where: tuple, value, spec, b: ModelBuilder, sections:
     for key in value:
         if key not in fields:
             raise r.error(where + (key,), _unknown_key(key, fields))
-    params = inspect.signature(getattr(ModelBuilder, method)).parameters
+    params = inspect.signature(getattr(type(b), method)).parameters
     for name, p in params.items():
         if name != "self" and p.default is inspect.Parameter.empty and p.kind is not p.VAR_KEYWORD \
                 and name not in value:
@@ -279,9 +414,9 @@ def _arguments(r: _Reader, where: tuple, value, spec, b: ModelBuilder, sections:
     return {key: _value(r, where + (key,), fields[key], v, b, sections) for key, v in value.items()}
 
 
-def _call(r: _Reader, where: tuple, b: ModelBuilder, method: str, kwargs: dict) -> None:
+def _call(r: _Reader, where: tuple, b, method: str, kwargs: dict):
     try:
-        getattr(b, method)(**kwargs)
+        return getattr(b, method)(**kwargs)
     except (ValueError, TypeError) as exc:
         raise r.error(where, str(exc)) from None
 
@@ -324,7 +459,7 @@ def _sections(r: _Reader, data) -> dict:
     return out
 
 
-def _entries(r: _Reader, data, key: str, kinds: dict, b: ModelBuilder, sections: dict) -> None:
+def _entries(r: _Reader, data, key: str, kinds: dict, b, sections: dict) -> None:
     """A list of one-key mappings ``- kind: {...}`` (geometry, supports, springs)."""
     for i, entry in enumerate(_listing(r, (key,), data)):
         where = (key, i)
@@ -338,20 +473,39 @@ def _entries(r: _Reader, data, key: str, kinds: dict, b: ModelBuilder, sections:
         _call(r, where + (kind,), b, spec[0], _arguments(r, where + (kind,), value, spec, b, sections))
 
 
-def _model_from(r: _Reader) -> Model:
+def _top(r: _Reader, keys: tuple, required: tuple, kind: str) -> dict:
+    """The file's (or part's) mapping, its keys checked against ``keys``."""
     data = r.data
     if not isinstance(data, dict):
-        raise r.error((), f"a model file is a mapping of {', '.join(TOP)}, got {type(data).__name__}")
+        raise r.error((), f"a model file of kind {kind} is a mapping of {', '.join(keys)}, got "
+                          f"{type(data).__name__}")
     for key in data:
-        if key not in TOP:
-            raise r.error((key,), _unknown_key(key, TOP))
-    for key in _REQUIRED_TOP:
+        if key not in keys:
+            raise r.error((key,), _unknown_key(key, keys))
+    if data.get("kind", kind) != kind:
+        raise r.error(("kind",), f"must be {kind!r} here, got {data['kind']!r}")
+    for key in required:
         if key not in data:
             raise r.error((), f"missing required key {key!r}")
     version = data.get("pipeflex_model", FORMAT_VERSION)
     if version != FORMAT_VERSION:
         raise r.error(("pipeflex_model",), f"this pipeflex reads model files of version {FORMAT_VERSION}, got "
                                            f"{version!r}")
+    return data
+
+
+def _from(r: _Reader):
+    """What the file describes, by its ``kind``."""
+    kind = r.data.get("kind", "elements") if isinstance(r.data, dict) else "elements"
+    if kind not in KINDS:
+        close = difflib.get_close_matches(str(kind), KINDS, n=1, cutoff=0.5)
+        raise r.error(("kind",), f"must be one of {', '.join(KINDS)}, got {kind!r}"
+                                 + (f" (did you mean {close[0]!r}?)" if close else ""))
+    return {"elements": _model_from, "multibody": _multibody_from, "coupled": _coupled_from}[kind](r)
+
+
+def _model_from(r: _Reader) -> Model:
+    data = _top(r, TOP, _REQUIRED_TOP, "elements")
     sections = _sections(r, data.get("sections", {}))
     b = ModelBuilder()
     _entries(r, data["geometry"], "geometry", GEOMETRY, b, sections)
@@ -387,6 +541,84 @@ def _model_from(r: _Reader) -> Model:
     return model
 
 
+def _keys(r: _Reader, where: tuple, value, spec: dict, required=()) -> dict:
+    value = _mapping(r, where, value)
+    for key in value:
+        if key not in spec:
+            raise r.error(where + (key,), _unknown_key(key, spec))
+    for key in required:
+        if key not in value:
+            raise r.error(where, f"missing required key {key!r}")
+    return value
+
+
+def _multibody_from(r: _Reader):
+    from .multibody import MultibodyBuilder, flexible_body
+
+    data = _top(r, TOP_MULTIBODY, ("bodies", "assembly", "joints"), "multibody")
+    sections = _sections(r, data.get("sections", {}))
+    required = [n for n, p in inspect.signature(flexible_body).parameters.items() if p.default is p.empty]
+    bodies = {}
+    for name, fields in _mapping(r, ("bodies",), data["bodies"]).items():
+        where = ("bodies", name)
+        fields = _keys(r, where, fields, BODY, required)
+        kwargs = {k: _value(r, where + (k,), BODY[k], v, None, sections) for k, v in fields.items()}
+        try:
+            bodies[name] = flexible_body(**kwargs)
+        except (ValueError, TypeError) as exc:
+            raise r.error(where, str(exc)) from None
+    b = MultibodyBuilder()
+    for i, entry in enumerate(_listing(r, ("assembly",), data["assembly"])):
+        where = ("assembly", i)
+        entry = _keys(r, where, entry, PLACEMENT, ("body",))
+        name = _value(r, where + ("body",), "text", entry["body"], None, {})
+        if name not in bodies:
+            close = difflib.get_close_matches(name, list(bodies), n=1, cutoff=0.5)
+            raise r.error(where + ("body",), f"unknown body {name!r}" + (
+                f" (did you mean {close[0]!r}?)" if close else f" (the file's bodies: {', '.join(bodies)})"))
+        kwargs = {k: _value(r, where + (k,), PLACEMENT[k], v, b, sections) for k, v in entry.items() if k != "body"}
+        between = "start" in entry or "end" in entry
+        if between:
+            for key in ("position", "rotation"):
+                if key in entry:
+                    raise r.error(where + (key,), "a body is placed by position (and rotation) or by start and end "
+                                                  "(and up), not both")
+            for key in ("start", "end"):
+                if key not in entry:
+                    raise r.error(where, f"missing required key {key!r} (placed by start and end)")
+        elif "position" not in entry:
+            raise r.error(where, "missing required key 'position' (or place the body by start and end)")
+        elif "up" in entry:
+            raise r.error(where + ("up",), "up goes with start and end (a body placed by position takes rotation)")
+        _call(r, where, b, "add_body_between" if between else "add_body", dict(body=bodies[name], **kwargs))
+    _entries(r, data["joints"], "joints", JOINTS, b, sections)
+    for i, entry in enumerate(_listing(r, ("loads",), data.get("loads", []))):
+        _call(r, ("loads", i), b, BODY_LOAD[0], _arguments(r, ("loads", i), entry, BODY_LOAD, b, sections))
+    if "gravity" in data:
+        _call(r, ("gravity",), b, "set_gravity", dict(g=_value(r, ("gravity",), "point", data["gravity"], b,
+                                                                sections)))
+    flow = _keys(r, ("flow",), data.get("flow", {}), BODY_FLOW)
+    options = {k: _value(r, ("flow", k), BODY_FLOW[k], v, b, sections) for k, v in flow.items()}
+    try:
+        system = b.build(**options)
+    except (ValueError, TypeError) as exc:
+        raise ModelFileError(str(exc), path=r.path) from None
+    system.info.update(_mapping(r, ("info",), data.get("info", {})))
+    return system
+
+
+def _coupled_from(r: _Reader):
+    from .coupled import CoupledSystem
+
+    data = _top(r, TOP_COUPLED, ("elements", "bodies"), "coupled")
+    model = _model_from(_View(r, ("elements",), _mapping(r, ("elements",), data["elements"])))
+    bodies = _multibody_from(_View(r, ("bodies",), _mapping(r, ("bodies",), data["bodies"])))
+    system = CoupledSystem(model, bodies)
+    kinds = {k: (k, fields, None) for k, fields in COUPLINGS.items()}
+    _entries(r, data.get("couplings", []), "couplings", kinds, system, {})
+    return system
+
+
 def _checked_path(path, *, reading: bool) -> Path:
     p = Path(path)
     if p.suffix.lower() not in SUFFIXES:
@@ -396,9 +628,13 @@ def _checked_path(path, *, reading: bool) -> Path:
     return p
 
 
-def load_model(path: Union[str, Path]) -> Model:
+def load_model(path: Union[str, Path]):
     """The model described by the model file ``path`` (``.yaml``, ``.yml`` or ``.json``;
-    schema in ``docs/model_files.md``), built by :class:`~pipeflex.ModelBuilder`.
+    schema in ``docs/model_files.md``): by the file's ``kind``, a :class:`~pipeflex.Model`
+    built by :class:`~pipeflex.ModelBuilder` (``elements``, the default), a
+    :class:`~pipeflex.multibody.MultibodySystem` built by
+    :class:`~pipeflex.multibody.MultibodyBuilder` (``multibody``) or a
+    :class:`~pipeflex.CoupledSystem` (``coupled``).
 
     Args:
         path: the file [-].
@@ -409,7 +645,7 @@ def load_model(path: Union[str, Path]) -> Model:
             type, negative stiffness, unknown node or section, missing required key, or
             the builder's own rule.
     """
-    return _model_from(_Reader(_checked_path(path, reading=True)))
+    return _from(_Reader(_checked_path(path, reading=True)))
 
 
 # -- writing ------------------------------------------------------------------------
@@ -463,6 +699,32 @@ def _same_value(a, b) -> bool:
         return a == b
 
 
+def _time_function_data(f):
+    """A time function (a number, a table (times, values), a Sine or a Pulse) as file data."""
+    if isinstance(f, Pulse):
+        out = {"start": float(f.start), "duration": float(f.duration)}
+        if f.shape != "half_sine":
+            out["shape"] = str(f.shape)
+        if f.amplitude != 1.0:
+            out["amplitude"] = float(f.amplitude)
+        return {"pulse": out}
+    if isinstance(f, Sine):
+        out = {"omega": float(f.omega)}
+        if not _same_value(f.envelope, 1.0):
+            out["envelope"] = _time_function_data(f.envelope)
+        for name in ("phase", "mean"):
+            if getattr(f, name) != 0.0:
+                out[name] = float(getattr(f, name))
+        return {"sine": out}
+    if callable(f):
+        raise ValueError(f"model: its time function {getattr(f, '__name__', f)!s} is a Python callable, which a "
+                         f"model file cannot hold: the model cannot be saved")
+    if np.isscalar(f) and not isinstance(f, (str, bytes)):
+        return float(f)
+    ts, vs = (np.asarray(a, dtype=float) for a in f)
+    return {"table": {"times": [float(x) for x in ts], "values": [float(x) for x in vs]}}
+
+
 def _section_data(s: PipeSection) -> dict:
     """The section's fields (those at their default left out)."""
     out = {}
@@ -474,14 +736,38 @@ def _section_data(s: PipeSection) -> dict:
     return out
 
 
+def _section_name(section: PipeSection, names: dict, sections: dict) -> str:
+    """The file's name of ``section`` (equal sections share one name; new ones are added
+    to ``sections``, name -> section; ``names`` is id -> name)."""
+    if id(section) not in names:
+        for name, known in sections.items():
+            if known == section:
+                names[id(section)] = name
+                break
+        else:
+            names[id(section)] = f"section_{len(sections)}"
+            sections[names[id(section)]] = section
+    return names[id(section)]
+
+
+def _info_data(info: dict) -> dict:
+    out = {}
+    for k, v in info.items():
+        try:
+            out[str(k)] = _plain(v, {})
+        except TypeError:
+            warnings.warn(f"info[{k!r}] ({type(v).__name__}) is not model-file data: not saved", stacklevel=4)
+    return out
+
+
 def model_data(model: Model) -> dict:
     """The model file's content (plain dicts and lists) for ``model``, from the builder
     calls it recorded (ValueError if it has none: not built by
     :class:`~pipeflex.ModelBuilder`, or a :meth:`~pipeflex.Model.free_model`)."""
     desc = getattr(model, "_description", None)
     if desc is None or "_recipe" not in desc:
-        raise ValueError(f"model: a model file describes an element model built by pipeflex.ModelBuilder (the "
-                         f"schema has no floating-frame bodies or coupled systems yet), got a {type(model).__name__}")
+        raise ValueError(f"model: an element model file describes a model built by pipeflex.ModelBuilder, got a "
+                         f"{type(model).__name__} without its builder calls")
     if model._is_free:
         raise ValueError("model: a free_model() cannot be saved (it has no supports): save the model it came from")
     names: dict = {}
@@ -494,9 +780,6 @@ def model_data(model: Model) -> dict:
             fn = kwargs.get("fn", args[1] if len(args) > 1 else None)
             raise ValueError(f"model: its load function {getattr(fn, '__name__', fn)!s} (add_load_function) is a "
                              f"Python callable, which a model file cannot hold: the model cannot be saved")
-        if method == "add_load" and kwargs.get("time_function") is not None:
-            raise ValueError("model: add_load(time_function=...) has no model-file key yet: the model cannot be "
-                             "saved (give the time function to the analysis as load_factor= instead)")
         if method not in _PLACES:
             raise ValueError(f"model: its builder call {method}() has no model-file key: the model cannot be saved")
         place, kind = _PLACES[method]
@@ -510,15 +793,9 @@ def model_data(model: Model) -> dict:
             p = params.get(key)
             if p is not None and p.default is not inspect.Parameter.empty and _same_value(v, p.default):
                 continue  # the builder's default: left out
-            if isinstance(v, PipeSection) and id(v) not in names:
-                for name, known in sections.items():  # equal sections share one name
-                    if known == v:
-                        names[id(v)] = name
-                        break
-                else:
-                    names[id(v)] = f"section_{len(sections)}"
-                    sections[names[id(v)]] = v
-            entry[key] = _plain(v, names)
+            if isinstance(v, PipeSection):
+                _section_name(v, names, sections)
+            entry[key] = _time_function_data(v) if _FIELDS[method].get(key) == "time_function" else _plain(v, names)
             if _FIELDS[method].get(key) in _FLOATS or (isinstance(entry[key], list) and key in ("start",)):
                 entry[key] = _floats(entry[key])  # as the loader reads them: the text does not depend on 0 vs 0.0
         if place == "flow":
@@ -533,12 +810,7 @@ def model_data(model: Model) -> dict:
             shorthand = (GEOMETRY.get(kind) or SUPPORTS.get(kind) or SPRINGS.get(kind))[2]
             lists[place].append({kind: entry[shorthand] if list(entry) == [shorthand] else entry})
     data: dict = {"pipeflex_model": FORMAT_VERSION}
-    info = {}
-    for k, v in model.info.items():
-        try:
-            info[str(k)] = _plain(v, {})
-        except TypeError:
-            warnings.warn(f"model.info[{k!r}] ({type(v).__name__}) is not model-file data: not saved", stacklevel=3)
+    info = _info_data(model.info)
     if info:
         data["info"] = info
     data["sections"] = {name: _section_data(s) for name, s in sections.items()}
@@ -561,6 +833,110 @@ def model_data(model: Model) -> dict:
     if desc.get("_floating"):
         data["floating"] = True
     return data
+
+
+def _node_data(body, node: int):
+    """A body node as the file writes it: 'start', 'center', 'end' or its index."""
+    names = {0: "start", body.n_elements // 2: "center", body.n_elements: "end"}
+    return names.get(int(node), int(node))
+
+
+def multibody_data(system) -> dict:
+    """The model file's content for a :class:`~pipeflex.multibody.MultibodySystem`, from
+    the description its builder kept (ValueError for what a file cannot hold: a body not
+    made by :func:`~pipeflex.multibody.flexible_body` or with a custom basis)."""
+    from .multibody import flexible_body
+
+    desc = getattr(system, "_description", None)
+    if desc is None:
+        raise ValueError("system: it was not built by MultibodyBuilder.build: it cannot be saved")
+    b, junction_forces = desc
+    defaults = {n: p.default for n, p in inspect.signature(flexible_body).parameters.items()}
+    names: dict = {}
+    sections: dict = {}
+    bodies: dict = {}
+    made: list = []  # (flexible_body's arguments, the body's name)
+    assembly = []
+    for j, (body, r, R, f) in enumerate(zip(b["_bodies"], b["_r"], b["_R"], b["_flow"])):
+        args = body._arguments
+        if args is None:
+            raise ValueError(f"system: body {j} was not made by pipeflex.multibody.flexible_body(): it cannot be "
+                             f"saved")
+        if args.get("basis") is not None:
+            raise ValueError(f"system: body {j} has a custom basis (flexible_body(basis=...)), which a model file "
+                             f"does not hold: it cannot be saved")
+        name = next((n for a, n in made if a is args or _equal(a, args)), None)
+        if name is None:
+            name = f"body_{len(bodies)}"
+            made.append((args, name))
+            entry = {"length": float(args["length"]), "n_elements": int(args["n_elements"]),
+                     "section": _section_name(args["section"], names, sections)}
+            for key in ("internal_modes", "reduction", "curvature", "modal_damping", "fluid_lever_arm"):
+                if not _same_value(args[key], defaults[key]):
+                    entry[key] = _plain(args[key], {})
+                    if key in ("curvature", "modal_damping"):
+                        entry[key] = _floats(entry[key])
+            bodies[name] = entry
+        place = {"body": name, "position": [float(x) for x in r]}
+        if not np.array_equal(R, np.eye(3)):
+            place["rotation"] = [[float(x) for x in row] for row in R]
+        if f != 1.0:
+            place["flow_factor"] = float(f)
+        assembly.append(place)
+    placed = b["_bodies"]
+    joints = []
+    for kind, a, other, extra in b["_joints"]:
+        ends = ({"body": int(a[0]), "node": _node_data(placed[a[0]], a[1])} if other is None and kind != "hinge"
+                else {"body_a": int(a[0]), "node_a": _node_data(placed[a[0]], a[1])})
+        if kind == "hinge":
+            ends["axis"] = [float(x) for x in extra.get("given_axis", extra["axis"])]
+        if other is not None:
+            ends.update(body_b=int(other[0]), node_b=_node_data(placed[other[0]], other[1]))
+        if kind == "hinge" and extra["torque"] is not None:
+            ends["torque"] = _time_function_data(extra["torque"])
+        if kind == "roller":
+            ends["direction"] = [float(x) for x in extra.get("given_direction", extra["direction"])]
+        joints.append({"fix" if kind == "rigid" and other is None else kind: ends})
+    loads = []
+    for ld in b["_loads"]:
+        entry = {"body": int(ld.body), "node": _node_data(placed[ld.body], ld.node)}
+        for key, value in (("force", ld.force), ("moment", ld.moment)):
+            if not all(_same_value(v, 0.0) for v in value):
+                entry[key] = [_time_function_data(v) for v in value]
+        loads.append(entry)
+    data: dict = {"pipeflex_model": FORMAT_VERSION, "kind": "multibody"}
+    info = _info_data(system.info)
+    if info:
+        data["info"] = info
+    data["sections"] = {name: _section_data(s) for name, s in sections.items()}
+    data.update(bodies=bodies, assembly=assembly, joints=joints)
+    if loads:
+        data["loads"] = loads
+    if np.any(b["_gravity"]):
+        data["gravity"] = [float(g) for g in b["_gravity"]]
+    data["flow"] = {"mass_flow": float(system.mass_flow)}
+    if not junction_forces:
+        data["flow"]["junction_forces"] = False
+    return data
+
+
+def coupled_data(system) -> dict:
+    """The model file's content for a :class:`~pipeflex.CoupledSystem`: its element model,
+    its bodies and the couplings."""
+    elements = model_data(system.model)
+    bodies = multibody_data(system.bodies)
+    for part in (elements, bodies):
+        part.pop("pipeflex_model")
+        part.pop("kind", None)
+    couplings = []
+    for c in system.joints:
+        entry = {"node": int(c.node), "body": int(c.body),
+                 "body_node": _node_data(system.bodies.bodies[c.body], c.body_node)}
+        if c.axis is not None:
+            entry["axis"] = [float(x) for x in (c.given_axis or c.axis)]
+        couplings.append({c.kind: entry})
+    return {"pipeflex_model": FORMAT_VERSION, "kind": "coupled", "elements": elements, "bodies": bodies,
+            "couplings": couplings}
 
 
 def _dumps(data: dict, suffix: str) -> str:
@@ -602,7 +978,42 @@ def _difference(model: Model, other: Model) -> Optional[str]:
     return None
 
 
-def save_model(model: Model, path: Union[str, Path]) -> Path:
+def _multibody_difference(system, other) -> Optional[str]:
+    """The first part of two multibody systems' builder descriptions that differs, or None."""
+    (a, ja), (b, jb) = system._description, other._description
+    if ja != jb:
+        return "junction_forces"
+    if len(a["_bodies"]) != len(b["_bodies"]) or not all(
+            _equal(x._arguments, y._arguments) for x, y in zip(a["_bodies"], b["_bodies"])):
+        return "bodies"
+    for key in ("_r", "_R", "_flow", "_joints", "_loads", "_gravity"):
+        if not _equal(a[key], b[key]):
+            return key.lstrip("_")
+    return "mass_flow" if system.mass_flow != other.mass_flow else None
+
+
+def _coupled_difference(system, other) -> Optional[str]:
+    diff = _difference(system.model, other.model) or _multibody_difference(system.bodies, other.bodies)
+    return diff or (None if _equal(system.joints, other.joints) else "couplings")
+
+
+def _data_and_check(model):
+    """(file content, the function naming the first difference of a rebuilt system)."""
+    if isinstance(model, Model):
+        return model_data(model), _difference
+    from .multibody.system import MultibodySystem
+
+    if isinstance(model, MultibodySystem):
+        return multibody_data(model), _multibody_difference
+    from .coupled import CoupledSystem
+
+    if isinstance(model, CoupledSystem):
+        return coupled_data(model), _coupled_difference
+    raise ValueError(f"model: a model file describes a pipeflex.Model, a pipeflex.multibody.MultibodySystem or a "
+                     f"pipeflex.CoupledSystem, got a {type(model).__name__}")
+
+
+def save_model(model, path: Union[str, Path]) -> Path:
     """Write ``model`` as a model file, YAML (``.yaml``, ``.yml``) or JSON (``.json``) by
     the suffix of ``path``; returns the path. The text is read back before it is written:
     ValueError if it would not build the same model (builder calls whose order a model
@@ -610,13 +1021,22 @@ def save_model(model: Model, path: Union[str, Path]) -> Path:
     that changes its constraints), so a saved file always reproduces the model.
 
     Args:
-        model: a model built by :class:`~pipeflex.ModelBuilder`.
+        model: a model built by :class:`~pipeflex.ModelBuilder`, a
+            :class:`~pipeflex.multibody.MultibodySystem` built by
+            :class:`~pipeflex.multibody.MultibodyBuilder` (``kind: multibody``) or a
+            :class:`~pipeflex.CoupledSystem` of the two (``kind: coupled``).
         path: the file to write [-]; its folder must exist.
+
+    Raises:
+        ValueError: what a file cannot hold (a Python callable as a load or time function,
+            a body with a custom basis, a free model), or a file that would not rebuild
+            the model exactly.
     """
     p = _checked_path(path, reading=False)
     if p.is_dir():
         raise ValueError(f"path {str(p)!r} is a folder; give a file name ending in {', '.join(SUFFIXES)}")
-    text = _dumps(model_data(model), p.suffix.lower())
+    data, difference = _data_and_check(model)
+    text = _dumps(data, p.suffix.lower())
     import tempfile
 
     with tempfile.TemporaryDirectory() as tmp:  # the check reads the very text written
@@ -627,7 +1047,7 @@ def save_model(model: Model, path: Union[str, Path]) -> Path:
         except ModelFileError as exc:
             raise ValueError(f"model: its model file would not load back ({exc.key}: {exc}); the builder calls "
                              f"were made in an order the file's grouping cannot keep") from None
-    diff = _difference(model, again)
+    diff = difference(model, again)
     if diff is not None:
         raise ValueError(f"model: its model file would not rebuild it exactly (the {diff} differ): the builder "
                          f"calls were made in an order the file's grouping (geometry, supports, hub, springs, "

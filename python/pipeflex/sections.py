@@ -54,6 +54,9 @@ class PipeSection:
             distributed force -k_f (r - r0) pulling the centre line r back to its position
             r0 as built, in every direction (default 0: no foundation). Its energy is
             elastic energy.
+        outer_diameter: ``D_o`` [m] > 0 of the tube, or None (default): geometry for
+            drawing only (the tube radius of :meth:`~pipeflex.TransientResult.to_vtk`);
+            no formulation reads it. :meth:`tube` sets it.
 
     Which formulation reads what: the 3D pipe element reads every field; the
     floating-frame body (:func:`~pipeflex.multibody.flexible_body`) has no shear
@@ -80,6 +83,7 @@ class PipeSection:
     eta_axial: float = 0.0
     c_ext: float = 0.0
     k_found: float = 0.0
+    outer_diameter: Optional[float] = None
 
     def __post_init__(self):
         ok = _checks
@@ -116,6 +120,8 @@ class PipeSection:
             object.__setattr__(self, "k_found", ok.non_negative("k_found", self.k_found))
         except ValueError as err:
             raise ValueError(f"{err} (k_found [N/m^2] is a foundation stiffness per length: 0 for none)") from None
+        if self.outer_diameter is not None:
+            object.__setattr__(self, "outer_diameter", ok.magnitude("outer_diameter", self.outer_diameter, "m"))
 
     @property
     def damped(self) -> bool:
@@ -179,7 +185,8 @@ class PipeSection:
         return cls(EI=E * I, EA=EA, GJ=G * 2 * I,
                    GAy=k_shear * G * A if shear else None, GAz=k_shear * G * A if shear else None,
                    pipe_mass=rho * A, fluid_mass=rho_f * Af, kv=kv,
-                   rotary_inertia=(2 * rho * I, rho * I, rho * I) if rotary_inertia else (0.0, 0.0, 0.0))
+                   rotary_inertia=(2 * rho * I, rho * I, rho * I) if rotary_inertia else (0.0, 0.0, 0.0),
+                   outer_diameter=Do)
 
 
 def require_section(section, name: str = "section") -> PipeSection:

@@ -7,7 +7,9 @@ z = const as computed. With ``tube=True`` a second series draws each element as 
 of the pipe's outer radius. Point data (SI): ``displacement`` [m] from the reference
 configuration, ``velocity`` [m/s], ``angular_velocity`` [rad/s] and ``rotation`` [rad]
 (the rotation vector from the reference orientation), where the result has them; cell
-data: ``element`` (the element's index in ``model.elements``, or the body's index). A
+data: ``element`` (the element's index in ``model.elements``, or the body's index) and,
+for the pipe elements of a result with node rotations, their section forces
+(:data:`SECTION_FORCES`; NaN on ANCF elements and floating-frame bodies). A
 floating-frame body's nodes carry ``displacement`` from the first output time and
 ``angular_velocity``.
 """
@@ -20,6 +22,16 @@ from xml.sax.saxutils import quoteattr
 import numpy as np
 
 from . import _checks
+
+#: The section forces written as cell data, from the element's generalised stresses (its
+#: constitutive law, ``_core.pipe_predicted_stresses``) in the element's local axes x
+#: (along it), y, z: ``axial_force`` N [N], ``torsion_moment`` T [N m], ``bending_moment_y``
+#: and ``bending_moment_z`` M_y, M_z [N m] at the element's midpoint (the mean of its end
+#: moments: exact for end loads, as the element's moments are linear along it), and
+#: ``shear_force_y``, ``shear_force_z`` V_y, V_z [N] (the element's mean, from the slope of
+#: its moments). Signs: the forces and moments on the face whose outward normal is +x.
+SECTION_FORCES = ("axial_force", "torsion_moment", "bending_moment_y", "bending_moment_z", "shear_force_y",
+                  "shear_force_z")
 
 
 def _meshio():
@@ -70,7 +82,8 @@ def _rotation_vectors(R: np.ndarray, R0: np.ndarray) -> np.ndarray:
 class _Frames:
     """The motion to write: times, points per frame, line cells, point and cell data."""
 
-    def __init__(self, t, points, cells, point_data, element, radii):
+    def __init__(self, t, points, cells, point_data, element, radii, cell_data=None):
+        self.cell_data = cell_data or {}  # name -> (nt, n_cells)
         self.t = np.asarray(t, float)
         self.points = points  # (nt, n_points, 3)
         self.cells = np.asarray(cells, dtype=np.int64).reshape(-1, 2)
@@ -89,7 +102,32 @@ def _element_frames(t, x, R, xd, omega, model, radius) -> _Frames:
     if R is not None:
         data["rotation"] = _rotation_vectors(R, _reference_rotations(model)[None])
     radii = [_radius(e.section, radius, model.length_scale) for e in model.elements]
-    return _Frames(t, x, cells, data, np.arange(len(cells)), radii)
+    forces = None if R is None else _section_forces(model, x, R)
+    return _Frames(t, x, cells, data, np.arange(len(cells)), radii, forces)
+
+
+def _section_forces(model, x: np.ndarray, R: np.ndarray) -> dict:
+    """:data:`SECTION_FORCES` (each (nt, n_elements), NaN but on pipe elements) at the node
+    positions x (nt, n_nodes, 3) [m] and rotations R (nt, n_nodes, 3, 3)."""
+    from . import _core
+
+    out = np.full((len(SECTION_FORCES), x.shape[0], len(model.elements)), np.nan)
+    zero, dq = np.zeros(3), np.zeros(12)
+    pipe = 0  # the core numbers the pipe elements among themselves
+    for k, e in enumerate(model.elements):
+        if e.kind != "pipe":
+            continue
+        data = model.core.pipe(pipe)
+        pipe += 1
+        p, q = e.nodes
+        for i in range(x.shape[0]):
+            # the nodes' frames are their rotations (rotation vectors 0): the element's own triads
+            s = _core.pipe_predicted_stresses(data, R[i, p], R[i, q], np.concatenate([x[i, p], zero, x[i, q], zero]),
+                                              dq)
+            # sigma [N]: axial force, then torsion and the end moments over l0 (conjugate to l0 theta)
+            out[:, i, k] = (s[0], data.l0 * s[1], 0.5 * data.l0 * (s[2] + s[3]), 0.5 * data.l0 * (s[4] + s[5]),
+                            s[4] - s[5], s[3] - s[2])
+    return dict(zip(SECTION_FORCES, out))
 
 
 def _radius(section, radius, length_scale: float) -> float:
@@ -101,28 +139,33 @@ def _radius(section, radius, length_scale: float) -> float:
     return 0.5 * float(d) if d else 0.02 * length_scale
 
 
-def _body_frames(bodies, radius) -> _Frames:
-    """The floating-frame bodies' nodes in world coordinates (``node_position``)."""
+def _body_frames(bodies, radius, times: slice) -> _Frames:
+    """The floating-frame bodies' nodes in world coordinates (``node_position``) at the
+    output ``times``."""
     points, cells, element = [], [], []
     omega = []
     first = 0
     for j, s in enumerate(bodies.nodes_s):
         n = len(s)
-        x = np.stack([bodies.node_position(j, i) for i in range(n)], axis=1)  # (nt, n, 3)
+        x = np.stack([bodies.node_position(j, i)[times] for i in range(n)], axis=1)  # (nt, n, 3)
         points.append(x)
-        omega.append(np.stack([bodies.node_angular_velocity(j, i) for i in range(n)], axis=1))
+        omega.append(np.stack([bodies.node_angular_velocity(j, i)[times] for i in range(n)], axis=1))
         cells += [(first + i, first + i + 1) for i in range(n - 1)]
         element += [j] * (n - 1)
         first += n
     x = np.concatenate(points, axis=1)
     size = float(np.ptp(x[0], axis=0).max()) or 1.0
     r = _checks.positive("radius", radius) if radius is not None else 0.02 * size
-    return _Frames(bodies.t, x, cells, {"displacement": x - x[:1], "angular_velocity": np.concatenate(omega, axis=1)},
+    return _Frames(bodies.t[times], x, cells, {"displacement": x - x[:1],
+                                               "angular_velocity": np.concatenate(omega, axis=1)},
                    element, np.full(len(cells), r))
 
 
-def _frames(result, model, radius) -> List[_Frames]:
+def _frames(result, model, radius, every: int = 1) -> List[_Frames]:
+    """The result's frames to write: every ``every``-th output time (from the first)."""
     from .state import State
+
+    times = slice(None, None, every)
 
     if hasattr(result, "t"):  # a TransientResult (duck-typed: the results import this module)
         out = []
@@ -131,9 +174,10 @@ def _frames(result, model, radius) -> List[_Frames]:
                 raise TypeError("to_vtk: pass the model the result was computed with (model=...): its elements "
                                 "connect the nodes")
             m = _element_model(model)
-            out.append(_element_frames(result.t, result.x, result.R, result.xd, result.omega, m, radius))
+            out.append(_element_frames(*(None if a is None else a[times] for a in
+                                         (result.t, result.x, result.R, result.xd, result.omega)), m, radius))
         if result.bodies is not None:
-            out.append(_body_frames(result.bodies, radius))
+            out.append(_body_frames(result.bodies, radius, times))
         return out
     if hasattr(result, "state"):  # a StaticResult
         if not isinstance(result.state, State):
@@ -154,10 +198,13 @@ def _merge(parts: List[_Frames]) -> _Frames:
         return parts[0]
     offsets = np.cumsum([0] + [p.points.shape[1] for p in parts])
     names = set.intersection(*(set(p.point_data) for p in parts))
+    nt = len(parts[0].t)
+    cell = {k: np.concatenate([p.cell_data.get(k, np.full((nt, len(p.cells)), np.nan)) for p in parts], axis=1)
+            for k in sorted(set().union(*(p.cell_data for p in parts)))}  # NaN where a part has none
     return _Frames(parts[0].t, np.concatenate([p.points for p in parts], axis=1),
                    np.concatenate([p.cells + o for p, o in zip(parts, offsets)]),
                    {k: np.concatenate([p.point_data[k] for p in parts], axis=1) for k in sorted(names)},
-                   np.concatenate([p.element for p in parts]), np.concatenate([p.radii for p in parts]))
+                   np.concatenate([p.element for p in parts]), np.concatenate([p.radii for p in parts]), cell)
 
 
 def _ring_basis(axis: np.ndarray) -> np.ndarray:
@@ -222,29 +269,29 @@ def write_vtk(result, folder: Union[str, Path], model=None, *, name: str = "pipe
     n_sides = _checks.positive_int("n_sides", n_sides)
     if n_sides < 3:
         raise ValueError(f"n_sides must be >= 3 (facets around the tube), got {n_sides}")
-    f = _merge(_frames(result, model, radius))
-    frames = np.arange(0, len(f.t), every)
-    if len(frames) == 0:
+    f = _merge(_frames(result, model, radius, every))
+    if len(f.t) == 0:
         raise ValueError("the result has no output times")
-    width = max(4, len(str(frames[-1])))
+    width = max(4, len(str(every * (len(f.t) - 1))))
     lines, tubes = [], []
-    for k in frames:
+    for k in range(len(f.t)):  # files numbered by the output time's index in the result
         pts = np.asarray(f.points[k], float)
         data = {key: np.asarray(v[k], float) for key, v in f.point_data.items()}
-        file = f"{name}_{k:0{width}d}.vtu"
-        meshio.write(out / file, meshio.Mesh(pts, [("line", f.cells)], point_data=data,
-                                             cell_data={"element": [f.element]}))
+        file = f"{name}_{every * k:0{width}d}.vtu"
+        cell = {"element": [f.element], **{key: [np.asarray(v[k], float)] for key, v in f.cell_data.items()}}
+        meshio.write(out / file, meshio.Mesh(pts, [("line", f.cells)], point_data=data, cell_data=cell))
         lines.append(file)
         if tube:
             tp, quads, source = _tube(pts, f, n_sides)
-            file = f"{name}_tube_{k:0{width}d}.vtu"
+            file = f"{name}_tube_{every * k:0{width}d}.vtu"
             meshio.write(out / file, meshio.Mesh(tp, [("quad", quads)],
                                                  point_data={key: v[source] for key, v in data.items()},
-                                                 cell_data={"element": [np.repeat(f.element, n_sides)]}))
+                                                 cell_data={key: [np.repeat(v[0], n_sides)]
+                                                            for key, v in cell.items()}))
             tubes.append(file)
     paths = [out / f"{name}.pvd"]
-    _write_pvd(paths[0], f.t[frames], lines)
+    _write_pvd(paths[0], f.t, lines)
     if tube:
         paths.append(out / f"{name}_tube.pvd")
-        _write_pvd(paths[1], f.t[frames], tubes)
+        _write_pvd(paths[1], f.t, tubes)
     return paths

@@ -179,8 +179,10 @@ class MultibodyBuilder:
         function) drives the joint: +torque about the current axis on body a, -torque on
         body b (a motor between them)."""
         b = self._other(body_b, node_b)
+        # given_axis: the vector as passed, which a model file writes (normalising twice may change the last bit)
         self._add("hinge", self._ref("body_a", body_a, node_a), b, axis=_checks.unit_vector("axis", axis),
-                  torque=None if torque is None else _plain_time_function("torque", torque))
+                  torque=None if torque is None else _plain_time_function("torque", torque),
+                  given_axis=_checks.vector3("axis", axis))
 
     def spherical(self, body_a: int, node_a, body_b: Optional[int] = None, node_b=None) -> None:
         """Coincident points, orientations free (to the ground when ``body_b`` is None)."""
@@ -189,7 +191,8 @@ class MultibodyBuilder:
 
     def roller(self, body: int, node, direction: Sequence[float]) -> None:
         """The node cannot move along the global ``direction``."""
-        self._add("roller", self._ref("body", body, node), None, direction=_checks.unit_vector("direction", direction))
+        self._add("roller", self._ref("body", body, node), None, direction=_checks.unit_vector("direction", direction),
+                  given_direction=_checks.vector3("direction", direction))
 
     def add_load(self, body: int, node, *, force: Sequence[TimeFunction] = (0.0, 0.0, 0.0),
                  moment: Sequence[TimeFunction] = (0.0, 0.0, 0.0)) -> None:
