@@ -166,6 +166,15 @@ CHECKS = {
         near("shift[6.0] * 1e3", 8.8, 0.05,
              "ours, not the seed's: docs/validation.md (seed 004, section 8.3), nozzle shift at 6 m/s [mm]"),
     ],
+    "flutter_3d_branches.ipynb": [
+        within("bp_flow[4]", 25.0565, 25.0575, "ours, not the seed's: docs/orbits.md, the planar cycle's branch "
+               "point in 3D, 4 elements (25.05688 kg/s at 64 steps per period, 25.05704 at 128)"),
+        within("planar_multiplier_30", 1.1, 1.3, "docs/periodic.md: in 3D the planar cycle at 30 kg/s has an "
+               "out-of-plane multiplier of up to 1.2"),
+        near("whirl_ratio", 1.0, 0.05, "the 3D transient at 30 kg/s leaves the planar cycle for a circular whirl: "
+             "equal tip amplitudes in y and z"),
+        near("whirl_stable", 1.0, 0.0, "the whirl, shot from the transient's end, is stable"),
+    ],
     "pulsating_flow.ipynb": [
         near("apex_unstable", 1.0, 0.0, "the principal tongue of the undamped pinned pipe opens from mu = 0: "
              "unstable at 2 omega_1 at mu = 0.01 (Paidoussis & Issid 1974)"),

@@ -34,13 +34,14 @@ __getattr__, __dir__ = _lazy.attach(__name__, _LAZY)
 
 if TYPE_CHECKING:  # the lazy names, spelt out for editors and type checkers (tests/test_static_api.py)
     from . import coupled, multibody, plot, plotting, scenes, seeds, work_precision  # noqa: F401 (namespaces)
-    from .analysis import (Campbell, CriticalFlow, EigenResult, InstabilityChart, Linearization, OrbitBranch,
+    from .analysis import (Bifurcation, Campbell, CriticalFlow, EigenResult, InstabilityChart, Linearization,
+                           OrbitBranch,
                            OrbitGuess, ParametricStability, PeriodicOrbit, RotatingFrequencies, StaticResult,
                            SteadyRotation, SystemSteadyRotation, TransientResult, campbell, continue_orbits,
                            critical_mass_flow, eigenvalues, instability_chart, linearize, orbit_guess,
                            parametric_stability, periodic_orbit, pulsating_flow, resonance_speed,
                            rotating_frequencies, rotating_state, simulate, stability, static_equilibrium,
-                           steady_rotation)
+                           steady_rotation, switch_branch)
     from .analysis.stability_map import stability_map
     from .coupled import CoupledSystem
     from .model_files import load_model, save_model
@@ -53,6 +54,6 @@ __all__ = ["CriticalFlow", "EigenResult", "Linearization", "StaticResult",
            "Pulse", "Sine", "TransientResult", "SteadyRotation", "SystemSteadyRotation", "steady_rotation",
            "RotatingFrequencies", "resonance_speed", "rotating_frequencies", "rotating_state",
            "OrbitBranch", "OrbitGuess", "PeriodicOrbit", "continue_orbits", "orbit_guess", "periodic_orbit",
-           "Campbell", "campbell", "stability_map", "sweep",
+           "Bifurcation", "switch_branch", "Campbell", "campbell", "stability_map", "sweep",
            "InstabilityChart", "ParametricStability", "instability_chart", "parametric_stability", "pulsating_flow",
            "ConvergenceError", "LimitPointError", "SingularMatrixError", "UnitWarning", "Model", "ModelBuilder", "PipeSection", "Result", "State", "CoupledSystem", "load_model", "save_model", "__version__"]

@@ -15,8 +15,8 @@ _MODULES = {"campbell": ["Campbell", "campbell",
             "linearize": ["Linearization", "linearize"],
             "parametric": ["InstabilityChart", "ParametricStability", "instability_chart", "parametric_stability",
                            "pulsating_flow"],
-            "periodic": ["OrbitBranch", "OrbitGuess", "PeriodicOrbit", "continue_orbits", "orbit_guess",
-                         "periodic_orbit"],
+            "periodic": ["Bifurcation", "OrbitBranch", "OrbitGuess", "PeriodicOrbit", "continue_orbits",
+                         "orbit_guess", "periodic_orbit", "switch_branch"],
             "rotating": ["RotatingFrequencies", "resonance_speed", "rotating_frequencies", "rotating_state"],
             "static": ["StaticResult", "static_equilibrium"],
             "steady": ["SteadyRotation", "SystemSteadyRotation", "steady_rotation"],
@@ -31,7 +31,8 @@ if TYPE_CHECKING:  # the lazy names, spelt out for editors and type checkers (te
     from .linearize import Linearization, linearize
     from .parametric import (InstabilityChart, ParametricStability, instability_chart, parametric_stability,
                              pulsating_flow)
-    from .periodic import OrbitBranch, OrbitGuess, PeriodicOrbit, continue_orbits, orbit_guess, periodic_orbit
+    from .periodic import (Bifurcation, OrbitBranch, OrbitGuess, PeriodicOrbit, continue_orbits, orbit_guess,
+                           periodic_orbit, switch_branch)
     from .rotating import RotatingFrequencies, resonance_speed, rotating_frequencies, rotating_state
     from .static import StaticResult, static_equilibrium
     from .steady import SteadyRotation, SystemSteadyRotation, steady_rotation
@@ -39,7 +40,7 @@ if TYPE_CHECKING:  # the lazy names, spelt out for editors and type checkers (te
 
 __all__ = ["CriticalFlow", "critical_mass_flow", "EigenResult", "eigenvalues", "stability",
            "Linearization", "linearize", "OrbitBranch", "OrbitGuess", "PeriodicOrbit", "continue_orbits", "orbit_guess", "periodic_orbit",
-           "StaticResult", "static_equilibrium",
+           "Bifurcation", "switch_branch", "StaticResult", "static_equilibrium",
            "Sine", "TransientResult", "simulate", "SteadyRotation", "SystemSteadyRotation", "steady_rotation",
            "RotatingFrequencies", "resonance_speed", "rotating_frequencies", "rotating_state", "Campbell", "campbell",
            "InstabilityChart", "ParametricStability", "instability_chart", "parametric_stability", "pulsating_flow"]

@@ -1,5 +1,6 @@
-"""Periodic orbits (limit cycles) by shooting, their Floquet multipliers, and their
-continuation in the mass flow.
+"""Periodic orbits (limit cycles) by shooting, their Floquet multipliers, their
+continuation in the mass flow or another parameter, the bifurcations along a branch and
+branch switching (docs/orbits.md).
 
 A periodic orbit of the autonomous equations of motion (constant flow and loads) is a
 state x0 = (z0, v0) and a period T with  phi_T(x0) = x0, where phi_T is the flow map of
@@ -29,9 +30,13 @@ the flow map re-bases the frames every step, as the integrator does, and maps th
 back to the base's chart with its exact tangent); a :class:`~pipeflex.CoupledSystem`'s
 both, stacked [element; bodies]. With joints the flow map's end satisfies them, so
 each constrained direction has a zero multiplier. Continuation is pseudo-arclength in
-(x0, T, mdot), starting at a Hopf point found by :func:`~pipeflex.critical_mass_flow`
-(its critical mode and frequency give the first direction and period), with step
-control and fold detection.
+(x0, T, p), p the mass flow (starting at a Hopf point found by
+:func:`~pipeflex.critical_mass_flow`: its critical mode and frequency give the first
+direction and period, or at an orbit) or another parameter (from an orbit: the model
+rebuilt at each value), with step control; every orbit keeps its multipliers, and the
+bifurcations between consecutive orbits (fold, period doubling, Neimark-Sacker, branch
+point) are classified and located; :func:`switch_branch` starts the other branch at a
+branch point.
 """
 from __future__ import annotations
 
@@ -102,8 +107,9 @@ class PeriodicOrbit(Result):
         amplitude: (n_points, 3) half the peak-to-peak excursion of each point's coordinate [m].
         multipliers: (2 n,) Floquet multipliers by decreasing modulus [-] (empty
             if not asked for: ``periodic_orbit(..., multipliers=False)``).
-        trivial: index in ``multipliers`` of the one closest to 1 (the shift along the
-            orbit); -1 without multipliers.
+        trivial: index in ``multipliers`` of the shift along the orbit: the one whose
+            eigenvector is the flow direction among those within TRIVIAL_MULTIPLIER_TOL of
+            1 (else the closest to 1); -1 without multipliers.
         stable: all other multipliers inside the unit circle (or on it, to NEUTRAL);
             None without multipliers.
         residual: ``max |phi_T(x0) - x0|`` at the solution [m, m/s].
@@ -149,19 +155,30 @@ class PeriodicOrbit(Result):
 
 @dataclass(frozen=True)
 class OrbitBranch(Result):
-    """A branch of periodic orbits continued in the mass flow.
+    """A branch of periodic orbits continued in the mass flow or another parameter.
 
     Attributes:
-        mass_flow: (k,) mdot [kg/s] of each orbit.
+        mass_flow: (k,) mdot [kg/s] of each orbit (all the same in another parameter).
         period: (k,) T [s].
         amplitude: (k, n_points, 3) half peak-to-peak excursions [m] (points as
             :attr:`PeriodicOrbit.x`).
         stable: (k,) stability from the Floquet multipliers.
         max_multiplier: (k,) largest modulus of the non-trivial multipliers [-].
-        folds: mass flows [kg/s] where the branch turns back (d mdot / ds changes sign).
-        hopf: (mdot_c [kg/s], omega_c [rad/s]) of the Hopf point the branch starts at.
+        folds: the parameter's values [its unit] at the orbits where the branch turns
+            back (d p / ds changes sign; mass flows [kg/s] in the mass flow).
+        hopf: (mdot_c [kg/s], omega_c [rad/s]) of the Hopf point the branch starts at
+            (nan, nan from an orbit or a branch point).
         starts: the state at t = 0 of each orbit (to solve an orbit again, e.g. at a
             nearby flow with :func:`periodic_orbit`).
+        parameter_name: the continued parameter ("mass_flow", a name of
+            ``PARAMETERS``, or the callable's ``__name__``).
+        parameter: (k,) its value at each orbit [its unit] (the mass flow's: equal to
+            ``mass_flow``).
+        multipliers: (k, 2 n) all Floquet multipliers of each orbit (the monodromy's
+            eigenvalues) by decreasing modulus [-].
+        trivial: (k,) index in ``multipliers`` of each orbit's trivial one (whose
+            eigenvector is the flow direction).
+        bifurcations: the :class:`Bifurcation` s between consecutive orbits, in order.
     """
 
     mass_flow: np.ndarray
@@ -173,22 +190,30 @@ class OrbitBranch(Result):
     hopf: tuple
     starts: tuple = ()
     stats: dict = field(default_factory=dict)
+    parameter_name: str = "mass_flow"
+    parameter: Optional[np.ndarray] = None
+    multipliers: Optional[np.ndarray] = None
+    trivial: Optional[np.ndarray] = None
+    bifurcations: tuple = ()
 
     def to_xarray(self):
         """The branch as an ``xarray.Dataset``: ``mass_flow``, ``period``, ``stable``,
-        ``max_multiplier`` over ``orbit`` (the orbits in the order continued; the mass
-        flow turns back at a fold), ``amplitude`` over (orbit, node, component),
-        ``folds`` over ``fold``, and the Hopf point (``hopf_mass_flow`` [kg/s],
-        ``hopf_frequency`` [rad/s]); every variable with ``units`` (where it has one)
-        and ``long_name``. xarray loads here."""
+        ``max_multiplier``, ``parameter`` (attribute ``parameter_name``), ``trivial``
+        over ``orbit`` (the orbits in the order continued; the parameter turns back at a
+        fold), ``amplitude`` over (orbit, node, component), the multipliers
+        (``multipliers_real``, ``multipliers_imag``) over (orbit, multiplier), ``folds``
+        over ``fold``, and the Hopf point (``hopf_mass_flow`` [kg/s], ``hopf_frequency``
+        [rad/s]); every variable with ``units`` (where it has one) and ``long_name``; the
+        bifurcations are not in it. xarray loads here."""
         from ..results import node_coords, to_dataset
 
-        names = ("mass_flow", "period", "amplitude", "stable", "max_multiplier", "folds")
+        names = ("mass_flow", "period", "amplitude", "stable", "max_multiplier", "folds", "parameter",
+                 "multipliers", "trivial")
         values = {n: getattr(self, n) for n in names}
         values["hopf_mass_flow"], values["hopf_frequency"] = (float(v) for v in self.hopf)
         coords = {"orbit": ("orbit", np.arange(len(self.mass_flow)), {"long_name": "orbit index along the branch"}),
                   **node_coords(np.shape(self.amplitude)[1])}
-        return to_dataset("OrbitBranch", values, coords)
+        return to_dataset("OrbitBranch", values, coords, {"parameter_name": self.parameter_name})
 
 
 @dataclass(frozen=True)
@@ -240,7 +265,7 @@ def _critical_direction(model, equilibrium, start):
 class _Shooter:
     """The flow map of a model at one mass flow in a chart (pipeflex.charts)."""
 
-    def __init__(self, model, chart, steps: int, opt):
+    def __init__(self, model, chart, steps: int, opt, *, parameter=None):
         self.model = model
         self.chart = chart
         self.base = chart.base
@@ -249,16 +274,23 @@ class _Shooter:
         self.n = chart.n
         self.calls = 0
         self.newton_iterations = 0
+        # parameter: a continuation parameter other than the mass flow (a _Parameter);
+        # then the fourth argument of a call is its scaled value, not the mass flow
+        self.parameter = parameter
 
     def __call__(self, z0, v0, period, mass_flow, sensitivity, *, steps=None, newton_tol=None):
         """The flow map over ``period`` in ``steps`` steps (default the shooter's), its
         integrator's Newton to ``newton_tol`` (default the options'); with
-        ``sensitivity`` also its monodromy matrix."""
+        ``sensitivity`` also its monodromy matrix. With a ``parameter`` the fourth
+        argument is that parameter's scaled value (the mass flow is the parameter's)."""
         opt = self.opt
         if newton_tol is not None and newton_tol != opt.newton_tol:
             opt = _options(self.chart, newton_tol, opt.rho_inf)
         self.calls += 1
-        system = self.chart.system(mass_flow)
+        if self.parameter is None:
+            system = self.chart.system(mass_flow)
+        else:
+            system, mass_flow = self.parameter.system(mass_flow)
         model = self.chart.element_model
         with explained_singular_mass(model) if model is not None else _no_context():
             out = _core.flow_map(system, float(mass_flow), np.asarray(z0, float), np.asarray(v0, float),
@@ -289,9 +321,8 @@ def _mass_flow(model) -> float:
 
 def _finish(shooter, z0, v0, period, mass_flow, out, iterations, residual) -> PeriodicOrbit:
     if "monodromy" in out:
-        mu = np.linalg.eigvals(out["monodromy"])
-        mu = mu[np.argsort(-np.abs(mu), kind="stable")]
-        trivial = int(np.argmin(np.abs(mu - 1.0)))
+        # the trivial multiplier: the flow direction's (not merely the closest to 1)
+        mu, trivial, _ = _floquet(out["monodromy"], np.concatenate([np.asarray(v0, float), out["a0"]]))
         stable = bool(np.delete(np.abs(mu), trivial).max(initial=0.0) <= 1.0 + NEUTRAL)
     else:  # not asked for
         mu, trivial, stable = np.zeros(0, complex), -1, None
@@ -640,114 +671,719 @@ def orbit_guess(model, *, node: int, step: float, component: int = 1, state=None
                            f"by t_max = {t_max:g} s (no oscillation to settle on)", mass_flow=mass_flow)
 
 
+#: the section fields a continuation ``parameter`` may name (set in every section)
+SECTION_PARAMETERS = ("EI", "EIz", "EA", "GJ", "GAy", "GAz", "pipe_mass", "fluid_mass", "kv", "eta_bending",
+                      "eta_torsion", "eta_axial", "c_ext", "k_found")
+#: every parameter name continue_orbits knows (besides a callable rebuild(value) -> model)
+PARAMETERS = ("mass_flow", "gravity", "gravity_x", "gravity_y", "gravity_z", "point_mass") + SECTION_PARAMETERS
+#: the kinds of bifurcation between two orbits of a branch (Bifurcation.kind)
+BIFURCATION_KINDS = ("fold", "period_doubling", "neimark_sacker", "branch_point")
+#: a multiplier is complex (a Neimark-Sacker pair, not a real one crossing +-1) when its
+#: imaginary part exceeds this at both orbits of the interval
+COMPLEX_IMAG = 1e-6
+#: shootings at most to locate one bifurcation (Illinois secant on the arclength)
+LOCATE_SOLVES = 8
+
+
+@dataclass(frozen=True)
+class Bifurcation(Result):
+    """A bifurcation between two consecutive orbits of an :class:`OrbitBranch`.
+
+    Attributes:
+        kind: one of BIFURCATION_KINDS: "fold" (the parameter turns; a real multiplier passes +1),
+            "period_doubling" (a real multiplier passes -1), "neimark_sacker" (a complex
+            pair leaves or enters the unit circle), "branch_point" (a real multiplier
+            passes +1 where the parameter does not turn: a symmetry-breaking pitchfork
+            or a transcritical branch point; :func:`switch_branch` starts there).
+        parameter: the continued parameter's value there [its unit].
+        mass_flow: mdot [kg/s] there.
+        period: T [s] there.
+        multiplier: the crossing multiplier there [-] (on the unit circle when located).
+        multipliers: the non-trivial Floquet multipliers there, by decreasing modulus [-].
+        index: it lies between the branch's orbits ``index`` and ``index + 1``.
+        located: found by shooting orbits between the two (secant on the crossing
+            multiplier's distance from the unit circle); False: interpolated linearly
+            between them.
+        residual: the located multiplier's distance from the unit circle, abs(mu) - 1 [-].
+        y: (2 n + 1,) the orbit there: z0, v0, T (the branch's chart).
+        tangent: (2 n + 2,) the branch's direction there in (z0, v0, T, scaled parameter).
+        vector: (2 n,) real eigenvector of the monodromy for the crossing multiplier (for
+            :func:`switch_branch`), its largest entry 1.
+    """
+
+    kind: str
+    parameter: float
+    mass_flow: float
+    period: float
+    multiplier: complex
+    multipliers: np.ndarray
+    index: int
+    located: bool
+    residual: float
+    y: np.ndarray
+    tangent: np.ndarray
+    vector: np.ndarray
+
+
+class _Parameter:
+    """A continuation parameter: its name, its value at the start ``value`` and scale
+    (the arclength counts the scaled value p / scale: the mass flow in kg/s, any other
+    parameter relative to its start), and the core system at a scaled value in the chart
+    of ``base``."""
+
+    def __init__(self, model, name, rebuild, value, scale, mass_flow):
+        self.model, self.name, self.rebuild = model, name, rebuild
+        self.value, self.scale, self.mass_flow = float(value), float(scale), float(mass_flow)
+        self.base = None  # set with the chart
+        self._models: dict = {}
+
+    def physical(self, scaled) -> float:
+        return float(scaled) * self.scale
+
+    def model_at(self, scaled):
+        """The model at the scaled value (the last few cached: Newton and the parameter
+        column call the same values again)."""
+        key = float(scaled)
+        if key not in self._models:
+            model = self.rebuild(self.physical(key))
+            n = _chart(self.model, self.base).n
+            try:
+                same = type(model) is type(self.model) and _chart(model, self.base).n == n
+            except (ValueError, TypeError, IndexError, RuntimeError):  # the base state does not fit it
+                same = False
+            if not same:
+                raise ValueError(f"parameter: rebuild({self.physical(key):.6g}) returned a {type(model).__name__} "
+                                 f"whose coordinates differ from the start's ({n}): the model's dof layout must not "
+                                 "change along the branch")
+            if len(self._models) >= 4:
+                self._models.pop(next(iter(self._models)))
+            self._models[key] = model
+        return self._models[key]
+
+    def system(self, scaled):
+        """(core system, mass flow [kg/s]) at the scaled value."""
+        if self.rebuild is None:  # the mass flow itself
+            mdot = self.physical(scaled)
+            return _chart(self.model, self.base).system(mdot), mdot
+        return _chart(self.model_at(scaled), self.base).system(self.mass_flow), self.mass_flow
+
+
+def _element_rebuild(model, name):
+    """(rebuild(value) -> model, value at the start) of a parameter by name of an element
+    model built by ModelBuilder."""
+    from dataclasses import replace
+
+    from ..model import Model, _rebuild_model
+
+    if not isinstance(model, Model) or model._description is None:
+        raise ValueError(f"parameter = {name!r} by name needs a pipeflex.Model built by ModelBuilder (got "
+                         f"{type(model).__name__}); give a callable rebuild(value) -> model instead "
+                         "(parameter_value its value at the start)")
+    desc = model._description
+    g = np.asarray(desc["_gravity"], float)
+    if name == "gravity":
+        if not np.any(g):
+            raise ValueError("parameter = 'gravity' scales the model's gravity vector, which is zero: use "
+                             "'gravity_x', 'gravity_y' or 'gravity_z'")
+        unit, value = g / np.linalg.norm(g), float(np.linalg.norm(g))
+
+        def change(d, v):
+            d["_gravity"] = v * unit
+    elif name.startswith("gravity_"):
+        k = "xyz".index(name[-1])
+        value = float(g[k])
+
+        def change(d, v):
+            d["_gravity"] = np.array(d["_gravity"], float)
+            d["_gravity"][k] = v
+    elif name == "point_mass":
+        masses = {float(m["mass"]) for m in desc["_masses"]}
+        if len(masses) != 1:
+            raise ValueError(f"parameter = 'point_mass' sets every point mass of the model, whose masses are "
+                             f"{sorted(masses) or 'none'}: it needs one or more equal point masses (else give a "
+                             "callable rebuild(value) -> model)")
+        value = masses.pop()
+
+        def change(d, v):
+            d["_masses"] = [{**m, "mass": v} for m in d["_masses"]]
+    else:  # a section field, in every section
+        sections = [e["section"] for e in desc["_elements"] + desc["_ancf"]]
+        values = {getattr(s, name) for s in sections}
+        if len(values) != 1 or None in values:
+            raise ValueError(f"parameter = {name!r} sets the field in every section, whose values are "
+                             f"{sorted(values, key=str)}: it needs one value at the start (else give a callable "
+                             "rebuild(value) -> model)")
+        value = float(values.pop())
+
+        def change(d, v):
+            for key in ("_elements", "_ancf"):
+                d[key] = [{**e, "section": replace(e["section"], **fields(e["section"], v))} for e in d[key]]
+
+        def fields(section, v):
+            # "EI" is an isotropic section's bending stiffness: EIz follows where it equals EI
+            return {name: v, "EIz": v} if name == "EI" and section.EIz == section.EI else {name: v}
+
+    def rebuild(v):
+        d = dict(desc)
+        change(d, float(v))
+        out = _rebuild_model(d, model.mass_flow, model._is_free)
+        out.info = model.info
+        return out
+
+    return rebuild, value
+
+
+def _parameter(model, parameter, parameter_value, mass_flow) -> _Parameter:
+    """The continuation parameter ``parameter`` (a name of PARAMETERS or a callable) of
+    ``model`` at the mass flow ``mass_flow`` [kg/s]."""
+    if callable(parameter):
+        if parameter_value is None:
+            raise ValueError("parameter_value (the parameter's value at the start) is needed with a callable "
+                             "parameter rebuild(value) -> model")
+        value = _checks.finite("parameter_value", parameter_value)
+        name, rebuild = getattr(parameter, "__name__", "parameter"), parameter
+    elif parameter == "mass_flow":
+        name, rebuild, value = "mass_flow", None, float(mass_flow)
+    elif isinstance(parameter, str) and parameter in PARAMETERS:
+        name = parameter
+        rebuild, value = _element_rebuild(model, parameter)
+    else:
+        raise ValueError(f"parameter must be one of {', '.join(PARAMETERS)} or a callable rebuild(value) -> model; "
+                         f"got {parameter!r}")
+    if not callable(parameter) and parameter_value is not None:
+        raise ValueError(f"parameter_value is for a callable parameter; {name!r} is read from the model "
+                         f"({value:.6g})")
+    scale = 1.0 if rebuild is None else (abs(value) if value != 0.0 else 1.0)
+    return _Parameter(model, name, rebuild, value, scale, mass_flow)
+
+
+def _floquet(Phi, flow):
+    """(multipliers by decreasing modulus, index of the trivial one, eigenvectors as
+    columns) of the monodromy ``Phi``; the trivial multiplier is the one whose eigenvector
+    is the flow direction ``flow`` (xdot at t = 0), among those within
+    TRIVIAL_MULTIPLIER_TOL of 1 (another multiplier 1 of a symmetry stays); else the
+    closest to 1."""
+    mu, V = np.linalg.eig(Phi)
+    order = np.argsort(-np.abs(mu), kind="stable")
+    mu, V = mu[order], V[:, order]
+    near = np.flatnonzero(np.abs(mu - 1.0) <= TRIVIAL_MULTIPLIER_TOL)
+    f = np.asarray(flow, float)
+    if len(near) > 1 and np.linalg.norm(f) > 0.0:
+        align = np.abs(V[:, near].conj().T @ f) / (np.linalg.norm(V[:, near], axis=0) * np.linalg.norm(f))
+        trivial = int(near[np.argmax(align)])
+    else:
+        trivial = int(np.argmin(np.abs(mu - 1.0)))
+    return mu, trivial, V
+
+
+@dataclass
+class _Point:
+    """An orbit of a branch being continued (scaled parameter p)."""
+
+    y: np.ndarray
+    p: float
+    tangent: np.ndarray  # the direction it was reached in (the secant from the last point)
+    mu: np.ndarray
+    trivial: int
+    vectors: np.ndarray
+    monodromy: np.ndarray
+    orbit: PeriodicOrbit
+    step: float  # arclength from the last point
+
+
+def _nontrivial_multipliers(point):
+    return np.delete(point.mu, point.trivial), np.delete(point.vectors, point.trivial, axis=1)
+
+
+def _tracks(points):
+    """The non-trivial multipliers of each orbit and (k, m) the index of each of the m
+    tracks at each orbit: a multiplier of one orbit continues as its match at the next
+    (least total distance, scipy's linear_sum_assignment)."""
+    from scipy.optimize import linear_sum_assignment
+
+    mus = [_nontrivial_multipliers(q)[0] for q in points]
+    idx = np.zeros((len(points), len(mus[0])), dtype=np.int64)
+    idx[0] = np.arange(len(mus[0]))
+    for k in range(len(points) - 1):
+        ia, ib = linear_sum_assignment(np.abs(mus[k][:, None] - mus[k + 1][None, :]))
+        to = np.empty(len(ia), dtype=np.int64)
+        to[ia] = ib
+        idx[k + 1] = to[idx[k]]
+    return mus, idx
+
+
+def _crossings(points):
+    """The multipliers that cross the unit circle along the orbits ``points``: (kind, k,
+    index at orbit k, index at orbit k + 1), indices among the non-trivial multipliers,
+    the crossing in the interval (k, k + 1). A track crosses when it leaves NEUTRAL on
+    one side and later on the other (it may linger within NEUTRAL in between: the
+    interval is where it changes sign); a complex pair (imaginary parts above
+    COMPLEX_IMAG at both ends) is one Neimark-Sacker crossing."""
+    mus, idx = _tracks(points)
+    out = []
+    for track in range(idx.shape[1]):
+        mu = np.array([mus[k][idx[k, track]] for k in range(len(points))])
+        d = np.abs(mu) - 1.0
+        side = np.where(d > NEUTRAL, 1, np.where(d < -NEUTRAL, -1, 0))
+        last, last_k = 0, 0
+        for k in np.flatnonzero(side):
+            if last != 0 and side[k] != last:
+                flips = [q for q in range(last_k, k) if np.sign(d[q]) != np.sign(d[q + 1])]
+                q = flips[0] if flips else last_k
+                if abs(mu[last_k].imag) > COMPLEX_IMAG and abs(mu[k].imag) > COMPLEX_IMAG:
+                    if mu[k].imag > 0:  # a pair: once
+                        out.append(("neimark_sacker", q, idx[q, track], idx[q + 1, track]))
+                else:
+                    s = d[q] / (d[q] - d[q + 1]) if d[q] != d[q + 1] else 0.0
+                    at = mu[q] + s * (mu[q + 1] - mu[q])
+                    out.append(("branch_point" if at.real > 0 else "period_doubling", q, idx[q, track],
+                                idx[q + 1, track]))
+            last, last_k = side[k], k
+    return out
+
+
+class _Branch:
+    """The continuation of one branch: pseudo-arclength steps in (z0, v0, T, p) with step
+    control, the orbits' Floquet multipliers, and the bifurcations between them."""
+
+    def __init__(self, shooter, par, *, tol, max_iterations, ds, max_step, p_end, max_points, locate):
+        self.shooter, self.par = shooter, par
+        self.tol, self.max_iterations = tol, max_iterations
+        self.ds, self.max_step = ds, max_step
+        self.p_end, self.max_points, self.locate_ = p_end, max_points, locate
+        self.points = []
+        self.folds = []
+        # the shooter may have served another branch (switch_branch): count this one's work
+        self.work0 = (shooter.calls, shooter.newton_iterations) if shooter is not None else (0, 0)
+
+    def _solve_at(self, y_prev, p_prev, tangent, h, xdot_prev, jacobian):
+        n = self.shooter.n
+        y_pred = y_prev + h * tangent[:-1]
+        p_pred = p_prev + h * tangent[-1]
+        y, p, out, it, res = _solve(self.shooter, y_pred, p_pred, tol=self.tol, max_iterations=self.max_iterations,
+                                    phase=(y_pred, xdot_prev), arclength=(y_prev, p_prev, tangent, h),
+                                    jacobian=jacobian)
+        mdot = self.par.mass_flow if self.par.rebuild is not None else self.par.physical(p)
+        orbit = _finish(self.shooter, y[:n], y[n:2 * n], y[-1], mdot, out, it, res)
+        mu, trivial, V = _floquet(out["monodromy"], np.concatenate([y[n:2 * n], out["a0"]]))
+        return y, p, out, it, orbit, mu, trivial, V
+
+    def run(self, y_prev, p_prev, tangent, xdot_prev, *, what, unturned=1):
+        """Continue from the orbit (or Hopf point) y_prev at p_prev along ``tangent``; a
+        turn of the parameter counts from orbit ``unturned`` on (the secant from a located
+        branch point carries its location's error: no turn at the first orbit after it)."""
+        n = self.shooter.n
+        h = self.ds
+        direction = 1.0 if self.p_end >= p_prev else -1.0
+        Phi_prev = None
+        while len(self.points) < self.max_points:
+            try:
+                y, p, out, it, orbit, mu, trivial, V = self._solve_at(y_prev, p_prev, tangent, h, xdot_prev,
+                                                                      Phi_prev)
+            except (ConvergenceError, np.linalg.LinAlgError) as exc:
+                h *= 0.5
+                logger.info("continue_orbits: no orbit at step %.3g (%s); halving the step", 2 * h, exc)
+                if h < 1e-6 * self.ds or h == 0.0:  # (1e-6 ds underflows for a subnormal ds)
+                    break
+                continue
+            logger.info("continue_orbits: orbit %d at %s = %.8g: T = %.8g s, %s (%d iterations)",
+                        len(self.points) + 1, self.par.name, self.par.physical(p), y[-1],
+                        "stable" if orbit.stable else "unstable", it)
+            Phi_prev = out["monodromy"]
+            new_tangent = np.concatenate([y - y_prev, [p - p_prev]])
+            step = float(np.linalg.norm(new_tangent))
+            new_tangent /= step
+            if len(self.points) >= unturned and tangent[-1] != 0.0 and np.sign(new_tangent[-1]) != np.sign(tangent[-1]):
+                self.folds.append(len(self.points) - 1)  # the turn is at the last orbit
+            self.points.append(_Point(y, p, new_tangent, mu, trivial, V, out["monodromy"], orbit, step))
+            tangent = new_tangent
+            y_prev, p_prev = y, p
+            xdot_prev = np.concatenate([y[n:2 * n], out["a0"]])
+            if (self.par.physical(p) - self.par.physical(self.p_end)) * direction >= 0.0:
+                break
+            if it <= 6:  # chord iterations are cheap: a few are an easy step
+                h = min(2.0 * h, self.max_step)
+            elif it >= 10:
+                h *= 0.5
+        if not self.points:
+            raise ConvergenceError(f"orbit continuation: no orbit found next to {what}",
+                                   mass_flow=self.par.mass_flow if self.par.rebuild is not None
+                                   else self.par.physical(p_prev))
+        return self
+
+    def bifurcations(self):
+        """The bifurcations between consecutive orbits, located (``locate``) or interpolated:
+        a fold at each turn of the parameter (its multiplier +1 is the fold's), the
+        multipliers' crossings elsewhere."""
+        out = []
+        turns = [k for k in self.folds if 0 < k < len(self.points) - 1]
+        for kind, k, i, j in (_crossings(self.points) if len(self.points) > 1 else ()):
+            if kind == "branch_point" and (k in turns or k + 1 in turns):
+                continue  # the multiplier +1 of the parameter's turn
+            out.append(self._locate(k, kind, i, j))
+        out += [self._fold(k) for k in turns]
+        return tuple(sorted(out, key=lambda bif: (bif.index, bif.parameter)))
+
+    def _fold(self, k):
+        """The fold at the turn at orbit k: where the tangent's parameter component
+        vanishes (Illinois secant on the arclength between the two orbits where it changes
+        sign: the tangent at each is the null vector of the shooting's Jacobian with the
+        parameter column); interpolated (the vertex of the parabola through orbits k - 1,
+        k, k + 1) without ``locate`` or when the shooting fails."""
+        if not self.locate_:
+            return self._turn(k)
+        n = self.shooter.n
+        try:
+            def dp(y, p, out, reference):
+                return _extended_tangent(self.shooter, y, p, out, reference)
+
+            tang = {}
+            for i in (k - 1, k, k + 1):
+                q = self.points[i]
+                out = self.shooter(q.y[:n], q.y[n:2 * n], q.y[-1], q.p, True)
+                tang[i] = (dp(q.y, q.p, out, self.points[max(i, k)].tangent), out)
+            i = k - 1 if np.sign(tang[k - 1][0][-1]) != np.sign(tang[k][0][-1]) else k
+            a, b = self.points[i], self.points[i + 1]
+            if np.sign(tang[i][0][-1]) == np.sign(tang[i + 1][0][-1]):
+                return self._turn(k)
+            lo, hi, flo, fhi = 0.0, b.step, tang[i][0][-1], tang[i + 1][0][-1]
+            xdot_a = np.concatenate([a.y[n:2 * n], tang[i][1]["a0"]])
+            best, side = None, 0
+            for _ in range(LOCATE_SOLVES):
+                s = hi - fhi * (hi - lo) / (fhi - flo)
+                if not lo < s < hi:
+                    s = 0.5 * (lo + hi)
+                y, p, out, it, orbit, mu, trivial, V = self._solve_at(a.y, a.p, b.tangent, s, xdot_a, a.monodromy)
+                t = dp(y, p, out, b.tangent)
+                best = (y, p, mu, trivial, V, t)
+                f = t[-1]
+                if abs(f) <= 1e-9 or hi - lo <= 1e-9 * b.step:
+                    break
+                if np.sign(f) == np.sign(fhi):
+                    hi, fhi = s, f
+                    if side == -1:
+                        flo /= 2
+                    side = -1
+                else:
+                    lo, flo = s, f
+                    if side == 1:
+                        fhi /= 2
+                    side = 1
+        except (ConvergenceError, np.linalg.LinAlgError):
+            return self._turn(k)
+        y, p, mu, trivial, V, t = best
+        others = np.delete(mu, trivial)
+        c = int(np.argmin(np.abs(others - 1.0)))
+        return self._make("fold", i, y, p, mu, trivial, V, c, True, abs(others[c]) - 1.0, t)
+
+    def _make(self, kind, k, y, p, mu_all, trivial, V, crossing, located, residual, tangent):
+        mu, vecs = np.delete(mu_all, trivial), np.delete(V, trivial, axis=1)
+        c = int(crossing)
+        v = np.real(vecs[:, c] * np.exp(-1j * np.angle(vecs[np.argmax(np.abs(vecs[:, c])), c])))
+        v = v / np.abs(v).max()
+        mdot = self.par.mass_flow if self.par.rebuild is not None else self.par.physical(p)
+        return Bifurcation(kind=kind, parameter=self.par.physical(p), mass_flow=float(mdot), period=float(y[-1]),
+                           multiplier=complex(mu[c]), multipliers=mu, index=int(k), located=bool(located),
+                           residual=float(residual), y=np.array(y), tangent=np.array(tangent), vector=v)
+
+    def _locate(self, k, kind, i, j):
+        a, b = self.points[k], self.points[k + 1]
+        mu_a = _nontrivial_multipliers(a)[0][i]
+        mu_b = _nontrivial_multipliers(b)[0][j]
+        lo, hi = 0.0, b.step
+        flo, fhi = abs(mu_a) - 1.0, abs(mu_b) - 1.0
+        best = (b.y, b.p, b.mu, b.trivial, b.vectors, j, fhi)
+        if self.locate_:
+            n = self.shooter.n
+            out_a = xdot_a = None
+            side = 0
+            for _ in range(LOCATE_SOLVES):
+                if abs(best[-1]) <= 10 * NEUTRAL or hi - lo <= 1e-9 * b.step:
+                    break
+                s = hi - fhi * (hi - lo) / (fhi - flo)
+                if not lo < s < hi:
+                    s = 0.5 * (lo + hi)
+                try:
+                    if out_a is None:  # the phase reference at a: its vector field
+                        out_a = self.shooter(a.y[:n], a.y[n:2 * n], a.y[-1], a.p, False)
+                        xdot_a = np.concatenate([a.y[n:2 * n], out_a["a0"]])
+                    y, p, out, it, orbit, mu, trivial, V = self._solve_at(a.y, a.p, b.tangent, s, xdot_a,
+                                                                          a.monodromy)
+                except (ConvergenceError, np.linalg.LinAlgError):
+                    break
+                others = np.delete(mu, trivial)
+                guess = mu_a + (s / b.step) * (mu_b - mu_a)
+                c = int(np.argmin(np.abs(others - guess)))
+                f = abs(others[c]) - 1.0
+                best = (y, p, mu, trivial, V, c, f)
+                if np.sign(f) == np.sign(fhi):
+                    hi, fhi = s, f
+                    if side == -1:
+                        flo /= 2
+                    side = -1
+                else:
+                    lo, flo = s, f
+                    if side == 1:
+                        fhi /= 2
+                    side = 1
+            y, p, mu, trivial, V, c, f = best
+            return self._make(kind, k, y, p, mu, trivial, V, c, True, f, b.tangent)
+        # interpolated linearly between the two orbits
+        t = flo / (flo - fhi)
+        y, p = a.y + t * (b.y - a.y), a.p + t * (b.p - a.p)
+        return self._make(kind, k, y, p, b.mu, b.trivial, b.vectors, j, False, fhi, b.tangent)
+
+    def _turn(self, k):
+        """A fold at the turn at orbit k: the vertex of the parabola p(s) through orbits
+        k - 1, k, k + 1 (interpolated)."""
+        pts = self.points[k - 1:k + 2]
+        s = np.array([0.0, pts[1].step, pts[1].step + pts[2].step])
+        c2, c1, _ = np.polyfit(s, [q.p for q in pts], 2)
+        sv = float(np.clip(-c1 / (2 * c2), s[0], s[2])) if c2 != 0 else s[1]
+        w = np.interp(sv, s, [0.0, 1.0, 2.0])
+        i = min(int(w), 1)
+        a, b = pts[i], pts[i + 1]
+        t = w - i
+        y, p = a.y + t * (b.y - a.y), a.p + t * (b.p - a.p)
+        others = np.delete(b.mu, b.trivial)
+        c = int(np.argmin(np.abs(others - 1.0)))
+        return self._make("fold", k - 1 + i, y, p, b.mu, b.trivial, b.vectors, c, False, abs(others[c]) - 1.0,
+                          b.tangent)
+
+    def result(self, hopf, context):
+        pts = self.points
+        par = self.par
+        values = np.array([par.physical(q.p) for q in pts])
+        mdot = values if par.rebuild is None else np.full(len(pts), par.mass_flow)
+        mmax = [float(np.abs(np.delete(q.mu, q.trivial)).max(initial=0.0)) for q in pts]
+        stable = [bool(m <= 1.0 + NEUTRAL) for m in mmax]
+        bifs = self.bifurcations()
+        branch = OrbitBranch(mass_flow=mdot, period=np.array([q.y[-1] for q in pts]),
+                             amplitude=np.array([q.orbit.amplitude for q in pts]), stable=np.array(stable),
+                             max_multiplier=np.array(mmax), folds=np.array([values[k] for k in self.folds]),
+                             hopf=hopf, starts=tuple(q.orbit.start for q in pts),
+                             stats={"flow_maps": self.shooter.calls - self.work0[0],
+                                    "newton_iterations": self.shooter.newton_iterations - self.work0[1]},
+                             parameter_name=par.name, parameter=values,
+                             multipliers=np.array([q.mu for q in pts]),
+                             trivial=np.array([q.trivial for q in pts], dtype=np.int64), bifurcations=bifs)
+        object.__setattr__(branch, "_context", context)
+        return branch
+
+
+def _extended_tangent(shooter, y, p, out, direction):
+    """The unit tangent (dz0, dv0, dT, dp) of the branch at the orbit y at the scaled
+    parameter p: the null vector of the shooting's Jacobian with the parameter column (the
+    phase condition at the orbit itself), oriented so that dp has the sign of
+    ``direction``, or (an array) along the direction ``direction``."""
+    n = shooter.n
+    xdot = np.concatenate([y[n:2 * n], out["a0"]])
+    J = np.zeros((2 * n + 1, 2 * n + 2))
+    J[:2 * n, :2 * n] = out["monodromy"] - np.eye(2 * n)
+    J[:2 * n, 2 * n] = np.concatenate([out["v"], out["a"]])
+    J[:2 * n, 2 * n + 1] = _flow_derivative(shooter, y[:n], y[n:2 * n], y[-1], p)
+    J[2 * n, :2 * n] = xdot
+    t = np.linalg.svd(J)[2][-1]
+    if (t @ direction if np.ndim(direction) else t[-1] * direction) < 0:
+        t = -t
+    return t / np.linalg.norm(t)
+
+
 @blas_pinned
-def continue_orbits(model, *, start, mass_flow_end: float, amplitude: float = 1e-3, ds: Optional[float] = None,
-                    max_step: Optional[float] = None, max_points: int = 40, steps: int = STEPS_PER_PERIOD, tol: float = 1e-8,
-                    max_iterations: int = 12, newton_tol: float = 1e-12, rho_inf: float = 0.9,
-                    state=None) -> OrbitBranch:
-    """Continue the periodic orbits born at a Hopf point in the mass flow.
+def continue_orbits(model, *, start, mass_flow_end: Optional[float] = None, parameter="mass_flow",
+                    end: Optional[float] = None, parameter_value: Optional[float] = None, amplitude: float = 1e-3,
+                    ds: Optional[float] = None, max_step: Optional[float] = None, max_points: int = 40,
+                    steps: Optional[int] = None, tol: float = 1e-8, max_iterations: int = 12,
+                    newton_tol: float = 1e-12, rho_inf: float = 0.9, state=None, locate: bool = True) -> OrbitBranch:
+    """Continue a branch of periodic orbits in the mass flow or another parameter, with
+    every orbit's Floquet multipliers and the bifurcations between them.
 
     Args:
         model: an autonomous model (constant loads, no hub drive): a
             :class:`~pipeflex.Model`, a :class:`~pipeflex.multibody.MultibodySystem` or a
             :class:`~pipeflex.CoupledSystem`.
-        start: the :class:`~pipeflex.CriticalFlow` of kind "flutter" at which the branch
-            starts (its mass flow, frequency and critical mode; with joints the mode's
-            independent coordinates are mapped to the system's through the null-space
-            basis of the linearisation at the Hopf equilibrium).
+        start: where the branch starts: the :class:`~pipeflex.CriticalFlow` of kind
+            "flutter" (a Hopf point in the mass flow: its mass flow, frequency and critical
+            mode give the first orbit; with joints the mode's independent coordinates are
+            mapped to the system's through the null-space basis of the linearisation at
+            the Hopf equilibrium), or a :class:`PeriodicOrbit` of ``model`` (the branch
+            through it, in either direction along the parameter: toward ``end``).
         mass_flow_end: mdot [kg/s] at which to stop (either side of the Hopf point: a
-            subcritical branch first turns back).
-        amplitude: size of the first orbit's excursion along the critical mode [m].
-        ds: first pseudo-arclength step (default from ``amplitude``); halved on a
-            failure or a hard step, doubled after easy ones (Newton in <= 6 iterations)
-            up to ``max_step`` (default 64 ds). The arclength is the Euclidean norm in
-            (z0 [m, rad], v0 [m/s, rad/s], T [s], mdot [kg/s]).
+            subcritical branch first turns back); the same as ``end`` for the mass flow.
+        parameter: the continued parameter: "mass_flow" [kg/s]; "gravity" (the magnitude
+            of the model's gravity vector along its direction) or "gravity_x",
+            "gravity_y", "gravity_z" [m/s^2]; "point_mass" [kg] (every point mass); a
+            :class:`~pipeflex.PipeSection` field (SECTION_PARAMETERS, set in every section,
+            whose values must agree at the start; "EI" [N m^2] sets EIz too where it equals
+            EI (an isotropic section: both planes bend alike), while GJ and EA, derived
+            from EI when the section was made, keep their values); or a callable ``rebuild(value) -> model`` (the model's dof
+            layout must not change with the value; ``parameter_value`` is its value at
+            the start). Parameters other than the mass flow need a :class:`PeriodicOrbit`
+            start and, by name, a model built by :class:`~pipeflex.ModelBuilder`.
+        end: the parameter's value at which to stop [its unit].
+        parameter_value: the callable parameter's value at the start.
+        amplitude: size of the first orbit's excursion along the critical mode [m] (a
+            Hopf start).
+        ds: first pseudo-arclength step (default from ``amplitude`` at a Hopf point, 1e-2
+            from an orbit); halved on a failure or a hard step, doubled after easy ones
+            (Newton in <= 6 iterations) up to ``max_step`` (default 64 ds). The arclength
+            is the Euclidean norm in (z0 [m, rad], v0 [m/s, rad/s], T [s], p), p the mass
+            flow [kg/s] or any other parameter relative to its start value.
         max_points: orbits on the branch at most.
-        steps, tol, max_iterations, newton_tol, rho_inf: as :func:`periodic_orbit`.
+        steps: N, integrator steps per period (default: the start orbit's, or
+            STEPS_PER_PERIOD from a Hopf point).
+        tol, max_iterations, newton_tol, rho_inf: as :func:`periodic_orbit`.
         state: starting guess for the static solve at the Hopf point.
+        locate: locate each bifurcation by shooting orbits between the two it lies between
+            (at most LOCATE_SOLVES); False interpolates linearly.
 
     Returns:
-        :class:`OrbitBranch`; its ``stats`` hold the orbits' counts and the flow maps used.
+        :class:`OrbitBranch` with every orbit's multipliers and the bifurcations; its
+        ``stats`` hold the flow maps used.
+
+    Raises:
+        ValueError: bad options, e.g. an unknown parameter name (the message lists the
+            valid ones), or a parameter other than the mass flow from a Hopf point.
+        ConvergenceError: no orbit next to the start.
     """
     from .static import static_equilibrium
 
-    if getattr(start, "kind", None) != "flutter":
-        raise ValueError("start must be a CriticalFlow of kind 'flutter' (a Hopf point); got "
+    orbit_start = isinstance(start, PeriodicOrbit)
+    if not orbit_start and getattr(start, "kind", None) != "flutter":
+        raise ValueError("start must be a CriticalFlow of kind 'flutter' (a Hopf point) or a PeriodicOrbit; got "
                          f"{getattr(start, 'kind', type(start).__name__)!r}")
-    m_end = _checks.finite("mass_flow_end", mass_flow_end)
-    amp = _checks.positive("amplitude", amplitude)
+    mdot0 = float(start.mass_flow)
+    par = _parameter(model, parameter, parameter_value, mdot0)
+    if mass_flow_end is not None and end is not None:
+        raise ValueError("give mass_flow_end or end, not both")
+    if mass_flow_end is not None:
+        if par.name != "mass_flow" or par.rebuild is not None:
+            raise ValueError(f"mass_flow_end is the end of a continuation in the mass flow; give end for "
+                             f"parameter = {par.name!r}")
+        end, end_name = mass_flow_end, "mass_flow_end"
+    else:
+        end_name = "end"
+    if end is None:
+        raise ValueError("end (or mass_flow_end) is needed: the parameter's value at which to stop")
+    p_end = _checks.finite(end_name, end) / par.scale
     max_points = _checks.positive_int("max_points", max_points)
-    mc, wc = float(start.mass_flow), float(start.frequency)
-    static = static_equilibrium(model, mass_flow=mc, state=state)
-    # a coupled system's chart is its whole static result (element and body states)
-    chart = _chart(model, model._equilibrium_state(static))
-    steps = _checks.flow_map_steps("steps", steps, chart.n)
-    shooter = _Shooter(model, chart, steps, _options(chart, newton_tol, rho_inf))
-    n = chart.n
-    # first orbit: the equilibrium displaced along the real part of the critical mode,
-    # velocity from its imaginary part (x(t) = Re(phi e^{i w t}) at t = 0)
-    phi = _critical_direction(model, chart, start)
-    phi = phi / np.abs(phi).max()
-    z_dir, v_dir = phi.real, -wc * phi.imag
-    scale = amp / max(np.abs(z_dir).max(), 1e-300)
-    T0 = 2 * np.pi / wc
-    y_hopf = np.concatenate([np.zeros(n), np.zeros(n), [T0]])
-    tangent = np.concatenate([scale * z_dir, scale * v_dir, [0.0], [0.0]])
+    tol = _checks.positive("tol", tol)
+    max_iterations = _checks.positive_int("max_iterations", max_iterations)
+    if not orbit_start:
+        if par.rebuild is not None:
+            raise ValueError(f"a Hopf point (CriticalFlow) starts a branch in the mass flow only; to continue in "
+                             f"{par.name!r}, start from a PeriodicOrbit (e.g. one of a mass-flow branch: "
+                             "periodic_orbit(model, state=branch.starts[k], period=branch.period[k]))")
+        amp = _checks.positive("amplitude", amplitude)
+        mc, wc = float(start.mass_flow), float(start.frequency)
+        static = static_equilibrium(model, mass_flow=mc, state=state)
+        # a coupled system's chart is its whole static result (element and body states)
+        chart = _chart(model, model._equilibrium_state(static))
+        steps = _checks.flow_map_steps("steps", STEPS_PER_PERIOD if steps is None else steps, chart.n)
+        par.base = chart.base
+        shooter = _Shooter(model, chart, steps, _options(chart, newton_tol, rho_inf))
+        n = chart.n
+        # first orbit: the equilibrium displaced along the real part of the critical mode,
+        # velocity from its imaginary part (x(t) = Re(phi e^{i w t}) at t = 0)
+        phi = _critical_direction(model, chart, start)
+        phi = phi / np.abs(phi).max()
+        z_dir, v_dir = phi.real, -wc * phi.imag
+        scale = amp / max(np.abs(z_dir).max(), 1e-300)
+        y0 = np.concatenate([np.zeros(n), np.zeros(n), [2 * np.pi / wc]])
+        tangent = np.concatenate([scale * z_dir, scale * v_dir, [0.0], [0.0]])
+        norm = np.linalg.norm(tangent)
+        tangent /= norm
+        ds = norm if ds is None else _checks.positive("ds", ds)
+        # phase reference of the first orbit: the linear mode's point and velocity at t = 0
+        xdot = scale * np.concatenate([v_dir, -wc ** 2 * z_dir])
+        p0, hopf, what = mc, (mc, wc), f"the Hopf point at {mc:.6g} kg/s"
+    else:
+        chart = _chart(model, start.base)
+        steps = _checks.flow_map_steps("steps", start.steps if steps is None else steps, chart.n)
+        par.base = chart.base
+        shooter = _Shooter(model, chart, steps, _options(chart, newton_tol, rho_inf),
+                           parameter=None if par.rebuild is None else par)
+        n = chart.n
+        p0 = par.value / par.scale
+        y0 = np.concatenate([start.z0, start.v0, [start.period]])
+        out = shooter(y0[:n], y0[n:2 * n], y0[-1], p0, True)
+        tangent = _extended_tangent(shooter, y0, p0, out, 1.0 if p_end >= p0 else -1.0)
+        xdot = np.concatenate([y0[n:2 * n], out["a0"]])
+        ds = 1e-2 if ds is None else _checks.positive("ds", ds)
+        hopf = (float("nan"), float("nan"))
+        what = f"the start orbit at {par.name} = {par.value:.6g}"
+    max_step = 64.0 * ds if max_step is None else _checks.positive("max_step", max_step)
+    branch = _Branch(shooter, par, tol=tol, max_iterations=max_iterations, ds=ds, max_step=max_step,
+                     p_end=p_end, max_points=max_points, locate=bool(locate))
+    branch.work0 = (0, 0)  # the start's flow maps count too
+    branch.run(y0, p0, tangent, xdot, what=what)
+    context = dict(model=model, par=par, shooter=shooter, tol=tol, max_iterations=max_iterations, max_step=max_step,
+                   locate=bool(locate))
+    return branch.result(hopf, context)
+
+
+@blas_pinned
+def switch_branch(branch: OrbitBranch, bifurcation: Bifurcation, *, amplitude: float, end: Optional[float] = None,
+                  max_step: Optional[float] = None, max_points: int = 40) -> OrbitBranch:
+    """The other branch of periodic orbits through a branch point of ``branch``.
+
+    The first orbit is sought at the branch point's orbit displaced by ``amplitude``
+    along the monodromy's eigenvector of the multiplier +1 that is not the flow direction
+    (:attr:`Bifurcation.vector`: the null vector of the monodromy minus the identity not
+    tangent to ``branch``), on the arclength hyperplane normal to that vector (so the
+    parameter is free to move: a pitchfork's new branch leaves the point at the
+    parameter's value, a transcritical one across it); from there the branch is
+    continued as by :func:`continue_orbits`.
+
+    Args:
+        branch: a branch from :func:`continue_orbits` (in this session: the model and
+            options come from it).
+        bifurcation: one of ``branch.bifurcations``, of kind "branch_point".
+        amplitude: the first step along the eigenvector [m]: its largest displacement
+            coordinate's change (the sign chooses the side; the other side of a
+            symmetry-breaking pitchfork is the mirror image of this one).
+        end: the parameter's value at which to stop [its unit] (default: the end of
+            ``branch``'s continuation in the direction the branch was continued).
+        max_step: the largest pseudo-arclength step (default 64 times the first, whose
+            length is set by ``amplitude``); the steps double after easy ones.
+        max_points: orbits on the new branch at most.
+
+    Returns:
+        the new :class:`OrbitBranch` (its first orbit next to the branch point).
+
+    Raises:
+        ValueError: not a branch point of this branch, or a branch read from a file.
+        ConvergenceError: no orbit found along the eigenvector.
+    """
+    context = getattr(branch, "_context", None)
+    if context is None:
+        raise ValueError("branch must come from continue_orbits in this session (a branch read from a file has no "
+                         "model to continue)")
+    if not isinstance(bifurcation, Bifurcation) or not any(b is bifurcation for b in branch.bifurcations):
+        raise ValueError("bifurcation must be one of branch.bifurcations")
+    if bifurcation.kind != "branch_point":
+        raise ValueError(f"switch_branch starts at a branch point; this bifurcation is a {bifurcation.kind!r}")
+    amp = _checks.finite("amplitude", amplitude)
+    if amp == 0.0:
+        raise ValueError("amplitude must be non-zero (its sign chooses the side of the branch point)")
+    shooter, par = context["shooter"], context["par"]
+    n = shooter.n
+    v = np.asarray(bifurcation.vector, float)
+    zpart = np.abs(v[:n]).max()
+    scale = amp / (zpart if zpart > 0 else np.abs(v).max())
+    tangent = np.concatenate([scale * v, [0.0], [0.0]])
     norm = np.linalg.norm(tangent)
     tangent /= norm
-    ds = norm if ds is None else _checks.positive("ds", ds)
-    max_step = 64.0 * ds if max_step is None else _checks.positive("max_step", max_step)
-    direction = 1.0 if m_end >= mc else -1.0
-    y_prev, m_prev = y_hopf, mc
-    # phase reference of the first orbit: the linear mode's point and velocity at t = 0
-    xdot_prev = scale * np.concatenate([v_dir, -wc ** 2 * z_dir])
-    flows, periods, amps, stable, mmax, folds, starts = [], [], [], [], [], [], []
-    h = ds
-    first = True
-    # the monodromy at the last orbit: the next orbit's first Jacobian (a chord across
-    # the step; refreshed where the defect stops falling fast)
-    Phi_prev = None
-    while len(flows) < max_points:
-        y_pred = y_prev + h * tangent[:-1]
-        m_pred = m_prev + h * tangent[-1]
-        try:
-            y, mdot, out, it, res = _solve(shooter, y_pred, m_pred, tol=tol, max_iterations=max_iterations,
-                                           phase=(y_pred, xdot_prev), arclength=(y_prev, m_prev, tangent, h),
-                                           jacobian=Phi_prev)
-        except (ConvergenceError, np.linalg.LinAlgError) as exc:
-            h *= 0.5
-            logger.info("continue_orbits: no orbit at step %.3g (%s); halving the step", 2 * h, exc)
-            if h < 1e-6 * ds or h == 0.0:  # (1e-6 ds underflows for a subnormal ds)
-                break
-            continue
-        orbit = _finish(shooter, y[:n], y[n:2 * n], y[-1], mdot, out, it, res)
-        logger.info("continue_orbits: orbit %d at mdot = %.8g kg/s: T = %.8g s, amplitude %.4g, %s (%d iterations)",
-                    len(flows) + 1, mdot, y[-1], orbit.amplitude, "stable" if orbit.stable else "unstable", it)
-        Phi_prev = out["monodromy"]
-        new_tangent = np.concatenate([y - y_prev, [mdot - m_prev]])
-        new_tangent /= np.linalg.norm(new_tangent)
-        if not first and tangent[-1] != 0.0 and np.sign(new_tangent[-1]) != np.sign(tangent[-1]):
-            folds.append(mdot)
-        first = False
-        tangent = new_tangent
-        y_prev, m_prev = y, mdot
-        xdot_prev = np.concatenate([y[n:2 * n], out["a0"]])
-        flows.append(mdot)
-        periods.append(y[-1])
-        amps.append(orbit.amplitude)
-        starts.append(orbit.start)
-        stable.append(orbit.stable)
-        others = np.delete(np.abs(orbit.multipliers), orbit.trivial)
-        mmax.append(float(others.max(initial=0.0)))
-        if (mdot - m_end) * direction >= 0.0:
-            break
-        if it <= 6:  # chord iterations are cheap: a few are an easy step
-            h = min(2.0 * h, max_step)
-        elif it >= 10:
-            h *= 0.5
-    if not flows:
-        raise ConvergenceError(f"orbit continuation: no orbit found next to the Hopf point at {mc:.6g} kg/s",
-                               mass_flow=mc)
-    return OrbitBranch(mass_flow=np.array(flows), period=np.array(periods), amplitude=np.array(amps),
-                       stable=np.array(stable), max_multiplier=np.array(mmax), folds=np.array(folds),
-                       hopf=(mc, wc), starts=tuple(starts), stats={"flow_maps": shooter.calls, "newton_iterations": shooter.newton_iterations})
+    y0, p0 = np.array(bifurcation.y, float), bifurcation.parameter / par.scale
+    out = shooter(y0[:n], y0[n:2 * n], y0[-1], p0, False)
+    xdot = np.concatenate([y0[n:2 * n], out["a0"]])
+    if end is None:  # on in the direction the branch was continued
+        p_end = np.inf if branch.parameter[-1] >= branch.parameter[0] else -np.inf
+    else:
+        p_end = _checks.finite("end", end) / par.scale
+    max_step = 64.0 * norm if max_step is None else _checks.positive("max_step", max_step)
+    new = _Branch(shooter, par, tol=context["tol"], max_iterations=context["max_iterations"], ds=norm,
+                  max_step=max_step, p_end=p_end, max_points=_checks.positive_int("max_points", max_points),
+                  locate=context["locate"])
+    new.run(y0, p0, tangent, xdot, what=f"the branch point at {par.name} = {bifurcation.parameter:.6g}", unturned=2)
+    return new.result(branch.hopf, context)
