@@ -81,6 +81,16 @@ CHECKS = {
         within("veering_min_mac", 0.9, 1.0, "pipeflex.campbell's contract (docs/plotting.md): branches followed "
                "through the veering with MAC > 0.9 between neighbouring speeds"),
     ],
+    "frequency_response.ipynb": [
+        near("upper_fold_jump_ratio", 1.0, 0.02, "a stepped-sine transient sweep up drops within a sweep step "
+             "(0.2 rad/s fast, 0.1 full) past forced_response's upper fold (tests/test_forced_response.py)"),
+        within("middle_multiplier", 1.0, 2.0, "the orbits between the folds are saddles: a Floquet multiplier "
+               "above 1"),
+        near("peak_on_backbone", 1.0, 1e-3, "the cantilever's resonance peak lies on its backbone (the undamped "
+             "free oscillation), both at the continuous equations' frequency"),
+        near("meter_peak_ratio", 1.0, 2e-3, "the Coriolis meter driven at 100 N is linear: its peak is the first "
+             "mode's frequency (coriolis.first_mode), to the damping's and the sampled peak's error"),
+    ],
     "ffrf_limit_cycle.ipynb": [
         near("hopf_intercept / b.hopf[0]", 1.0, 1e-4,
              "a supercritical Hopf bifurcation: amplitude^2 linear in the flow, zero at critical_mass_flow's Hopf "

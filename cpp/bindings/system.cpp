@@ -12,6 +12,7 @@
 #include <pybind11/stl.h>
 
 #include <chrono>
+#include <optional>
 #include <cmath>
 #include <memory>
 #include <string>
@@ -314,13 +315,15 @@ void bind_system(py::module_& m) {
     m.def(
         "flow_map",
         [](System& sys, double mass_flow, const Eigen::VectorXd& z0, const Eigen::VectorXd& v0, double duration,
-           int n_steps, bool sensitivity, const TransientOptions& options, bool monodromy) {
+           int n_steps, bool sensitivity, const TransientOptions& options, bool monodromy,
+           std::optional<TimeTable> load_factor) {
             const int n = sys.n_coordinates();
             FlowMapOutput out;
             Eigen::MatrixXd Phi;
             {
                 py::gil_scoped_release release;
-                out = flow_map(sys, mass_flow, z0, v0, duration, n_steps, sensitivity, options);
+                out = flow_map(sys, mass_flow, z0, v0, duration, n_steps, sensitivity, options,
+                               load_factor ? *load_factor : TimeTable::constant(1.0));
                 if (sensitivity && monodromy) Phi = out.tangent->apply(Eigen::MatrixXd::Identity(2 * n, 2 * n));
             }
             py::dict d;
@@ -344,9 +347,10 @@ void bind_system(py::module_& m) {
         "to z (every step), v, a at the end; with sensitivity its tangent-linear map ('tangent', FlowMapTangent) "
         "and, with monodromy, the monodromy matrix (its action on the identity). Floating frames are re-based "
         "every step and their z is the rotation's log relative to the state's frame (v: spatial angular "
-        "velocities); element nodes stay in the fixed chart.",
+        "velocities); element nodes stay in the fixed chart. load_factor: a TimeTable lambda(t) of the nodal loads, "
+        "t from 0 at z0 (default None: 1, autonomous), e.g. a sine of period duration (a forced system).",
         py::arg("system"), py::arg("mass_flow"), py::arg("z0"), py::arg("v0"), py::arg("duration"), py::arg("n_steps"),
-        py::arg("sensitivity"), py::arg("options"), py::arg("monodromy") = true);
+        py::arg("sensitivity"), py::arg("options"), py::arg("monodromy") = true, py::arg("load_factor") = py::none());
     m.def(
         "steady_rotation",
         [](System& sys, double mass_flow, const Vec3d& point, const Vec3d& axis, int hinge_body, int hinge_node,

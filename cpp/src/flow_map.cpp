@@ -163,7 +163,8 @@ Eigen::Vector3d rotation_log(const Eigen::Matrix3d& Q) {
 }  // namespace
 
 FlowMapOutput flow_map(System& sys, double mdot, const Eigen::VectorXd& z0, const Eigen::VectorXd& v0, double duration,
-                       int n_steps, bool sensitivity, const TransientOptions& options) {
+                       int n_steps, bool sensitivity, const TransientOptions& options,
+                       const TimeTable& load_factor) {
     const int n = sys.n_coordinates(), nc = sys.n_constraints();
     if (z0.size() != n || v0.size() != n)
         throw std::invalid_argument("flow map: z0 and v0 must have " + std::to_string(n) + " entries (the system's "
@@ -171,8 +172,9 @@ FlowMapOutput flow_map(System& sys, double mdot, const Eigen::VectorXd& z0, cons
                                     std::to_string(v0.size()));
     if (!(duration > 0.0) || !std::isfinite(duration) || n_steps < 1)
         throw std::invalid_argument("flow map: duration must be positive and finite and n_steps at least 1");
-    Drive drive;  // autonomous: constant flow, loads at their full value
+    Drive drive;  // constant flow; loads at their full value unless a load factor is given
     drive.mass_flow = TimeTable::constant(mdot);
+    drive.load_factor = load_factor;
     drive.options = options;
     drive.options.work = false;
     const std::unique_ptr<Run> run = sys.start(drive, System::Mode::fixed_chart);

@@ -29,6 +29,9 @@ _LAZY = {"scenes": "pipeflex.scenes", "seeds": "pipeflex.seeds", "work_precision
          "CoupledSystem": "pipeflex.coupled:CoupledSystem",
          "load_model": "pipeflex.model_files:load_model", "save_model": "pipeflex.model_files:save_model",
          "stability_map": "pipeflex.analysis.stability_map:stability_map",
+         **{name: f"pipeflex.analysis.forced:{name}"
+            for name in ("Backbone", "FrequencyResponse", "FrequencySweep", "backbone", "forced_response",
+                         "frequency_sweep")},
          **{name: f"pipeflex.analysis:{name}" for name in analysis.__all__ if name != "Sine"}}
 __getattr__, __dir__ = _lazy.attach(__name__, _LAZY)
 
@@ -42,6 +45,8 @@ if TYPE_CHECKING:  # the lazy names, spelt out for editors and type checkers (te
                            parametric_stability, periodic_orbit, pulsating_flow, resonance_speed,
                            rotating_frequencies, rotating_state, simulate, stability, static_equilibrium,
                            steady_rotation, switch_branch)
+    from .analysis.forced import (Backbone, FrequencyResponse, FrequencySweep, backbone, forced_response,
+                                  frequency_sweep)
     from .analysis.stability_map import stability_map
     from .coupled import CoupledSystem
     from .model_files import load_model, save_model
@@ -55,5 +60,6 @@ __all__ = ["CriticalFlow", "EigenResult", "Linearization", "StaticResult",
            "RotatingFrequencies", "resonance_speed", "rotating_frequencies", "rotating_state",
            "OrbitBranch", "OrbitGuess", "PeriodicOrbit", "continue_orbits", "orbit_guess", "periodic_orbit",
            "Bifurcation", "switch_branch", "Campbell", "campbell", "stability_map", "sweep",
+           "Backbone", "FrequencyResponse", "FrequencySweep", "backbone", "forced_response", "frequency_sweep",
            "InstabilityChart", "ParametricStability", "instability_chart", "parametric_stability", "pulsating_flow",
            "ConvergenceError", "LimitPointError", "SingularMatrixError", "UnitWarning", "Model", "ModelBuilder", "PipeSection", "Result", "State", "CoupledSystem", "load_model", "save_model", "__version__"]

@@ -208,8 +208,11 @@ SteadyRotationOutcome steady_rotation(System& sys, const RotationHinge& hinge, d
 // eigenvalues are its Floquet multipliers. The frames' sensitivities are transported
 // through each step's chart change (flow_map.cpp). With constraints each step's linearisation is
 // its KKT system, so a direction that violates them is mapped onto them by the first step
-// (a zero multiplier per constrained direction).
+// (a zero multiplier per constrained direction). load_factor: the nodal loads' factor
+// lambda(t), t from 0 at z0 (default 1: autonomous); a Sine of period `duration` makes it
+// the stroboscopic map of a forced system (analysis/forced.py).
 FlowMapOutput flow_map(System& sys, double mdot, const Eigen::VectorXd& z0, const Eigen::VectorXd& v0, double duration,
-                       int n_steps, bool sensitivity, const TransientOptions& options);
+                       int n_steps, bool sensitivity, const TransientOptions& options,
+                       const TimeTable& load_factor = TimeTable::constant(1.0));
 
 }  // namespace pipeflex
