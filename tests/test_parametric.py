@@ -290,9 +290,6 @@ def test_bad_input_is_named():
         pf.instability_chart(model, mean_flow=SS_FLOW, frequencies=[1.0], amplitudes=[-0.1])
     with pytest.raises(TypeError, match="pipeflex.Model"):
         pf.parametric_stability(object(), mean_flow=1.0, amplitude=0.1, frequency=1.0)
-    bodies = pf.scenes.ffrf_cantilever_pipe(n_bodies=2, elements_per_body=4)
-    with pytest.raises(TypeError, match="element models only: the linearisation of floating-frame bodies"):
-        pf.parametric_stability(bodies, mean_flow=1.0, amplitude=0.1, frequency=1.0)
     with pytest.raises(ValueError, match="amplitude"):
         pf.pulsating_flow(mean_flow=1.0, amplitude=-0.1, frequency=1.0)
 

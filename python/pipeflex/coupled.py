@@ -190,15 +190,24 @@ class CoupledSystem:
     #: multipliers balance its forces; others give a wrong K).
     _linearize_at_equilibrium = True
 
-    def _linearization(self, system, mass_flow: float) -> dict:
-        """:func:`~pipeflex.linearize`'s fields for ``system`` at mdot [kg/s] ``mass_flow``:
-        the core's linear matrices reduced to the joints' and couplings' null space."""
-        return constrained_fields(_core.linear_matrices(system, mass_flow), mass_flow, self._state_of(system))
+    def _linearization(self, system, mass_flow: float, mass_flow_rate: float = 0.0) -> dict:
+        """:func:`~pipeflex.linearize`'s fields for ``system`` at mdot [kg/s] ``mass_flow``
+        changing at ``mass_flow_rate`` [kg/s^2]: the core's linear matrices reduced to the joints' and couplings' null space."""
+        out = _core.linear_matrices(system, mass_flow, mass_flow_rate=mass_flow_rate)
+        return constrained_fields(out, mass_flow, self._state_of(system))
 
     def _equilibrium_state(self, result):
         """The state a static result holds (what :meth:`_system` takes): a
         :class:`CoupledStatic` holds every part and multiplier itself."""
         return result
+
+    def _flow_residual(self, state, mass_flow: float, mass_flow_rate: float) -> np.ndarray:
+        """The element model's residual, then the bodies' [N, N m, ...] at ``state`` (a
+        :class:`CoupledState`) under the full loads with mdot [kg/s] ``mass_flow`` changing
+        at ``mass_flow_rate`` [kg/s^2], without the couplings' forces C_c^T lambda_c: they
+        do not depend on the flow, and the parametric analysis differences this in the flow."""
+        return np.concatenate([self.model._flow_residual(state.state, mass_flow, mass_flow_rate),
+                               self.bodies._flow_residual(state.body_state, mass_flow, mass_flow_rate)])
 
     def _zero_flow_growth_hint(self) -> str:
         """The element inlets joined to bodies, named as a likely cause of a growth that

@@ -1188,6 +1188,16 @@ class Model:
         """The state a static result holds (what :meth:`_system` takes): its ``state``."""
         return result.state
 
+    def _flow_residual(self, state, mass_flow: float, mass_flow_rate: float) -> np.ndarray:
+        """The static residual (n_dofs,) [N, N m] at ``state`` (a
+        :class:`~pipeflex.state.State`) under the full loads with mdot [kg/s] ``mass_flow``
+        changing at ``mass_flow_rate`` [kg/s^2] (the parametric analysis differences it in
+        the flow: the quasi-static response to the flow's changes)."""
+        from .state import as_core
+
+        load = self.load_state(mass_flow=mass_flow, mass_flow_rate=mass_flow_rate)
+        return np.asarray(_core.assemble_csc(self._core, as_core(self, state), load, 1.0, [], True)[0])
+
     def _zero_flow_growth_hint(self) -> str:
         """Why a mode may grow from the first flow on, for :func:`~pipeflex.critical_mass_flow`'s
         error: '' (an element model's equilibrium without flow is only marginal)."""

@@ -90,9 +90,10 @@ def linearize(model, state=None, *, mass_flow: Optional[float] = None, mass_flow
             forces gives a wrong K).
         mass_flow: mdot [kg/s]; default the state's if it holds one (a static result),
             else the model's.
-        mass_flow_rate: d(mdot)/dt [kg/s^2] (element models only): the fluid's relative
-            acceleration term of a changing flow enters K (linear in it); the state is
-            used as given (not moved to an equilibrium under that term).
+        mass_flow_rate: d(mdot)/dt [kg/s^2]: the fluid's relative acceleration term of a
+            changing flow enters K (linear in it; bodies: the fluid's acceleration sddot
+            along their centre line); the state is used as given (not moved to an
+            equilibrium under that term).
 
     Bodies and coupled systems are linearised in independent coordinates (one constrained
     linearisation, :mod:`pipeflex.analysis.constrained`).
@@ -103,17 +104,11 @@ def linearize(model, state=None, *, mass_flow: Optional[float] = None, mass_flow
         mdot = model.mass_flow if held is None else float(held)
     else:
         mdot = _checks.finite("mass_flow", mass_flow)
-    rate = {}
-    if _checks.finite("mass_flow_rate", mass_flow_rate) != 0.0:
-        from ..model import Model
-
-        if not isinstance(model, Model):
-            raise ValueError("mass_flow_rate: only an element Model's linearisation takes a changing flow "
-                             f"(got a {type(model).__name__}); leave it 0")
-        rate = dict(mass_flow_rate=float(mass_flow_rate))
+    rate = _checks.finite("mass_flow_rate", mass_flow_rate)
     start = state
     if start is None and model._linearize_at_equilibrium:
         from .static import static_equilibrium
 
         start = model._equilibrium_state(static_equilibrium(model, mass_flow=mdot))
-    return Linearization(mass_flow=mdot, **model._linearization(model._system(start, mass_flow=mdot), mdot, **rate))
+    return Linearization(mass_flow=mdot, **model._linearization(model._system(start, mass_flow=mdot), mdot,
+                                                                mass_flow_rate=rate))

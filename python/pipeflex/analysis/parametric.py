@@ -13,13 +13,15 @@ T = 2 pi / Omega decide the stability (Paidoussis & Issid 1974; Paidoussis,
 grows (a parametric resonance, in the "tongues" of the (Omega, mu) plane that open at
 Omega = 2 omega_k / n and omega_j +- omega_k).
 
-The matrices come from :func:`~pipeflex.linearize` of the model's own elements: about the
-static equilibrium at mdot0, displaced by the quasi-static responses to the flow's
-changes (the axial motion under the fluid's acceleration is much faster than the
-pulsation), at five flows and rates, from which the polynomial coefficients follow; a sixth
-linearisation checks the polynomial (``fit_error``). The coordinates are the lowest
-``modes`` modes of the mean-flow system (its right and left eigenvectors: a
-Petrov-Galerkin projection, exact for the steady flow); the monodromy matrix is
+The matrices come from :func:`~pipeflex.linearize` of the model (an element model,
+floating-frame bodies or a coupled system): about the static equilibrium at each sampled
+flow, displaced by the quasi-static response to the flow's rate (the axial motion under
+the fluid's acceleration is much faster than the pulsation), at five flows and rates, from
+which the polynomial coefficients follow; a sixth linearisation checks the polynomial
+(``fit_error``). Bodies and coupled systems are reduced to their joints' null space with
+the mean-flow equilibrium's basis for every sample (one set of coordinates). The
+coordinates are the lowest ``modes`` modes of the mean-flow system (its right and left
+eigenvectors: a Petrov-Galerkin projection, exact for the steady flow); the monodromy matrix is
 integrated over one period by the fourth-order Magnus method (two Gauss points per step
 and one matrix exponential of the 2 k x 2 k system: exact for a steady flow, so that
 mu = 0 gives multipliers exp(lambda T) to round-off), with
@@ -29,7 +31,7 @@ See docs/parametric.md.
 from __future__ import annotations
 
 import functools
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import List, Optional, Sequence
 
 import numpy as np
@@ -81,31 +83,58 @@ class _FlowModel:
     """The full (dense) coefficient matrices of a model at mean flow mdot0, and its modes."""
 
     def __init__(self, model, mean_flow: float):
-        from ..charts import ElementChart
-        from ..state import State, as_core
-        from ._assembly import require_model
+        from .. import _core
+        from ._protocol import require_system
+        from .constrained import from_core, metric, reduce, stiffness_floor
         from .linearize import linearize
         from .static import static_equilibrium
 
-        require_model(model, why="the linearisation of floating-frame bodies and coupled systems takes no flow "
-                                 "rate yet (linearize's mass_flow_rate is element-only)")
+        require_system(model)
         mdot0 = self.mean_flow = float(mean_flow)
-        base = as_core(model, static_equilibrium(model, mass_flow=mdot0).state)
-        base.rebase(0.0)  # rotation increments about the equilibrium's own orientation
-        chart = ElementChart(model, State.from_core(base, model))
-        n = model.n_dofs
+        equilibrium = model._equilibrium_state(static_equilibrium(model, mass_flow=mdot0))
+        mean = linearize(model, equilibrium, mass_flow=mdot0)
+        # the chart about the linearisation's state (an element model's re-based: phi = 0,
+        # rotation increments about the equilibrium's own orientation; bodies': their
+        # multipliers, which the joints' geometric stiffness needs)
+        chart = model._orbit_chart(mean.state)
+        base = chart.state(np.zeros(chart.n), np.zeros(chart.n))
+        T = mean.basis
+        if T is None:  # an element model: its coordinates are independent
+            def dense(lin):
+                return lin.M.toarray(), lin.C.toarray(), lin.K.toarray()
+            Cq = np.zeros((0, chart.n))
+        else:
+            # Bodies and coupled systems: q = q0 (+) T z, C_q T = 0. The basis follows the
+            # state, and the polynomial in the flow needs one for all samples: each sample's
+            # unreduced (M, C, K) is reduced with the mean-flow equilibrium's T. At a sample
+            # moved quasi-statically by u, C_q(q0 + u) T differs from 0 by O(abs(u) / L), the
+            # joints turning with the moves (a clamped chain of seed 004's soft tube, EA =
+            # 2.5e4 N: u = 3.9e-3 L at the largest sampled rate, C_q T 6e-4 of its scale).
+            # Bases of their own differ by as much and more: their metric follows diag K, so
+            # that the coordinates themselves would pulsate (a polynomial misfit of ~1).
+            d = metric(mean.unreduced[2], T.shape[0])
+
+            def dense(lin):
+                Mr, Cr, Kr = reduce(T, *lin.unreduced)
+                return Mr.toarray(), Cr.toarray(), stiffness_floor(Kr, T, d).toarray()
+            Cq = from_core(_core.linear_matrices(model._system(mean.state, mass_flow=mdot0), mdot0))[3].toarray()
 
         def residual(mdot, rate):
-            from .. import _core
+            return model._flow_residual(base, mdot, rate)
 
-            load = model.load_state(mass_flow=mdot, mass_flow_rate=rate)
-            return np.asarray(_core.assemble_csc(model._core, base, load, 1.0, [], True)[0])
+        charts = {0.0: chart}
 
-        def matrices(s, d, z):
-            lin = linearize(model, chart.state(z, np.zeros(n)), mass_flow=mdot0 + s, mass_flow_rate=d)
-            return lin.M.toarray(), lin.C.toarray(), lin.K.toarray()
+        def chart_at(s):
+            # The flow's quasi-static state: the static equilibrium at mdot0 + s itself (from
+            # the mean one), not a linear extrapolation: the joints' multipliers carry the
+            # momentum flux mdot^2 / M_f through a chain of bodies, quadratic in the flow.
+            if s not in charts:
+                moved = static_equilibrium(model, state=equilibrium, mass_flow=mdot0 + s)
+                charts[s] = model._orbit_chart(linearize(model, model._equilibrium_state(moved),
+                                                         mass_flow=mdot0 + s).state)
+            return charts[s]
 
-        self.M, C0, K0 = matrices(0.0, 0.0, np.zeros(n))
+        self.M, C0, K0 = dense(mean)
         self._modes(K0, C0)
         # Sample spans of the model's own scales (not of a grid: a chart and a single point
         # get the same matrices): the mean flow (or the model's flow unit) and that flow
@@ -114,17 +143,20 @@ class _FlowModel:
         a = abs(mdot0) if mdot0 != 0.0 else _flow_unit(model)
         lam = np.abs(self.lam)
         b = 4.0 * a * (lam[lam > 1e-9 * lam.max()].min() if lam.max() > 0 else 1.0)
-        # quasi-static responses of the equilibrium to the flow and to its rate (linear)
-        r0 = residual(mdot0, 0.0)
+        # the quasi-static response of the equilibrium (and of the joints' multipliers) to
+        # the flow's rate (linear: the residual is linear in it; the response is the
+        # equilibrium's axial stretch, fast against the pulsation), added to each sample
         try:
-            self.u_rate = -np.linalg.solve(K0, residual(mdot0, 1.0) - r0)  # r is linear in the rate
-            self.u_flow = -np.linalg.solve(K0, (residual(mdot0 + a, 0.0) - residual(mdot0 - a, 0.0)) / (2 * a))
+            self.u_rate, l_rate = _quasi_static(mean, K0, Cq, residual(mdot0, 1.0) - residual(mdot0, 0.0))
         except np.linalg.LinAlgError:
             raise ValueError(f"model: its stiffness at mean_flow = {mdot0:g} kg/s is singular (a mechanism, or "
                              "the flow's buckling point): no quasi-static equilibrium to linearise about") from None
 
         def at(s, d):
-            return matrices(s, d, s * self.u_flow + d * self.u_rate)
+            st = _with_multipliers(chart_at(s).state(d * self.u_rate, np.zeros(chart.n)), d * l_rate)
+            return dense(linearize(model, st, mass_flow=mdot0 + s, mass_flow_rate=d))
+
+        self.sample = at  # (M, C, K) at mdot0 + s changing at d, about the quasi-static state
 
         _, Cp, Kp = at(a, 0.0)
         _, Cm, Km = at(-a, 0.0)
@@ -200,6 +232,32 @@ class _FlowModel:
         change = np.linalg.norm(true - A0)  # the flow's part (0 without fluid: then no misfit either)
         misfit = np.linalg.norm(true - fit) / change if change > 0.0 else 0.0
         return PeriodicMatrices(self.mean_flow, A0, *parts, fit_error=float(misfit), modes=k)
+
+
+def _quasi_static(mean, K0, Cq, force):
+    """(dq, dlam): the static response of the linearisation ``mean`` to a change ``force``
+    of its residual (the system's coordinates, N): K dq + force + C_q^T dlam = 0 with
+    C_q dq = 0, dq = T dz (element models: no constraints, dlam empty)."""
+    if mean.basis is None:
+        return -np.linalg.solve(K0, force), np.zeros(0)
+    T = mean.basis
+    dq = T @ -np.linalg.solve(K0, T.T @ force)
+    # T^T (K dq + force) = 0: the rest is in the range of C_q^T, the multipliers' change
+    rest = mean.unreduced[2] @ dq + force
+    return dq, np.linalg.lstsq(Cq.T, -rest, rcond=None)[0]
+
+
+def _with_multipliers(state, dlam):
+    """``state`` (a chart's) with its joint multipliers changed by ``dlam``: a
+    MultibodyState's ``lam``; a coupled state's bodies' ``lam``, then its coupling forces."""
+    if len(dlam) == 0:
+        return state
+    body = getattr(state, "body_state", None)
+    if body is None:
+        return replace(state, lam=state.lam + dlam)
+    nb = len(body.lam)
+    forces = np.zeros(len(dlam) - nb) if state.coupling_forces is None else np.asarray(state.coupling_forces)
+    return replace(state, body_state=replace(body, lam=body.lam + dlam[:nb]), coupling_forces=forces + dlam[nb:])
 
 
 def steps_per_period(matrices: PeriodicMatrices, frequency: float) -> int:
@@ -307,7 +365,8 @@ def parametric_stability(model, *, mean_flow: float, amplitude: float, frequency
     """Floquet stability of ``model`` under the pulsating flow mdot(t) = mdot0 (1 + mu sin(Omega t)).
 
     Args:
-        model: an element :class:`~pipeflex.Model` (3D pipe or planar ANCF elements).
+        model: an element :class:`~pipeflex.Model` (3D pipe or planar ANCF elements), a
+            :class:`~pipeflex.multibody.MultibodySystem` or a :class:`~pipeflex.CoupledSystem`.
         mean_flow: mdot0 [kg/s].
         amplitude: mu [-] (>= 0), the pulsation relative to the mean flow.
         frequency: Omega [rad/s] (> 0) of the pulsation.
@@ -330,9 +389,9 @@ def parametric_stability(model, *, mean_flow: float, amplitude: float, frequency
 
     The linearisation is about the static equilibrium at mdot0 moved quasi-statically
     with the flow (the axial response to the fluid's acceleration included); the cost is
-    seven linearisations and one dense eigen-analysis of the model, then ``steps``
-    exponentials of a 2k x 2k matrix. Raises ValueError for a model that is not an element
-    model, or bad arguments (named).
+    four static solves, about ten linearisations and one dense eigen-analysis of the model,
+    then ``steps`` exponentials of a 2k x 2k matrix. Raises TypeError for a model that is
+    none of the three, ValueError for bad arguments (named).
     """
     mdot0, modes = _check_common(mean_flow, modes, tol)
     mu = _checks.non_negative("amplitude", amplitude)
@@ -464,7 +523,8 @@ def instability_chart(model, *, mean_flow: float, frequencies: Sequence[float], 
     every point).
 
     Args:
-        model: an element :class:`~pipeflex.Model`.
+        model: an element :class:`~pipeflex.Model`, a
+            :class:`~pipeflex.multibody.MultibodySystem` or a :class:`~pipeflex.CoupledSystem`.
         mean_flow: mdot0 [kg/s].
         frequencies: Omega [rad/s], each > 0, no repeats.
         amplitudes: mu [-], each >= 0, no repeats.
@@ -478,7 +538,7 @@ def instability_chart(model, *, mean_flow: float, frequencies: Sequence[float], 
     Returns:
         :class:`InstabilityChart` (``.plot()``, ``.tongues()``, ``.to_xarray()``).
 
-    The model is linearised once (seven linearisations); each column then costs ``steps``
+    The model is linearised once (as for :func:`parametric_stability`); each column then costs ``steps``
     batched exponentials of n_mu 2k x 2k matrices. Raises ValueError for bad arguments
     (named) and RuntimeError if a column failed.
     """

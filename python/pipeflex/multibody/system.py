@@ -487,16 +487,24 @@ class MultibodySystem:
     #: multipliers balance its forces; others give a wrong K).
     _linearize_at_equilibrium = True
 
-    def _linearization(self, system, mass_flow: float) -> dict:
-        """:func:`~pipeflex.linearize`'s fields for ``system`` at mdot [kg/s] ``mass_flow``:
-        the core's linear matrices reduced to the joints' null space."""
+    def _linearization(self, system, mass_flow: float, mass_flow_rate: float = 0.0) -> dict:
+        """:func:`~pipeflex.linearize`'s fields for ``system`` at mdot [kg/s] ``mass_flow``
+        changing at ``mass_flow_rate`` [kg/s^2]: the core's linear matrices reduced to the joints' null space."""
         from ..analysis.linearize import constrained_fields
 
-        return constrained_fields(_core.linear_matrices(system, mass_flow), mass_flow, self._state_of(system))
+        out = _core.linear_matrices(system, mass_flow, mass_flow_rate=mass_flow_rate)
+        return constrained_fields(out, mass_flow, self._state_of(system))
 
     def _equilibrium_state(self, result):
         """The state a static result holds (what :meth:`_system` takes): its ``state``."""
         return result.state
+
+    def _flow_residual(self, state: MultibodyState, mass_flow: float, mass_flow_rate: float) -> np.ndarray:
+        """The residual F (N,) [N, N m, ...] at ``state`` under the full loads with mdot
+        [kg/s] ``mass_flow`` changing at ``mass_flow_rate`` [kg/s^2] (:meth:`evaluate`; the
+        parametric analysis differences it in the flow)."""
+        return np.asarray(self.evaluate(state, mass_flow=mass_flow, mass_flow_rate=mass_flow_rate, tangent=False,
+                                        jacobian=False)[0])
 
     def _zero_flow_growth_hint(self) -> str:
         """Why a mode may grow from the first flow on, for :func:`~pipeflex.critical_mass_flow`'s
