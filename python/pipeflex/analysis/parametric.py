@@ -108,7 +108,7 @@ class _FlowModel:
             # state, and the polynomial in the flow needs one for all samples: each sample's
             # unreduced (M, C, K) is reduced with the mean-flow equilibrium's T. At a sample
             # moved quasi-statically by u, C_q(q0 + u) T differs from 0 by O(abs(u) / L), the
-            # joints turning with the moves (a clamped chain of seed 004's soft tube, EA =
+            # joints turning with the moves (a clamped chain of a soft tube, EA =
             # 2.5e4 N: u = 3.9e-3 L at the largest sampled rate, C_q T 6e-4 of its scale).
             # Bases of their own differ by as much and more: their metric follows diag K, so
             # that the coordinates themselves would pulsate (a polynomial misfit of ~1).
