@@ -232,6 +232,20 @@ void bind_assembly(py::module_& m) {
              py::arg("time_function") = py::none(),
              "Dead force [N] and moment [N m], and follower force and moment in the node frame, at node; "
              "time_function (None: 1) scales it (besides the load factor).")
+        .def("add_distributed_load",
+             [](Model& md, int element, const Eigen::Vector3d& q, std::optional<TimeTable> time_function) {
+                 if (element < 0 || element >= static_cast<int>(md.elements.size()))
+                     throw std::invalid_argument("element must be in [0, " + std::to_string(md.elements.size()) +
+                                                 "), got " + std::to_string(element));
+                 changed(md);
+                 DistributedLoad l{element, to_vec3(q), nullptr};
+                 if (time_function) l.time_function = std::make_shared<const TimeTable>(*time_function);
+                 md.distributed_loads.push_back(std::move(l));
+             },
+             py::arg("element"), py::arg("force_per_length"), py::arg("time_function") = py::none(),
+             "A distributed dead load q (3) [N/m] in global axes on element (its index in the registry), per "
+             "unit of its reference length, consistent like its gravity; time_function (None: 1) scales it "
+             "(besides the load factor).")
         .def("add_load_function",
              [](Model& md, int node, py::function fn, const std::string& label) {
                  changed(md);

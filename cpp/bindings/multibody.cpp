@@ -1,5 +1,8 @@
 // Bindings of the multibody system core (seed 004): states cross as numpy arrays.
 #include "outputs.hpp"
+#include "pipeflex/assembly/axial_spring.hpp"
+#include "pipeflex/assembly/ground_spring.hpp"
+#include "pipeflex/core/small_matrix_eigen.hpp"
 #include "pipeflex/multibody/multibody.hpp"
 #include "pipeflex/multibody/multibody_equations.hpp"
 
@@ -137,6 +140,44 @@ void bind_multibody(py::module_& m) {
                 sys.add_load(l);
             },
             py::arg("body"), py::arg("node"), py::arg("force"), py::arg("moment"))
+        .def(
+            "add_spring",
+            [](MultibodySystemCore& sys, int body_a, int node_a, const Vec3d& p0_a, const Mat3d& A0_a, int body_b,
+               int node_b, const Vec3d& p0_b, const Mat3d& A0_b, double k, double c) {
+                auto e = std::make_unique<AxialSpring>(0, 1, k, c);
+                sys.add_spring(std::move(e), {MbSpringNode{body_a, node_a, p0_a, A0_a},
+                                              MbSpringNode{body_b, node_b, p0_b, A0_b}});
+                return sys.n_springs() - 1;
+            },
+            py::arg("body_a"), py::arg("node_a"), py::arg("p0_a"), py::arg("A0_a"), py::arg("body_b"),
+            py::arg("node_b"), py::arg("p0_b"), py::arg("A0_b"), py::arg("k"), py::arg("c") = 0.0,
+            "An axial spring-damper (k [N/m], c [N s/m]) between two body nodes, unstressed at the distance of "
+            "their reference positions p0_a, p0_b [m] (A0: reference orientations). Its index among the springs.")
+        .def(
+            "add_ground_spring",
+            [](MultibodySystemCore& sys, int body, int node, const Vec3d& p0, const Mat3d& A0, const Vec3d& k,
+               const Vec3d& c, const std::optional<Vec3d>& anchor, const Vec3d& k_phi, const Vec3d& c_phi) {
+                auto e = std::make_unique<GroundSpring>(0, to_vec3(k), to_vec3(c), anchor.has_value(),
+                                                        anchor ? to_vec3(*anchor) : Vec3<double>{}, to_vec3(k_phi),
+                                                        to_vec3(c_phi));
+                sys.add_spring(std::move(e), {MbSpringNode{body, node, p0, A0}});
+                return sys.n_springs() - 1;
+            },
+            py::arg("body"), py::arg("node"), py::arg("p0"), py::arg("A0"), py::arg("k"), py::arg("c"),
+            py::arg("anchor") = py::none(), py::arg("k_phi") = Vec3d::Zero(), py::arg("c_phi") = Vec3d::Zero(),
+            "A spring-damper from a body node to the ground (the element model's ground spring): k (3) [N/m], "
+            "c (3) [N s/m] along the global axes, unstressed at anchor [m] (None: p0, the node's reference "
+            "position); k_phi (3) [N m/rad], c_phi (3) [N m s/rad] on its rotation from the reference "
+            "orientation A0. Its index among the springs.")
+        .def(
+            "spring_energy",
+            [](const MultibodySystemCore& sys, const Arr& r, const Arr& R, const VecX& eta, const VecX& v) {
+                const MbState s = to_state(sys, r, R, eta, v, VecX::Zero(v.size()), VecX::Zero(sys.n_constraints()),
+                                           0.0);
+                return py::make_tuple(sys.spring_energy(s), sys.spring_damping_power(s));
+            },
+            py::arg("r"), py::arg("R"), py::arg("eta"), py::arg("v"),
+            "(U [J], P [W]): the springs' elastic energy and the power their dashpots dissipate at the state.")
         .def("set_gravity", &MultibodySystemCore::set_gravity, py::arg("gravity"), "Gravity (3) [m/s^2].")
         .def("finalize", &MultibodySystemCore::finalize)
         .def("set_length_scale", &MultibodySystemCore::set_length_scale, py::arg("length"),

@@ -2,7 +2,10 @@
 // analysis bound once, for every formulation.
 #include "convert.hpp"
 #include "outputs.hpp"
+#include "pipeflex/assembly/axial_spring.hpp"
+#include "pipeflex/assembly/model.hpp"
 #include "pipeflex/core/format.hpp"
+#include "pipeflex/core/small_matrix_eigen.hpp"
 #include "pipeflex/solvers/coupled.hpp"
 #include "pipeflex/solvers/ida.hpp"
 #include "pipeflex/solvers/system.hpp"
@@ -108,7 +111,22 @@ std::vector<Coupling> pipeflex::couplings_from(const py::list& couplings) {
         Coupling k;
         k.element_node = c[0].cast<int>();
         const int kind = c[1].cast<int>();
-        if (kind < 0 || kind > 2) throw std::invalid_argument("coupling kind must be 0 (rigid), 1 (hinge) or 2 (spherical)");
+        if (kind == 3) {
+            // (element node, 3, body, body node, k [N/m], c [N s/m], p0 element node, p0 body node [m])
+            k.joint.body_b = c[2].cast<int>();
+            k.joint.node_b = c[3].cast<int>();
+            auto spring = std::make_unique<AxialSpring>(0, 1, c[4].cast<double>(), c[5].cast<double>());
+            auto model = std::make_shared<Model>();
+            model->positions = {to_vec3(c[6].cast<Vec3d>()), to_vec3(c[7].cast<Vec3d>())};
+            model->kinds = {NodeKind::frame, NodeKind::frame};
+            spring->finalize(*model);
+            k.spring = std::move(spring);
+            k.spring_model = std::move(model);
+            cp.push_back(k);
+            continue;
+        }
+        if (kind < 0 || kind > 2)
+            throw std::invalid_argument("coupling kind must be 0 (rigid), 1 (hinge), 2 (spherical) or 3 (axial spring)");
         k.joint.kind = static_cast<JointKind>(kind);
         k.joint.body_b = c[2].cast<int>();
         k.joint.node_b = c[3].cast<int>();
@@ -178,7 +196,9 @@ void bind_system(py::module_& m) {
         py::arg("eta"), py::arg("v"), py::arg("a"), py::arg("lam"), py::arg("t"), py::arg("couplings"),
         py::arg("coupling_lam"), py::keep_alive<0, 1>(), py::keep_alive<0, 2>(), py::keep_alive<0, 4>(),
         "An element model and bodies joined by couplings ((element node, kind 0 rigid / 1 hinge / 2 spherical, "
-        "body, body node, C0, axis_b, perp0, perp1) tuples) as a System; the element state is updated in place.");
+        "body, body node, C0, axis_b, perp0, perp1) tuples, or (element node, 3, body, body node, k [N/m], "
+        "c [N s/m], p0 of the element node, p0 of the body node [m]) for an axial spring-damper) as a System; "
+        "the element state is updated in place.");
     m.def(
         "static_equilibrium",
         [](System& sys, double mass_flow, double load_factor, double tol, int max_iterations, double force_scale,

@@ -234,6 +234,26 @@ void Model::finalize() {
         uses_node_motions = uses_node_motions || e.uses_node_motions();
         max_element_nodes = std::max(max_element_nodes, e.n_nodes());
     }
+    element_loads.clear();
+    for (std::size_t d = 0; d < distributed_loads.size(); ++d) {
+        const DistributedLoad& dl = distributed_loads[d];
+        if (dl.element < 0 || dl.element >= static_cast<int>(elements.size()))
+            throw std::invalid_argument("distributed load " + std::to_string(d) + " refers to element " +
+                                        std::to_string(dl.element) + ", but the model has elements 0.." +
+                                        std::to_string(static_cast<int>(elements.size()) - 1));
+        const Element& e = elements[dl.element];
+        if (!(e.line_mass() > 0.0))
+            throw std::invalid_argument("distributed load " + std::to_string(d) + " on element " +
+                                        std::to_string(dl.element) + " (" + e.name() +
+                                        "): it carries distributed loads through its gravity term, which needs "
+                                        "a mass per length > 0");
+        for (int i = 0; i < 3; ++i)
+            if (!std::isfinite(dl.force_per_length[i]))
+                throw std::invalid_argument("distributed load " + std::to_string(d) +
+                                            ": force_per_length must be finite [N/m]");
+        element_loads.resize(elements.size());
+        element_loads[dl.element].push_back(static_cast<int>(d));
+    }
     for (const auto& l : loads) {
         check_node(l.node, "nodal load");
         if (kinds[l.node] == NodeKind::ancf &&
@@ -523,6 +543,24 @@ void function_load(const Model& model, const NodalLoad& l, const State& state, d
     for (int k = 0; k < nw; ++k) scatter_block(model, n, n, blk, 6, &sinks[k]);  // zeros: the pattern's entries
 }
 
+// The load state of element k with its distributed loads (times the load factor and their
+// time functions at load.time) in its gravity, g + q / line_mass, gravity_factor 1 (the
+// kernel's consistent gravity term carries them); with_gravity false: the loads alone
+// (no gravity, no flow: the generalised forces of the loads, external_forces).
+LoadState distributed_gravity(const Model& model, std::size_t k, const LoadState& load, double load_factor,
+                              bool with_gravity) {
+    LoadState lk = with_gravity ? load : LoadState{};
+    lk.gravity_factor = 1.0;
+    for (int i = 0; i < 3; ++i) lk.gravity[i] = with_gravity ? load.gravity[i] * load.gravity_factor : 0.0;
+    const double mu = model.elements[k].line_mass();
+    for (int d : model.element_loads[k]) {
+        const DistributedLoad& dl = model.distributed_loads[d];
+        const double f = load_factor * (dl.time_function ? dl.time_function->at(load.time) : 1.0);
+        for (int i = 0; i < 3; ++i) lk.gravity[i] += f * dl.force_per_length[i] / mu;
+    }
+    return lk;
+}
+
 // The assembler: the residual (if not null) and the tangents for the nw weight sets
 // w[i] into sinks[i] (nw = 0: residual only), all in one pass over the elements (an
 // element's data still in cache for every set); the residual comes with the first set.
@@ -569,7 +607,10 @@ void assemble_into(const Model& model, const State& state, const LoadState& load
     for (std::size_t k = 0; k < model.elements.size(); ++k) {
         const Element& el = model.elements[k];
         out.geometric_stresses = geometric_stresses != nullptr ? geometric_stresses + model.stress_offset[k] : nullptr;
-        el.kernel(in, out);
+        if (!model.element_loads.empty() && !model.element_loads[k].empty())
+            el.kernel(ElementInputs{state, distributed_gravity(model, k, load, load_factor, true), in.motions}, out);
+        else
+            el.kernel(in, out);
         for (int i = 0; i < nw; ++i) scatter_element(model, el.nodes(), out.J[i], &sinks[i]);
         scatter_residual(model, el.nodes(), out.r, residual);
     }
@@ -791,6 +832,27 @@ Eigen::VectorXd external_forces(const Model& model, const State& state, double t
         }
         const double s = l.time_function ? l.time_function->at(t) : 1.0;
         for (int i = 0; i < 6; ++i) f[6 * l.node + i] += s * fl[i];
+    }
+    if (model.element_loads.empty()) return f;
+    // distributed loads: the kernel's residual with them as its only gravity, at rest
+    // (no inertia, damping or flow), less the same without them (the elastic part)
+    State rest = state;
+    rest.v.setZero();
+    rest.a.setZero();
+    LoadState none;
+    none.time = t;
+    std::vector<double> r1(6 * model.max_element_nodes), r0(r1.size());
+    ElementOutputs out;
+    for (std::size_t k = 0; k < model.elements.size(); ++k) {
+        if (model.element_loads[k].empty()) continue;
+        const Element& el = model.elements[k];
+        out.r = r1.data();
+        el.kernel(ElementInputs{rest, distributed_gravity(model, k, none, 1.0, false), nullptr}, out);
+        out.r = r0.data();
+        el.kernel(ElementInputs{rest, none, nullptr}, out);
+        const std::vector<int>& nodes = el.nodes();
+        for (std::size_t a = 0; a < nodes.size(); ++a)
+            for (int i = 0; i < 6; ++i) f[6 * nodes[a] + i] -= r1[6 * a + i] - r0[6 * a + i];
     }
     return f;
 }

@@ -1,4 +1,5 @@
 #include "pipeflex/solvers/coupled.hpp"
+#include "pipeflex/assembly/model.hpp"
 #include "pipeflex/solvers/linear_matrices.hpp"
 
 #include "pipeflex/core/format.hpp"
@@ -31,7 +32,7 @@ class CoupledEquations final : public Equations {
             if (i < 0 || i >= model.n_nodes())
                 throw std::invalid_argument("coupling: element node " + std::to_string(i) + " is not a node of the "
                                             "model (it has " + std::to_string(model.n_nodes()) + ")");
-            if (model.kinds[i] == NodeKind::ancf && c.joint.kind != JointKind::rigid)
+            if (model.kinds[i] == NodeKind::ancf && c.joint.kind != JointKind::rigid && !c.spring)
                 throw std::invalid_argument("coupling: ANCF node " + std::to_string(i) +
                                             " can only be clamped (rigid) to a body node");
             if (std::find(model.hub.nodes.begin(), model.hub.nodes.end(), i) != model.hub.nodes.end())
@@ -40,7 +41,7 @@ class CoupledEquations final : public Equations {
                 c.joint.node_b >= core.n_nodes(c.joint.body_b))
                 throw std::invalid_argument("coupling: no node " + std::to_string(c.joint.node_b) + " on body " +
                                             std::to_string(c.joint.body_b));
-            if (c.joint.kind == JointKind::roller)
+            if (c.joint.kind == JointKind::roller && !c.spring)
                 throw std::invalid_argument("coupling: a roller joins a node to the ground, not to a body");
             rows_.push_back(rows_.back() + rows(c));
         }
@@ -73,7 +74,7 @@ class CoupledEquations final : public Equations {
         r.head(n1_) = r1_;
         r.segment(n1_, n2_ + nc2_) = r2_;
         if (J) join(J1_, J2_, *J);
-        couple(wK, &r, J);
+        couple(wK, wC, &r, J);
     }
     // the parts' tangents each in one call (an element part assembles them in one pass)
     void tangents(const std::vector<TangentWeights>& weights, std::vector<Triplets>& J) override {
@@ -82,7 +83,7 @@ class CoupledEquations final : public Equations {
         J.resize(weights.size());
         for (std::size_t w = 0; w < weights.size(); ++w) {
             join(J1s_[w], J2s_[w], J[w]);
-            couple(weights[w].wK, nullptr, &J[w]);
+            couple(weights[w].wK, weights[w].wC, nullptr, &J[w]);
         }
     }
 
@@ -98,7 +99,7 @@ class CoupledEquations final : public Equations {
             J.clear();
             const Triplets& J2 = J2s_[w];
             for (std::size_t k = 0; k < J2.values.size(); ++k) J.add(n1_ + J2.rows[k], n1_ + J2.cols[k], J2.values[k]);
-            couple(weights[w].wK, nullptr, &J);
+            couple(weights[w].wK, weights[w].wC, nullptr, &J);
         }
         out.assemble(n1_ + n2_, nc2_ + nc3_, static_cast<int>(weights.size()), tangent_pattern(el_.model),
                      [&](const int* slot, double* const* values) { el_.tangents_into(weights, slot, values); }, parts_);
@@ -113,9 +114,13 @@ class CoupledEquations final : public Equations {
     // The couplings' equations and reactions into the residual r (if not null; the parts'
     // rows already set) and their blocks and geometric stiffness (weight wK) into J (if
     // not null).
-    void couple(double wK, VecX* r, Triplets* J) {
+    void couple(double wK, double wC, VecX* r, Triplets* J) {
         const int n = n1_ + n2_;
         for (std::size_t k = 0; k < cp_.size(); ++k) {
+            if (cp_[k].spring) {
+                spring(k, wK, wC, r, J);
+                continue;
+            }
             const int nr = rows(cp_[k]), R0 = n + nc2_ + rows_[k];
             equations(k, c_, Ja_, Jb_);
             const auto lam = lam3_.segment(rows_[k], nr);
@@ -194,11 +199,65 @@ class CoupledEquations final : public Equations {
     }
 
    private:
+    // Coupling k's axial spring-damper between the element node (position x, its map the
+    // support basis's position rows, fixed) and the body node (p = r + R (...), Jp): its
+    // forces into r and wK dF/dq + wC dF/dv into J, exact (the body node's map turning at
+    // fixed force, and its velocity's change with the configuration for the dashpot).
+    void spring(std::size_t k, double wK, double wC, VecX* r, Triplets* J) {
+        using RowMat = Eigen::Matrix<double, 12, 12, Eigen::RowMajor>;
+        const Coupling& cp = cp_[k];
+        const int i = cp.element_node, body = cp.joint.body_b, nd = cp.joint.node_b;
+        const State& st = el_.state;
+        const MbState& ms = mb_.state();
+        const auto Te = el_.model.bases[i].topRows(3);
+        Vec3d pb;
+        core_.node(ms, body, nd, pb, Ab_, &Jpb_, &Jab_);
+        const Vec3d pd = Jpb_ * ms.v.segment(core_.offset(body), Jpb_.cols());
+        State ss(*cp.spring_model);
+        for (int c = 0; c < 3; ++c) {
+            ss.q[c] = st.q[6 * i + c];
+            ss.v[c] = st.v[6 * i + c];
+            ss.q[6 + c] = pb[c];
+            ss.v[6 + c] = pd[c];
+        }
+        const double weights[6] = {1.0, 0.0, 0.0, 0.0, 1.0, 0.0};
+        RowMat K, C;
+        double res[12];
+        double* Jk[2] = {K.data(), C.data()};
+        ElementOutputs out;
+        out.nw = J ? 2 : 0;
+        out.weights = weights;
+        out.r = res;
+        out.J = Jk;
+        const LoadState none;
+        cp.spring->kernel(ElementInputs{ss, none, nullptr}, out);
+        const int e0 = first_col(k), b0 = body_col(k);
+        const int ne = static_cast<int>(Te.cols()), nb = static_cast<int>(Jpb_.cols());
+        const Vec3d fe(res[0], res[1], res[2]), fb(res[6], res[7], res[8]);
+        if (r) {
+            r->segment(e0, ne).noalias() += Te.transpose() * fe;
+            r->segment(b0, nb).noalias() += Jpb_.transpose() * fb;
+        }
+        if (!J) return;
+        core_.node_velocity_derivative(ms, body, nd, K_);
+        const MatX Wb = K_.topRows(3);
+        const MatX Ge = Te, Gb = Jpb_;
+        const MatX* G[2] = {&Ge, &Gb};
+        const int c0[2] = {e0, b0};
+        for (int a = 0; a < 2; ++a)
+            for (int b = 0; b < 2; ++b) {
+                const Mat3d Kab = K.block<3, 3>(6 * a, 6 * b), Cab = C.block<3, 3>(6 * a, 6 * b);
+                MatX B = G[a]->transpose() * ((wK * Kab + wC * Cab) * *G[b]);
+                if (b == 1 && wK != 0.0) B.noalias() += wK * G[a]->transpose() * (Cab * Wb);
+                if (a == 1 && b == 1 && wK != 0.0) core_.node_stiffness(ms, body, nd, fb, Vec3d::Zero(), wK, B);
+                for (int cc = 0; cc < B.cols(); ++cc)
+                    for (int rr = 0; rr < B.rows(); ++rr) J->add(c0[a] + rr, c0[b] + cc, B(rr, cc));
+            }
+    }
+
     // A clamped ANCF node (planar): its position in the plane and its slope's direction
     // (3 rows); a frame node: the joint's rows.
-    int rows(const Coupling& c) const {
-        return el_.model.kinds[c.element_node] == NodeKind::ancf ? 3 : c.joint.rows();
-    }
+    int rows(const Coupling& c) const { return c.rows(el_.model.kinds[c.element_node]); }
     int first_col(std::size_t k) const { return el_.model.first_dof[cp_[k].element_node]; }
     int body_col(std::size_t k) const { return n1_ + core_.offset(cp_[k].joint.body_b); }
 
@@ -470,7 +529,7 @@ class CoupledSystem final : public System {
     int n_constraints() const override {
         int rows = bodies_.n_constraints();
         for (const Coupling& c : couplings_)  // CoupledEquations::rows
-            rows += model_.kinds[c.element_node] == NodeKind::ancf ? 3 : c.joint.rows();
+            rows += c.rows(model_.kinds[c.element_node]);
         return rows;
     }
     double record_size() const override {

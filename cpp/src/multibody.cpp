@@ -1,4 +1,5 @@
 #include "pipeflex/multibody/multibody.hpp"
+#include "pipeflex/assembly/model.hpp"
 #include "pipeflex/core/format.hpp"
 #include "pipeflex/core/interrupt.hpp"
 #include "pipeflex/multibody/multibody_equations.hpp"
@@ -15,6 +16,31 @@ namespace pipeflex {
 
 namespace {
 
+// The stand-in state of a spring's nodes (MbSpring): x = p, phi = 0, frame A A0^T,
+// x_dot = p_dot, phi_dot = omega; the node maps Jp, Ja and angular velocities w if given.
+void spring_state(const MultibodySystemCore& sys, const MbState& s, const MbSpring& sp, State& st, MatX* Jp,
+                  MatX* Ja, Vec3d* w) {
+    MatX jp, ja;
+    for (std::size_t i = 0; i < sp.nodes.size(); ++i) {
+        const MbSpringNode& nd = sp.nodes[i];
+        MatX& P = Jp ? Jp[i] : jp;
+        MatX& A = Ja ? Ja[i] : ja;
+        Vec3d p;
+        Mat3d R;
+        sys.node(s, nd.body, nd.node, p, R, &P, &A);
+        const int o = sys.offset(nd.body);
+        const auto vb = s.v.segment(o, P.cols());
+        const Vec3d pd = P * vb, om = A * vb;
+        for (int k = 0; k < 3; ++k) {
+            st.q[6 * i + k] = p[k];
+            st.q[6 * i + 3 + k] = 0.0;
+            st.v[6 * i + k] = pd[k];
+            st.v[6 * i + 3 + k] = om[k];
+        }
+        st.frames[i] = to_mat3(R * nd.A0.transpose());
+        if (w) w[i] = om;
+    }
+}
 
 }  // namespace
 
@@ -66,6 +92,139 @@ void MultibodySystemCore::add_load(const MbLoad& l) {
     loads_.push_back(l);
 }
 
+void MultibodySystemCore::add_spring(std::unique_ptr<Element> element, const std::vector<MbSpringNode>& nodes) {
+    if (!element) throw std::invalid_argument("add_spring: no element");
+    if (element->n_nodes() != static_cast<int>(nodes.size()))
+        throw std::invalid_argument(std::string("add_spring: the ") + element->name() + " connects " +
+                                    std::to_string(element->n_nodes()) + " nodes, got " +
+                                    std::to_string(nodes.size()) + " body nodes");
+    if (!element->accepts(NodeKind::frame))
+        throw std::invalid_argument(std::string("add_spring: a ") + element->name() + " cannot act on a body node");
+    auto model = std::make_shared<Model>();
+    for (std::size_t i = 0; i < nodes.size(); ++i) {
+        const MbSpringNode& nd = nodes[i];
+        if (nd.body < 0 || nd.body >= n_bodies() || nd.node < 0 || nd.node >= n_nodes(nd.body))
+            throw std::invalid_argument("add_spring: no node " + std::to_string(nd.node) + " on body " +
+                                        std::to_string(nd.body));
+        if (!(nd.p0.allFinite() && nd.A0.allFinite()))
+            throw std::invalid_argument("add_spring: the reference position and orientation must be finite");
+        if (element->nodes()[i] != static_cast<int>(i))
+            throw std::invalid_argument("add_spring: the element's nodes must be 0, 1, ... (the body nodes' order)");
+        model->positions.push_back(to_vec3(nd.p0));
+        model->kinds.push_back(NodeKind::frame);
+    }
+    element->finalize(*model);
+    springs_.push_back(MbSpring{std::shared_ptr<const Element>(std::move(element)), std::move(model), nodes});
+}
+
+double MultibodySystemCore::spring_energy(const MbState& s) const {
+    double U = 0.0;
+    for (const MbSpring& sp : springs_) {
+        State st(*sp.model);
+        spring_state(*this, s, sp, st, nullptr, nullptr, nullptr);
+        double T = 0.0, u = 0.0;
+        sp.element->energies(st, &T, &u);
+        U += u;
+    }
+    return U;
+}
+
+double MultibodySystemCore::spring_damping_power(const MbState& s) const {
+    double P = 0.0;
+    for (const MbSpring& sp : springs_) {
+        if (!sp.element->damped()) continue;
+        State st(*sp.model);
+        spring_state(*this, s, sp, st, nullptr, nullptr, nullptr);
+        sp.element->add_damping_power(st, &P);
+    }
+    return P;
+}
+
+void MultibodySystemCore::node_velocity_derivative(const MbState& s, int body, int nd, MatX& W) const {
+    // p_dot = r_dot + omega x y + R Pu eta_dot, y = R (s e_x + Pu eta); omega_node = omega +
+    // R T(th) Pt eta_dot, th = Pt eta. R <- exp(skew(d pi)) R turns y, R Pu eta_dot and
+    // R T Pt eta_dot by d pi x (.); eta moves y by R Pu d eta and T(th) by its derivatives.
+    const MbBody& b = bodies_.at(body);
+    const Eigen::Index m = b.basis.cols();
+    const int o = offsets_[body];
+    const auto eta = s.eta.segment(o + 6, m);
+    const auto ed = s.v.segment(o + 6, m);
+    const Vec3d om = s.v.segment<3>(o + 3);
+    const auto Pu = b.basis.middleRows(6 * nd, 3);
+    const auto Pt = b.basis.middleRows(6 * nd + 3, 3);
+    const Mat3d& R = s.R[body];
+    const Vec3d y = R * (Vec3d(b.s[nd], 0.0, 0.0) + Pu * eta);
+    W.setZero(6, 6 + m);
+    const Mat3d Om = skew(om);
+    const Vec3d ue = R * (Pu * ed);
+    W.block<3, 3>(0, 3) = -Om * skew(y) - skew(ue);
+    if (m == 0) return;
+    W.block(0, 6, 3, m).noalias() = Om * R * Pu;
+    Mat3<double> T, dT[3], Td, dTd[3];
+    rotation_jacobian_derivatives(to_vec3(Vec3d(Pt * eta)), Vec3<double>{}, T, dT, Td, dTd);
+    const Vec3d we = Pt * ed;
+    W.block<3, 3>(3, 3) = -skew(Vec3d(R * (from_mat3(T) * we)));
+    Mat3d Dw;  // column k: dT/dth_k we
+    for (int k = 0; k < 3; ++k) Dw.col(k) = from_mat3(dT[k]) * we;
+    W.block(3, 6, 3, m).noalias() = R * Dw * Pt;
+}
+
+void MultibodySystemCore::spring_forces(const MbState& s, double wK, double wC, bool with_tangent,
+                                        MbEvaluation& out) const {
+    using RowMat = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
+    const LoadState load;
+    const double weights[6] = {1.0, 0.0, 0.0, 0.0, 1.0, 0.0};
+    for (const MbSpring& sp : springs_) {
+        const int n = static_cast<int>(sp.nodes.size()), d = 6 * n;
+        State st(*sp.model);
+        std::vector<MatX> Jp(n), Ja(n);
+        std::vector<Vec3d> w(n);
+        spring_state(*this, s, sp, st, Jp.data(), Ja.data(), w.data());
+        VecX r(d);
+        RowMat K(d, d), C(d, d);
+        double* J[2] = {K.data(), C.data()};
+        ElementOutputs eo;
+        eo.nw = with_tangent ? 2 : 0;
+        eo.weights = weights;
+        eo.r = r.data();
+        eo.J = J;
+        sp.element->kernel(ElementInputs{st, load, nullptr}, eo);
+        for (int i = 0; i < n; ++i) {
+            const int o = offsets_[sp.nodes[i].body];
+            out.F.segment(o, Jp[i].cols()).noalias() += Jp[i].transpose() * r.segment<3>(6 * i);
+            out.F.segment(o, Ja[i].cols()).noalias() += Ja[i].transpose() * r.segment<3>(6 * i + 3);
+        }
+        if (!with_tangent) continue;
+        // the stand-in's rotation rates phi_dot = T(phi)^-1 omega, T = I + skew(phi) / 2 + ...,
+        // move by skew(omega) u / 2 with its rotation u = Ja dq
+        for (int j = 0; j < n; ++j) K.middleCols(6 * j + 3, 3) += 0.5 * C.middleCols(6 * j + 3, 3) * skew(w[j]);
+        std::vector<MatX> G(n), W(n);
+        for (int i = 0; i < n; ++i) {
+            G[i].resize(6, Jp[i].cols());
+            G[i] << Jp[i], Ja[i];
+            node_velocity_derivative(s, sp.nodes[i].body, sp.nodes[i].node, W[i]);
+        }
+        for (int i = 0; i < n; ++i) {
+            const int bi = sp.nodes[i].body;
+            for (int j = 0; j < n; ++j) {
+                MatX& S = out.S[tangent_block(bi, sp.nodes[j].body)];
+                const auto Kij = K.block(6 * i, 6 * j, 6, 6);
+                const auto Cij = C.block(6 * i, 6 * j, 6, 6);
+                const MatX B = wK * Kij + wC * Cij;
+                S.noalias() += G[i].transpose() * (B * G[j]);
+                if (wK != 0.0) S.noalias() += wK * G[i].transpose() * (Cij * W[j]);
+            }
+            if (wK == 0.0) continue;
+            // the node maps turning at fixed forces, and the stand-in's moment Ja^T T(phi)^-T m
+            // with T^-T m = m - skew(m) phi / 2 + ...
+            MatX& S = out.S[tangent_block(bi, bi)];
+            const Vec3d f = r.segment<3>(6 * i), mo = r.segment<3>(6 * i + 3);
+            node_stiffness(s, bi, sp.nodes[i].node, f, mo, wK, S);
+            if (!mo.isZero(0.0)) S.noalias() -= 0.5 * wK * Ja[i].transpose() * (skew(mo) * Ja[i]);
+        }
+    }
+}
+
 void MultibodySystemCore::finalize() {
     n_ = offsets_.back();
     nc_ = rows_.back();
@@ -80,6 +239,9 @@ void MultibodySystemCore::finalize() {
             add(j.body_a, j.body_b);
             add(j.body_b, j.body_a);
         }
+    for (const MbSpring& sp : springs_)
+        for (const MbSpringNode& a : sp.nodes)
+            for (const MbSpringNode& b : sp.nodes) add(a.body, b.body);
 }
 
 int MultibodySystemCore::tangent_block(int a, int b) const {
@@ -462,6 +624,7 @@ void MultibodySystemCore::evaluate(const MbState& s, double mdot, double mdot_ra
             if (nb) out.F.segment(ob, nb) -= w.fb;
         }
     }
+    if (!springs_.empty()) spring_forces(s, wK, wC, with_tangent, out);
     if (with_tangent && wK != 0.0) geometric_stiffness(s, mdot, load_factor, out.S, wK);
 }
 

@@ -78,6 +78,7 @@ class CoupledSystem:
         self.model = model
         self.bodies = bodies
         self._joints: List[CouplingJoint] = []
+        self._springs: List[tuple] = []  # add_spring: (node, body, body node, k, c)
 
     @property
     def mass_flow(self) -> float:
@@ -104,6 +105,41 @@ class CoupledSystem:
         """Spherical joint: equal positions, free relative rotation."""
         self._add("spherical", node, body, body_node)
 
+    def add_spring(self, node: int, body: int, body_node, *, stiffness: float, damping: float = 0.0) -> int:
+        """A linear axial spring-damper between element node ``node`` and node ``body_node``
+        of body ``body`` (the element models' axial spring,
+        :meth:`pipeflex.ModelBuilder.add_spring`): massless, unstressed at their distance
+        L0 in the assembly configuration (they must not coincide), axial force
+        T = k (l - L0) + c dl/dt along the line between them; no constraint. Exact
+        tangents (through the body's node map). Ground springs belong to the parts
+        (:meth:`pipeflex.ModelBuilder.add_ground_spring`,
+        :meth:`pipeflex.multibody.MultibodyBuilder.add_ground_spring`). Returns its index
+        among these springs.
+
+        Args:
+            node: the element node (frame or ANCF) [-].
+            body: the body [-]; body_node: its node (index or "start", "center", "end").
+            stiffness: k [N/m] >= 0.
+            damping: c [N s/m] >= 0.
+        """
+        n = _checks.non_negative_int("node", node)
+        if n >= self.model.n_nodes:
+            raise ValueError(f"node must be a node of the element model, in [0, {self.model.n_nodes}), got {node}")
+        j = self.bodies.body_index(body)
+        try:
+            i = self.bodies.bodies[j].node_index(body_node)
+        except ValueError as e:
+            raise ValueError(f"body_node: {e}") from None
+        k = _checks.non_negative("stiffness", stiffness)
+        c = _checks.non_negative("damping", damping)
+        p_el = np.asarray(self.model.positions[n], float)
+        p_b = self.bodies.node_kinematics(self.bodies.initial_state(), j, i)[0]
+        if not np.linalg.norm(p_b - p_el) > 0.0:
+            raise ValueError(f"element node {n} and body {j} node {i} coincide in the assembly configuration: an axial "
+                             "spring of zero length has no axis")
+        self._springs.append((n, j, i, k, c))
+        return len(self._springs) - 1
+
     def _add(self, kind, node, body, body_node, axis=None, given_axis=None) -> None:
         n = _checks.non_negative_int("node", node)
         if n >= self.model.n_nodes:
@@ -122,7 +158,8 @@ class CoupledSystem:
 
     def core_couplings(self) -> list:
         """The couplings as the core takes them: (node, kind, body, body node, C0, axis_b,
-        perp0, perp1), with the reference orientations of the assembly configuration."""
+        perp0, perp1), with the reference orientations of the assembly configuration; then
+        the springs, (node, 3, body, body node, k, c, p0 of the node, p0 of the body node)."""
         st0 = as_core(self.model, None)
         b0 = self.bodies.initial_state()
         out = []
@@ -138,6 +175,9 @@ class CoupledSystem:
                 axis_b = Ab.T @ ax
                 perp = (Aa.T @ np.linalg.svd(ax.reshape(1, 3))[2][1:].T).T
             out.append((c.node, KINDS.index(c.kind), c.body, c.body_node, Aa.T @ Ab, axis_b, perp[0], perp[1]))
+        for n, j, i, k, c in getattr(self, "_springs", ()):  # after the joints: they add no constraint rows
+            p_b = self.bodies.node_kinematics(b0, j, i)[0]
+            out.append((n, 3, j, i, k, c, np.asarray(self.model.positions[n], float), p_b))
         return out
 
 

@@ -181,6 +181,7 @@ class ModelBuilder:
         self._ancf_nodes: dict = {}  # node -> reference slope
         self._ancf: List[dict] = []
         self._springs: List[dict] = []
+        self._distributed: List[dict] = []  # add_distributed_load
         self._hub: Optional[HubInfo] = None
         # the public calls that made the description, (method, args, kwargs): what
         # pipeflex.save_model writes; _depth > 0 inside a recorded call
@@ -599,6 +600,58 @@ class ModelBuilder:
         self._loads.append(dict(node=node, f=z if follower else f, m=z if follower else m,
                                 ff=f if follower else z, fm=m if follower else z, tf=_frozen(time_function)))
 
+    def add_distributed_load(self, elements: Optional[Sequence[int]] = None, *,
+                             line: Optional[Sequence[int]] = None, force_per_length: Sequence[float],
+                             time_function=None) -> None:
+        """A distributed dead load q [N/m] in global axes on pipe or ANCF elements, per unit
+        of their reference length: consistent (Hermite-weighted) like gravity, which
+        carries it (the elements' gravity term with g raised by q / mu, mu their mass per
+        length), so it is exact for large displacements and in every tangent. Its total
+        on an element is q l0; a cantilever under it bends like under its weight with
+        q = mu g. It counts in the transients' load work, like the nodal loads.
+
+        Args:
+            elements: pipe elements, as :meth:`add_pipe` and :meth:`add_pipes` number them.
+            line: or the nodes of a chain (:meth:`add_line`, :meth:`add_arc`,
+                :meth:`add_ancf_beam` return them): the pipe or ANCF element between each
+                two consecutive nodes. Give one of ``elements`` and ``line``.
+            force_per_length: q (3) [N/m].
+            time_function: s(t) [-] of this load alone (as :meth:`add_load`'s: a number, a
+                table (times [s], values), a :class:`Sine`); the load is
+                ``s(t) lambda(t) q``, lambda the analysis' load factor; statics take s(0).
+                None: s = 1.
+
+        A model with distributed loads has no model-file key yet (``save_model`` refuses
+        it by name).
+        """
+        q = _checks.vector3("force_per_length", force_per_length)
+        if (elements is None) == (line is None):
+            raise ValueError("give one of elements (pipe element indices) and line (the nodes of a chain)")
+        targets = []
+        if elements is not None:
+            if isinstance(elements, (int, np.integer)) and not isinstance(elements, bool):
+                elements = [elements]
+            for e in elements:
+                if isinstance(e, bool) or not isinstance(e, (int, np.integer)) or not 0 <= e < len(self._elements):
+                    raise ValueError(f"elements refers to pipe element {e!r}, but the model has pipe elements "
+                                     f"0..{len(self._elements) - 1}")
+                targets.append(("pipe", int(e)))
+        else:
+            nodes = [self._node("line", n) for n in line]
+            if len(nodes) < 2:
+                raise ValueError(f"line must hold at least 2 nodes (a chain of elements), got {len(nodes)}")
+            ends = {}
+            for kind, els in (("pipe", self._elements), ("ancf", self._ancf)):
+                for k, e in enumerate(els):
+                    ends.setdefault(frozenset((e["p"], e["q"])), (kind, k))
+            for a, b in zip(nodes[:-1], nodes[1:]):
+                if frozenset((a, b)) not in ends:
+                    raise ValueError(f"line: no pipe or ANCF element joins nodes {a} and {b}")
+                targets.append(ends[frozenset((a, b))])
+        if time_function is not None:
+            as_time_table("time_function", time_function)  # checked now, converted by build (pickles)
+        self._distributed.append(dict(targets=targets, q=q, tf=_frozen(time_function)))
+
     def add_load_function(self, node: int, fn, *, name: Optional[str] = None) -> None:
         """A nodal load computed by a Python function of time and the node's motion.
 
@@ -815,6 +868,10 @@ class ModelBuilder:
                 core.add_ground_spring(s["nodes"][0], s["k"], s["c"], s.get("anchor"), s["k_phi"], s["c_phi"])
         for m in self._masses:
             core.add_mass(m["node"], m["mass"], m["inertia"])
+        for d in getattr(self, "_distributed", ()):  # registry: the pipe elements, then the ANCF ones
+            tf = None if d["tf"] is None else as_time_table("time_function", d["tf"])
+            for kind, k in d["targets"]:
+                core.add_distributed_load(k if kind == "pipe" else len(self._elements) + k, d["q"], tf)
         core.set_shared_bases(*_distinct(bases))
         core.finalize()
         return core

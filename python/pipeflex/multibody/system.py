@@ -95,7 +95,7 @@ def _require_body(body) -> None:
 
 
 class MultibodyBuilder:
-    """Collects bodies, joints and loads; :meth:`build` checks them and returns a
+    """Collects bodies, joints, springs and loads; :meth:`build` checks them and returns a
     :class:`MultibodySystem`.
 
     Example::
@@ -115,6 +115,7 @@ class MultibodyBuilder:
         self._flow: List[float] = []
         self._joints: List[tuple] = []
         self._loads: List[_Load] = []
+        self._springs: List[dict] = []
         self._gravity = np.zeros(3)
 
     def add_body_between(self, body: FlexibleBody, start: Sequence[float], end: Sequence[float], *,
@@ -205,6 +206,76 @@ class MultibodyBuilder:
         m = tuple(_plain_time_function(f"moment[{i}]", x) for i, x in enumerate(moment))
         self._loads.append(_Load(ref[0], ref[1], f, m))
 
+    def _spring_node(self, body_name: str, node_name: str, body, node) -> Tuple[int, int]:
+        """(body, node) of a spring's end, the errors naming the arguments."""
+        j = self._ref(body_name, body, 0)[0]
+        try:
+            return j, self._bodies[j].node_index(node)
+        except ValueError as e:
+            raise ValueError(f"{node_name}: {e}") from None
+
+    def add_spring(self, body_a: int, node_a, body_b: int, node_b, *, stiffness: float,
+                   damping: float = 0.0) -> int:
+        """A linear axial spring-damper between two body nodes (the element models' axial
+        spring, :meth:`pipeflex.ModelBuilder.add_spring`): massless, unstressed at the
+        nodes' distance L0 in the assembly configuration, axial force
+        T = k (l - L0) + c dl/dt along the line between them (tension positive; l the
+        nodes' distance, dl/dt its rate). It holds no rotation. It acts through the bodies'
+        node maps (position r + R (x + Phi_u eta)), so the frames and the elastic
+        coordinates feel it; its tangents are exact. Returns its index among the springs.
+
+        Args:
+            body_a, node_a: the first body [-] and its node (index or "start", "center",
+                "end").
+            body_b, node_b: the second; the two nodes must not coincide in the assembly
+                configuration (a zero length has no axis: use :meth:`add_ground_spring`).
+            stiffness: k [N/m] >= 0.
+            damping: c [N s/m] >= 0, a dashpot in parallel.
+        """
+        a = self._spring_node("body_a", "node_a", body_a, node_a)
+        b = self._spring_node("body_b", "node_b", body_b, node_b)
+        k = _checks.non_negative("stiffness", stiffness)
+        c = _checks.non_negative("damping", damping)
+        if a == b:
+            raise ValueError(f"node_a and node_b are both node {a[1]} of body {a[0]}: a spring needs two nodes "
+                             "(to hold a node at a point use add_ground_spring)")
+        self._springs.append(dict(kind="axial", nodes=(a, b), k=k, c=c))
+        return len(self._springs) - 1
+
+    def add_ground_spring(self, body: int, node, *, stiffness: Sequence[float] = (0.0, 0.0, 0.0),
+                          damping: Sequence[float] = (0.0, 0.0, 0.0), anchor: Optional[Sequence[float]] = None,
+                          rotational_stiffness: Sequence[float] = (0.0, 0.0, 0.0),
+                          rotational_damping: Sequence[float] = (0.0, 0.0, 0.0)) -> int:
+        """A linear spring-damper from a body node to the ground (the element models' ground
+        spring, :meth:`pipeflex.ModelBuilder.add_ground_spring`), massless: force
+        -K (x - X) - C v on the node with K = diag(kx, ky, kz), C = diag(cx, cy, cz) along
+        the global axes, and optionally moment -T(psi)^-T K_phi psi - C_phi w, psi the
+        rotation vector of the node's rotation from its orientation in the assembly
+        configuration (``|psi| < pi``), w its angular velocity. It acts through the body's
+        node maps with exact tangents. Returns its index among the springs.
+
+        Args:
+            body: the body [-]; node: its node (index or "start", "center", "end").
+            stiffness: (kx, ky, kz) [N/m] >= 0 each.
+            damping: (cx, cy, cz) [N s/m] >= 0 each.
+            anchor: X [m], where the spring is unstressed; default the node's position in
+                the assembly configuration.
+            rotational_stiffness: k_phi (3) [N m/rad] >= 0 each, about the global axes.
+            rotational_damping: c_phi (3) [N m s/rad] >= 0 each, about the global axes.
+        """
+        from ..model import ModelBuilder
+
+        ref = self._spring_node("body", "node", body, node)
+        k, c, kr, cr = (ModelBuilder._non_negative3(name, v, unit) for name, v, unit in
+                        (("stiffness", stiffness, "N/m"), ("damping", damping, "N s/m"),
+                         ("rotational_stiffness", rotational_stiffness, "N m/rad"),
+                         ("rotational_damping", rotational_damping, "N m s/rad")))
+        x = None if anchor is None else _checks.vector3("anchor", anchor)
+        if not (k.any() or c.any() or kr.any() or cr.any()):
+            raise ValueError("a ground spring needs a stiffness or a damping > 0 in some direction, got all zero")
+        self._springs.append(dict(kind="ground", nodes=(ref,), k=k, c=c, anchor=x, k_phi=kr, c_phi=cr))
+        return len(self._springs) - 1
+
     def set_gravity(self, g: Sequence[float]) -> None:
         """Gravitational acceleration g [m/s^2], e.g. ``(0, 0, -9.81)``."""
         self._gravity = _checks.gravity("gravity", g)
@@ -237,14 +308,16 @@ class MultibodyBuilder:
                 bodies join smoothly. ``False`` is van Voorthuizen et al.'s formulation as printed.
 
         Raises:
-            ValueError: no bodies or joints; joints whose nodes do not coincide in the
-                assembly configuration (inconsistent); redundant joint equations.
+            ValueError: no bodies, or neither joints nor ground springs; joints whose nodes
+                do not coincide in the assembly configuration (inconsistent); redundant
+                joint equations; an axial spring between coinciding nodes.
         """
         mdot = _checks.finite("mass_flow", mass_flow)
         if not self._bodies:
             raise ValueError("the system has no bodies")
-        if not self._joints:
-            raise ValueError("the system has no joints: fix or hinge a body to the ground")
+        if not self._joints and not any(sp["kind"] == "ground" for sp in self._springs):
+            raise ValueError("the system has no joints and no ground springs: fix, hinge or spring a body to "
+                             "the ground")
         for j, (body, f) in enumerate(zip(self._bodies, self._flow)):
             if f != 0.0 and mdot != 0.0 and body.section.fluid_mass <= 0.0:
                 raise ValueError(f"body {j} carries a mass flow but its fluid_mass is 0 (set flow_factor=0)")
@@ -287,6 +360,18 @@ class MultibodyBuilder:
         for ld in self._loads:
             core.add_load(ld.body, ld.node, [time_function(f"force[{i}]", x) for i, x in enumerate(ld.force)],
                           [time_function(f"moment[{i}]", x) for i, x in enumerate(ld.moment)])
+        for k, sp in enumerate(self._springs):
+            ends = [(*ref, *kin(*ref)) for ref in sp["nodes"]]
+            if sp["kind"] == "axial":
+                (ba, na, pa, Aa), (bb, nb, pb, Ab) = ends
+                if not np.linalg.norm(pb - pa) > 0.0:
+                    raise ValueError(f"spring {k} (body {ba} node {na} - body {bb} node {nb}): the nodes coincide "
+                                     "in the assembly configuration, so the axial spring has no axis; use "
+                                     "add_ground_spring, or move them apart")
+                core.add_spring(ba, na, pa, Aa, bb, nb, pb, Ab, sp["k"], sp["c"])
+            else:
+                (b, n, p, A), = ends
+                core.add_ground_spring(b, n, p, A, sp["k"], sp["c"], sp["anchor"], sp["k_phi"], sp["c_phi"])
         core.set_gravity(self._gravity)
         # the model's size for the Newton tests: the assembly's extent (body ends), as an
         # element model's (a chain of many short bodies is as large as the chain)
@@ -637,7 +722,15 @@ class MultibodySystem:
             E += 0.5 * vl @ b.data.M @ vl + 0.5 * e @ b.data.K @ e
             # gravity: V = -m g.r - (R^T g).(int mu N ds) eta; the straight reference is centred
             E -= b.mass * self.gravity @ state.r[j] + (R.T @ self.gravity) @ (b.data.Ng[6:].T @ self.eta(state, j))
-        return float(E)
+        return float(E + self.spring_energy(state)[0])
+
+    def spring_energy(self, state: MultibodyState):
+        """(U [J], P [W]): the springs' elastic energy at ``state`` (part of :meth:`energy`)
+        and the power their dashpots dissipate, P = sum c l_dot^2 (axial) or
+        sum c_i v_i^2 + c_phi,i w_i^2 (ground) >= 0."""
+        self.check_state(state)
+        U, P = self._core.spring_energy(state.r, state.R, state.eta, state.v)
+        return float(U), float(P)
 
 
 def _sparse_rows_scaled(J, factors):

@@ -22,6 +22,7 @@ public:
     void kernel(const ElementInputs& in, const ElementOutputs& out) const override;
     void energies(const State& state, double* kinetic, double* elastic) const override;
     void add_gravity_potential(const State& state, const Vec3<double>& g, double* V) const override;
+    double line_mass() const override { return data.mass; }
     bool damped() const override { return data.damped(); }
     void add_damping_power(const State& state, double* P) const override;
     const char* prestress_unavailable() const override;

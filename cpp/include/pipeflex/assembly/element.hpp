@@ -83,6 +83,10 @@ public:
     // Adds the potential of gravity g [m/s^2] (the load's, times its factor) [J] to *V,
     // term by term (the model's sum is then one running sum over all elements).
     virtual void add_gravity_potential(const State& state, const Vec3<double>& g, double* V) const = 0;
+    // The mass per unit length [kg/m] its gravity load acts on (0: none). A distributed
+    // load q [N/m] on the element is carried by the same consistent (shape-function
+    // weighted) gravity term, the kernel's gravity raised by q / line_mass().
+    virtual double line_mass() const { return 0.0; }
     // Subtracts v . f_fluid [W] (the power of the flow-dependent forces on the structure)
     // from *P, term by term; elements without flow leave it.
     virtual void add_fluid_power(const State& state, const LoadState& load, double* P) const {

@@ -70,6 +70,15 @@ struct NodalMass {
     Vec3<double> inertia{};
 };
 
+// A distributed dead load on an element: q [N/m] per unit of its reference length, in
+// global axes, times its time function (null: 1) and the load factor. Consistent like
+// the element's gravity, which carries it (Element::line_mass).
+struct DistributedLoad {
+    int element = 0;
+    Vec3<double> force_per_length{};
+    std::shared_ptr<const TimeTable> time_function;
+};
+
 struct TangentPattern;
 
 struct Model {
@@ -82,6 +91,9 @@ struct Model {
     HubDrive hub;
     std::vector<NodalLoad> loads;
     std::vector<NodalMass> masses;
+    std::vector<DistributedLoad> distributed_loads;
+    // Set by finalize: per element, its distributed loads (indices; empty if none at all)
+    std::vector<std::vector<int>> element_loads;
     std::vector<Eigen::MatrixXd> bases;  // T_n (6 x k_n) per node
     std::vector<int> first_dof;          // first reduced coordinate of each node
     // per node: whether T_n only selects slots, and the slot of each reduced coordinate

@@ -13,12 +13,14 @@
 // Arnold 2012) on the index-3 form, constraint rows scaled by the iteration matrix's size.
 #pragma once
 
+#include "pipeflex/assembly/element.hpp"
 #include "pipeflex/elements/ffrf_body.hpp"
 #include "pipeflex/solvers/transient.hpp"
 #include <Eigen/SparseCore>
 
 #include <array>
 #include <map>
+#include <memory>
 #include <utility>
 #include <vector>
 
@@ -90,6 +92,27 @@ struct MbLoad {
     std::array<TimeTable, 3> force, moment;  // [N], [N m], global
 };
 
+// A massless spring-damper of the element interface (AxialSpring, GroundSpring) on body
+// nodes: element node i is the body node nodes[i]. The kernel runs on a frame node that
+// stands for the body node, x = p, phi = 0 (frame A A0^T: its rotation from the reference
+// orientation A0), x_dot = p_dot, phi_dot = omega (the node's spatial angular velocity);
+// its forces reach the body through the node maps, Q = Jp^T f + Ja^T m, and its tangents
+// through the chain rule (the maps' own change, node_stiffness and the velocity's change
+// with the configuration at fixed v, and the second order of the stand-in's chart).
+struct MbSpringNode {
+    int body = 0, node = 0;
+    Vec3d p0 = Vec3d::Zero();      // reference position [m] (the spring's length, anchor)
+    Mat3d A0 = Mat3d::Identity();  // reference orientation (the rotational spring's zero)
+};
+
+struct Model;
+
+struct MbSpring {
+    std::shared_ptr<const Element> element;  // finalized on model
+    std::shared_ptr<const Model> model;      // its nodes at the reference positions
+    std::vector<MbSpringNode> nodes;
+};
+
 struct MbState {
     std::vector<Vec3d> r;
     std::vector<Mat3d> R;
@@ -121,6 +144,13 @@ class MultibodySystemCore {
     int add_body(MbBody body);
     void add_joint(const MbJoint& j);
     void add_load(const MbLoad& l);
+    // A spring-damper element on body nodes (one per element node, checked; the element
+    // must accept frame nodes): finalized on the nodes' reference positions.
+    void add_spring(std::unique_ptr<Element> element, const std::vector<MbSpringNode>& nodes);
+    int n_springs() const { return static_cast<int>(springs_.size()); }
+    // Elastic energy [J] of the springs and the power [W] their dashpots dissipate.
+    double spring_energy(const MbState& s) const;
+    double spring_damping_power(const MbState& s) const;
     void set_gravity(const Vec3d& g) { gravity_ = g; }
     void finalize();
 
@@ -148,6 +178,10 @@ class MultibodySystemCore {
     // increments, as increment()) and the modal coordinates.
     void node_stiffness(const MbState& s, int body, int node, const Vec3d& f, const Vec3d& m, double w,
                         Eigen::Ref<MatX> K) const;
+    // W = d(G v)/dq (6 x n_j) of a node at fixed velocities v: the change of its velocity
+    // [p_dot; omega_node] = G v (G = [Jp; Ja]) with the configuration (spatial frame
+    // increments, as increment()).
+    void node_velocity_derivative(const MbState& s, int body, int node, MatX& W) const;
     // Full evaluation; the tangent only if with_tangent (wK also adds the joint
     // reactions' geometric stiffness at the state's multipliers).
     void evaluate(const MbState& s, double mdot, double mdot_rate, double load_factor, double gravity_factor,
@@ -177,6 +211,9 @@ class MultibodySystemCore {
     void joint_loads(const MbState& s, const MbJoint& j, double mdot, double load_factor, const Mat3d& Aa,
                      const Mat3d& Ab, JointNodeForces& F) const;
     double junction_pressure(int body, double mdot) const;  // P = mu_f sdot^2 [N]
+    // The springs' generalised forces into F and (with_tangent) their wK dF/dq + wC dF/dv
+    // into S.
+    void spring_forces(const MbState& s, double wK, double wC, bool with_tangent, MbEvaluation& out) const;
     // w d(C_q^T lambda - Q_loads)/dq at fixed lambda, analytic: the joints' reactions and
     // applied forces (turning with their nodes) and the nodal loads (dead, global).
     void geometric_stiffness(const MbState& s, double mdot, double load_factor, std::vector<MatX>& S, double w) const;
@@ -184,6 +221,7 @@ class MultibodySystemCore {
     std::vector<MbBody> bodies_;
     std::vector<MbJoint> joints_;
     std::vector<MbLoad> loads_;
+    std::vector<MbSpring> springs_;
     std::vector<int> offsets_{0}, rows_{0};
     std::vector<std::pair<int, int>> pairs_;
     std::map<std::pair<int, int>, int> pair_index_;
