@@ -283,3 +283,30 @@ def test_pipeflex_run_on_seed_files(tmp_path):
     out = run("sprinkler_on_hub", "--analysis", "simulate", "--t-end", "0.02", "--n-outputs", "3", "--vtk")
     assert out.returncode == 0, out.stderr
     assert (tmp_path / "vtk" / "sprinkler_on_hub.pvd").exists()
+
+
+def test_springs_on_bodies_and_couplings_are_refused_by_name(tmp_path):
+    """Springs of bodies and of couplings have no file key: saving refuses them by name
+    rather than writing a file that loads a different system."""
+    import pipeflex as pf
+    from pipeflex.coupled import CoupledSystem
+    from pipeflex.multibody import MultibodyBuilder, flexible_body
+
+    sec = pf.PipeSection(EI=50.0, EA=1e4, GJ=40.0, pipe_mass=1.0, rotary_inertia=(1e-3, 5e-4, 5e-4))
+    mb = MultibodyBuilder()
+    j = mb.add_body(flexible_body(length=0.5, n_elements=2, section=sec), position=(0.25, 0.0, 0.0))
+    mb.fix(j, "start")
+    mb.add_ground_spring(j, "end", stiffness=(1.0, 1.0, 1.0))
+    with pytest.raises(ValueError, match="add_ground_spring"):
+        pf.save_model(mb.build(), tmp_path / "bodies.yaml")
+    mb = MultibodyBuilder()
+    j = mb.add_body(flexible_body(length=0.5, n_elements=2, section=sec), position=(0.25, 0.0, 0.0))
+    mb.fix(j, "start")
+    b = pf.ModelBuilder()
+    n0 = b.add_node((0.5, 0.0, 0.0))
+    n1 = b.add_line(n0, (1.0, 0.0, 0.0), 2, sec)[-1]
+    cs = CoupledSystem(b.build(floating=True), mb.build())
+    cs.rigid(n0, j, "end")
+    cs.add_spring(n1, j, "start", stiffness=10.0)
+    with pytest.raises(ValueError, match="CoupledSystem.add_spring"):
+        pf.save_model(cs, tmp_path / "coupled.yaml")

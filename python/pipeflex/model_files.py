@@ -851,6 +851,9 @@ def multibody_data(system) -> dict:
     if desc is None:
         raise ValueError("system: it was not built by MultibodyBuilder.build: it cannot be saved")
     b, junction_forces = desc
+    if b.get("_springs"):
+        raise ValueError("system: its springs (MultibodyBuilder.add_spring, add_ground_spring) have no model-file "
+                         "key yet: it cannot be saved")
     defaults = {n: p.default for n, p in inspect.signature(flexible_body).parameters.items()}
     names: dict = {}
     sections: dict = {}
@@ -923,6 +926,9 @@ def multibody_data(system) -> dict:
 def coupled_data(system) -> dict:
     """The model file's content for a :class:`~pipeflex.CoupledSystem`: its element model,
     its bodies and the couplings."""
+    if getattr(system, "_springs", None):
+        raise ValueError("system: its springs (CoupledSystem.add_spring) have no model-file key yet: it cannot be "
+                         "saved")
     elements = model_data(system.model)
     bodies = multibody_data(system.bodies)
     for part in (elements, bodies):
