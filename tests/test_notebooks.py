@@ -192,6 +192,12 @@ CHECKS = {
              "multiplier's rate per period (tests/test_parametric.py: 3 %)"),
         within("decay_outside", 0.0, 0.9, "a transient 3 % outside the tongue's edge decays"),
     ],
+    "your_own_pipe.ipynb": [
+        near("steps_recorded", 1.0, 0.0, "pipeflex.sensor: a sample at the start and at every accepted step"),
+        near("period_ratio", 1.0, 0.02, "a damped hose settles to its pump's pulsation: the crossing sensor's "
+             "period over the last 3 s in pump periods (measured 1.0013 over 12 s)"),
+        within("vtk_files", 2, 1000, "result.to_vtk wrote the .vtu series"),
+    ],
     "stability_map.ipynb": [
         # fast mode: 16 elements, beta in steps of 0.02 (full: 32 elements, steps of 0.0025)
         near("u_cr_02", 5.6, 0.06, "Gregory & Paidoussis (1966): u_cr = 5.6 at beta = 0.2 without gravity "

@@ -15,6 +15,7 @@ void bind_transient(py::module_& m);
 void bind_ffrf(py::module_& m);
 void bind_multibody(py::module_& m);
 void bind_system(py::module_& m);
+void bind_sensors(py::module_& m);
 
 namespace {
 
@@ -63,5 +64,6 @@ PYBIND11_MODULE(_core, m) {
     bind_transient(m);
     bind_ffrf(m);
     bind_multibody(m);
+    bind_sensors(m);
     bind_system(m);
 }

@@ -297,7 +297,7 @@ void bind_system(py::module_& m) {
     m.def(
         "integrate",
         [](System& sys, const TimeTable& mass_flow, const TimeTable& load_factor, const std::vector<double>& times,
-           const TransientOptions& options, py::object progress, const std::string& integrator) {
+           const TransientOptions& options, py::object progress, const std::string& integrator, SensorLog* sensors) {
             const bool ida = integrator == "ida";
             if (!ida && integrator != "generalized_alpha")
                 throw std::invalid_argument("integrator must be 'generalized_alpha' or 'ida', got '" + integrator + "'");
@@ -306,6 +306,7 @@ void bind_system(py::module_& m) {
             drive.mass_flow = mass_flow;
             drive.load_factor = load_factor;
             drive.options = options;
+            drive.sensors = sensors;
             const ProgressFn cb = progress_callback(progress);
             Record out;
             {
@@ -318,9 +319,11 @@ void bind_system(py::module_& m) {
         "as functions of time, output at times [s]; progress: None or a callable of the time [s]. A dict: t, the "
         "formulation's outputs per time (element models: x, R, xd, omega, energies and work; bodies: r, R, eta, v, "
         "a, lam, drift; coupled: both, the bodies' prefixed body_, and coupling_multipliers) and the counters steps, newton_iterations, "
-        "jacobians, rebases, failed_steps, convergence_failures.",
+        "jacobians, rebases, failed_steps, convergence_failures; sensors: a SensorLog recorded at the start and "
+        "every accepted step (a terminal crossing ends the run at its step).",
         py::arg("system"), py::arg("mass_flow"), py::arg("load_factor"), py::arg("times"), py::arg("options"),
-        py::arg("progress") = py::none(), py::arg("integrator") = "generalized_alpha");
+        py::arg("progress") = py::none(), py::arg("integrator") = "generalized_alpha",
+        py::arg("sensors") = static_cast<SensorLog*>(nullptr));
     py::class_<FlowMapTangent, std::shared_ptr<FlowMapTangent>>(
         m, "FlowMapTangent", "The tangent-linear map d(z, v)_end / d(z0, v0) of a flow map, kept step by step.")
         .def(

@@ -97,6 +97,9 @@ class ElementRun final : public Run {
     Equations& equations() override { return eq_; }
     void begin(double t) override { eq_.start_work(t); }
     void record(double t, Record& out) override { record_element(eq_, t, out); }
+    void sense(const SensorSpec& s, double t, double* value, double* rate) override {
+        sense_element(eq_, s, t, value, rate);
+    }
     void finish() override {}  // the equations work on the system's state
 
    private:

@@ -394,6 +394,7 @@ void GeneralizedAlpha::advance_to(double t_out) {
         stats_.smallest_step = stats_.steps == 1 ? hs : std::min(stats_.smallest_step, hs);
         stats_.largest_step = std::max(stats_.largest_step, hs);
         if (opt_.error_rate == 0.0 && h_ < opt_.step) h_ = std::min(opt_.step, 2.0 * h_);
+        if (eq_.observer != nullptr) eq_.observer->step(t_);  // sensors: the state is still the step's end
     }
     eq_.set(zero_, v_, a_, lam_, t_);
 }

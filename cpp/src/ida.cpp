@@ -393,6 +393,12 @@ Record integrate_ida(System& sys, const Drive& drive, const std::vector<double>&
     run->begin(t);
     out.t.push_back(t);
     run->record(t, out);
+    std::unique_ptr<SensorRecorder> sensors;
+    if (drive.sensors != nullptr && !drive.sensors->empty()) {
+        sensors = std::make_unique<SensorRecorder>(*run, *drive.sensors);
+        sensors->step(t);
+        eq.observer = sensors.get();
+    }
     std::size_t next = 1;
     double prev_t = t;
     long steps = 0, rebases = 0;
@@ -441,6 +447,17 @@ Record integrate_ida(System& sys, const Drive& drive, const std::vector<double>&
         prev_t = tret;
         // re-base frames that turned far, then restart IDA from the same motion
         eq.set(z, v, a, lam, tret);
+        if (eq.observer != nullptr) {  // sensors at the step's end; a terminal crossing ends the run here
+            try {
+                eq.observer->step(tret);
+            } catch (const TerminalEvent&) {
+                if (out.t.back() < tret) {
+                    out.t.push_back(tret);
+                    run->record(tret, out);
+                }
+                break;
+            }
+        }
         if (eq.chart_rotation() > opt.rebase_angle && next < times.size()) {
             rebases += std::max(eq.rebase(v, a), 1);
             counters.add(mem);  // IDAReInit zeroes IDA's counters

@@ -154,12 +154,25 @@ Record integrate(System& sys, const Drive& drive, const std::vector<double>& tim
     run->begin(t0);
     out.t.push_back(t0);
     run->record(t0, out);
+    std::unique_ptr<SensorRecorder> sensors;
+    if (drive.sensors != nullptr && !drive.sensors->empty()) {
+        sensors = std::make_unique<SensorRecorder>(*run, *drive.sensors);
+        sensors->step(t0);
+        run->equations().observer = sensors.get();
+    }
     for (std::size_t next = 1; next < times.size(); ++next) {
-        alpha.advance_to(times[next]);
+        try {
+            alpha.advance_to(times[next]);
+        } catch (const TerminalEvent&) {  // a terminal crossing: the run ends with its step (the state set there)
+            out.t.push_back(alpha.time());
+            run->record(alpha.time(), out);
+            break;
+        }
         out.t.push_back(alpha.time());
         run->record(alpha.time(), out);
         if (progress) progress(alpha.time());
     }
+    run->equations().observer = nullptr;
     run->finish();
     const AlphaStats& st = alpha.stats();
     // one vocabulary with IDA's (TransientOutput): a halved step is a convergence failure,

@@ -25,7 +25,7 @@ __version__ = "0.1.0"
 _LAZY = {"scenes": "pipeflex.scenes", "seeds": "pipeflex.seeds", "work_precision": "pipeflex.work_precision",
          "plotting": "pipeflex.plotting", "plot": "pipeflex.plot", "multibody": "pipeflex.multibody",
          "coriolis": "pipeflex.seeds.seed000.coriolis", "limit_cycle": "pipeflex.seeds.seed000.limit_cycle",
-         "sweep": "pipeflex.sweeps:sweep", "coupled": "pipeflex.coupled",
+         "sweep": "pipeflex.sweeps:sweep", "sensor": "pipeflex.sensor", "coupled": "pipeflex.coupled",
          "CoupledSystem": "pipeflex.coupled:CoupledSystem",
          "load_model": "pipeflex.model_files:load_model", "save_model": "pipeflex.model_files:save_model",
          "stability_map": "pipeflex.analysis.stability_map:stability_map",
@@ -36,7 +36,7 @@ _LAZY = {"scenes": "pipeflex.scenes", "seeds": "pipeflex.seeds", "work_precision
 __getattr__, __dir__ = _lazy.attach(__name__, _LAZY)
 
 if TYPE_CHECKING:  # the lazy names, spelt out for editors and type checkers (tests/test_static_api.py)
-    from . import coupled, multibody, plot, plotting, scenes, seeds, work_precision  # noqa: F401 (namespaces)
+    from . import coupled, multibody, plot, plotting, scenes, seeds, sensor, work_precision  # noqa: F401 (namespaces)
     from .analysis import (Bifurcation, Campbell, CriticalFlow, EigenResult, InstabilityChart, Linearization,
                            OrbitBranch,
                            OrbitGuess, ParametricStability, PeriodicOrbit, RotatingFrequencies, StaticResult,

@@ -293,6 +293,11 @@ class TransientResult(Result):
             result of bodies alone answers those accessors itself (``res.node_position``).
         coupling_forces: (nt, rows) the couplings' multipliers [N, N m] of a coupled
             system, else None.
+        sensors: ``simulate(..., sensors=)``'s records (:mod:`pipeflex.sensor`): name ->
+            ``(t_steps, values)``, t_steps (n,) [s] the start and every accepted step,
+            values (n,) or (n, components) in the sensor's unit; a crossing's name ->
+            ``(times [s], signs)`` (+1 up, -1 down). ``metadata["sensors"]`` holds each
+            one's units (and components). Empty without sensors.
     """
 
     t: np.ndarray
@@ -311,6 +316,7 @@ class TransientResult(Result):
     final_state: Optional[object] = None
     bodies: Optional[Result] = None
     coupling_forces: Optional[np.ndarray] = None
+    sensors: dict = field(default_factory=dict)
 
     _ARRAYS = ("t", "x", "R", "xd", "omega", "kinetic", "elastic", "gravity_potential", "fluid_work", "load_work",
                "dissipated")
@@ -369,7 +375,10 @@ class TransientResult(Result):
         component), ``R`` over (time, node, row, column), the energies and works over
         time; coordinates ``time`` (= ``t`` [s]), ``node`` (indices) and ``component``
         (x, y, z); every variable with ``units`` and ``long_name``; ``attrs``: the
-        integrator and its step [s] (None for IDA: left out). xarray loads here."""
+        integrator and its step [s] (None for IDA: left out). xarray loads here.
+        Sensors (:attr:`sensors`) are variables of their names over the coordinate
+        ``step_time`` [s] (the recorded steps; a sensor of several components also over
+        ``<name>_component``), a crossing's times over ``<name>_event``."""
         from ..results import field_info, node_coords, to_dataset
 
         if self.x is None:
@@ -378,7 +387,27 @@ class TransientResult(Result):
         coords = {"time": ("time", self.t, field_info("TransientResult", "t")[0]), **node_coords(self.x.shape[1])}
         attrs = {k: self.metadata[k] for k in ("integrator", "requested", "step")
                  if isinstance(self.metadata.get(k), (str, int, float))}
-        return to_dataset("TransientResult", {name: getattr(self, name) for name in self._ARRAYS[1:]}, coords, attrs)
+        ds = to_dataset("TransientResult", {name: getattr(self, name) for name in self._ARRAYS[1:]}, coords, attrs)
+        info = self.metadata.get("sensors", {})
+        for name, (t, values) in self.sensors.items():
+            about = info.get(name, {})
+            if about.get("kind") == "crossing":
+                ds[name] = ((f"{name}_event",), t, {"units": "s", "long_name": f"times of {name}"})
+                continue
+            if "step_time" not in ds.coords:
+                ds = ds.assign_coords(step_time=("step_time", t, {"units": "s", "long_name": "recorded step times"}))
+            units = about.get("units")
+            attrs = {"long_name": name, **({"units": units} if isinstance(units, str) else {})}
+            if np.ndim(values) == 2:
+                dim = f"{name}_component"
+                ds = ds.assign_coords({dim: (dim, np.array(about.get("components", range(values.shape[1])),
+                                                          dtype=object))})
+                if not isinstance(units, str) and units is not None:
+                    attrs["units"] = ", ".join(units)
+                ds[name] = (("step_time", dim), values, attrs)
+            else:
+                ds[name] = (("step_time",), values, attrs)
+        return ds
 
     @classmethod
     def _load_legacy(cls, f) -> "TransientResult":
@@ -391,7 +420,8 @@ def simulate(model, t_end: float, *, integrator: str = "auto", state=None, t_sta
              n_outputs: int = 201, times: Optional[Sequence[float]] = None,
              mass_flow: Union[None, float, Tuple[Sequence[float], Sequence[float]], Sine] = None,
              load_factor: Union[float, Tuple[Sequence[float], Sequence[float]], Sine] = 1.0,
-             progress: Optional[bool] = None, extrapolate: bool = False, **options) -> TransientResult:
+             progress: Optional[bool] = None, extrapolate: bool = False, sensors: Sequence = (),
+             **options) -> TransientResult:
     """Integrate the equations of motion from ``state`` over [t_start, t_end].
 
     Args:
@@ -491,6 +521,13 @@ def simulate(model, t_end: float, *, integrator: str = "auto", state=None, t_sta
             at 2 s: 1e-4 m at h = 1.25 ms alone, 4e-7 m extrapolated from 2.5 and
             1.25 ms (docs/performance.md).
             The output times must be whole steps of h from t_start.
+        sensors: :mod:`pipeflex.sensor` sensors and crossings, recorded at the start and
+            every accepted step in the core (``result.sensors``; element models, and the
+            joint forces of floating-frame bodies).
+            A terminal crossing ends the run at the step that crosses
+            (``metadata["stopped_at"]`` its time [s]); the outputs then end there. With
+            Richardson extrapolation (``extrapolate`` or a small ``rtol``) the sensors are
+            those of the finest run.
 
     Raises:
         ValueError: bad time span, tolerances, unknown integrator or option, a singular
@@ -528,6 +565,10 @@ def simulate(model, t_end: float, *, integrator: str = "auto", state=None, t_sta
             raise ValueError("times must start at t_start and end at or before t_end")
     system = model._system(state)
     bodies = system.body_state is not None
+    from .. import sensor as _sensor
+
+    sensors = tuple(sensors)
+    sensor_log, sensor_entries = _sensor.prepare(model, system, sensors) if sensors else (None, [])
     if bodies and extrapolate:
         raise ValueError("extrapolate=True is for element models (pipeflex.Model) only")
     opt = _core.TransientOptions()
@@ -564,6 +605,10 @@ def simulate(model, t_end: float, *, integrator: str = "auto", state=None, t_sta
         for name in ("rtol", "atol"):
             if name in options:
                 setattr(opt, name, _checks.positive(name, options[name]))
+    if (extrapolate or extrapolated) and any(getattr(c, "terminal", False) for c in sensors):
+        raise ValueError("a terminal crossing sensor ends a run early; Richardson extrapolation (extrapolate=True, or "
+                         f"rtol < {EXTRAPOLATE_BELOW:g} on an element model) combines whole runs: use a looser rtol, "
+                         "a fixed step, or no terminal crossing")
     if "rho_inf" in options:
         rho = _checks.finite("rho_inf", options["rho_inf"])
         if system.n_constraints:
@@ -601,7 +646,7 @@ def simulate(model, t_end: float, *, integrator: str = "auto", state=None, t_sta
             raise ValueError(f"extrapolate=True: the output times must be whole steps of h = {h:.6g} s from t_start "
                              "(choose step or the output times so)")
         run = dict(integrator=integrator, state=state, t_start=t_start, times=times, mass_flow=mass_flow,
-                   load_factor=load_factor, progress=progress)
+                   load_factor=load_factor, progress=progress, sensors=sensors)
         return richardson(*(simulate(model, t_end, **run, **{**options, "step": step}) for step in (h, 0.5 * h)))
 
     def run(system, pass_name=""):
@@ -615,7 +660,8 @@ def simulate(model, t_end: float, *, integrator: str = "auto", state=None, t_sta
         try:
             with bar, explained_singular_mass(model):
                 out = _core.integrate(system, flow, loads, list(times), opt,
-                                      None if bar.mode == "off" else (lambda t: bar.update(t - t0)), integrator)
+                                      None if bar.mode == "off" else (lambda t: bar.update(t - t0)), integrator,
+                                      sensors=sensor_log)
                 bar.update(t1 - t0)  # the core reports at most every 0.1 s, not the end
         except Exception as exc:
             logger.info("simulate: %s failed after %.3g s of wall time: %s", integrator, _time.perf_counter() - wall,
@@ -645,7 +691,13 @@ def simulate(model, t_end: float, *, integrator: str = "auto", state=None, t_sta
                 "options": {k: float(v) for k, v in options.items()}, "t_start": t0, "t_end": t1,
                 "mass_flow": [list(flow.t), list(flow.value), flow.omega, flow.phase],
                 "load_factor": [list(loads.t), list(loads.value), loads.omega, loads.phase]}
-        res = TransientResult(**model._transient_parts(out, system, stats, meta), stats=stats, metadata=meta)
+        recorded = {}
+        if sensor_log is not None:
+            recorded, meta["sensors"] = _sensor.collect(sensor_log, sensor_entries)
+            if sensor_log.stopped:
+                meta["stopped_at"] = float(sensor_log.stop_time)
+        res = TransientResult(**model._transient_parts(out, system, stats, meta), stats=stats, metadata=meta,
+                              sensors=recorded)
         return res, mesh
 
     if not extrapolated:
@@ -763,4 +815,5 @@ def _combined(coarse: TransientResult, fine: TransientResult, factor: float) -> 
     out["R"] = fine.R @ turn
     stats = {k: coarse.stats[k] + fine.stats[k] for k in coarse.stats if k in fine.stats}
     meta = {**fine.metadata, "step": coarse.metadata["step"]}
-    return TransientResult(t=fine.t.copy(), **out, stats=stats, metadata=meta, final_state=fine.final_state)
+    return TransientResult(t=fine.t.copy(), **out, stats=stats, metadata=meta, final_state=fine.final_state,
+                           sensors=fine.sensors)

@@ -31,9 +31,18 @@
 
 namespace pipeflex {
 
+// Told of every accepted step by the integrators, right after Equations::accept (the
+// state set to the step's end): the run's sensors (sensors.hpp). It may throw to end the run.
+class StepObserver {
+   public:
+    virtual ~StepObserver() = default;
+    virtual void step(double t) = 0;
+};
+
 class Equations {
    public:
     virtual ~Equations() = default;
+    StepObserver* observer = nullptr;  // none: no sensors
     virtual int n_coordinates() const = 0;            // n
     virtual int n_constraints() const { return 0; }   // nc
     virtual double length_scale() const = 0;          // [m] model size, for tolerances

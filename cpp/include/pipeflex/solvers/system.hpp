@@ -12,6 +12,7 @@
 #include "pipeflex/solvers/equations.hpp"
 #include "pipeflex/solvers/linear_matrices.hpp"
 #include "pipeflex/solvers/rotating_systems.hpp"
+#include "pipeflex/solvers/sensors.hpp"
 #include "pipeflex/solvers/transient.hpp"
 
 #include <memory>
@@ -48,6 +49,7 @@ struct Drive {
     TimeTable mass_flow = TimeTable::constant(0.0);
     TimeTable load_factor = TimeTable::constant(1.0);
     TransientOptions options;
+    SensorLog* sensors = nullptr;  // transient runs: recorded at every accepted step (sensors.hpp)
 };
 
 // The equations of one analysis at the system's state. For statics the mass flow is its
@@ -60,6 +62,14 @@ class Run {
     virtual void begin(double t) { (void)t; }
     // The state the equations are set to, at output time t.
     virtual void record(double t, Record& out) = 0;
+    // A sensor at the equations' state set, time t [s]: value (s.width()) and, where the
+    // state gives it, its rate (left NaN otherwise); std::invalid_argument where the
+    // system has no such quantity.
+    virtual void sense(const SensorSpec& s, double t, double* value, double* rate) {
+        (void)t, (void)value, (void)rate;
+        throw std::invalid_argument("sensor of kind " + std::to_string(static_cast<int>(s.kind)) +
+                                    " is not available on this system");
+    }
     // The equations' state (as set) back into the system; statics: at rest, with the
     // multipliers lam.
     virtual void finish() = 0;

@@ -33,7 +33,7 @@ from ... import _checks
 from ...analysis import TransientResult, eigenvalues, linearize, simulate, static_equilibrium
 from ...model import Model
 from ...sections import PipeSection
-from ...signals import zero_crossings
+from ... import sensor
 from ...time_functions import Sine
 from . import scenes
 
@@ -299,7 +299,8 @@ class DrivenMeter:
     Attributes:
         mass_flow: mdot [kg/s]. omega: drive frequency [rad/s] (the first mode's).
         time_lag: mean (t_S1 - t_S2) [s] of paired upward zero crossings of the sensors'
-            out-of-plane displacements over the last measured periods.
+            out-of-plane displacements over the last measured periods (crossing sensors:
+            located inside the integrator's steps, ``result.sensors["S1"]``, ``["S2"]``).
         time_lag_mode: the same from the complex mode (:func:`first_mode`) [s].
         crossings: number of crossing pairs averaged.
         result: the transient.
@@ -338,14 +339,15 @@ def driven_time_lag(*, leg_length: float = LEG_FIG8, fluid_density: float = WATE
     t_end = n * period
     ramp = ([0.0, ramp_periods * period], [0.0, 1.0])
     times = np.linspace(0.0, t_end, n * _checks.positive_int("steps_per_period", steps_per_period) + 1)
+    s1, s2 = mode.sensors
+    # upward crossings of the sensors' rest positions, located inside the steps (pipeflex.sensor)
+    ups = [sensor.crossing(sensor.node_position(s, "z"), float(start.q[6 * s + 2]), "up", name=f"S{k}")
+           for k, s in ((1, s1), (2, s2))]
     res = simulate(driven, t_end, integrator="generalized_alpha", state=start, times=times, mass_flow=mdot,
                    load_factor=Sine(omega=mode.omega, envelope=ramp), step=period / steps_per_period,
-                   rho_inf=0.9, progress=False)
-    s1, s2 = mode.sensors
-    z1 = res.x[:, s1, 2] - start.q[6 * s1 + 2]
-    z2 = res.x[:, s2, 2] - start.q[6 * s2 + 2]
-    keep = res.t >= t_end - measure_periods * period
-    c1, c2 = zero_crossings(res.t[keep], z1[keep]), zero_crossings(res.t[keep], z2[keep])
+                   rho_inf=0.9, progress=False, sensors=ups)
+    after = t_end - measure_periods * period
+    c1, c2 = (c[c >= after] for c in (res.sensors["S1"][0], res.sensors["S2"][0]))
     pairs = [(a, c2[np.argmin(np.abs(c2 - a))]) for a in c1] if len(c2) else []
     if not pairs:
         raise ValueError("the sensor signals have no zero crossings in the measured periods")
