@@ -25,7 +25,7 @@ from ._protocol import require_system
 
 INTEGRATORS = ("auto", "ida", "generalized_alpha")
 #: generalised-alpha with rtol: Newton's tolerance unless given, a cap only (each step's
-#: tolerance is 0.1 of its share of the error, in the core)
+#: tolerance is 0.3 of its share of the error, in the core)
 CONTROLLED_NEWTON_TOL = 1e-6
 #: the smallest rtol of generalised-alpha's error control (its estimate differences two
 #: accelerations, whose round-off is ~1e-14 of their size)
@@ -34,11 +34,18 @@ MIN_RTOL = 1e-12
 #: run's error reaches (error at the end against a converged reference / sum). The sum
 #: bounds errors that add up; the local errors of the stiff modes a flow start or a load
 #: rings do not (a mode's error stays below its small amplitude, and rho_inf damps the
-#: unresolved ones), nor do those of a motion drawn to a limit cycle. Measured: 0.057-0.077
-#: on the flutter limit cycle of benchmarks/bench_limit_cycle.py (rtol 1e-2 ... 1e-6),
-#: 0.007-0.01 on a growing flutter (4 elements, 0.5 s), 0.001-0.1 on a released undamped
-#: cantilever. The control keeps the sum below (rtol L + atol) / ERROR_ACCUMULATION.
-ERROR_ACCUMULATION = 0.1
+#: unresolved ones), nor do those of a motion drawn to a limit cycle. Measured (element
+#: models: rotations counted at their elements' length, rho_inf = CONTROLLED_RHO_INF):
+#: 0.33-0.50 on the flutter limit cycle of benchmarks/bench_limit_cycle.py (rtol 1e-2 ...
+#: 1e-4; the error 0.73-1.06 of the request), 0.04-0.12 on a growing flutter (4 elements,
+#: 0.5 s). The control keeps the sum below (rtol L + atol) / ERROR_ACCUMULATION.
+ERROR_ACCUMULATION = 0.3
+#: generalised-alpha with rtol, second order, element models: rho_inf unless given. The
+#: smallest numerical damping with about one Newton correction per step (docs/performance.md,
+#: "rho_inf"): the control's steps pass over the elements' stiff modes a flow start rings,
+#: which rho_inf = 0.8 leaves ringing (two corrections a step); the slow motion's error
+#: hardly changes. Bodies keep RHO_INF.
+CONTROLLED_RHO_INF = 0.6
 #: The order rule of ``simulate(..., rtol=)`` on element models: at rtol >= EXTRAPOLATE_BELOW
 #: the error-controlled run alone (second order); below it, Richardson extrapolation over
 #: a controlled mesh (fourth order where the error's expansion holds): a run controlled at
@@ -46,12 +53,16 @@ ERROR_ACCUMULATION = 0.1
 #: with every step halved, quartered, ... (at most EXTRAPOLATION_LEVELS halvings, rho_inf
 #: = 1 unless given), until the estimated error of the two finest runs' combination meets
 #: rtol L + atol. On the limit cycle of bench_limit_cycle.py at rtol 1e-6: 4480 steps
-#: for 1.1e-7 m, where the second-order control takes 33483 (7.4e-7 m); at 1e-4 both
-#: take about 3300 steps. MESH_FACTOR: measured there so that two halvings meet rtol. The
-#: error estimate compares positions (the two finest combinations' largest difference / 3).
+#: for 1.1e-7 m, where the second-order control takes 33586 (5.8e-7 m); at 1e-5 3157
+#: steps for 5.6e-7 m against 10366 for 6.2e-6 m. MESH_FACTOR: measured there so that two
+#: halvings meet rtol. The error estimate compares positions (the two finest combinations'
+#: largest difference / 3).
 EXTRAPOLATE_BELOW = 1e-4
 MESH_FACTOR = 20.0
 MAX_MESH_RTOL = 1e-2  # coarser meshes' runs differ by more than a discretisation error (rotations)
+#: ... and its mesh's control: local error estimates summed to at most (rtol_mesh L + atol) /
+#: MESH_ERROR_ACCUMULATION (with which MESH_FACTOR was measured; rotations at the model size)
+MESH_ERROR_ACCUMULATION = 0.1
 EXTRAPOLATION_LEVELS = 4
 #: ... and Newton's tolerance there, times rtol (the combination does not cancel Newton's error)
 EXTRAPOLATION_NEWTON_SHARE = 0.01
@@ -480,14 +491,16 @@ def simulate(model, t_end: float, *, integrator: str = "auto", state=None, t_sta
             (1.0), ``max_steps``; for ``generalized_alpha``: ``rtol`` [-] and ``atol``
             [m] (0): the accuracy asked for, error-controlled steps: each step's local
             error estimate (the displacement's, Zienkiewicz & Xie's (beta - 1/6) h^2
-            (a' - a); a rotation's error counts times the model size) is kept below
+            (a' - a); a node's rotation error counts times its longest element's
+            length, a floating frame's times the model size) is kept below
             ``(rtol L + atol) h / (ERROR_ACCUMULATION (t_end - t_start))``, L the
             model's size (``length_scale``), so that the run's error, about
-            :data:`ERROR_ACCUMULATION` (0.1) of its summed estimates (the stiff modes' and
+            :data:`ERROR_ACCUMULATION` (0.3) of its summed estimates (the stiff modes' and
             a limit cycle's local errors do not add up), lands near ``rtol L + atol``
-            (``stats["error_estimate"]`` [m] is 0.1 of the sum; on the flutter limit
-            cycle of ``benchmarks/bench_limit_cycle.py`` the error is 0.6-1.0 of the
-            request, on other scenes measured 0.001-0.1 of it: below, not above). That
+            (``stats["error_estimate"]`` [m] is 0.3 of the sum; on the flutter limit
+            cycle of ``benchmarks/bench_limit_cycle.py`` the error is 0.7-1.1 of the
+            request, on a growing flutter 0.08-0.2 of it: below, not above); ``rho_inf``
+            0.6 unless given (:data:`CONTROLLED_RHO_INF`; bodies 0.8). That
             is second order; below rtol = :data:`EXTRAPOLATE_BELOW` (1e-4) an element
             model's run is Richardson-extrapolated over a controlled mesh (the rule there:
             a run at a looser rtol, then its mesh halved, quartered, ... until the
@@ -590,7 +603,8 @@ def simulate(model, t_end: float, *, integrator: str = "auto", state=None, t_sta
         rtol_mesh = min(np.sqrt(MESH_FACTOR * rtol), MAX_MESH_RTOL) if extrapolated else rtol
         # error per unit step: the run's local error estimates add up to at most
         # (rtol L + atol) / ERROR_ACCUMULATION, its error to about rtol L + atol
-        opt.error_rate = (rtol_mesh * system.length_scale + atol) / (ERROR_ACCUMULATION * (t1 - t0))
+        opt.error_rate = (rtol_mesh * system.length_scale + atol) / (
+            (MESH_ERROR_ACCUMULATION if extrapolated else ERROR_ACCUMULATION) * (t1 - t0))
         if "newton_tol" not in options:
             opt.newton_tol = CONTROLLED_NEWTON_TOL  # each step's share of the error decides
         if extrapolated:
@@ -598,6 +612,11 @@ def simulate(model, t_end: float, *, integrator: str = "auto", state=None, t_sta
             opt.newton_tol = min(opt.newton_tol, EXTRAPOLATION_NEWTON_SHARE * rtol)
             if "rho_inf" not in options:
                 opt.rho_inf = 1.0  # symmetric: the error's expansion in even powers of h
+            # the mesh resolves every mode, the elements' stiff ones too: rotations count at
+            # the model size (the expansion in h holds only for resolved modes)
+            opt.rotation_error_length = system.length_scale
+        elif "rho_inf" not in options and not bodies:
+            opt.rho_inf = CONTROLLED_RHO_INF
         if "step" not in options:
             opt.step = (t1 - t0) / 1000.0
     else:
@@ -729,8 +748,9 @@ def simulate(model, t_end: float, *, integrator: str = "auto", state=None, t_sta
                     "rtol = %.3g alone", exc, rtol)
         opt.steps = []
         opt.error_rate = (rtol * system.length_scale + atol) / (ERROR_ACCUMULATION * (t1 - t0))
+        opt.rotation_error_length = 0.0
         if "rho_inf" not in options:
-            opt.rho_inf = RHO_INF
+            opt.rho_inf = CONTROLLED_RHO_INF
         return run(model._system(state))[0]
     if estimate > rtol * system.length_scale + atol:
         logger.warning("simulate: extrapolated over %d halvings of the controlled mesh, the error estimate %.3g m "

@@ -7,6 +7,7 @@
 #include "pipeflex/solvers/equations.hpp"
 #include "pipeflex/solvers/transient.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 #include <sstream>
@@ -107,13 +108,38 @@ class ElementEquations final : public Equations {
     // Equations
     int n_coordinates() const override { return n; }
     double length_scale() const override { return opt.length_scale; }
-    // rotations and ANCF slopes (slots 3-5 of a node) count at the model size; a
-    // combined basis column as a displacement
+    // rotations and ANCF slopes (slots 3-5 of a node) count at the length of the node's
+    // longest element (its span, at most the model size): an angle error e moves the
+    // element's points by at most e times it, while the nodes' positions, coordinates
+    // themselves, carry the rest of the motion (a rigid turn of the model included). The
+    // model size would count the rotations of the short elements' stiff modes a step start
+    // rings 1/(element length) times over and resolve them long after their displacements
+    // meet the tolerance (what a mesh for Richardson extrapolation needs: every mode
+    // resolved; opt.rotation_error_length > 0 gives that length). A node without
+    // elements, and a combined basis column, as a displacement.
     void error_scales(Eigen::VectorXd& s) const override {
         s = Eigen::VectorXd::Ones(n);
         if (model.full_slot.empty()) return;
-        for (int k = 0; k < n; ++k)
-            if (model.full_slot[k] % 6 >= 3) s[k] = opt.length_scale;
+        if (opt.rotation_error_length > 0.0) {
+            for (int k = 0; k < n; ++k)
+                if (model.full_slot[k] % 6 >= 3) s[k] = opt.rotation_error_length;
+            return;
+        }
+        std::vector<double> span(model.n_nodes(), 0.0);
+        for (const auto& e : model.elements) {
+            const auto& nodes = e->nodes();
+            double d = 0.0;
+            for (std::size_t i = 0; i < nodes.size(); ++i)
+                for (std::size_t j = i + 1; j < nodes.size(); ++j) {
+                    const Vec3<double> dx = model.positions[nodes[j]] - model.positions[nodes[i]];
+                    d = std::max(d, std::sqrt(dot(dx, dx)));
+                }
+            for (const int node : nodes) span[node] = std::max(span[node], d);
+        }
+        for (int k = 0; k < n; ++k) {
+            const int slot = model.full_slot[k];
+            if (slot % 6 >= 3 && span[slot / 6] > 0.0) s[k] = std::min(span[slot / 6], opt.length_scale);
+        }
     }
     void set(const Eigen::VectorXd& z, const Eigen::VectorXd& v, const Eigen::VectorXd& a, const Eigen::VectorXd&,
              double t) override {

@@ -45,6 +45,9 @@ struct TransientOptions {
     int max_order = 5;          // IDA: largest BDF order (2 is A-stable)
     double step = 1e-3;         // generalised-alpha step h [s] (error_rate > 0: the first step)
     double error_rate = 0.0;    // generalised-alpha: local error per unit time [m/s] (0: fixed step)
+    // generalised-alpha's error control, element models: the length [m] a node's rotation (or
+    // ANCF slope) error counts at; 0: the node's longest element (ElementEquations::error_scales)
+    double rotation_error_length = 0.0;
     std::vector<double> steps;  // generalised-alpha: the steps [s] to take in order (AlphaOptions::steps)
     double min_step = 1e-12;    // generalised-alpha: smallest step before giving up [s]
     double rho_inf = 0.9;       // generalised-alpha spectral radius at infinity
