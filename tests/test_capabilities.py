@@ -104,6 +104,23 @@ def run_continue(kind):
     pf.continue_orbits(model, start=hopf, mass_flow_end=1.01 * hopf.mass_flow, steps=40, max_points=2)
 
 
+def run_continue_gravity(kind):  # from an orbit of the mass-flow branch, in a gravity component by name
+    model = cantilever(kind)
+    hopf = pf.critical_mass_flow(model)
+    br = pf.continue_orbits(model, start=hopf, mass_flow_end=1.01 * hopf.mass_flow, steps=40, max_points=1)
+    orbit = pf.periodic_orbit(model, period=br.period[0], state=br.starts[0], mass_flow=br.mass_flow[0], steps=40)
+    pf.continue_orbits(model, start=orbit, parameter="gravity_y", end=-0.01, ds=0.01, max_points=1)
+
+
+def run_forced(kind):  # the model's own tip load driven harmonically, without flow
+    pf.forced_response(cantilever(kind), load_factor=pf.Sine(omega=1.0, envelope=0.01), frequencies=(5.0, 6.0),
+                       mass_flow=0.0, steps=32, max_points=2)
+
+
+def run_backbone(kind):
+    pf.backbone(cantilever(kind), node=4, component=1, amplitude_max=1e-3, n_points=1, steps=64)
+
+
 def run_campbell(kind):
     pf.campbell(rotating(kind), gamma=[0.0, 1.0])
 
@@ -136,6 +153,9 @@ ANALYSES = {
     "orbit_guess": run_orbit_guess,
     "periodic_orbit": run_periodic,
     "continue_orbits": run_continue,
+    "continue_orbits (gravity by name)": run_continue_gravity,
+    "forced_response": run_forced,
+    "backbone": run_backbone,
     "campbell": run_campbell,
     "rotating_frequencies": run_rotating_frequencies,
     "parametric_stability, instability_chart": run_parametric,

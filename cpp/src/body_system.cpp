@@ -32,7 +32,7 @@ class BodyRun final : public Run {
    public:
     BodyRun(const MultibodySystemCore& sys, MbState& target, const Drive& drive, System::Mode mode)
         : sys_(sys), target_(target), drive_(drive), statics_(mode == System::Mode::statics),
-          eq_(sys, target, drive_.mass_flow) {
+          eq_(sys, target, drive_.mass_flow, &drive_.load_factor) {
         t0 = target.t;
         v = target.v;
         a = target.a;

@@ -445,7 +445,7 @@ class CoupledRun final : public Run {
                System::Mode mode)
         : bodies_(bodies), body_state_(body_state), coupling_lam_(coupling_lam), drive_(drive),
           functions_{drive_.mass_flow, drive_.load_factor}, statics_(mode == System::Mode::statics),
-          el_(model, state, load, functions_, drive_.options), mb_(bodies, body_state, functions_.mass_flow),
+          el_(model, state, load, functions_, drive_.options), mb_(bodies, body_state, functions_.mass_flow, &functions_.load_factor),
           eq_(el_, mb_, bodies, couplings) {
         VecX v1 = reduce(model, state.v), a1 = reduce(model, state.a);
         if (mode != System::Mode::fixed_chart) el_.rebase(0.0, v1, a1);  // the chart of the state's frames: z = 0

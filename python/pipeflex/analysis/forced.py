@@ -228,42 +228,79 @@ class FrequencySweep(Result):
 
 # -- the forcing ------------------------------------------------------------------------
 
-def _has_nodal_loads(model) -> Optional[bool]:
-    """Whether the model has nodal loads (None: unknown, e.g. not built by ModelBuilder)."""
+def _nodal_loads(model) -> Optional[list]:
+    """The nodal loads as (point, force [N]): an element model's (point = node), a
+    MultibodySystem's (point = its node among the bodies' stacked nodes, as
+    :meth:`~pipeflex.multibody.MultibodySystem.centre_line`; a component given as a table or
+    Sine counts 1), a coupled system's both (the bodies' points after the element nodes);
+    None: unknown (a model not built by its builder)."""
+    from ..coupled import CoupledSystem
+    from ..multibody.system import MultibodySystem
+
+    if isinstance(model, CoupledSystem):
+        parts = _nodal_loads(model.model), _nodal_loads(model.bodies)
+        if parts[0] is None or parts[1] is None:
+            return None
+        return parts[0] + [(model.model.n_nodes + k, f) for k, f in parts[1]]
+    if isinstance(model, MultibodySystem):
+        first = np.cumsum([0] + [b.n_nodes for b in model.bodies])
+        return [(int(first[ld.body] + ld.node), np.array([abs(c) if np.isscalar(c) else 1.0 for c in ld.force]))
+                for ld in model.loads]
     d = getattr(model, "_description", None)
     if d is None or "_loads" not in d:
         return None
-    return bool(d["_loads"])
+    return [(int(ld["node"]), np.asarray(ld["f"], float) + np.asarray(ld["ff"], float)) for ld in d["_loads"]]
 
 
-def _first_load(model):
-    d = getattr(model, "_description", None) or {}
-    loads = d.get("_loads") or []
-    return loads[0] if loads else None
-
-
-def _with_load(model, load):
-    """A copy of the element ``model`` with the nodal ``load`` (node, force[, moment]) or
-    dict(node=, force=, moment=) added (the copy's only nodal load)."""
+def _load_spec(load, keys):
+    """``load`` as a dict of ``keys`` (a tuple in that order, or a dict), checked."""
     if isinstance(load, dict):
         spec = dict(load)
     else:
         try:
-            spec = dict(zip(("node", "force", "moment"), load))
+            spec = dict(zip(keys, load))
         except TypeError:
-            raise ValueError(f"load must be (node, force) or (node, force, moment) or a dict with node, force "
-                             f"(and moment); got {load!r}") from None
-    unknown = set(spec) - {"node", "force", "moment"}
-    if "node" not in spec or unknown:
-        raise ValueError(f"load must give node and force (and moment) [N, N m]; got {load!r}")
-    d = getattr(model, "_description", None) or {}
-    if d.get("_loads"):
-        raise ValueError("load= adds the forced load to a model without nodal loads, but this model has "
-                         f"{len(d['_loads'])}: give the forcing as load_factor= (it scales all the model's nodal "
-                         "loads) instead")
-    out = _rebuilt(model, lambda b: b.add_load(spec["node"], force=spec.get("force", (0.0, 0.0, 0.0)),
-                                               moment=spec.get("moment", (0.0, 0.0, 0.0))), what="load=")
-    return out, int(spec["node"]), np.asarray(spec.get("force", (0.0, 0.0, 0.0)), float)
+            spec = None
+    names = ", ".join(keys[:-2])
+    if spec is None or any(k not in spec for k in keys[:-1]) or set(spec) - set(keys):
+        raise ValueError(f"load must be ({names}, force) or ({names}, force, moment) [N, N m] or a dict with "
+                         f"{names}, force (and moment); got {load!r}")
+    return spec
+
+
+def _with_load(model, load):
+    """A copy of ``model`` with the nodal ``load`` added (the copy's only nodal load), the
+    loaded point and the force [N]: an element model's (node, force[, moment]) or
+    dict(node=, force=, moment=); a MultibodySystem's (body, node, force[, moment]) or
+    dict(body=, node=, force=, moment=) (node: an index or "start"/"end")."""
+    from ..multibody.system import MultibodySystem, MultibodyBuilder
+
+    if not isinstance(model, MultibodySystem):
+        spec = _load_spec(load, ("node", "force", "moment"))
+        d = getattr(model, "_description", None) or {}
+        if d.get("_loads"):
+            raise ValueError("load= adds the forced load to a model without nodal loads, but this model has "
+                             f"{len(d['_loads'])}: give the forcing as load_factor= (it scales all the model's "
+                             "nodal loads) instead")
+        out = _rebuilt(model, lambda b: b.add_load(spec["node"], force=spec.get("force", (0.0, 0.0, 0.0)),
+                                                   moment=spec.get("moment", (0.0, 0.0, 0.0))), what="load=")
+        return out, int(spec["node"]), np.asarray(spec.get("force", (0.0, 0.0, 0.0)), float)
+    spec = _load_spec(load, ("body", "node", "force", "moment"))
+    if model._description is None:
+        raise ValueError("load= needs a MultibodySystem built by MultibodyBuilder.build (its description is rebuilt)")
+    if model.loads:
+        raise ValueError(f"load= adds the forced load to a system without loads, but this one has "
+                         f"{len(model.loads)}: give the forcing as load_factor= (it scales all the system's loads) "
+                         "instead")
+    data, junction_forces = model._description
+    b = MultibodyBuilder()
+    vars(b).update(copy.deepcopy(data))
+    force = np.asarray(spec.get("force", (0.0, 0.0, 0.0)), float)
+    b.add_load(spec["body"], spec["node"], force=tuple(force), moment=tuple(spec.get("moment", (0.0, 0.0, 0.0))))
+    out = b.build(mass_flow=model.mass_flow, junction_forces=junction_forces)
+    out.info.update(model.info)
+    ld = out.loads[0]
+    return out, int(sum(bd.n_nodes for bd in out.bodies[:ld.body]) + ld.node), force
 
 
 def _forcing(model, load, load_factor):
@@ -287,15 +324,13 @@ def _forcing(model, load, load_factor):
         model, node, force = _with_load(model, load)
         component = int(np.argmax(np.abs(force)))
     else:
-        has = _has_nodal_loads(model)
-        if has is False:
+        loads = _nodal_loads(model)
+        if loads == []:
             raise ValueError("no forcing: the model has no nodal loads for load_factor to scale; add one "
-                             "(ModelBuilder.add_load) or give load=(node, force)")
-        first = _first_load(model)
-        if first is not None:
-            node = int(first["node"])
-            f = np.asarray(first["f"], float) + np.asarray(first["ff"], float)
-            component = int(np.argmax(np.abs(f)))
+                             "(ModelBuilder.add_load, MultibodyBuilder.add_load) or give load=(node, force) "
+                             "(bodies: load=(body, node, force))")
+        if loads:
+            node, component = loads[0][0], int(np.argmax(np.abs(loads[0][1])))
     return model, (mean, amp, phase), node, component
 
 
@@ -470,18 +505,22 @@ def forced_response(model, *, frequencies: Sequence[float], load=None, load_fact
     ``frequencies[1]`` by pseudo-arclength, through the folds.
 
     Args:
-        model: an element :class:`~pipeflex.Model` (the tested formulation; the flow map
-            also runs bodies and coupled systems with ``load_factor=``), damped (e.g.
-            :meth:`ModelBuilder.rayleigh_damping`, the sections' ``eta_*``) so that the
-            forced orbit is bounded and attracts.
+        model: an element :class:`~pipeflex.Model`, a
+            :class:`~pipeflex.multibody.MultibodySystem` or a :class:`~pipeflex.CoupledSystem`,
+            damped (e.g. :meth:`ModelBuilder.rayleigh_damping`, the sections' ``eta_*``, a
+            body's ``modal_damping``) so that the forced orbit is bounded and attracts.
         frequencies: (Omega_start, Omega_end) [rad/s], both > 0.
-        load: a nodal load driven by A sin(Omega t + phase): (node, force [N]) or (node,
-            force [N], moment [N m]) or a dict with these keys; added to a copy of the
-            model, which must have no nodal loads of its own.
+        load: a nodal load driven by A sin(Omega t + phase), added to a copy of the model,
+            which must have no nodal loads of its own: an element model's (node, force [N])
+            or (node, force [N], moment [N m]) or a dict with these keys; a
+            MultibodySystem's (body, node, force[, moment]) or such a dict (node: an index
+            or "start" / "end"). A coupled system takes ``load_factor=`` only.
         load_factor: a :class:`~pipeflex.Sine`: envelope A [-] (a number), phase [rad],
             mean [-]; its omega is replaced by each Omega. It scales all the model's
-            nodal loads (with ``load=``: that load; default A = 1).
-        node: the node whose coordinate's amplitude is recorded (default the loaded node).
+            nodal loads (a MultibodySystem's :meth:`~pipeflex.multibody.MultibodyBuilder.add_load`
+            loads; with ``load=``: that load; default A = 1).
+        node: the node whose coordinate's amplitude is recorded (default the loaded node;
+            with bodies a point of the stacked nodes, as in :attr:`~pipeflex.PeriodicOrbit.x`).
         component: 0, 1, 2 = x, y, z of that node (default the load's largest force component).
         state: the chart's base (default the reference configuration at rest); the
             amplitude is the displacement from it, the first orbit's Newton starts there.
@@ -718,6 +757,14 @@ def backbone(model, *, node: int, component: int, amplitude_max: float, frequenc
     from .eigen import eigenvalues
     from .linearize import linearize
 
+    from ..model import Model
+
+    if not isinstance(model, Model):
+        # the shooting holds the watched node's translation, a coordinate of an element
+        # model; a body's node moves by its frame and its modes together
+        raise ValueError(f"backbone needs an element pipeflex.Model: it holds a node's translation coordinate at "
+                         f"each amplitude, and a {type(model).__name__}'s nodes move with their bodies' frames and "
+                         "modes (follow its free oscillation with pipeflex.continue_orbits instead)")
     amax = _checks.positive("amplitude_max", amplitude_max)
     n_points = _checks.positive_int("n_points", n_points)
     half = max(_checks.positive_int("steps", steps) // 2, 8)
@@ -838,7 +885,8 @@ def frequency_sweep(model, *, frequencies: Sequence[float], load=None, load_fact
     check of :func:`forced_response`'s folds.
 
     Args:
-        model, load, load_factor, node, component, mass_flow: as :func:`forced_response`.
+        model, load, load_factor, node, component, mass_flow: as :func:`forced_response`
+            (bodies and coupled systems run the flow map, as :func:`forced_response`).
         frequencies: the Omega [rad/s] (> 0) to step through, in order.
         state: the start (default the reference configuration at rest) and the base the
             amplitude is measured from.
@@ -852,6 +900,7 @@ def frequency_sweep(model, *, frequencies: Sequence[float], load=None, load_fact
     """
     import time
 
+    from ..model import Model
     from .transient import simulate
 
     t_start = time.perf_counter()
@@ -872,17 +921,28 @@ def frequency_sweep(model, *, frequencies: Sequence[float], load=None, load_fact
     st, t = chart.base, 0.0
     theta = phase  # the forcing's angle Omega t + phase at the step's start
     amps = []
+    element = isinstance(model, Model)
+    mdot = float(model.mass_flow) if mass_flow is None else _checks.finite("mass_flow", mass_flow)
     for om in w:
         T = 2 * np.pi / om
         t_end = t + periods * T
         # this step's carrier om t + p continues the last: om t + p = theta at its start
         p = float(np.mod(theta - om * t, 2 * np.pi))
-        run = simulate(model, t_end, t_start=t, state=st, n_outputs=periods * steps + 1, step=T / steps,
-                       load_factor=Sine(omega=float(om), envelope=amp, phase=p, mean=mean), mass_flow=mass_flow,
-                       integrator="generalized_alpha", rho_inf=rho_inf, progress=False)
-        keep = run.t >= t_end - measure * T - 1e-12 * t_end
-        amps.append(float(np.abs(run.x[keep, node, component] - ref).max()))
+        if element:
+            run = simulate(model, t_end, t_start=t, state=st, n_outputs=periods * steps + 1, step=T / steps,
+                           load_factor=Sine(omega=float(om), envelope=amp, phase=p, mean=mean), mass_flow=mass_flow,
+                           integrator="generalized_alpha", rho_inf=rho_inf, progress=False)
+            keep = run.t >= t_end - measure * T - 1e-12 * t_end
+            x, st = run.x[keep, node, component], run.final_state
+        else:  # bodies: the flow map from the step's start in its chart (as orbit_guess), its time from 0
+            out = _core.flow_map(chart.system(mdot), mdot, np.zeros(chart.n), chart.coordinates(chart.base)[1],
+                                 periods * T, periods * steps, False, _options(chart, 1e-10, rho_inf),
+                                 load_factor=_table((mean, amp, theta), om))
+            x = chart.positions(out["z"][-(measure * steps + 1):])[:, node, component]
+            chart = _chart(model, chart.state(out["z"][-1], out["v"]))
+            st = chart.base
+        amps.append(float(np.abs(x - ref).max()))
         theta = float(np.mod(om * t_end + p, 2 * np.pi))
-        st, t = run.final_state, t_end
+        t = t_end
     return FrequencySweep(frequency=w, amplitude=np.array(amps), node=node, component=component, final_state=st,
                           stats={"seconds": time.perf_counter() - t_start})

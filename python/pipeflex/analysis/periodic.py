@@ -301,6 +301,16 @@ class _Shooter:
     def defect(self, out, z0, v0):
         return np.concatenate([out["z"][-1] - z0, out["v"] - v0])
 
+    def where(self, p) -> tuple:
+        """(text naming the parameter and its value at the fourth call argument ``p``, the
+        mass flow there [kg/s]) for messages: "mdot = ... kg/s" in the mass flow, else
+        the continued parameter's physical value (``p`` is scaled then)."""
+        if self.parameter is None or self.parameter.rebuild is None:
+            mdot = float(p) if self.parameter is None else self.parameter.physical(p)
+            return f"mdot = {mdot:.6g} kg/s", mdot
+        par = self.parameter
+        return f"{par.name} = {par.physical(p):.6g} (mdot = {par.mass_flow:.6g} kg/s)", par.mass_flow
+
 
 def _options(chart, newton_tol, rho_inf):
     opt = _core.TransientOptions()
@@ -389,11 +399,12 @@ def _solve(shooter, y, mass_flow, *, tol, max_iterations, phase=None, arclength=
         F = shooter.defect(out, z0, v0)
         residual = float(np.abs(F).max())
         if not np.isfinite(residual):
-            raise ConvergenceError(f"periodic orbit: the shooting residual is not finite at mdot = {mdot:.6g} kg/s "
-                                   f"(iteration {it})", iteration=it, mass_flow=mdot)
+            at, m_at = shooter.where(mdot)
+            raise ConvergenceError(f"periodic orbit: the shooting residual is not finite at {at} "
+                                   f"(iteration {it})", iteration=it, mass_flow=m_at)
         g = float(xdot_ref @ (y[:2 * n] - y_ref[:2 * n]))
-        logger.debug("periodic orbit: shooting iteration %d at mdot = %.8g kg/s: T = %.10g s, defect %.3g, "
-                     "phase %.3g", it, mdot, T, residual, g)
+        logger.debug("periodic orbit: shooting iteration %d at %s: T = %.10g s, defect %.3g, "
+                     "phase %.3g", it, shooter.where(mdot)[0], T, residual, g)
         done = residual <= tol and abs(g) <= tol * max(1.0, np.abs(xdot_ref).max())
         if arclength is not None:
             y_prev, m_prev, tangent, ds = arclength
@@ -441,13 +452,15 @@ def _solve(shooter, y, mass_flow, *, tol, max_iterations, phase=None, arclength=
                 Phi, fresh, exact = out["monodromy"], True, True
                 previous = np.inf
                 continue
+            at, m_at = shooter.where(mdot)
             raise ConvergenceError(f"periodic orbit: no Newton step of the shooting reduces the periodicity defect "
-                                   f"{residual:.3g} at mdot = {mdot:.6g} kg/s (iteration {it}); start closer to "
-                                   f"the orbit", iteration=it, residual=residual, mass_flow=mdot)
+                                   f"{residual:.3g} at {at} (iteration {it}); start closer to "
+                                   f"the orbit", iteration=it, residual=residual, mass_flow=m_at)
         y, mdot, out, fresh = y_try, m_try, out_try, False
+    at, m_at = shooter.where(mdot)
     raise ConvergenceError(f"periodic orbit: shooting did not converge in {max_iterations} iterations at "
-                           f"mdot = {mdot:.6g} kg/s (periodicity defect {residual:.3g})",
-                           iteration=max_iterations, residual=residual, mass_flow=mdot)
+                           f"{at} (periodicity defect {residual:.3g})",
+                           iteration=max_iterations, residual=residual, mass_flow=m_at)
 
 
 def _flow_derivative(shooter, z0, v0, T, mdot, rel=1e-6):
@@ -674,8 +687,14 @@ def orbit_guess(model, *, node: int, step: float, component: int = 1, state=None
 #: the section fields a continuation ``parameter`` may name (set in every section)
 SECTION_PARAMETERS = ("EI", "EIz", "EA", "GJ", "GAy", "GAz", "pipe_mass", "fluid_mass", "kv", "eta_bending",
                       "eta_torsion", "eta_axial", "c_ext", "k_found")
-#: every parameter name continue_orbits knows (besides a callable rebuild(value) -> model)
-PARAMETERS = ("mass_flow", "gravity", "gravity_x", "gravity_y", "gravity_z", "point_mass") + SECTION_PARAMETERS
+#: the gravity's parameter names: its magnitude along its direction, or one component
+GRAVITY_PARAMETERS = ("gravity", "gravity_x", "gravity_y", "gravity_z")
+#: every parameter name continue_orbits knows for an element model (besides a callable
+#: rebuild(value) -> model)
+PARAMETERS = ("mass_flow",) + GRAVITY_PARAMETERS + ("point_mass",) + SECTION_PARAMETERS
+#: the names it knows for floating-frame bodies and coupled systems (their bodies' sections
+#: are reduced when a body is made: a callable rebuild(value) -> system changes them)
+BODY_PARAMETERS = ("mass_flow",) + GRAVITY_PARAMETERS
 #: the kinds of bifurcation between two orbits of a branch (Bifurcation.kind)
 BIFURCATION_KINDS = ("fold", "period_doubling", "neimark_sacker", "branch_point")
 #: a multiplier is complex (a Neimark-Sacker pair, not a real one crossing +-1) when its
@@ -780,22 +799,11 @@ def _element_rebuild(model, name):
                          f"{type(model).__name__}); give a callable rebuild(value) -> model instead "
                          "(parameter_value its value at the start)")
     desc = model._description
-    g = np.asarray(desc["_gravity"], float)
-    if name == "gravity":
-        if not np.any(g):
-            raise ValueError("parameter = 'gravity' scales the model's gravity vector, which is zero: use "
-                             "'gravity_x', 'gravity_y' or 'gravity_z'")
-        unit, value = g / np.linalg.norm(g), float(np.linalg.norm(g))
+    if name in GRAVITY_PARAMETERS:
+        value, gravity_at = _gravity_parameter(name, desc["_gravity"])
 
         def change(d, v):
-            d["_gravity"] = v * unit
-    elif name.startswith("gravity_"):
-        k = "xyz".index(name[-1])
-        value = float(g[k])
-
-        def change(d, v):
-            d["_gravity"] = np.array(d["_gravity"], float)
-            d["_gravity"][k] = v
+            d["_gravity"] = gravity_at(v)
     elif name == "point_mass":
         masses = {float(m["mass"]) for m in desc["_masses"]}
         if len(masses) != 1:
@@ -833,6 +841,67 @@ def _element_rebuild(model, name):
     return rebuild, value
 
 
+def _gravity_parameter(name, g):
+    """(value at the start [m/s^2], gravity(value) -> vector [m/s^2]) of the gravity
+    parameter ``name`` (GRAVITY_PARAMETERS) of the gravity vector ``g``."""
+    g = np.array(g, float)
+    if name == "gravity":
+        if not np.any(g):
+            raise ValueError("parameter = 'gravity' scales the model's gravity vector, which is zero: use "
+                             "'gravity_x', 'gravity_y' or 'gravity_z'")
+        unit = g / np.linalg.norm(g)
+        return float(np.linalg.norm(g)), lambda v: v * unit
+    k = "xyz".index(name[-1])
+
+    def component(v):
+        out = g.copy()
+        out[k] = v
+        return out
+
+    return float(g[k]), component
+
+
+def _bodies_rebuild(system, name):
+    """(rebuild(value) -> system, value at the start) of a parameter by name
+    (BODY_PARAMETERS but the mass flow) of a MultibodySystem built by MultibodyBuilder or
+    of a CoupledSystem (the gravity of its element model and of its bodies, which must agree
+    at the start)."""
+    from ..coupled import CoupledSystem
+    from ..multibody.system import MultibodySystem, _rebuild_system
+
+    if name not in BODY_PARAMETERS:
+        raise ValueError(f"parameter = {name!r} by name is for an element model; a {type(system).__name__} knows "
+                         f"{', '.join(BODY_PARAMETERS)} (its bodies' sections are reduced when a body is made): give "
+                         "a callable rebuild(value) -> system instead (parameter_value its value at the start)")
+    if isinstance(system, CoupledSystem):
+        g_model, g_bodies = np.asarray(system.model.gravity, float), np.asarray(system.bodies.gravity, float)
+        if not np.array_equal(g_model, g_bodies):
+            raise ValueError(f"parameter = {name!r} sets the gravity of the coupled system's element model and of "
+                             f"its bodies, which differ ({g_model.tolist()} and {g_bodies.tolist()} m/s^2): give "
+                             "a callable rebuild(value) -> system instead")
+        model_at, value = _element_rebuild(system.model, name)
+        bodies_at, _ = _bodies_rebuild(system.bodies, name)
+
+        def rebuild(v):
+            out = CoupledSystem(model_at(v), bodies_at(v))
+            out._joints = list(system._joints)  # the same nodes: the couplings hold as they are
+            return out
+
+        return rebuild, value
+    if not isinstance(system, MultibodySystem) or system._description is None:
+        raise ValueError(f"parameter = {name!r} by name needs a MultibodySystem built by MultibodyBuilder.build (got "
+                         f"{type(system).__name__}); give a callable rebuild(value) -> system instead")
+    data, junction_forces = system._description
+    value, gravity_at = _gravity_parameter(name, data["_gravity"])
+
+    def rebuild(v):
+        out = _rebuild_system(({**data, "_gravity": gravity_at(float(v))}, junction_forces), system.mass_flow)
+        out.info = system.info
+        return out
+
+    return rebuild, value
+
+
 def _parameter(model, parameter, parameter_value, mass_flow) -> _Parameter:
     """The continuation parameter ``parameter`` (a name of PARAMETERS or a callable) of
     ``model`` at the mass flow ``mass_flow`` [kg/s]."""
@@ -846,7 +915,9 @@ def _parameter(model, parameter, parameter_value, mass_flow) -> _Parameter:
         name, rebuild, value = "mass_flow", None, float(mass_flow)
     elif isinstance(parameter, str) and parameter in PARAMETERS:
         name = parameter
-        rebuild, value = _element_rebuild(model, parameter)
+        from ..model import Model
+
+        rebuild, value = (_element_rebuild if isinstance(model, Model) else _bodies_rebuild)(model, parameter)
     else:
         raise ValueError(f"parameter must be one of {', '.join(PARAMETERS)} or a callable rebuild(value) -> model; "
                          f"got {parameter!r}")
@@ -1219,7 +1290,13 @@ def continue_orbits(model, *, start, mass_flow_end: Optional[float] = None, para
             from EI when the section was made, keep their values); or a callable ``rebuild(value) -> model`` (the model's dof
             layout must not change with the value; ``parameter_value`` is its value at
             the start). Parameters other than the mass flow need a :class:`PeriodicOrbit`
-            start and, by name, a model built by :class:`~pipeflex.ModelBuilder`.
+            start and, by name, a model built by :class:`~pipeflex.ModelBuilder`. A
+            :class:`~pipeflex.multibody.MultibodySystem` (built by
+            :class:`~pipeflex.multibody.MultibodyBuilder`) and a
+            :class:`~pipeflex.CoupledSystem` know BODY_PARAMETERS by name: the mass flow
+            and the gravity (a coupled system's element model and bodies together, whose
+            gravity must agree at the start); their sections and masses through a
+            callable ``rebuild(value) -> system``.
         end: the parameter's value at which to stop [its unit].
         parameter_value: the callable parameter's value at the start.
         amplitude: size of the first orbit's excursion along the critical mode [m] (a
@@ -1243,7 +1320,8 @@ def continue_orbits(model, *, start, mass_flow_end: Optional[float] = None, para
 
     Raises:
         ValueError: bad options, e.g. an unknown parameter name (the message lists the
-            valid ones), or a parameter other than the mass flow from a Hopf point.
+            valid ones; a section field on bodies), or a parameter other than the mass
+            flow from a Hopf point.
         ConvergenceError: no orbit next to the start.
     """
     from .static import static_equilibrium

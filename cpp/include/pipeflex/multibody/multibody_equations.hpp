@@ -23,9 +23,11 @@ namespace pipeflex {
 // state (exact at z = 0, where every step of the integrator starts).
 class MultibodyEquations final : public Equations {
    public:
-    MultibodyEquations(const MultibodySystemCore& sys, const MbState& s, const TimeTable& flow)
-        : sys_(sys), base_(s), cur_(s), flow_(flow), n_(sys.n_coordinates()), nc_(sys.n_constraints()),
-          start_r_(s.r) {}
+    // loads: the load factor lambda(t) of a transient's loads (the Drive's; none: 1)
+    MultibodyEquations(const MultibodySystemCore& sys, const MbState& s, const TimeTable& flow,
+                       const TimeTable* loads = nullptr)
+        : sys_(sys), base_(s), cur_(s), flow_(flow), loads_(loads), n_(sys.n_coordinates()),
+          nc_(sys.n_constraints()), start_r_(s.r) {}
 
     const MbState& state() const { return cur_; }
     MbState& mutable_state() { return cur_; }  // rates set by a wrapper (RigidRotationBodies)
@@ -58,7 +60,9 @@ class MultibodyEquations final : public Equations {
 
     void evaluate(double wK, double wC, double wM, Eigen::VectorXd& r, Triplets* J) override {
         const bool fixed = !std::isnan(static_mdot_);
-        sys_.evaluate(cur_, fixed ? static_mdot_ : flow_.at(cur_.t), fixed ? 0.0 : flow_.rate(cur_.t), factor_, factor_,
+        // the loads (and hinge torques) follow lambda(t) as an element model's nodal loads; gravity does not
+        const double loads = factor_ * (loads_ != nullptr ? loads_->at(cur_.t) : 1.0);
+        sys_.evaluate(cur_, fixed ? static_mdot_ : flow_.at(cur_.t), fixed ? 0.0 : flow_.rate(cur_.t), loads, factor_,
                       wK, wC, wM, J != nullptr, ev_);
         r.resize(n_ + nc_);
         r.head(n_) = ev_.F;
@@ -161,6 +165,7 @@ class MultibodyEquations final : public Equations {
     MbState base_, cur_;
     Eigen::VectorXd z_;  // the chart coordinates set
     const TimeTable& flow_;
+    const TimeTable* loads_;
     int n_, nc_;
     std::vector<Vec3d> start_r_;
     double factor_ = 1.0;  // loads and gravity (statics steps them)
