@@ -67,9 +67,9 @@ def test_the_extrapolated_mesh_still_resolves_the_stiff_modes(peer_scene, monkey
         TransientOptions = core.TransientOptions
 
         @staticmethod
-        def integrate(system, flow, loads, times, opt, progress, integrator):
+        def integrate(system, flow, loads, times, opt, progress, integrator, **keywords):
             seen.append((opt.error_rate > 0.0, opt.rotation_error_length, opt.rho_inf))
-            return core.integrate(system, flow, loads, times, opt, progress, integrator)
+            return core.integrate(system, flow, loads, times, opt, progress, integrator, **keywords)
 
     monkeypatch.setattr(transient, "_core", Spy)
     res = pf.simulate(model, 0.3, n_outputs=2, progress=False, state=state, rtol=1e-6)

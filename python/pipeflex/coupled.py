@@ -230,6 +230,36 @@ class CoupledSystem:
     #: multipliers balance its forces; others give a wrong K).
     _linearize_at_equilibrium = True
 
+    def _gravity_rebuild(self):
+        """(gravity g [m/s^2] (3,), rebuild(g) -> a copy with gravity g in its element model
+        and its bodies, the same couplings and springs), for continuation in the gravity;
+        None if a part was not built by its builder; ValueError if the parts' gravities differ."""
+        g_model, g_bodies = np.asarray(self.model.gravity, float), np.asarray(self.bodies.gravity, float)
+        if not np.array_equal(g_model, g_bodies):
+            raise ValueError(f"continuation in the gravity sets the gravity of the coupled system's element model "
+                             f"and of its bodies, which differ ({g_model.tolist()} and {g_bodies.tolist()} m/s^2): "
+                             "give a callable rebuild(value) -> system instead")
+        parts = self.model._gravity_rebuild(), self.bodies._gravity_rebuild()
+        if parts[0] is None or parts[1] is None:
+            return None
+        (_, model_at), (_, bodies_at) = parts
+
+        def rebuild(g):
+            out = CoupledSystem(model_at(g), bodies_at(g))
+            out._joints = list(self._joints)  # the same nodes: the couplings hold as they are
+            out._springs = list(self._springs)
+            return out
+
+        return g_model, rebuild
+
+    def _nodal_loads(self):
+        """The loads as (point, force [N] (3,)): the element model's (point = node), then
+        the bodies' after the element nodes; None if a part's are unknown."""
+        parts = self.model._nodal_loads(), self.bodies._nodal_loads()
+        if parts[0] is None or parts[1] is None:
+            return None
+        return parts[0] + [(self.model.n_nodes + k, f) for k, f in parts[1]]
+
     def _linearization(self, system, mass_flow: float, mass_flow_rate: float = 0.0) -> dict:
         """:func:`~pipeflex.linearize`'s fields for ``system`` at mdot [kg/s] ``mass_flow``
         changing at ``mass_flow_rate`` [kg/s^2]: the core's linear matrices reduced to the joints' and couplings' null space."""

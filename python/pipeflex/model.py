@@ -1216,6 +1216,28 @@ class Model:
     #: element model's supports are eliminated: no reactions to balance).
     _linearize_at_equilibrium = False
 
+    def _gravity_rebuild(self):
+        """(gravity g [m/s^2] (3,), rebuild(g) -> a copy of the model with gravity g), for
+        continuation in the gravity; None if the model was not built by ModelBuilder."""
+        desc = self._description
+        if desc is None:
+            return None
+
+        def rebuild(g):
+            out = _rebuild_model({**desc, "_gravity": np.array(g, float)}, self.mass_flow, self._is_free)
+            out.info = self.info
+            return out
+
+        return np.array(desc["_gravity"], float), rebuild
+
+    def _nodal_loads(self):
+        """The nodal loads as (node, force [N] (3,)) (dead plus follower), None if the
+        model was not built by ModelBuilder."""
+        d = self._description
+        if d is None or "_loads" not in d:
+            return None
+        return [(int(ld["node"]), np.asarray(ld["f"], float) + np.asarray(ld["ff"], float)) for ld in d["_loads"]]
+
     def _linearization(self, system, mass_flow: float, mass_flow_rate: float = 0.0) -> dict:
         """:func:`~pipeflex.linearize`'s fields for ``system`` at mdot [kg/s] ``mass_flow``
         changing at ``mass_flow_rate`` [kg/s^2]:

@@ -229,27 +229,12 @@ class FrequencySweep(Result):
 # -- the forcing ------------------------------------------------------------------------
 
 def _nodal_loads(model) -> Optional[list]:
-    """The nodal loads as (point, force [N]): an element model's (point = node), a
-    MultibodySystem's (point = its node among the bodies' stacked nodes, as
-    :meth:`~pipeflex.multibody.MultibodySystem.centre_line`; a component given as a table or
-    Sine counts 1), a coupled system's both (the bodies' points after the element nodes);
-    None: unknown (a model not built by its builder)."""
-    from ..coupled import CoupledSystem
-    from ..multibody.system import MultibodySystem
-
-    if isinstance(model, CoupledSystem):
-        parts = _nodal_loads(model.model), _nodal_loads(model.bodies)
-        if parts[0] is None or parts[1] is None:
-            return None
-        return parts[0] + [(model.model.n_nodes + k, f) for k, f in parts[1]]
-    if isinstance(model, MultibodySystem):
-        first = np.cumsum([0] + [b.n_nodes for b in model.bodies])
-        return [(int(first[ld.body] + ld.node), np.array([abs(c) if np.isscalar(c) else 1.0 for c in ld.force]))
-                for ld in model.loads]
-    d = getattr(model, "_description", None)
-    if d is None or "_loads" not in d:
-        return None
-    return [(int(ld["node"]), np.asarray(ld["f"], float) + np.asarray(ld["ff"], float)) for ld in d["_loads"]]
+    """The nodal loads as (point, force [N]) (the model class's ``_nodal_loads``: an element
+    model's point is its node, a MultibodySystem's its node among the bodies' stacked nodes,
+    a coupled system's both, the bodies' after the element nodes); None: unknown (a model
+    not built by its builder)."""
+    loads = getattr(model, "_nodal_loads", None)
+    return None if loads is None else loads()
 
 
 def _load_spec(load, keys):
@@ -272,35 +257,20 @@ def _with_load(model, load):
     """A copy of ``model`` with the nodal ``load`` added (the copy's only nodal load), the
     loaded point and the force [N]: an element model's (node, force[, moment]) or
     dict(node=, force=, moment=); a MultibodySystem's (body, node, force[, moment]) or
-    dict(body=, node=, force=, moment=) (node: an index or "start"/"end")."""
-    from ..multibody.system import MultibodySystem, MultibodyBuilder
-
-    if not isinstance(model, MultibodySystem):
-        spec = _load_spec(load, ("node", "force", "moment"))
-        d = getattr(model, "_description", None) or {}
-        if d.get("_loads"):
-            raise ValueError("load= adds the forced load to a model without nodal loads, but this model has "
-                             f"{len(d['_loads'])}: give the forcing as load_factor= (it scales all the model's "
-                             "nodal loads) instead")
-        out = _rebuilt(model, lambda b: b.add_load(spec["node"], force=spec.get("force", (0.0, 0.0, 0.0)),
-                                                   moment=spec.get("moment", (0.0, 0.0, 0.0))), what="load=")
-        return out, int(spec["node"]), np.asarray(spec.get("force", (0.0, 0.0, 0.0)), float)
-    spec = _load_spec(load, ("body", "node", "force", "moment"))
-    if model._description is None:
-        raise ValueError("load= needs a MultibodySystem built by MultibodyBuilder.build (its description is rebuilt)")
-    if model.loads:
-        raise ValueError(f"load= adds the forced load to a system without loads, but this one has "
-                         f"{len(model.loads)}: give the forcing as load_factor= (it scales all the system's loads) "
-                         "instead")
-    data, junction_forces = model._description
-    b = MultibodyBuilder()
-    vars(b).update(copy.deepcopy(data))
-    force = np.asarray(spec.get("force", (0.0, 0.0, 0.0)), float)
-    b.add_load(spec["body"], spec["node"], force=tuple(force), moment=tuple(spec.get("moment", (0.0, 0.0, 0.0))))
-    out = b.build(mass_flow=model.mass_flow, junction_forces=junction_forces)
-    out.info.update(model.info)
-    ld = out.loads[0]
-    return out, int(sum(bd.n_nodes for bd in out.bodies[:ld.body]) + ld.node), force
+    dict(body=, node=, force=, moment=) (node: an index or "start"/"end"; its class's
+    ``_with_body_load``)."""
+    with_body_load = getattr(model, "_with_body_load", None)
+    if with_body_load is not None:
+        return with_body_load(_load_spec(load, ("body", "node", "force", "moment")))
+    spec = _load_spec(load, ("node", "force", "moment"))
+    d = getattr(model, "_description", None) or {}
+    if d.get("_loads"):
+        raise ValueError("load= adds the forced load to a model without nodal loads, but this model has "
+                         f"{len(d['_loads'])}: give the forcing as load_factor= (it scales all the model's "
+                         "nodal loads) instead")
+    out = _rebuilt(model, lambda b: b.add_load(spec["node"], force=spec.get("force", (0.0, 0.0, 0.0)),
+                                               moment=spec.get("moment", (0.0, 0.0, 0.0))), what="load=")
+    return out, int(spec["node"]), np.asarray(spec.get("force", (0.0, 0.0, 0.0)), float)
 
 
 def _forcing(model, load, load_factor):

@@ -863,43 +863,22 @@ def _gravity_parameter(name, g):
 
 def _bodies_rebuild(system, name):
     """(rebuild(value) -> system, value at the start) of a parameter by name
-    (BODY_PARAMETERS but the mass flow) of a MultibodySystem built by MultibodyBuilder or
-    of a CoupledSystem (the gravity of its element model and of its bodies, which must agree
-    at the start)."""
-    from ..coupled import CoupledSystem
-    from ..multibody.system import MultibodySystem, _rebuild_system
-
+    (BODY_PARAMETERS but the mass flow) of a system whose class rebuilds it with another
+    gravity (``_gravity_rebuild``: a MultibodySystem built by MultibodyBuilder, a
+    CoupledSystem of such parts, whose gravities must agree)."""
     if name not in BODY_PARAMETERS:
         raise ValueError(f"parameter = {name!r} by name is for an element model; a {type(system).__name__} knows "
                          f"{', '.join(BODY_PARAMETERS)} (its bodies' sections are reduced when a body is made): give "
                          "a callable rebuild(value) -> system instead (parameter_value its value at the start)")
-    if isinstance(system, CoupledSystem):
-        g_model, g_bodies = np.asarray(system.model.gravity, float), np.asarray(system.bodies.gravity, float)
-        if not np.array_equal(g_model, g_bodies):
-            raise ValueError(f"parameter = {name!r} sets the gravity of the coupled system's element model and of "
-                             f"its bodies, which differ ({g_model.tolist()} and {g_bodies.tolist()} m/s^2): give "
-                             "a callable rebuild(value) -> system instead")
-        model_at, value = _element_rebuild(system.model, name)
-        bodies_at, _ = _bodies_rebuild(system.bodies, name)
-
-        def rebuild(v):
-            out = CoupledSystem(model_at(v), bodies_at(v))
-            out._joints = list(system._joints)  # the same nodes: the couplings hold as they are
-            return out
-
-        return rebuild, value
-    if not isinstance(system, MultibodySystem) or system._description is None:
-        raise ValueError(f"parameter = {name!r} by name needs a MultibodySystem built by MultibodyBuilder.build (got "
-                         f"{type(system).__name__}); give a callable rebuild(value) -> system instead")
-    data, junction_forces = system._description
-    value, gravity_at = _gravity_parameter(name, data["_gravity"])
-
-    def rebuild(v):
-        out = _rebuild_system(({**data, "_gravity": gravity_at(float(v))}, junction_forces), system.mass_flow)
-        out.info = system.info
-        return out
-
-    return rebuild, value
+    gravity_rebuild = getattr(system, "_gravity_rebuild", None)
+    found = None if gravity_rebuild is None else gravity_rebuild()
+    if found is None:
+        raise ValueError(f"parameter = {name!r} by name needs a system built by its builder (MultibodyBuilder.build, "
+                         f"or a CoupledSystem of such parts; got {type(system).__name__}); give a callable "
+                         "rebuild(value) -> system instead")
+    g0, with_gravity = found
+    value, gravity_at = _gravity_parameter(name, g0)
+    return (lambda v: with_gravity(gravity_at(float(v)))), value
 
 
 def _parameter(model, parameter, parameter_value, mass_flow) -> _Parameter:

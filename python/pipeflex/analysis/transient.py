@@ -235,8 +235,9 @@ def _inertia_hint(model) -> str:
     """Why the mass matrix is singular and what to do, if pipe sections lack the polar
     rotary inertia rho I_p (their rotation about the pipe axis then has no inertia);
     "" if none does."""
-    pipes = [i for i, e in enumerate(model.elements) if e.kind == "pipe"]
-    bare = [i for i in pipes if model.elements[i].section.rotary_inertia[0] == 0]
+    elements = getattr(model, "elements", ())  # bodies: their own error says why
+    pipes = [i for i, e in enumerate(elements) if e.kind == "pipe"]
+    bare = [i for i in pipes if elements[i].section.rotary_inertia[0] == 0]
     if not bare:
         return ""
     which = f"{bare[0]}..{bare[-1]}" if len(bare) > 3 and bare[-1] - bare[0] == len(bare) - 1 else \

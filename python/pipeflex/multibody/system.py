@@ -572,6 +572,48 @@ class MultibodySystem:
     #: multipliers balance its forces; others give a wrong K).
     _linearize_at_equilibrium = True
 
+    def _gravity_rebuild(self):
+        """(gravity g [m/s^2] (3,), rebuild(g) -> a copy of the system with gravity g), for
+        continuation in the gravity; None if not built by MultibodyBuilder.build."""
+        if self._description is None:
+            return None
+        data, junction_forces = self._description
+
+        def rebuild(g):
+            out = _rebuild_system(({**data, "_gravity": np.array(g, float)}, junction_forces), self.mass_flow)
+            out.info = self.info
+            return out
+
+        return np.array(data["_gravity"], float), rebuild
+
+    def _nodal_loads(self):
+        """The loads as (point, force [N] (3,)), point = the node among the bodies' stacked
+        nodes (as :meth:`centre_line`); a component given as a table or Sine counts 1."""
+        first = np.cumsum([0] + [b.n_nodes for b in self.bodies])
+        return [(int(first[ld.body] + ld.node), np.array([abs(c) if np.isscalar(c) else 1.0 for c in ld.force]))
+                for ld in self.loads]
+
+    def _with_body_load(self, spec: dict):
+        """(a copy with the load ``spec`` = dict(body, node, force, moment) as its only load,
+        the loaded point among the stacked nodes, the force [N] (3,)); ValueError if the
+        system has loads or was not built by MultibodyBuilder.build."""
+        if self._description is None:
+            raise ValueError("load= needs a MultibodySystem built by MultibodyBuilder.build (its description is "
+                             "rebuilt)")
+        if self.loads:
+            raise ValueError(f"load= adds the forced load to a system without loads, but this one has "
+                             f"{len(self.loads)}: give the forcing as load_factor= (it scales all the system's "
+                             "loads) instead")
+        data, junction_forces = self._description
+        b = MultibodyBuilder()
+        vars(b).update(copy.deepcopy(data))
+        force = np.asarray(spec.get("force", (0.0, 0.0, 0.0)), float)
+        b.add_load(spec["body"], spec["node"], force=tuple(force), moment=tuple(spec.get("moment", (0.0, 0.0, 0.0))))
+        out = b.build(mass_flow=self.mass_flow, junction_forces=junction_forces)
+        out.info.update(self.info)
+        ld = out.loads[0]
+        return out, int(sum(bd.n_nodes for bd in out.bodies[:ld.body]) + ld.node), force
+
     def _linearization(self, system, mass_flow: float, mass_flow_rate: float = 0.0) -> dict:
         """:func:`~pipeflex.linearize`'s fields for ``system`` at mdot [kg/s] ``mass_flow``
         changing at ``mass_flow_rate`` [kg/s^2]: the core's linear matrices reduced to the joints' null space."""
