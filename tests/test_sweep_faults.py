@@ -108,6 +108,12 @@ def test_an_interrupted_pool_sweep_leaves_no_thread_or_process(tmp_path):
                      progress=False)
         except KeyboardInterrupt:
             pass
+        # the queue's feeder thread may take a moment to end on a loaded machine: left means
+        # still running 5 s later
+        deadline = time.monotonic() + 5.0
+        while time.monotonic() < deadline and any(t.name not in before and t.name != "ctrl-c"
+                                                  for t in threading.enumerate()):
+            time.sleep(0.05)
         left = [t.name + " " + repr(getattr(t, "_target", None)) for t in threading.enumerate()
                 if t.name not in before and t.name != "ctrl-c"]
         print(json.dumps([left, [p.pid for p in multiprocessing.active_children()]]))
