@@ -82,3 +82,38 @@ def brentq(f: Callable[[float], float], a: float, b: float, *, xtol: float = XTO
         fcur = value(xcur)
     raise RuntimeError(f"brentq: no convergence in {max_iterations} iterations (bracket [{a!r}, {b!r}], "
                        f"last x = {xcur!r}, f = {fcur!r})")
+
+
+class Illinois:
+    """The Illinois variant of regula falsi (Dowell & Jarratt, BIT 11, 1971) on a bracket
+    [lo, hi] whose ends' values flo, fhi differ in sign, one evaluation at a time, for
+    roots whose every evaluation is a solve the caller makes (a continuation step, a
+    shooting): :meth:`trial` is the next point, :meth:`update` takes its value. When an
+    end is kept twice running, its value is halved: the secant then leaves it (plain
+    regula falsi can stall on a convex f)."""
+
+    def __init__(self, lo: float, hi: float, flo: float, fhi: float) -> None:
+        self.lo, self.hi, self.flo, self.fhi = lo, hi, flo, fhi
+        self._side = 0
+
+    @property
+    def width(self) -> float:
+        return self.hi - self.lo
+
+    def trial(self) -> float:
+        """The secant's root in (lo, hi), or the midpoint where the secant leaves it."""
+        s = self.hi - self.fhi * (self.hi - self.lo) / (self.fhi - self.flo)
+        return s if self.lo < s < self.hi else 0.5 * (self.lo + self.hi)
+
+    def update(self, s: float, f: float) -> None:
+        """The bracket after the value f at s."""
+        if np.sign(f) == np.sign(self.fhi):
+            self.hi, self.fhi = s, f
+            if self._side == -1:
+                self.flo /= 2
+            self._side = -1
+        else:
+            self.lo, self.flo = s, f
+            if self._side == 1:
+                self.fhi /= 2
+            self._side = 1

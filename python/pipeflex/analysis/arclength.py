@@ -33,6 +33,7 @@ from typing import Callable, List, Optional
 import numpy as np
 
 from .. import _core
+from ._roots import Illinois
 
 
 @dataclass
@@ -152,32 +153,20 @@ def follow(model, state, t0, *, at, newton, size, tol, max_iterations, max_steps
 
     def locate(p, sigma, f):
         """Illinois method on sigma in (0, sigma) for f(point) = 0 (f(p) and f(end) differ in sign)."""
-        lo, hi, flo, fhi = 0.0, sigma, f(p), None
+        lo, hi, flo = 0.0, sigma, f(p)
         q_hi, _ = step(p, sigma)
         if q_hi is None:
             return None
-        fhi, best, side = f(q_hi), q_hi, 0
+        bracket, best = Illinois(lo, hi, flo, f(q_hi)), q_hi
         for _ in range(30):
-            if hi - lo <= 1e-7 * sigma or abs(f(best)) <= 1e-12:
+            if bracket.width <= 1e-7 * sigma or abs(f(best)) <= 1e-12:
                 break
-            x = hi - fhi * (hi - lo) / (fhi - flo)
-            if not lo < x < hi:
-                x = 0.5 * (lo + hi)
+            x = bracket.trial()
             q, _ = step(p, x)
             if q is None:
                 break
-            fx = f(q)
             best = q
-            if np.sign(fx) == np.sign(fhi):
-                hi, fhi = x, fx
-                if side == -1:
-                    flo /= 2
-                side = -1
-            else:
-                lo, flo = x, fx
-                if side == 1:
-                    fhi /= 2
-                side = 1
+            bracket.update(x, f(q))
         return best
 
     while out.steps < max_steps:

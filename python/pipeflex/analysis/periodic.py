@@ -53,6 +53,7 @@ from ..state import State
 from .._blas import pinned as blas_pinned
 from .._progress import logger
 from ._protocol import require_system
+from ._roots import Illinois
 from .transient import explained_singular_mass
 
 #: steps of the integrator per period unless given
@@ -1096,29 +1097,18 @@ class _Branch:
             a, b = self.points[i], self.points[i + 1]
             if np.sign(tang[i][0][-1]) == np.sign(tang[i + 1][0][-1]):
                 return self._turn(k)
-            lo, hi, flo, fhi = 0.0, b.step, tang[i][0][-1], tang[i + 1][0][-1]
+            bracket = Illinois(0.0, b.step, tang[i][0][-1], tang[i + 1][0][-1])
             xdot_a = np.concatenate([a.y[n:2 * n], tang[i][1]["a0"]])
-            best, side = None, 0
+            best = None
             for _ in range(LOCATE_SOLVES):
-                s = hi - fhi * (hi - lo) / (fhi - flo)
-                if not lo < s < hi:
-                    s = 0.5 * (lo + hi)
+                s = bracket.trial()
                 y, p, out, it, orbit, mu, trivial, V = self._solve_at(a.y, a.p, b.tangent, s, xdot_a, a.monodromy)
                 t = dp(y, p, out, b.tangent)
                 best = (y, p, mu, trivial, V, t)
                 f = t[-1]
-                if abs(f) <= 1e-9 or hi - lo <= 1e-9 * b.step:
+                if abs(f) <= 1e-9 or bracket.width <= 1e-9 * b.step:
                     break
-                if np.sign(f) == np.sign(fhi):
-                    hi, fhi = s, f
-                    if side == -1:
-                        flo /= 2
-                    side = -1
-                else:
-                    lo, flo = s, f
-                    if side == 1:
-                        fhi /= 2
-                    side = 1
+                bracket.update(s, f)
         except (ConvergenceError, np.linalg.LinAlgError):
             return self._turn(k)
         y, p, mu, trivial, V, t = best
@@ -1146,13 +1136,11 @@ class _Branch:
         if self.locate_:
             n = self.shooter.n
             out_a = xdot_a = None
-            side = 0
+            bracket = Illinois(lo, hi, flo, fhi)
             for _ in range(LOCATE_SOLVES):
-                if abs(best[-1]) <= 10 * NEUTRAL or hi - lo <= 1e-9 * b.step:
+                if abs(best[-1]) <= 10 * NEUTRAL or bracket.width <= 1e-9 * b.step:
                     break
-                s = hi - fhi * (hi - lo) / (fhi - flo)
-                if not lo < s < hi:
-                    s = 0.5 * (lo + hi)
+                s = bracket.trial()
                 try:
                     if out_a is None:  # the phase reference at a: its vector field
                         out_a = self.shooter(a.y[:n], a.y[n:2 * n], a.y[-1], a.p, False)
@@ -1166,16 +1154,7 @@ class _Branch:
                 c = int(np.argmin(np.abs(others - guess)))
                 f = abs(others[c]) - 1.0
                 best = (y, p, mu, trivial, V, c, f)
-                if np.sign(f) == np.sign(fhi):
-                    hi, fhi = s, f
-                    if side == -1:
-                        flo /= 2
-                    side = -1
-                else:
-                    lo, flo = s, f
-                    if side == 1:
-                        fhi /= 2
-                    side = 1
+                bracket.update(s, f)
             y, p, mu, trivial, V, c, f = best
             return self._make(kind, k, y, p, mu, trivial, V, c, True, f, b.tangent)
         # interpolated linearly between the two orbits
