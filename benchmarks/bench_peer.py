@@ -29,7 +29,8 @@ EA / EI ratios at which static Newton solves and ``pf.critical_mass_flow`` stop 
 
 The peer (Exudyn, ``import exudyn``) is optional: its side of each scene is in
 ``benchmarks/peer/`` (``exudyn_scene.py`` for scene 1; ``exudyn_spin_up.py`` and
-``exudyn_critical_flow.py`` for scenes 2 and 3, written to the same pattern but not run here).
+``exudyn_critical_flow.py`` for scenes 2 and 3; the spin-up with 16 of the peer's cable elements, which 2
+do not resolve).
 Without exudyn one line says so and its columns read "not measured here".
 
 Run: .venv/bin/python benchmarks/bench_peer.py [--repeat 5] [--quick] [--json out.json]
@@ -330,8 +331,7 @@ def load_peer():
 def peer_runs(peer, steps, meshes, result):
     """The peer's fixed-step sweeps (trapezoidal, modified Newton, relTol 1e-6) and its critical flows; its
     largest qualifying step (coarsest mesh) per target goes into each scene's "peer" column. Runs only where
-    exudyn imports: the spin-up and critical-flow sides (benchmarks/peer/exudyn_spin_up.py,
-    exudyn_critical_flow.py) are untested."""
+    exudyn imports (benchmarks/peer/exudyn_scene.py says how to build it)."""
     import exudyn_critical_flow
     import exudyn_spin_up
     sides = dict(limit_cycle=(lambda h: peer.run(h, "trapezoidal", 1e-6)[:2], peer.REFERENCE, 1.0),
