@@ -14,8 +14,8 @@ a free outlet, Paidoussis' M U' (L - x) w_xx; c = 0 if only the outlet is held a
 c = L / 2 for both ends held axially. (The lateral part of that tangential load,
 -mdot' w_x, cancels the term -N' w_x of (N w_x)_x, so it appears in neither.)
 
-Galerkin with the beam's own modes phi_n (pinned-pinned: sin(n pi x / L); clamped-free:
-the cantilever's eigenfunctions), quadrature by Gauss-Legendre, gives
+Galerkin with the beam's own modes phi_n (pinned-pinned: sin(n pi x / L); clamped-free
+and clamped-clamped: the beam's eigenfunctions), quadrature by Gauss-Legendre, gives
 
     Mg q'' + 2 mdot B q' + (EI S + mdot^2 / M D2 - mdot' Dx) q = 0,
 
@@ -33,12 +33,35 @@ def _cantilever_roots(n):
     return np.array([brentq(f, (k + 0.5) * np.pi - 1.0, (k + 0.5) * np.pi + 1.0, xtol=1e-15) for k in range(n)])
 
 
+def _clamped_roots(n):
+    f = lambda b: np.cos(b) - 1.0 / np.cosh(b)  # cos b cosh b = 1, scaled
+    return np.array([brentq(f, (k + 1.5) * np.pi - 1.0, (k + 1.5) * np.pi + 1.0, xtol=1e-15) for k in range(n)])
+
+
+def _clamped_basis(n, L, x):
+    """The clamped-clamped beam's eigenfunctions phi = cosh - cos - sigma (sinh - sin),
+    sigma = (cosh bL - cos bL) / (sinh bL - sin bL), written as the cantilever's."""
+    b = _clamped_roots(n)[:, None] / L
+    bL = b * L
+    sigma = (np.cosh(bL) - np.cos(bL)) / (np.sinh(bL) - np.sin(bL))
+    one_minus = (-np.exp(-bL) - np.sin(bL) + np.cos(bL)) / (np.sinh(bL) - np.sin(bL))
+    bx = b * x
+    e, sh = np.exp(-bx), np.sinh(bx)
+    phi = e + one_minus * sh - np.cos(bx) + sigma * np.sin(bx)
+    d1 = b * (-e + one_minus * np.cosh(bx) + np.sin(bx) + sigma * np.cos(bx))
+    d2 = b ** 2 * (e + one_minus * sh + np.cos(bx) - sigma * np.sin(bx))
+    return phi, d1, d2, b ** 4 * phi
+
+
 def basis(support, n, L, x):
-    """(phi, phi', phi'', phi'''') at x, each (n, len(x)); ``support`` "pinned" or "cantilever"."""
+    """(phi, phi', phi'', phi'''') at x, each (n, len(x)); ``support`` "pinned", "cantilever"
+    or "clamped" (clamped-clamped)."""
     if support == "pinned":
         k = np.arange(1, n + 1)[:, None] * np.pi / L
         s, c = np.sin(k * x), np.cos(k * x)
         return s, k * c, -k ** 2 * s, k ** 4 * s
+    if support == "clamped":
+        return _clamped_basis(n, L, x)
     if support != "cantilever":
         raise ValueError(support)
     b = _cantilever_roots(n)[:, None] / L
@@ -65,8 +88,9 @@ def matrices(support, *, n_modes, L, EI, pipe_mass, fluid_mass, c, n_quad=400):
 
 
 class Pipe:
-    """The Galerkin pipe: ``support`` "pinned" (pinned-pinned) or "cantilever" (clamped at
-    x = 0, free at x = L); ``c`` [m] where the axial force vanishes (default L)."""
+    """The Galerkin pipe: ``support`` "pinned" (pinned-pinned), "cantilever" (clamped at
+    x = 0, free at x = L) or "clamped" (clamped at both ends); ``c`` [m] where the axial
+    force vanishes (default L: the outlet free to slide axially; L / 2 for both ends held)."""
 
     def __init__(self, support, *, L=1.0, EI=1.0, pipe_mass=0.75, fluid_mass=0.25, n_modes=8, c=None):
         self.L, self.fluid_mass = L, fluid_mass
