@@ -285,9 +285,9 @@ def test_pipeflex_run_on_seed_files(tmp_path):
     assert (tmp_path / "vtk" / "sprinkler_on_hub.pvd").exists()
 
 
-def test_springs_on_bodies_and_couplings_are_refused_by_name(tmp_path):
-    """Springs of bodies and of couplings have no file key: saving refuses them by name
-    rather than writing a file that loads a different system."""
+def test_springs_on_bodies_and_couplings_are_saved(tmp_path):
+    """Springs of bodies and of couplings have file keys (the round trips:
+    tests/test_spring_model_files.py): saving them writes them."""
     import pipeflex as pf
     from pipeflex.coupled import CoupledSystem
     from pipeflex.multibody import MultibodyBuilder, flexible_body
@@ -297,8 +297,7 @@ def test_springs_on_bodies_and_couplings_are_refused_by_name(tmp_path):
     j = mb.add_body(flexible_body(length=0.5, n_elements=2, section=sec), position=(0.25, 0.0, 0.0))
     mb.fix(j, "start")
     mb.add_ground_spring(j, "end", stiffness=(1.0, 1.0, 1.0))
-    with pytest.raises(ValueError, match="add_ground_spring"):
-        pf.save_model(mb.build(), tmp_path / "bodies.yaml")
+    assert "- ground:" in pf.save_model(mb.build(), tmp_path / "bodies.yaml").read_text()
     mb = MultibodyBuilder()
     j = mb.add_body(flexible_body(length=0.5, n_elements=2, section=sec), position=(0.25, 0.0, 0.0))
     mb.fix(j, "start")
@@ -308,5 +307,4 @@ def test_springs_on_bodies_and_couplings_are_refused_by_name(tmp_path):
     cs = CoupledSystem(b.build(floating=True), mb.build())
     cs.rigid(n0, j, "end")
     cs.add_spring(n1, j, "start", stiffness=10.0)
-    with pytest.raises(ValueError, match="CoupledSystem.add_spring"):
-        pf.save_model(cs, tmp_path / "coupled.yaml")
+    assert "- axial:" in pf.save_model(cs, tmp_path / "coupled.yaml").read_text()

@@ -1,6 +1,7 @@
 #include "convert.hpp"
 #include "pipeflex/assembly/ancf_element.hpp"
 #include "pipeflex/assembly/axial_spring.hpp"
+#include "pipeflex/assembly/bushing.hpp"
 #include "pipeflex/assembly/ground_spring.hpp"
 #include "pipeflex/assembly/model.hpp"
 #include "pipeflex/assembly/pipe_element.hpp"
@@ -313,6 +314,22 @@ void bind_assembly(py::module_& m) {
              "frame node also k_phi (3) [N m/rad] on the rotation vector from the reference orientation and "
              "c_phi (3) [N m s/rad] on the angular velocity, about the global axes. Its index among the ground "
              "springs.")
+        .def("add_bushing",
+             [](Model& md, int a, int b, const Eigen::Vector3d& k, const Eigen::Vector3d& c,
+                const Eigen::Vector3d& k_phi, const Eigen::Vector3d& c_phi) {
+                 auto e = std::make_unique<Bushing>(node_index(md, a, "node_a"), node_index(md, b, "node_b"),
+                                                    to_vec3(k), to_vec3(c), to_vec3(k_phi), to_vec3(c_phi));
+                 changed(md);
+                 md.elements.add(std::move(e));
+                 return md.elements.count<Bushing>() - 1;
+             },
+             py::arg("node_a"), py::arg("node_b"), py::arg("k"), py::arg("c"),
+             py::arg("k_phi") = Eigen::Vector3d::Zero(), py::arg("c_phi") = Eigen::Vector3d::Zero(),
+             "A linear spring-damper (bushing) between node_a and node_b (they may coincide): force K (x_b - x_a "
+             "- d0) + C (v_b - v_a) on a, its opposite on b (k (3) [N/m], c (3) [N s/m] along the global axes, d0 "
+             "the reference offset); between frame nodes also k_phi (3) [N m/rad] on the rotation vector of "
+             "R_b R_a^T and c_phi (3) [N m s/rad] on w_b - w_a, about the global axes. Its index among the "
+             "bushings.")
         .def("set_hub",
              [](Model& md, const std::vector<int>& nodes, const Eigen::Vector3d& axis, const Eigen::Vector3d& center,
                 double omega, double spin_up_time) {

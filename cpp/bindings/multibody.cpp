@@ -1,6 +1,7 @@
 // Bindings of the multibody system core (seed 004): states cross as numpy arrays.
 #include "outputs.hpp"
 #include "pipeflex/assembly/axial_spring.hpp"
+#include "pipeflex/assembly/bushing.hpp"
 #include "pipeflex/assembly/ground_spring.hpp"
 #include "pipeflex/core/small_matrix_eigen.hpp"
 #include "pipeflex/multibody/multibody.hpp"
@@ -169,6 +170,23 @@ void bind_multibody(py::module_& m) {
             "c (3) [N s/m] along the global axes, unstressed at anchor [m] (None: p0, the node's reference "
             "position); k_phi (3) [N m/rad], c_phi (3) [N m s/rad] on its rotation from the reference "
             "orientation A0. Its index among the springs.")
+        .def(
+            "add_bushing",
+            [](MultibodySystemCore& sys, int body_a, int node_a, const Vec3d& p0_a, const Mat3d& A0_a, int body_b,
+               int node_b, const Vec3d& p0_b, const Mat3d& A0_b, const Vec3d& k, const Vec3d& c, const Vec3d& k_phi,
+               const Vec3d& c_phi) {
+                auto e = std::make_unique<Bushing>(0, 1, to_vec3(k), to_vec3(c), to_vec3(k_phi), to_vec3(c_phi));
+                sys.add_spring(std::move(e), {MbSpringNode{body_a, node_a, p0_a, A0_a},
+                                              MbSpringNode{body_b, node_b, p0_b, A0_b}});
+                return sys.n_springs() - 1;
+            },
+            py::arg("body_a"), py::arg("node_a"), py::arg("p0_a"), py::arg("A0_a"), py::arg("body_b"),
+            py::arg("node_b"), py::arg("p0_b"), py::arg("A0_b"), py::arg("k"), py::arg("c"),
+            py::arg("k_phi") = Vec3d::Zero(), py::arg("c_phi") = Vec3d::Zero(),
+            "A bushing (the element model's) between two body nodes: k (3) [N/m], c (3) [N s/m] along the global "
+            "axes on the nodes' relative displacement from p0_b - p0_a [m], k_phi (3) [N m/rad], c_phi (3) "
+            "[N m s/rad] on their relative rotation from the reference orientations A0_a, A0_b. Its index among "
+            "the springs.")
         .def(
             "spring_energy",
             [](const MultibodySystemCore& sys, const Arr& r, const Arr& R, const VecX& eta, const VecX& v) {

@@ -18,7 +18,7 @@ void bind_sensors(py::module_& m) {
         .def(
             "add",
             [](SensorLog& log, int kind, int index, double s, const std::array<double, 3>& axis, int rows) {
-                if (kind < 0 || kind > static_cast<int>(SensorKind::joint_force))
+                if (kind < 0 || kind > static_cast<int>(SensorKind::bushing))
                     throw std::invalid_argument("unknown sensor kind " + std::to_string(kind));
                 SensorSpec spec;
                 spec.kind = static_cast<SensorKind>(kind);

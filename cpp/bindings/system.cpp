@@ -3,6 +3,7 @@
 #include "convert.hpp"
 #include "outputs.hpp"
 #include "pipeflex/assembly/axial_spring.hpp"
+#include "pipeflex/assembly/bushing.hpp"
 #include "pipeflex/assembly/model.hpp"
 #include "pipeflex/core/format.hpp"
 #include "pipeflex/core/small_matrix_eigen.hpp"
@@ -125,8 +126,26 @@ std::vector<Coupling> pipeflex::couplings_from(const py::list& couplings) {
             cp.push_back(k);
             continue;
         }
+        if (kind == 4) {
+            // (element node, 4, body, body node, k (3) [N/m], c (3) [N s/m], k_phi (3) [N m/rad],
+            //  c_phi (3) [N m s/rad], p0 element node, p0 body node [m], A0 body node)
+            k.joint.body_b = c[2].cast<int>();
+            k.joint.node_b = c[3].cast<int>();
+            auto spring = std::make_unique<Bushing>(0, 1, to_vec3(c[4].cast<Vec3d>()), to_vec3(c[5].cast<Vec3d>()),
+                                                    to_vec3(c[6].cast<Vec3d>()), to_vec3(c[7].cast<Vec3d>()));
+            auto model = std::make_shared<Model>();
+            model->positions = {to_vec3(c[8].cast<Vec3d>()), to_vec3(c[9].cast<Vec3d>())};
+            model->kinds = {NodeKind::frame, NodeKind::frame};
+            spring->finalize(*model);
+            k.joint.C0 = c[10].cast<Mat3d>();
+            k.spring = std::move(spring);
+            k.spring_model = std::move(model);
+            cp.push_back(k);
+            continue;
+        }
         if (kind < 0 || kind > 2)
-            throw std::invalid_argument("coupling kind must be 0 (rigid), 1 (hinge), 2 (spherical) or 3 (axial spring)");
+            throw std::invalid_argument("coupling kind must be 0 (rigid), 1 (hinge), 2 (spherical), 3 (axial spring) "
+                                        "or 4 (bushing)");
         k.joint.kind = static_cast<JointKind>(kind);
         k.joint.body_b = c[2].cast<int>();
         k.joint.node_b = c[3].cast<int>();

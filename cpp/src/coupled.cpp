@@ -35,6 +35,9 @@ class CoupledEquations final : public Equations {
             if (model.kinds[i] == NodeKind::ancf && c.joint.kind != JointKind::rigid && !c.spring)
                 throw std::invalid_argument("coupling: ANCF node " + std::to_string(i) +
                                             " can only be clamped (rigid) to a body node");
+            if (model.kinds[i] == NodeKind::ancf && c.spring && !c.spring->accepts(NodeKind::ancf))
+                throw std::invalid_argument(std::string("coupling: ANCF node ") + std::to_string(i) +
+                                            " has no rotation for the " + c.spring->name() + "'s rotational part");
             if (std::find(model.hub.nodes.begin(), model.hub.nodes.end(), i) != model.hub.nodes.end())
                 throw std::invalid_argument("coupling: element node " + std::to_string(i) + " is driven by the hub");
             if (c.joint.body_b < 0 || c.joint.body_b >= core.n_bodies() || c.joint.node_b < 0 ||
@@ -199,27 +202,37 @@ class CoupledEquations final : public Equations {
     }
 
    private:
-    // Coupling k's axial spring-damper between the element node (position x, its map the
-    // support basis's position rows, fixed) and the body node (p = r + R (...), Jp): its
-    // forces into r and wK dF/dq + wC dF/dv into J, exact (the body node's map turning at
-    // fixed force, and its velocity's change with the configuration for the dashpot).
+    // Coupling k's spring-damper (axial spring or bushing) between the element node (its
+    // own coordinates; map: the node's support basis, fixed; an ANCF node's position rows
+    // only) and the body node (a stand-in frame node as MbSpring's: x = p, phi = 0, frame
+    // A_b A0^T, phi_dot = omega; maps Jp, Ja): its forces into r and wK dF/dq + wC dF/dv
+    // into J, exact (the body node's maps turning at fixed force and moment, its velocity's
+    // change with the configuration, and the second order of the stand-in's chart).
     void spring(std::size_t k, double wK, double wC, VecX* r, Triplets* J) {
         using RowMat = Eigen::Matrix<double, 12, 12, Eigen::RowMajor>;
         const Coupling& cp = cp_[k];
         const int i = cp.element_node, body = cp.joint.body_b, nd = cp.joint.node_b;
         const State& st = el_.state;
         const MbState& ms = mb_.state();
-        const auto Te = el_.model.bases[i].topRows(3);
+        const bool frame = el_.model.kinds[i] == NodeKind::frame;
+        const Eigen::MatrixXd& T = el_.model.bases[i];
         Vec3d pb;
         core_.node(ms, body, nd, pb, Ab_, &Jpb_, &Jab_);
-        const Vec3d pd = Jpb_ * ms.v.segment(core_.offset(body), Jpb_.cols());
+        const auto vb = ms.v.segment(core_.offset(body), Jpb_.cols());
+        const Vec3d pd = Jpb_ * vb, wb = Jab_ * vb;
         State ss(*cp.spring_model);
         for (int c = 0; c < 3; ++c) {
             ss.q[c] = st.q[6 * i + c];
             ss.v[c] = st.v[6 * i + c];
+            ss.q[3 + c] = frame ? st.q[6 * i + 3 + c] : 0.0;
+            ss.v[3 + c] = frame ? st.v[6 * i + 3 + c] : 0.0;
             ss.q[6 + c] = pb[c];
             ss.v[6 + c] = pd[c];
+            ss.q[9 + c] = 0.0;
+            ss.v[9 + c] = wb[c];
         }
+        if (frame) ss.frames[0] = st.frames[i];
+        ss.frames[1] = to_mat3(Ab_ * cp.joint.C0.transpose());
         const double weights[6] = {1.0, 0.0, 0.0, 0.0, 1.0, 0.0};
         RowMat K, C;
         double res[12];
@@ -232,24 +245,35 @@ class CoupledEquations final : public Equations {
         const LoadState none;
         cp.spring->kernel(ElementInputs{ss, none, nullptr}, out);
         const int e0 = first_col(k), b0 = body_col(k);
-        const int ne = static_cast<int>(Te.cols()), nb = static_cast<int>(Jpb_.cols());
-        const Vec3d fe(res[0], res[1], res[2]), fb(res[6], res[7], res[8]);
+        const int ne = static_cast<int>(T.cols()), nb = static_cast<int>(Jpb_.cols());
+        MatX Ge = MatX::Zero(6, ne), Gb(6, nb);
+        Ge.topRows(3) = T.topRows(3);
+        if (frame) Ge.bottomRows(3) = T.bottomRows(3);
+        Gb << Jpb_, Jab_;
+        const Eigen::Map<const Eigen::Matrix<double, 6, 1>> re(res), rb(res + 6);
         if (r) {
-            r->segment(e0, ne).noalias() += Te.transpose() * fe;
-            r->segment(b0, nb).noalias() += Jpb_.transpose() * fb;
+            r->segment(e0, ne).noalias() += Ge.transpose() * re;
+            r->segment(b0, nb).noalias() += Gb.transpose() * rb;
         }
         if (!J) return;
+        // the stand-in's rotation rates phi_dot = T(phi)^-1 omega move by skew(omega) u / 2
+        // with its rotation u = Ja dq
+        K.middleCols<3>(9) += 0.5 * C.middleCols<3>(9) * skew(wb);
         core_.node_velocity_derivative(ms, body, nd, K_);
-        const MatX Wb = K_.topRows(3);
-        const MatX Ge = Te, Gb = Jpb_;
         const MatX* G[2] = {&Ge, &Gb};
         const int c0[2] = {e0, b0};
+        const Vec3d fb(res[6], res[7], res[8]), mb(res[9], res[10], res[11]);
         for (int a = 0; a < 2; ++a)
             for (int b = 0; b < 2; ++b) {
-                const Mat3d Kab = K.block<3, 3>(6 * a, 6 * b), Cab = C.block<3, 3>(6 * a, 6 * b);
+                const Eigen::Matrix<double, 6, 6> Kab = K.block<6, 6>(6 * a, 6 * b), Cab = C.block<6, 6>(6 * a, 6 * b);
                 MatX B = G[a]->transpose() * ((wK * Kab + wC * Cab) * *G[b]);
-                if (b == 1 && wK != 0.0) B.noalias() += wK * G[a]->transpose() * (Cab * Wb);
-                if (a == 1 && b == 1 && wK != 0.0) core_.node_stiffness(ms, body, nd, fb, Vec3d::Zero(), wK, B);
+                if (b == 1 && wK != 0.0) B.noalias() += wK * G[a]->transpose() * (Cab * K_);
+                if (a == 1 && b == 1 && wK != 0.0) {
+                    // the node maps turning at fixed forces, and the stand-in's moment
+                    // Ja^T T(phi)^-T m with T^-T m = m - skew(m) phi / 2 + ...
+                    core_.node_stiffness(ms, body, nd, fb, mb, wK, B);
+                    if (!mb.isZero(0.0)) B.noalias() -= 0.5 * wK * Jab_.transpose() * (skew(mb) * Jab_);
+                }
                 for (int cc = 0; cc < B.cols(); ++cc)
                     for (int rr = 0; rr < B.rows(); ++rr) J->add(c0[a] + rr, c0[b] + cc, B(rr, cc));
             }

@@ -2,6 +2,7 @@
 
 #include "pipeflex/assembly/model.hpp"
 #include "pipeflex/core/rotation.hpp"
+#include "pipeflex/core/rotation_log.hpp"
 
 #include <cmath>
 #include <string>
@@ -10,38 +11,10 @@ namespace pipeflex {
 
 namespace {
 
-double atan2_(double y, double x) { return std::atan2(y, x); }
-template <class V, int N> Dual<V, N> atan2_(const Dual<V, N>& y, const Dual<V, N>& x) {
-    Dual<V, N> r;
-    r.v = atan2_(y.v, x.v);
-    const V den = y.v * y.v + x.v * x.v;
-    for (int i = 0; i < N; ++i) r.d[i] = (x.v * y.d[i] - y.v * x.d[i]) / den;
-    return r;
-}
-
-// The rotation vector psi of R = exp(skew(psi)), |psi| < pi (std::domain_error within
-// 1e-6 rad of pi, where it is not unique), differentiable by (nested) Dual numbers.
-// With v = vee(R - R^T) / 2 = sin(theta) n and cos(theta) = (tr R - 1) / 2:
-// psi = (theta / sin theta) v, the factor from its series in sin^2 near theta = 0.
-template <class S> Vec3<S> rotation_log(const Mat3<S>& R, int node) {
-    using std::sqrt;
-    const Vec3<S> v = {{0.5 * (R(2, 1) - R(1, 2)), 0.5 * (R(0, 2) - R(2, 0)), 0.5 * (R(1, 0) - R(0, 1))}};
-    const S c = 0.5 * (R(0, 0) + R(1, 1) + R(2, 2) - 1.0);
-    const S s2 = dot(v, v);
-    S f;
-    if (value_of(s2) < 1e-4 && value_of(c) > 0.0) {
-        // asin(s) / s in s^2 = sin^2(theta): truncation below 1e-19 for s^2 < 1e-4
-        f = 1.0 + s2 * (1.0 / 6 + s2 * (3.0 / 40 + s2 * (5.0 / 112 + s2 * (35.0 / 1152))));
-    } else {
-        const S s = sqrt(s2);
-        const S theta = atan2_(s, c);
-        if (!(value_of(theta) < M_PI - 1e-6))
-            throw std::domain_error("ground spring at node " + std::to_string(node) +
-                                    ": the node has turned by pi from its reference orientation, where the "
-                                    "rotational spring's angle is not defined (it holds rotations below pi)");
-        f = theta / s;
-    }
-    return {{f * v[0], f * v[1], f * v[2]}};
+std::string turned_by_pi(int node) {
+    return "ground spring at node " + std::to_string(node) +
+           ": the node has turned by pi from its reference orientation, where the rotational spring's angle is "
+           "not defined (it holds rotations below pi)";
 }
 
 }  // namespace
@@ -90,7 +63,7 @@ void GroundSpring::kernel(const ElementInputs& in, const ElementOutputs& out) co
                 p[i] = D2(D1(phi[i], i));
                 p[i].d[i] = D1(1.0);
             }
-            const Vec3<D2> psi = rotation_log(rotation_exp(p) * promote<D2>(F), n);
+            const Vec3<D2> psi = rotation_log(rotation_exp(p) * promote<D2>(F), [n] { return turned_by_pi(n); });
             D2 U(0.0);
             for (int i = 0; i < 3; ++i) U += 0.5 * kr_[i] * psi[i] * psi[i];
             for (int i = 0; i < 3; ++i) {
@@ -142,7 +115,7 @@ void GroundSpring::energies(const State& state, double* kinetic, double* elastic
     }
     if (rotational_ && state.kinds[n] == NodeKind::frame) {
         const Vec3<double> phi = {{state.q[6 * n + 3], state.q[6 * n + 4], state.q[6 * n + 5]}};
-        const Vec3<double> psi = rotation_log(rotation_exp(phi) * state.frames[n], n);
+        const Vec3<double> psi = rotation_log(rotation_exp(phi) * state.frames[n], [n] { return turned_by_pi(n); });
         for (int i = 0; i < 3; ++i) *elastic += 0.5 * kr_[i] * psi[i] * psi[i];
     }
 }

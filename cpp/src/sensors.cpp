@@ -3,6 +3,7 @@
 #include "pipeflex/solvers/sensors.hpp"
 
 #include "pipeflex/assembly/axial_spring.hpp"
+#include "pipeflex/assembly/bushing.hpp"
 #include "pipeflex/assembly/ground_spring.hpp"
 #include "pipeflex/assembly/pipe_element.hpp"
 #include "pipeflex/core/format.hpp"
@@ -79,6 +80,7 @@ int SensorSpec::width() const {
         case SensorKind::node_acceleration:
         case SensorKind::node_rotation:
         case SensorKind::ground_spring:
+        case SensorKind::bushing:
             return 3;
         case SensorKind::energy:
         case SensorKind::strain:
@@ -293,6 +295,19 @@ void sense_element(const ElementEquations& eq, const SensorSpec& s, double t, do
             } else {
                 for (int k = 0; k < 3; ++k) value[k] = -r[k];  // the force on the node
             }
+            return;
+        }
+        case SensorKind::bushing: {
+            const Element& el = element("spring_force");
+            if (dynamic_cast<const Bushing*>(&el) == nullptr)
+                throw std::invalid_argument("spring_force sensor: element " + std::to_string(s.index) +
+                                            " is not a bushing");
+            double r[12];
+            const LoadState load = eq.load_at(t);
+            ElementOutputs out;
+            out.r = r;
+            el.kernel(ElementInputs{st, load, nullptr}, out);
+            for (int k = 0; k < 3; ++k) value[k] = -r[6 + k];  // the force on node b
             return;
         }
         case SensorKind::joint_force:

@@ -78,7 +78,9 @@ class CoupledSystem:
         self.model = model
         self.bodies = bodies
         self._joints: List[CouplingJoint] = []
-        self._springs: List[tuple] = []  # add_spring: (node, body, body node, k, c)
+        # add_spring, add_bushing: dict(kind "axial" / "bushing", node, body, body_node, k, c
+        # (, k_phi, c_phi))
+        self._springs: List[dict] = []
 
     @property
     def mass_flow(self) -> float:
@@ -137,7 +139,54 @@ class CoupledSystem:
         if not np.linalg.norm(p_b - p_el) > 0.0:
             raise ValueError(f"element node {n} and body {j} node {i} coincide in the assembly configuration: an axial "
                              "spring of zero length has no axis")
-        self._springs.append((n, j, i, k, c))
+        self._springs.append(dict(kind="axial", node=n, body=j, body_node=i, k=k, c=c))
+        return len(self._springs) - 1
+
+    def add_bushing(self, node: int, body: int, body_node, *, stiffness: Sequence[float] = (0.0, 0.0, 0.0),
+                    damping: Sequence[float] = (0.0, 0.0, 0.0),
+                    rotational_stiffness: Sequence[float] = (0.0, 0.0, 0.0),
+                    rotational_damping: Sequence[float] = (0.0, 0.0, 0.0)) -> int:
+        """A linear 6-DOF spring-damper (bushing) between element node ``node`` (node a) and
+        node ``body_node`` of body ``body`` (node b), the element models' bushing
+        (:meth:`pipeflex.ModelBuilder.add_bushing`): massless, the nodes may coincide. Force
+        on the body node -K (p_b - x_a - d0) - C (v_b - v_a), its opposite on the element
+        node (d0 their offset in the assembly configuration; K = diag(kx, ky, kz),
+        C = diag(cx, cy, cz) along the global axes), and moment on the body node
+        -T(psi)^-T K_phi psi - C_phi (w_b - w_a), its opposite on the element node, psi the
+        rotation vector of their relative rotation from the assembly configuration
+        (``|psi| < pi``), w their angular velocities, K_phi and C_phi about the global
+        axes. No constraint; exact tangents (through the body's node map). Returns its
+        index among the couplings' springs (with :meth:`add_spring`'s).
+
+        Args:
+            node: the element node [-] (frame node; an ANCF node takes the translational
+                part only).
+            body: the body [-]; body_node: its node (index or "start", "center", "end").
+            stiffness: (kx, ky, kz) [N/m] >= 0 each.
+            damping: (cx, cy, cz) [N s/m] >= 0 each.
+            rotational_stiffness: k_phi (3) [N m/rad] >= 0 each, about the global axes.
+            rotational_damping: c_phi (3) [N m s/rad] >= 0 each, about the global axes.
+        """
+        from .model import ModelBuilder
+
+        n = _checks.non_negative_int("node", node)
+        if n >= self.model.n_nodes:
+            raise ValueError(f"node must be a node of the element model, in [0, {self.model.n_nodes}), got {node}")
+        j = self.bodies.body_index(body)
+        try:
+            i = self.bodies.bodies[j].node_index(body_node)
+        except ValueError as e:
+            raise ValueError(f"body_node: {e}") from None
+        k, c, kr, cr = (ModelBuilder._non_negative3(name, v, unit) for name, v, unit in
+                        (("stiffness", stiffness, "N/m"), ("damping", damping, "N s/m"),
+                         ("rotational_stiffness", rotational_stiffness, "N m/rad"),
+                         ("rotational_damping", rotational_damping, "N m s/rad")))
+        if not (k.any() or c.any() or kr.any() or cr.any()):
+            raise ValueError("a bushing needs a stiffness or a damping > 0 in some direction, got all zero")
+        if (kr.any() or cr.any()) and self._ancf(n):
+            raise ValueError(f"node {n} is an ANCF node: it has no rotation, so rotational_stiffness and "
+                             f"rotational_damping must be 0 for a bushing there")
+        self._springs.append(dict(kind="bushing", node=n, body=j, body_node=i, k=k, c=c, k_phi=kr, c_phi=cr))
         return len(self._springs) - 1
 
     def _add(self, kind, node, body, body_node, axis=None, given_axis=None) -> None:
@@ -159,7 +208,9 @@ class CoupledSystem:
     def core_couplings(self) -> list:
         """The couplings as the core takes them: (node, kind, body, body node, C0, axis_b,
         perp0, perp1), with the reference orientations of the assembly configuration; then
-        the springs, (node, 3, body, body node, k, c, p0 of the node, p0 of the body node)."""
+        the springs, (node, 3, body, body node, k, c, p0 of the node, p0 of the body node),
+        and bushings, (node, 4, body, body node, k, c, k_phi, c_phi, p0 of the node, p0 of
+        the body node, A0 of the body node)."""
         st0 = as_core(self.model, None)
         b0 = self.bodies.initial_state()
         out = []
@@ -175,9 +226,14 @@ class CoupledSystem:
                 axis_b = Ab.T @ ax
                 perp = (Aa.T @ np.linalg.svd(ax.reshape(1, 3))[2][1:].T).T
             out.append((c.node, KINDS.index(c.kind), c.body, c.body_node, Aa.T @ Ab, axis_b, perp[0], perp[1]))
-        for n, j, i, k, c in getattr(self, "_springs", ()):  # after the joints: they add no constraint rows
-            p_b = self.bodies.node_kinematics(b0, j, i)[0]
-            out.append((n, 3, j, i, k, c, np.asarray(self.model.positions[n], float), p_b))
+        for sp in getattr(self, "_springs", ()):  # after the joints: they add no constraint rows
+            n, j, i = sp["node"], sp["body"], sp["body_node"]
+            p_b, A_b = self.bodies.node_kinematics(b0, j, i)[:2]
+            p_n = np.asarray(self.model.positions[n], float)
+            if sp["kind"] == "axial":
+                out.append((n, 3, j, i, sp["k"], sp["c"], p_n, p_b))
+            else:
+                out.append((n, 4, j, i, sp["k"], sp["c"], sp["k_phi"], sp["c_phi"], p_n, p_b, A_b))
         return out
 
 

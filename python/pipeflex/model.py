@@ -131,11 +131,13 @@ class SpringInfo:
 
     ``kind`` is ``"axial"`` (between ``nodes`` = (a, b), along the line between them:
     ``stiffness`` k [N/m] and ``damping`` c [N s/m] numbers, unstressed at the nodes'
-    reference distance) or ``"ground"`` (from ``nodes`` = (node,) to the fixed ``anchor``
-    [m], the node's reference position if None: ``stiffness`` (kx, ky, kz) [N/m] and
-    ``damping`` (cx, cy, cz) [N s/m] along the global axes, ``rotational_stiffness``
-    k_phi (3) [N m/rad] and ``rotational_damping`` c_phi (3) [N m s/rad] about them,
-    tuples; None for an axial spring)."""
+    reference distance), ``"ground"`` (from ``nodes`` = (node,) to the fixed ``anchor``
+    [m], the node's reference position if None) or ``"bushing"`` (between ``nodes`` =
+    (a, b), unstressed at their reference offset and orientations); a ground spring and a
+    bushing have ``stiffness`` (kx, ky, kz) [N/m] and ``damping`` (cx, cy, cz) [N s/m]
+    along the global axes, ``rotational_stiffness`` k_phi (3) [N m/rad] and
+    ``rotational_damping`` c_phi (3) [N m s/rad] about them, tuples (None for an axial
+    spring)."""
 
     kind: str
     nodes: Tuple[int, ...]
@@ -507,6 +509,53 @@ class ModelBuilder:
         self._springs.append(dict(kind="ground", nodes=(node,), k=k, c=c, anchor=x, k_phi=kr, c_phi=cr))
         return len(self._springs) - 1
 
+    def add_bushing(self, node_a: int, node_b: int, *, stiffness: Sequence[float] = (0.0, 0.0, 0.0),
+                    damping: Sequence[float] = (0.0, 0.0, 0.0),
+                    rotational_stiffness: Sequence[float] = (0.0, 0.0, 0.0),
+                    rotational_damping: Sequence[float] = (0.0, 0.0, 0.0)) -> int:
+        """A linear 6-DOF spring-damper (bushing) between two nodes, massless: a flexible
+        coupling, a rubber-lined clamp, an elastic hinge between two lines at a shared
+        position. The nodes may coincide. Force on node b
+        -K (x_b - x_a - d0) - C (v_b - v_a), its opposite on node a, with d0 the nodes'
+        reference offset X_b - X_a and K = diag(kx, ky, kz), C = diag(cx, cy, cz) along the
+        GLOBAL axes (they do not turn with the nodes; no moment from the offset). Between two
+        frame nodes it may also hold their relative rotation: moment on node b
+        -T(psi)^-T K_phi psi - C_phi (w_b - w_a), its opposite on node a, with psi the
+        rotation vector of R_b R_a^T (R the nodes' rotations from their reference
+        orientations; psi = 0 under any equal rotation of both), exact for ``|psi| < pi``
+        (elastic energy psi^T K_phi psi / 2; a relative rotation of pi raises an error),
+        w the angular velocities and K_phi, C_phi diagonal about the global axes. Returns
+        its index among the springs (all kinds).
+
+        Args:
+            node_a, node_b: the two nodes [-] (two different nodes; they may coincide in
+                space).
+            stiffness: (kx, ky, kz) [N/m] >= 0 each.
+            damping: (cx, cy, cz) [N s/m] >= 0 each.
+            rotational_stiffness: k_phi (3) [N m/rad] >= 0 each, about the global axes
+                (frame nodes only).
+            rotational_damping: c_phi (3) [N m s/rad] >= 0 each, about the global axes
+                (frame nodes only).
+        """
+        a = self._node("node_a", node_a)
+        b = self._node("node_b", node_b)
+        k, c, kr, cr = (self._non_negative3(name, v, unit) for name, v, unit in
+                        (("stiffness", stiffness, "N/m"), ("damping", damping, "N s/m"),
+                         ("rotational_stiffness", rotational_stiffness, "N m/rad"),
+                         ("rotational_damping", rotational_damping, "N m s/rad")))
+        if a == b:
+            raise ValueError(f"node_a and node_b are both node {a}: a bushing joins two nodes "
+                             f"(to hold a node to the ground use add_ground_spring)")
+        if not (k.any() or c.any() or kr.any() or cr.any()):
+            raise ValueError("a bushing needs a stiffness or a damping > 0 in some direction, got all zero")
+        if kr.any() or cr.any():
+            for n in (a, b):
+                if n in self._ancf_nodes:
+                    raise ValueError(f"node {n} is an ANCF node: it has no rotation, so rotational_stiffness and "
+                                     f"rotational_damping must be 0 for a bushing there")
+        self._springs.append(dict(kind="bushing", nodes=(a, b), k=k, c=c, k_phi=kr, c_phi=cr))
+        return len(self._springs) - 1
+
     @staticmethod
     def _non_negative3(name: str, value, unit: str) -> np.ndarray:
         """Three finite numbers >= 0 (kx, ky, kz or cx, cy, cz), else ValueError naming them."""
@@ -822,7 +871,7 @@ class ModelBuilder:
         """Every connected part of the structure needs a support, as the whole model does:
         an unsupported part drifts (a mechanism whose round-off eigenvalues would decide
         a stability answer)."""
-        pairs = [(e["p"], e["q"]) for e in els] + [s["nodes"] for s in self._springs if s["kind"] == "axial"]
+        pairs = [(e["p"], e["q"]) for e in els] + [s["nodes"] for s in self._springs if len(s["nodes"]) == 2]
         count, part = _parts(len(self._positions), np.array([p for p, _ in pairs], dtype=np.int64),
                              np.array([q for _, q in pairs], dtype=np.int64))
         supported = {part[i] for i in self._constraints}
@@ -864,6 +913,8 @@ class ModelBuilder:
         for s in self._springs:  # in the core's registry after the pipe and ANCF elements
             if s["kind"] == "axial":
                 core.add_spring(*s["nodes"], s["k"], s["c"])
+            elif s["kind"] == "bushing":
+                core.add_bushing(*s["nodes"], s["k"], s["c"], s["k_phi"], s["c_phi"])
             else:
                 core.add_ground_spring(s["nodes"][0], s["k"], s["c"], s.get("anchor"), s["k_phi"], s["c_phi"])
         for m in self._masses:
@@ -1028,7 +1079,7 @@ class Model:
         gravity: g [m/s^2].
         hub: the rotating hub (:class:`HubInfo`) or None.
         ancf_nodes: indices of the ANCF nodes.
-        springs: per-spring :class:`SpringInfo` (axial and ground spring-dampers).
+        springs: per-spring :class:`SpringInfo` (axial, ground and bushing spring-dampers).
         info: free-form description a scene attaches (e.g. reference frequencies).
     """
 
@@ -1133,7 +1184,7 @@ class Model:
             rows.append(("ancf_nodes", len(self.ancf_nodes)))
         if self.springs:
             rows.append(("springs", ", ".join(f"{sum(s.kind == k for s in self.springs)} {k}"
-                                              for k in ("axial", "ground") if any(s.kind == k for s in self.springs))))
+                                              for k in ("axial", "ground", "bushing") if any(s.kind == k for s in self.springs))))
         if self.hub is not None:
             rows.append(("hub", f"(omega {self.hub.omega:.6g} rad/s, nodes {list(self.hub.nodes)})"))
         if self.info:
@@ -1398,14 +1449,17 @@ class Model:
 
     def force_scale(self, *, mass_flow: Optional[float] = None) -> float:
         """A force level [N] of the model, to judge residuals: the largest of EI/l0^2 of
-        the elements, k L and k_phi / L of the springs (L the model's length scale), the
+        the elements, k L and k_phi / L of the axial and ground springs (L the model's
+        length scale), the softest positive k L or k_phi / L of each bushing (a stiff
+        joint's large stiffness, like an element's EA, does not set the level), the
         weight, the nodal loads and the fluid momentum flux P."""
         mdot = self.mass_flow if mass_flow is None else mass_flow
         f = max(((e.section.EIz if e.kind == "ancf" else max(e.section.EI, e.section.EIz)) / e.length**2
                  for e in self.elements), default=0.0)
         for s in self.springs:
-            f = max(f, float(np.max(s.stiffness)) * self.length_scale,
-                    max(s.rotational_stiffness or (0.0,)) / self.length_scale)
+            levels = [*(float(k) * self.length_scale for k in np.ravel(s.stiffness)),
+                      *(k / self.length_scale for k in (s.rotational_stiffness or ()))]
+            f = max(f, min((x for x in levels if x > 0.0), default=0.0) if s.kind == "bushing" else max(levels))
         f = max(f, self.total_mass * float(np.linalg.norm(self.gravity)))
         f = max(f, float(np.abs(_core.external_forces(self._core, self.initial_state())).max(initial=0.0)))
         for e in self.elements:

@@ -82,6 +82,8 @@ SPRINGS = {
     "axial": ("add_spring", {"node_a": "node", "node_b": "node", "stiffness": "nonneg", "damping": "nonneg"}, None),
     "ground": ("add_ground_spring", {"node": "node", "stiffness": "nonneg3", "damping": "nonneg3", "anchor": "point",
                                      "rotational_stiffness": "nonneg3", "rotational_damping": "nonneg3"}, None),
+    "bushing": ("add_bushing", {"node_a": "node", "node_b": "node", "stiffness": "nonneg3", "damping": "nonneg3",
+                                "rotational_stiffness": "nonneg3", "rotational_damping": "nonneg3"}, None),
 }
 HUB = ("rotating_hub", {"node": "node", "omega": "number", "spin_up_time": "nonneg", "center": "point",
                         "axis": "point"}, None)
@@ -121,13 +123,28 @@ JOINTS = {
 }
 BODY_LOAD = ("add_load", {"body": "index", "node": "body_node", "force": "time_functions",
                           "moment": "time_functions"}, None)
+_SIX = {"stiffness": "nonneg3", "damping": "nonneg3", "rotational_stiffness": "nonneg3",
+        "rotational_damping": "nonneg3"}
+#: MultibodyBuilder's spring-dampers: axial, ground, bushing (the builder's dict keys of each)
+BODY_SPRINGS = {
+    "axial": ("add_spring", {"body_a": "index", "node_a": "body_node", "body_b": "index", "node_b": "body_node",
+                             "stiffness": "nonneg", "damping": "nonneg"}, None),
+    "ground": ("add_ground_spring", {"body": "index", "node": "body_node", "anchor": "point", **_SIX}, None),
+    "bushing": ("add_bushing", {"body_a": "index", "node_a": "body_node", "body_b": "index", "node_b": "body_node",
+                                **_SIX}, None),
+}
 BODY_FLOW = {"mass_flow": "number", "junction_forces": "bool"}
-TOP_MULTIBODY = ("pipeflex_model", "kind", "info", "sections", "bodies", "assembly", "joints", "loads", "gravity",
-                 "flow")
+TOP_MULTIBODY = ("pipeflex_model", "kind", "info", "sections", "bodies", "assembly", "joints", "springs", "loads",
+                 "gravity", "flow")
 # -- an element model joined to bodies (kind: coupled) --
 COUPLINGS = {"rigid": {"node": "node", "body": "index", "body_node": "body_node"},
              "hinge": {"node": "node", "body": "index", "body_node": "body_node", "axis": "point"},
-             "spherical": {"node": "node", "body": "index", "body_node": "body_node"}}
+             "spherical": {"node": "node", "body": "index", "body_node": "body_node"},
+             "axial": {"node": "node", "body": "index", "body_node": "body_node", "stiffness": "nonneg",
+                       "damping": "nonneg"},
+             "bushing": {"node": "node", "body": "index", "body_node": "body_node", **_SIX}}
+#: the CoupledSystem method of each coupling kind (the joints': the kind's name)
+_COUPLING_METHODS = {"axial": "add_spring", "bushing": "add_bushing"}
 TOP_COUPLED = ("pipeflex_model", "kind", "elements", "bodies", "couplings")
 #: a time function's kinds (a bare number is a constant)
 TIME_FUNCTIONS = {"table": {"times": "numbers", "values": "numbers"},
@@ -592,6 +609,7 @@ def _multibody_from(r: _Reader):
             raise r.error(where + ("up",), "up goes with start and end (a body placed by position takes rotation)")
         _call(r, where, b, "add_body_between" if between else "add_body", dict(body=bodies[name], **kwargs))
     _entries(r, data["joints"], "joints", JOINTS, b, sections)
+    _entries(r, data.get("springs", []), "springs", BODY_SPRINGS, b, sections)
     for i, entry in enumerate(_listing(r, ("loads",), data.get("loads", []))):
         _call(r, ("loads", i), b, BODY_LOAD[0], _arguments(r, ("loads", i), entry, BODY_LOAD, b, sections))
     if "gravity" in data:
@@ -614,7 +632,7 @@ def _coupled_from(r: _Reader):
     model = _model_from(_View(r, ("elements",), _mapping(r, ("elements",), data["elements"])))
     bodies = _multibody_from(_View(r, ("bodies",), _mapping(r, ("bodies",), data["bodies"])))
     system = CoupledSystem(model, bodies)
-    kinds = {k: (k, fields, None) for k, fields in COUPLINGS.items()}
+    kinds = {k: (_COUPLING_METHODS.get(k, k), fields, None) for k, fields in COUPLINGS.items()}
     _entries(r, data.get("couplings", []), "couplings", kinds, system, {})
     return system
 
@@ -851,9 +869,6 @@ def multibody_data(system) -> dict:
     if desc is None:
         raise ValueError("system: it was not built by MultibodyBuilder.build: it cannot be saved")
     b, junction_forces = desc
-    if b.get("_springs"):
-        raise ValueError("system: its springs (MultibodyBuilder.add_spring, add_ground_spring) have no model-file "
-                         "key yet: it cannot be saved")
     defaults = {n: p.default for n, p in inspect.signature(flexible_body).parameters.items()}
     names: dict = {}
     sections: dict = {}
@@ -900,6 +915,13 @@ def multibody_data(system) -> dict:
         if kind == "roller":
             ends["direction"] = [float(x) for x in extra.get("given_direction", extra["direction"])]
         joints.append({"fix" if kind == "rigid" and other is None else kind: ends})
+    springs = []
+    for sp in b["_springs"]:  # the builder's dicts: kind, nodes ((body, node), ...), k, c (, anchor, k_phi, c_phi)
+        ends = [(int(j), _node_data(placed[j], n)) for j, n in sp["nodes"]]
+        entry = (dict(body=ends[0][0], node=ends[0][1]) if sp["kind"] == "ground" else
+                 dict(body_a=ends[0][0], node_a=ends[0][1], body_b=ends[1][0], node_b=ends[1][1]))
+        entry.update(_spring_values(sp))
+        springs.append({sp["kind"]: entry})
     loads = []
     for ld in b["_loads"]:
         entry = {"body": int(ld.body), "node": _node_data(placed[ld.body], ld.node)}
@@ -913,6 +935,8 @@ def multibody_data(system) -> dict:
         data["info"] = info
     data["sections"] = {name: _section_data(s) for name, s in sections.items()}
     data.update(bodies=bodies, assembly=assembly, joints=joints)
+    if springs:
+        data["springs"] = springs
     if loads:
         data["loads"] = loads
     if np.any(b["_gravity"]):
@@ -923,12 +947,22 @@ def multibody_data(system) -> dict:
     return data
 
 
+def _spring_values(sp: dict) -> dict:
+    """A spring's stiffness and damping keys as the file writes them (from a builder's
+    dict: k, c (, anchor, k_phi, c_phi)); zeros, the builders' defaults, left out."""
+    out = {}
+    for key, name in (("k", "stiffness"), ("c", "damping"), ("anchor", "anchor"), ("k_phi", "rotational_stiffness"),
+                      ("c_phi", "rotational_damping")):
+        v = sp.get(key)
+        if v is None or (name != "stiffness" and name != "anchor" and not np.any(v)):
+            continue
+        out[name] = _floats(_plain(v, {}))
+    return out
+
+
 def coupled_data(system) -> dict:
     """The model file's content for a :class:`~pipeflex.CoupledSystem`: its element model,
-    its bodies and the couplings."""
-    if getattr(system, "_springs", None):
-        raise ValueError("system: its springs (CoupledSystem.add_spring) have no model-file key yet: it cannot be "
-                         "saved")
+    its bodies and the couplings (joints, then spring-dampers)."""
     elements = model_data(system.model)
     bodies = multibody_data(system.bodies)
     for part in (elements, bodies):
@@ -941,6 +975,11 @@ def coupled_data(system) -> dict:
         if c.axis is not None:
             entry["axis"] = [float(x) for x in (c.given_axis or c.axis)]
         couplings.append({c.kind: entry})
+    for sp in system._springs:  # dicts: kind, node, body, body_node, k, c (, k_phi, c_phi)
+        entry = {"node": int(sp["node"]), "body": int(sp["body"]),
+                 "body_node": _node_data(system.bodies.bodies[sp["body"]], sp["body_node"])}
+        entry.update(_spring_values(sp))
+        couplings.append({sp["kind"]: entry})
     return {"pipeflex_model": FORMAT_VERSION, "kind": "coupled", "elements": elements, "bodies": bodies,
             "couplings": couplings}
 
@@ -992,7 +1031,7 @@ def _multibody_difference(system, other) -> Optional[str]:
     if len(a["_bodies"]) != len(b["_bodies"]) or not all(
             _equal(x._arguments, y._arguments) for x, y in zip(a["_bodies"], b["_bodies"])):
         return "bodies"
-    for key in ("_r", "_R", "_flow", "_joints", "_loads", "_gravity"):
+    for key in ("_r", "_R", "_flow", "_joints", "_springs", "_loads", "_gravity"):
         if not _equal(a[key], b[key]):
             return key.lstrip("_")
     return "mass_flow" if system.mass_flow != other.mass_flow else None
@@ -1000,7 +1039,9 @@ def _multibody_difference(system, other) -> Optional[str]:
 
 def _coupled_difference(system, other) -> Optional[str]:
     diff = _difference(system.model, other.model) or _multibody_difference(system.bodies, other.bodies)
-    return diff or (None if _equal(system.joints, other.joints) else "couplings")
+    if diff is None and not _equal(system.joints, other.joints):
+        diff = "couplings"
+    return diff or (None if _equal(system._springs, other._springs) else "coupling springs")
 
 
 def _data_and_check(model):

@@ -57,6 +57,7 @@ _KINDS = {
     "axial_spring": (8, ("tension",), "N"),
     "ground_spring": (9, _XYZ, "N"),
     "joint_force": (10, None, "N, N m"),  # components: the joint's rows
+    "bushing": (11, _XYZ, "N"),
 }
 _DIRECTIONS = {"up": 1, "down": -1, "both": 0}
 
@@ -92,7 +93,7 @@ class Sensor:
             return self.kind
         if model is None:
             raise ValueError("spring_force: the model decides the spring's kind")
-        return "axial_spring" if model.springs[self.index].kind == "axial" else "ground_spring"
+        return {"axial": "axial_spring", "bushing": "bushing"}.get(model.springs[self.index].kind, "ground_spring")
 
     @property
     def label(self) -> str:
@@ -218,7 +219,8 @@ def section_force(element: int, s: float = 0.5, component: Union[None, str, int]
 def spring_force(spring: int, component: Union[None, str, int] = None, *, name: Optional[str] = None) -> Sensor:
     """The force of spring ``spring`` (the index ``add_spring``/``add_ground_spring``
     returned) [N], stiffness and dashpot together: an axial spring's tension (one value),
-    a ground spring's force on its node (``component`` as :func:`node_position`)."""
+    a ground spring's force on its node, a bushing's force on its node b (``component``
+    as :func:`node_position`)."""
     return Sensor("spring_force", _index("spring_force", "spring", spring),
                   _component("spring_force", component, _XYZ), name=name)
 
@@ -298,7 +300,7 @@ def prepare(model, system, sensors) -> Tuple[object, List[tuple]]:
         _check(model, s)
         kind = s._core_kind(model)
         element = s.index + (len(model.elements) if s.kind == "spring_force" else 0)
-        index = element if kind in ("strain", "section_force", "axial_spring", "ground_spring") else s.index
+        index = element if kind in ("strain", "section_force", "axial_spring", "ground_spring", "bushing") else s.index
         added[key] = log.add(_KINDS[kind][0], index, s.s, s.axis or (0.0, 0.0, 0.0))
         return added[key]
 

@@ -276,6 +276,46 @@ class MultibodyBuilder:
         self._springs.append(dict(kind="ground", nodes=(ref,), k=k, c=c, anchor=x, k_phi=kr, c_phi=cr))
         return len(self._springs) - 1
 
+    def add_bushing(self, body_a: int, node_a, body_b: int, node_b, *,
+                    stiffness: Sequence[float] = (0.0, 0.0, 0.0), damping: Sequence[float] = (0.0, 0.0, 0.0),
+                    rotational_stiffness: Sequence[float] = (0.0, 0.0, 0.0),
+                    rotational_damping: Sequence[float] = (0.0, 0.0, 0.0)) -> int:
+        """A linear 6-DOF spring-damper (bushing) between two body nodes (the element
+        models' bushing, :meth:`pipeflex.ModelBuilder.add_bushing`), massless; the nodes
+        may coincide. Force on node b -K (p_b - p_a - d0) - C (v_b - v_a), its opposite on
+        node a (d0 the nodes' offset in the assembly configuration; K = diag(kx, ky, kz),
+        C = diag(cx, cy, cz) along the global axes), and moment on node b
+        -T(psi)^-T K_phi psi - C_phi (w_b - w_a), its opposite on node a, psi the rotation
+        vector of the nodes' relative rotation from the assembly configuration
+        (``|psi| < pi``), w their angular velocities, K_phi and C_phi about the global axes.
+        It acts through the bodies' node maps with exact tangents. Returns its index among
+        the springs.
+
+        Args:
+            body_a, node_a: the first body [-] and its node (index or "start", "center",
+                "end").
+            body_b, node_b: the second (another node).
+            stiffness: (kx, ky, kz) [N/m] >= 0 each.
+            damping: (cx, cy, cz) [N s/m] >= 0 each.
+            rotational_stiffness: k_phi (3) [N m/rad] >= 0 each, about the global axes.
+            rotational_damping: c_phi (3) [N m s/rad] >= 0 each, about the global axes.
+        """
+        from ..model import ModelBuilder
+
+        a = self._spring_node("body_a", "node_a", body_a, node_a)
+        b = self._spring_node("body_b", "node_b", body_b, node_b)
+        k, c, kr, cr = (ModelBuilder._non_negative3(name, v, unit) for name, v, unit in
+                        (("stiffness", stiffness, "N/m"), ("damping", damping, "N s/m"),
+                         ("rotational_stiffness", rotational_stiffness, "N m/rad"),
+                         ("rotational_damping", rotational_damping, "N m s/rad")))
+        if a == b:
+            raise ValueError(f"node_a and node_b are both node {a[1]} of body {a[0]}: a bushing joins two nodes "
+                             "(to hold a node to the ground use add_ground_spring)")
+        if not (k.any() or c.any() or kr.any() or cr.any()):
+            raise ValueError("a bushing needs a stiffness or a damping > 0 in some direction, got all zero")
+        self._springs.append(dict(kind="bushing", nodes=(a, b), k=k, c=c, k_phi=kr, c_phi=cr))
+        return len(self._springs) - 1
+
     def set_gravity(self, g: Sequence[float]) -> None:
         """Gravitational acceleration g [m/s^2], e.g. ``(0, 0, -9.81)``."""
         self._gravity = _checks.gravity("gravity", g)
@@ -369,6 +409,9 @@ class MultibodyBuilder:
                                      "in the assembly configuration, so the axial spring has no axis; use "
                                      "add_ground_spring, or move them apart")
                 core.add_spring(ba, na, pa, Aa, bb, nb, pb, Ab, sp["k"], sp["c"])
+            elif sp["kind"] == "bushing":
+                (ba, na, pa, Aa), (bb, nb, pb, Ab) = ends
+                core.add_bushing(ba, na, pa, Aa, bb, nb, pb, Ab, sp["k"], sp["c"], sp["k_phi"], sp["c_phi"])
             else:
                 (b, n, p, A), = ends
                 core.add_ground_spring(b, n, p, A, sp["k"], sp["c"], sp["anchor"], sp["k_phi"], sp["c_phi"])

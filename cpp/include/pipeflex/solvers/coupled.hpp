@@ -23,9 +23,10 @@ namespace pipeflex {
 struct Coupling {
     int element_node = 0;  // a frame node of the element model (node a of the joint)
     MbJoint joint;         // kind, body_b / node_b (the body node), C0, axis_b, perp_a
-    // Or, if set, no joint but an axial spring-damper (AxialSpring, nodes 0: the element
-    // node, 1: the body node, finalized on spring_model at their reference positions):
-    // no constraint rows, its forces and exact tangents (MbSpring's stand-in nodes).
+    // Or, if set, no joint but a spring-damper (AxialSpring or Bushing, nodes 0: the element
+    // node, 1: the body node, finalized on spring_model at their reference positions; the
+    // body node's reference orientation A0 in joint.C0): no constraint rows, its forces and
+    // exact tangents (MbSpring's stand-in node for the body node).
     std::shared_ptr<const Element> spring;
     std::shared_ptr<const Model> spring_model;
     int rows(NodeKind element_kind) const {

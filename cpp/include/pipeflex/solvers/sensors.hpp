@@ -35,6 +35,7 @@ enum class SensorKind : int {
     axial_spring = 8,       // tension (1) [N] of the element (an axial spring)
     ground_spring = 9,      // the force on its node (3) [N] of the element (a ground spring)
     joint_force = 10,       // a joint's multipliers (rows) [N, N m]: index its first constraint row
+    bushing = 11,           // the force on its node b (3) [N] of the element (a bushing)
 };
 
 struct SensorSpec {
