@@ -29,10 +29,11 @@ def test_bad_stiffness_is_refused_by_name(bad):
         pf.PipeSection(EI=1.0, pipe_mass=1.0, k_found=bad)
 
 
-def test_the_floating_frame_body_refuses_it_by_name():
+def test_the_floating_frame_body_takes_it():
+    """(Its forces, tangent and frequencies: tests/test_body_foundation.py.)"""
     from pipeflex.multibody import flexible_body
-    with pytest.raises(ValueError, match="k_found"):
-        flexible_body(length=1.0, n_elements=2, section=pf.PipeSection(EI=1.0, pipe_mass=1.0, k_found=3.0))
+    body = flexible_body(length=1.0, n_elements=2, section=pf.PipeSection(EI=1.0, pipe_mass=1.0, k_found=3.0))
+    assert body.foundation["kL"] == 3.0
 
 
 def test_pipe_tangent_matches_differences_of_the_residual():

@@ -80,16 +80,41 @@ void bind_multibody(py::module_& m) {
         .def(
             "add_body",
             [](MultibodySystemCore& sys, const FfrfBodyData& d, const MatX& basis, const std::vector<double>& s,
-               double fluid_mass, double flow_factor) {
+               double fluid_mass, double flow_factor, std::optional<py::dict> foundation, const Vec3d& r_ref,
+               const Mat3d& R_ref, double mass_per_length,
+               const std::vector<std::pair<Vec3d, TimeTable>>& distributed) {
                 MbBody b;
                 b.data = d;
                 b.basis = basis;
                 b.s = s;
                 b.fluid_mass = fluid_mass;
                 b.flow_factor = flow_factor;
+                if (foundation) {
+                    const py::dict& f = *foundation;
+                    b.foundation.kL = f["kL"].cast<double>();
+                    b.foundation.X = f["X"].cast<Vec3d>();
+                    b.foundation.X0 = f["X0"].cast<Vec3d>();
+                    b.foundation.W0 = f["W0"].cast<Mat3d>();
+                    b.foundation.XPhi = f["XPhi"].cast<MatX>();
+                    b.foundation.K = f["K"].cast<MatX>();
+                    b.foundation.x = f["x"].cast<VecX>();
+                    b.foundation.C = f["C"].cast<MatX>();
+                    if (!(b.foundation.kL > 0.0)) throw std::invalid_argument("add_body: foundation kL must be > 0");
+                }
+                b.r_ref = r_ref;
+                b.R_ref = R_ref;
+                b.mass_per_length = mass_per_length;
+                b.distributed = distributed;
                 return sys.add_body(std::move(b));
             },
-            py::arg("data"), py::arg("basis"), py::arg("s"), py::arg("fluid_mass"), py::arg("flow_factor"))
+            py::arg("data"), py::arg("basis"), py::arg("s"), py::arg("fluid_mass"), py::arg("flow_factor"),
+            py::arg("foundation") = py::none(), py::arg("r_ref") = Vec3d::Zero(),
+            py::arg("R_ref") = Mat3d::Identity(), py::arg("mass_per_length") = 0.0,
+            py::arg("distributed") = std::vector<std::pair<Vec3d, TimeTable>>{},
+            "A body: its constants, basis Phi, node coordinates s [m], mu_f [kg/m], flow factor; optionally a "
+            "Winkler foundation (a dict of FfrfFoundation's constants: kL, X, X0, W0, XPhi, K, x, C) about the "
+            "reference placement r_ref [m], R_ref, and distributed loads (q (3) [N/m] global, TimeTable s(t)): "
+            "s(t) q per length on a body of mass_per_length [kg/m].")
         .def(
             "add_joint",
             [](MultibodySystemCore& sys, int kind, int body_a, int node_a, int body_b, int node_b, const Vec3d& p_ground,

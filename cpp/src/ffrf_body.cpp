@@ -264,3 +264,101 @@ void ffrf_body_forces(const FfrfBodyData& d, const FfrfBodyMotion& s, double wK,
 }
 
 }  // namespace pipeflex
+
+// ---- Winkler foundation (ffrf_body.hpp, FfrfFoundation) ----------------------------------
+
+namespace pipeflex {
+
+namespace {
+
+// ax(T)_i = eps_ijk T_jk: int a x b ds from T = int a b^T ds
+Vec3d axial_vector(const Mat3d& T) { return Vec3d(T(1, 2) - T(2, 1), T(2, 0) - T(0, 2), T(0, 1) - T(1, 0)); }
+
+}  // namespace
+
+void check_ffrf_foundation(const FfrfFoundation& f, Eigen::Index m) {
+    if (!std::isfinite(f.kL) || f.kL < 0.0)
+        throw std::invalid_argument("FfrfFoundation: kL must be finite and >= 0, got " + std::to_string(f.kL));
+    auto shape = [](const char* name, const MatX& x, Eigen::Index rows, Eigen::Index cols) {
+        if (x.rows() != rows || x.cols() != cols)
+            throw std::invalid_argument(std::string("FfrfFoundation: ") + name + " must be " + std::to_string(rows) +
+                                        " x " + std::to_string(cols) + ", got " + std::to_string(x.rows()) + " x " +
+                                        std::to_string(x.cols()));
+    };
+    shape("XPhi", f.XPhi, 3, m);
+    shape("K", f.K, m, m);
+    shape("x", f.x, m, 1);
+    shape("C", f.C, m, 9);
+    if (!f.X.allFinite() || !f.X0.allFinite() || !f.W0.allFinite() || !f.XPhi.allFinite() || !f.K.allFinite() ||
+        !f.x.allFinite() || !f.C.allFinite())
+        throw std::invalid_argument("FfrfFoundation: the constants must be finite");
+}
+
+void ffrf_foundation_forces(const FfrfFoundation& f, const Vec3d& r, const Mat3d& R, const Vec3d& r_ref,
+                            const Mat3d& R_ref, const Eigen::Ref<const VecX>& eta, double wK,
+                            Eigen::Ref<VecX> residual, Eigen::Ref<MatX> tangent, bool with_tangent) {
+    const Eigen::Index m = eta.size(), n = 6 + m;
+    if (f.K.rows() != m || f.XPhi.cols() != m || f.C.rows() != m || residual.size() != n ||
+        (with_tangent && (tangent.rows() != n || tangent.cols() != n)))
+        throw std::invalid_argument("ffrf_foundation_forces: inconsistent sizes (body has " + std::to_string(n) +
+                                    " coordinates)");
+    const Vec3d p = R.transpose() * (r - r_ref);
+    const Mat3d Q = R.transpose() * R_ref;
+    const Vec3d Xi = f.X + f.XPhi * eta;
+    const Vec3d QX0 = Q * f.X0;
+    const VecX Ce = f.C.transpose() * eta;
+    Mat3d W = f.W0;
+    for (int j = 0; j < 3; ++j)
+        for (int l = 0; l < 3; ++l) W(j, l) += Ce[3 * j + l];
+    const Mat3d WQ = W * Q.transpose();
+    const Vec3d Lx = f.kL * p + Xi - QX0;
+    const Vec3d Lr = Xi.cross(p) - axial_vector(WQ);
+    residual.head<3>() += R * Lx;
+    residual.segment<3>(3) += R * Lr;
+    auto Le = residual.tail(m);
+    Le.noalias() += f.XPhi.transpose() * p;
+    Le.noalias() += f.K * eta;
+    Le += f.x;
+    for (int j = 0; j < 3; ++j)
+        for (int l = 0; l < 3; ++l) Le -= Q(j, l) * f.C.col(3 * j + l);
+    if (!with_tangent || wK == 0.0) return;
+
+    // body-component derivatives in [R^T dr, R^T dpi, deta]: dp = R^T dr + p~ R^T dpi,
+    // dQ = -(R^T dpi)~ Q; Jf: all rows, the frame's 6 columns; Je: frame rows, eta columns
+    const Mat3d P = skew(p), Xs = skew(Xi);
+    MatX Jf(n, 6), Je(6, m);
+    Jf.block<3, 3>(0, 0) = f.kL * Mat3d::Identity();
+    Jf.block<3, 3>(0, 3) = f.kL * P - skew(QX0);
+    Jf.block<3, 3>(3, 0) = Xs;
+    Mat3d Jr;
+    for (int k = 0; k < 3; ++k) Jr.col(k) = axial_vector(WQ * skew(Vec3d::Unit(k)));
+    Jf.block<3, 3>(3, 3) = Xs * P - Jr;
+    Jf.block(6, 0, m, 3) = f.XPhi.transpose();
+    Jf.block(6, 3, m, 3).noalias() = f.XPhi.transpose() * P;
+    for (int k = 0; k < 3; ++k) {
+        const Mat3d dQ = skew(Vec3d::Unit(k)) * Q;  // -dQ per unit rotation about k
+        for (int j = 0; j < 3; ++j)
+            for (int l = 0; l < 3; ++l) Jf.block(6, 3 + k, m, 1) += dQ(j, l) * f.C.col(3 * j + l);
+    }
+    Je.topRows(3) = f.XPhi;
+    Je.bottomRows(3).noalias() = -P * f.XPhi;
+    for (Eigen::Index i = 0; i < m; ++i) {
+        Mat3d Ci;
+        for (int j = 0; j < 3; ++j)
+            for (int l = 0; l < 3; ++l) Ci(j, l) = f.C(i, 3 * j + l);
+        Je.block<3, 1>(3, i) -= axial_vector(Ci * Q.transpose());
+    }
+    // global: frame rows R (.), frame columns (.) R^T; the outer R's turn -(R L)~ dpi
+    Jf.leftCols(3) = Jf.leftCols(3) * R.transpose();
+    Jf.rightCols(3) = Jf.rightCols(3) * R.transpose();
+    tangent.block(0, 0, 3, 6).noalias() += wK * R * Jf.topRows(3);
+    tangent.block(3, 0, 3, 6).noalias() += wK * R * Jf.middleRows(3, 3);
+    tangent.block(6, 0, m, 6) += wK * Jf.bottomRows(m);
+    tangent.block(0, 6, 3, m).noalias() += wK * R * Je.topRows(3);
+    tangent.block(3, 6, 3, m).noalias() += wK * R * Je.bottomRows(3);
+    tangent.block(6, 6, m, m) += wK * f.K;
+    tangent.block(0, 3, 3, 3) -= wK * skew(R * Lx);
+    tangent.block(3, 3, 3, 3) -= wK * skew(R * Lr);
+}
+
+}  // namespace pipeflex

@@ -60,6 +60,9 @@ int MultibodySystemCore::add_body(MbBody body) {
     if (body.s.size() < 2) throw std::invalid_argument("add_body: a body needs at least 2 nodes (s)");
     if (body.basis.cols() != m || body.basis.rows() != 6 * static_cast<Eigen::Index>(body.s.size()))
         throw std::invalid_argument("add_body: basis must be 6 n_nodes x m with m = (size of M) - 6");
+    if (body.foundation.kL != 0.0) check_ffrf_foundation(body.foundation, m);
+    if (!body.distributed.empty() && !(body.mass_per_length > 0.0 && std::isfinite(body.mass_per_length)))
+        throw std::invalid_argument("add_body: a distributed load needs mass_per_length > 0");
     length_scale_ = std::max(length_scale_ * (bodies_.empty() ? 0.0 : 1.0), body.s.back() - body.s.front());
     offsets_.push_back(offsets_.back() + 6 + static_cast<int>(m));
     n_ = offsets_.back();
@@ -580,6 +583,8 @@ void MultibodySystemCore::evaluate(const MbState& s, double mdot, double mdot_ra
         const int o = offsets_[j], n = offsets_[j + 1] - o, m = n - 6;
         FfrfBodyMotion& mo = out.motion[j];
         mo.gravity = gravity_factor * gravity_;
+        for (const auto& [q, f] : b.distributed)  // the weight term's load with g -> q / mu
+            mo.gravity += (load_factor * f.at(s.t) / b.mass_per_length) * q;
         mo.R = s.R[j];
         mo.omega = s.v.segment<3>(o + 3);
         mo.a = s.a.segment(o, n);
@@ -592,6 +597,14 @@ void MultibodySystemCore::evaluate(const MbState& s, double mdot, double mdot_ra
             ffrf_body_forces(b.data, mo, wK, wC, wM, out.work[j], out.F.segment(o, n), out.S[tangent_block(j, j)], true);
         else
             ffrf_body_forces(b.data, mo, wK, wC, wM, out.work[j], out.F.segment(o, n), dummy, false);
+        if (b.foundation.kL != 0.0) {
+            if (with_tangent)
+                ffrf_foundation_forces(b.foundation, s.r[j], s.R[j], b.r_ref, b.R_ref, mo.eta, wK, out.F.segment(o, n),
+                                       out.S[tangent_block(j, j)], true);
+            else
+                ffrf_foundation_forces(b.foundation, s.r[j], s.R[j], b.r_ref, b.R_ref, mo.eta, wK, out.F.segment(o, n),
+                                       dummy, false);
+        }
     }
     MatX Jp, Ja;
     Vec3d p;

@@ -33,7 +33,7 @@ from .analysis.linearize import Linearization, constrained_fields, linearize as 
 from .analysis.static import StaticResult
 from .analysis.transient import TransientResult, simulate as _simulate
 from ._options import MAX_NEWTON, MAX_STEPS, NEWTON_TOL, RHO_INF
-from .model import Model
+from .model import Model, ModelBuilder
 from .multibody.system import body_motion
 from .multibody.system import MultibodyState, MultibodySystem
 from .errors import ConvergenceError, SingularMatrixError
@@ -188,6 +188,17 @@ class CoupledSystem:
                              f"rotational_damping must be 0 for a bushing there")
         self._springs.append(dict(kind="bushing", node=n, body=j, body_node=i, k=k, c=c, k_phi=kr, c_phi=cr))
         return len(self._springs) - 1
+
+    def save(self, path):
+        """Write the system as a model file (``kind: coupled``), YAML (``.yaml``, ``.yml``)
+        or JSON (``.json``) by the suffix of ``path`` [-] (its folder must exist; schema in
+        docs/model_files.md): the file :func:`pipeflex.save_model` writes. Returns the
+        path. ValueError for what a file cannot hold (springs, a load function, a body
+        with a custom basis), or element builder calls in an order the file cannot keep."""
+        from .model_writer import save_coupled
+        from .multibody.body import flexible_body
+
+        return save_coupled(self, path, ModelBuilder, flexible_body)
 
     def _add(self, kind, node, body, body_node, axis=None, given_axis=None) -> None:
         n = _checks.non_negative_int("node", node)

@@ -670,8 +670,7 @@ class ModelBuilder:
                 ``s(t) lambda(t) q``, lambda the analysis' load factor; statics take s(0).
                 None: s = 1.
 
-        A model with distributed loads has no model-file key yet (``save_model`` refuses
-        it by name).
+        Model files hold it under ``distributed_loads`` (docs/model_files.md).
         """
         q = _checks.vector3("force_per_length", force_per_length)
         if (elements is None) == (line is None):
@@ -1158,6 +1157,20 @@ class Model:
         if self._description is None:
             raise TypeError("this Model was not built by ModelBuilder.build: it cannot be pickled")
         return _rebuild_model, (self._description, self.mass_flow, self._is_free), {"info": self.info}
+
+    def save(self, path):
+        """Write the model as a model file, YAML (``.yaml``, ``.yml``) or JSON (``.json``)
+        by the suffix of ``path`` [-] (its folder must exist; schema in
+        docs/model_files.md): the file :func:`pipeflex.save_model` writes. Returns the path.
+
+        Raises:
+            ValueError: what a file cannot hold (a load function, a free model, a model not
+                built by :class:`ModelBuilder`), or builder calls made in an order the file's
+                grouping cannot keep (checked by building the calls in the file's order).
+        """
+        from .model_writer import save_elements
+
+        return save_elements(self, path, ModelBuilder)
 
     def _summary(self) -> list:
         """(label, text) rows of the model's summary: counts, flow, mass, supports, loads."""

@@ -7,7 +7,9 @@ grouped by kind: the loader makes a builder, calls it entry by entry and builds;
 builder stays the one way to build a model (every rule it checks holds for a file too).
 Saving writes the calls the builder recorded (the model's recipe) and reads the text back
 to check that it builds the same model (node positions, element data, supports, loads
-and springs equal to the last bit), so a saved file always reproduces its model.
+and springs equal to the last bit), so a saved file always reproduces its model. The
+writing half (the file's content and text) is :mod:`pipeflex.model_writer`, which the
+models' own ``save`` methods use.
 
 A file of ``kind: multibody`` is likewise the calls of
 :class:`~pipeflex.multibody.MultibodyBuilder` (bodies made by
@@ -22,24 +24,21 @@ the key, e.g. ``frame.yaml, line 12, geometry[2].line.n_elements: must be an int
 """
 from __future__ import annotations
 
-import dataclasses
 import difflib
 import inspect
 import json
 import math
-import warnings
 from pathlib import Path
 from typing import Optional, Union
 
 import numpy as np
 
 from .model import Model, ModelBuilder
+from .model_writer import (DISTRIBUTED_LOAD, FORMAT_VERSION, GEOMETRY, HUB, LOAD, MASS, RAYLEIGH, SPRINGS, SUFFIXES,
+                           SUPPORTS, _checked_path, _coupled_difference, _difference, _dumps, _multibody_difference,
+                           coupled_data, model_data, multibody_data)
 from .sections import PipeSection
 from .time_functions import Pulse, Sine, time_function
-
-#: The format's version, the value of the file's ``pipeflex_model`` key.
-FORMAT_VERSION = 1
-SUFFIXES = (".yaml", ".yml", ".json")
 
 # The kinds of value a key takes (checked before the builder sees them; the builder
 # then checks its own rules: unit vectors, lengths, ...).
@@ -52,44 +51,9 @@ _KIND_TEXT = {"point": "3 numbers", "number": "a number", "nonneg": "a number >=
               "text": "a text", "damping": "a number >= 0 or a list of them", "matrix": "3 rows of 3 numbers",
               "time_function": "a time function: a number, {table: {times, values}}, {sine: {omega, envelope, "
                                "phase, mean}} or {pulse: {start, duration, shape, amplitude}}",
-              "time_functions": "3 time functions"}
+              "time_functions": "3 time functions",
+              "elements": "a pipe element index or a list of them (integers >= 0)"}
 
-_PIPE_OPTIONS = {"flow_factor": "number", "fluid_end_terms": "bool", "length": "positive"}
-
-#: Each list's entry kinds: key -> (builder method, {key: kind}, shorthand key (a bare
-#: value stands for it) or None).
-GEOMETRY = {
-    "node": ("add_node", {"position": "point"}, "position"),
-    "ancf_node": ("add_ancf_node", {"position": "point", "slope": "point"}, None),
-    "pipe": ("add_pipe", {"p": "node", "q": "node", "section": "section", "up": "point", "tangent_p": "point",
-                          "tangent_q": "point", **_PIPE_OPTIONS}, None),
-    "line": ("add_line", {"start": "node", "end": "point", "n_elements": "count", "section": "section",
-                          "up": "point", "tangent_p": "point", "tangent_q": "point", **_PIPE_OPTIONS}, None),
-    "arc": ("add_arc", {"start": "node", "center": "point", "angle": "number", "normal": "point",
-                        "n_elements": "count", "section": "section", **_PIPE_OPTIONS}, None),
-    "ancf_beam": ("add_ancf_beam", {"start": "node_or_point", "end": "point", "n_elements": "count",
-                                    "section": "section", "elastic": "elastic"}, None),
-}
-SUPPORTS = {
-    "clamp": ("clamp", {"node": "node"}, "node"),
-    "pin": ("pin", {"node": "node"}, "node"),
-    "fix": ("fix", {"node": "node", "components": "components"}, None),
-    "hinge": ("hinge", {"node": "node", "axis": "point"}, None),
-    "axial_support": ("axial_support", {"node": "node", "direction": "point"}, None),
-    "fix_rotation": ("fix_rotation", {"node": "node", "axis": "point"}, None),
-}
-SPRINGS = {
-    "axial": ("add_spring", {"node_a": "node", "node_b": "node", "stiffness": "nonneg", "damping": "nonneg"}, None),
-    "ground": ("add_ground_spring", {"node": "node", "stiffness": "nonneg3", "damping": "nonneg3", "anchor": "point",
-                                     "rotational_stiffness": "nonneg3", "rotational_damping": "nonneg3"}, None),
-    "bushing": ("add_bushing", {"node_a": "node", "node_b": "node", "stiffness": "nonneg3", "damping": "nonneg3",
-                                "rotational_stiffness": "nonneg3", "rotational_damping": "nonneg3"}, None),
-}
-HUB = ("rotating_hub", {"node": "node", "omega": "number", "spin_up_time": "nonneg", "center": "point",
-                        "axis": "point"}, None)
-MASS = ("add_point_mass", {"node": "node", "mass": "nonneg", "inertia": "nonneg3"}, None)
-LOAD = ("add_load", {"node": "node", "force": "point", "moment": "point", "follower": "bool",
-                     "time_function": "time_function"}, None)
 SECTION = {"EI": "positive", "pipe_mass": "nonneg", "fluid_mass": "nonneg", "EIz": "positive", "EA": "positive",
            "GJ": "positive", "GAy": "positive", "GAz": "positive", "kv": "positive", "rotary_inertia": "nonneg3",
            "eta_bending": "nonneg", "eta_torsion": "nonneg", "eta_axial": "nonneg", "c_ext": "nonneg",
@@ -98,9 +62,8 @@ TUBE = {"outer_diameter": "positive", "inner_diameter": "nonneg", "E": "positive
         "density": "positive", "fluid_density": "nonneg", "kv": "positive", "shear": "bool",
         "rotary_inertia": "bool", "fluid_bulk_modulus": "positive"}
 FLOW = {"mass_flow": "number", "reservoir_inlets": "nodes"}
-RAYLEIGH = ("rayleigh_damping", {"alpha": "nonneg", "beta": "nonneg"}, None)
 TOP = ("pipeflex_model", "kind", "info", "sections", "geometry", "supports", "hub", "springs", "masses", "loads",
-       "flow", "gravity", "rayleigh_damping", "floating")
+       "distributed_loads", "flow", "gravity", "rayleigh_damping", "floating")
 _REQUIRED_TOP = ("geometry",)
 #: The file's ``kind``: what :func:`load_model` returns.
 KINDS = ("elements", "multibody", "coupled")
@@ -123,6 +86,8 @@ JOINTS = {
 }
 BODY_LOAD = ("add_load", {"body": "index", "node": "body_node", "force": "time_functions",
                           "moment": "time_functions"}, None)
+BODY_DISTRIBUTED_LOAD = ("add_distributed_load", {"body": "index", "force_per_length": "point",
+                                                  "time_function": "time_function"}, None)
 _SIX = {"stiffness": "nonneg3", "damping": "nonneg3", "rotational_stiffness": "nonneg3",
         "rotational_damping": "nonneg3"}
 #: MultibodyBuilder's spring-dampers: axial, ground, bushing (the builder's dict keys of each)
@@ -135,7 +100,7 @@ BODY_SPRINGS = {
 }
 BODY_FLOW = {"mass_flow": "number", "junction_forces": "bool"}
 TOP_MULTIBODY = ("pipeflex_model", "kind", "info", "sections", "bodies", "assembly", "joints", "springs", "loads",
-                 "gravity", "flow")
+                 "distributed_loads", "gravity", "flow")
 # -- an element model joined to bodies (kind: coupled) --
 COUPLINGS = {"rigid": {"node": "node", "body": "index", "body_node": "body_node"},
              "hinge": {"node": "node", "body": "index", "body_node": "body_node", "axis": "point"},
@@ -341,6 +306,10 @@ def _value(r: _Reader, where: tuple, kind: str, value, b: Optional[ModelBuilder]
         if isinstance(value, bool) or not isinstance(value, int) or value < 0:
             raise bad()
         return value
+    if kind == "elements":  # the builder checks the range
+        if isinstance(value, list):
+            return [_value(r, where + (i,), "index", v, b, sections) for i, v in enumerate(value)]
+        return _value(r, where, "index", value, b, sections)
     if kind == "body_node":
         if value in ("start", "center", "end") or (isinstance(value, int) and not isinstance(value, bool)
                                                    and value >= 0):
@@ -539,7 +508,7 @@ def _model_from(r: _Reader) -> Model:
         where = ("hub", i) if isinstance(hubs, list) else ("hub",)
         _call(r, where, b, HUB[0], _arguments(r, where, hub, HUB, b, sections))
     _entries(r, data.get("springs", []), "springs", SPRINGS, b, sections)
-    for key, spec in (("masses", MASS), ("loads", LOAD)):
+    for key, spec in (("masses", MASS), ("loads", LOAD), ("distributed_loads", DISTRIBUTED_LOAD)):
         for i, entry in enumerate(_listing(r, (key,), data.get(key, []))):
             _call(r, (key, i), b, spec[0], _arguments(r, (key, i), entry, spec, b, sections))
     if "rayleigh_damping" in data:
@@ -612,6 +581,9 @@ def _multibody_from(r: _Reader):
     _entries(r, data.get("springs", []), "springs", BODY_SPRINGS, b, sections)
     for i, entry in enumerate(_listing(r, ("loads",), data.get("loads", []))):
         _call(r, ("loads", i), b, BODY_LOAD[0], _arguments(r, ("loads", i), entry, BODY_LOAD, b, sections))
+    for i, entry in enumerate(_listing(r, ("distributed_loads",), data.get("distributed_loads", []))):
+        where = ("distributed_loads", i)
+        _call(r, where, b, BODY_DISTRIBUTED_LOAD[0], _arguments(r, where, entry, BODY_DISTRIBUTED_LOAD, b, sections))
     if "gravity" in data:
         _call(r, ("gravity",), b, "set_gravity", dict(g=_value(r, ("gravity",), "point", data["gravity"], b,
                                                                 sections)))
@@ -637,15 +609,6 @@ def _coupled_from(r: _Reader):
     return system
 
 
-def _checked_path(path, *, reading: bool) -> Path:
-    p = Path(path)
-    if p.suffix.lower() not in SUFFIXES:
-        raise ValueError(f"path {str(p)!r}: a model file ends in {', '.join(SUFFIXES)} (the suffix picks the format)")
-    if reading and not p.is_file():
-        raise FileNotFoundError(f"path {str(p)!r}: no such model file")
-    return p
-
-
 def load_model(path: Union[str, Path]):
     """The model described by the model file ``path`` (``.yaml``, ``.yml`` or ``.json``;
     schema in ``docs/model_files.md``): by the file's ``kind``, a :class:`~pipeflex.Model`
@@ -666,396 +629,19 @@ def load_model(path: Union[str, Path]):
     return _from(_Reader(_checked_path(path, reading=True)))
 
 
-# -- writing ------------------------------------------------------------------------
-
-#: builder method -> (list or key of the file, entry kind or None)
-_PLACES = {**{spec[0]: ("geometry", k) for k, spec in GEOMETRY.items()},
-           **{spec[0]: ("supports", k) for k, spec in SUPPORTS.items()},
-           **{spec[0]: ("springs", k) for k, spec in SPRINGS.items()},
-           HUB[0]: ("hub", None), MASS[0]: ("masses", None), LOAD[0]: ("loads", None),
-           "reservoir_inlet": ("flow", None), "set_gravity": ("gravity", None),
-           RAYLEIGH[0]: ("rayleigh_damping", None)}
-
-
-_FIELDS = {spec[0]: spec[1] for spec in (*GEOMETRY.values(), *SUPPORTS.values(), *SPRINGS.values(), HUB, MASS, LOAD,
-                                          RAYLEIGH)}
-_FIELDS.update(reservoir_inlet={"node": "node"}, set_gravity={"g": "point"})
-_FLOATS = ("number", "nonneg", "positive", "point", "nonneg3")
-
-
-def _floats(value):
-    return [_floats(v) for v in value] if isinstance(value, list) else float(value)
-
-
-def _plain(value, names: dict):
-    """A builder argument as YAML/JSON data: sections by their name in ``names``."""
-    if isinstance(value, PipeSection):
-        return names[id(value)]
-    if isinstance(value, np.ndarray):
-        return _plain(value.tolist(), names)
-    if isinstance(value, (list, tuple)):
-        return [_plain(v, names) for v in value]
-    if isinstance(value, (bool, np.bool_)):
-        return bool(value)
-    if isinstance(value, (int, np.integer)):
-        return int(value)
-    if isinstance(value, (float, np.floating)):
-        return float(value)
-    if isinstance(value, dict):
-        return {str(k): _plain(v, names) for k, v in value.items()}
-    if value is None or isinstance(value, str):
-        return value
-    raise TypeError(f"{type(value).__name__} is not model-file data")
-
-
-def _same_value(a, b) -> bool:
-    if a is None or b is None or isinstance(a, (str, PipeSection)) or isinstance(b, str):
-        return a is b or a == b
-    try:
-        return bool(np.array_equal(np.asarray(a, dtype=float), np.asarray(b, dtype=float)))
-    except (TypeError, ValueError):
-        return a == b
-
-
-def _time_function_data(f):
-    """A time function (a number, a table (times, values), a Sine or a Pulse) as file data."""
-    if isinstance(f, Pulse):
-        out = {"start": float(f.start), "duration": float(f.duration)}
-        if f.shape != "half_sine":
-            out["shape"] = str(f.shape)
-        if f.amplitude != 1.0:
-            out["amplitude"] = float(f.amplitude)
-        return {"pulse": out}
-    if isinstance(f, Sine):
-        out = {"omega": float(f.omega)}
-        if not _same_value(f.envelope, 1.0):
-            out["envelope"] = _time_function_data(f.envelope)
-        for name in ("phase", "mean"):
-            if getattr(f, name) != 0.0:
-                out[name] = float(getattr(f, name))
-        return {"sine": out}
-    if callable(f):
-        raise ValueError(f"model: its time function {getattr(f, '__name__', f)!s} is a Python callable, which a "
-                         f"model file cannot hold: the model cannot be saved")
-    if np.isscalar(f) and not isinstance(f, (str, bytes)):
-        return float(f)
-    ts, vs = (np.asarray(a, dtype=float) for a in f)
-    return {"table": {"times": [float(x) for x in ts], "values": [float(x) for x in vs]}}
-
-
-def _section_data(s: PipeSection) -> dict:
-    """The section's fields (those at their default left out)."""
-    out = {}
-    for f in dataclasses.fields(PipeSection):
-        v = getattr(s, f.name)
-        default = {"EIz": s.EI, "EA": 1e10 * s.EI, "GJ": s.EI / 1.3}.get(f.name, f.default)
-        if f.name in ("EI", "pipe_mass") or not _same_value(v, default):
-            out[f.name] = [float(x) for x in v] if f.name == "rotary_inertia" else float(v)
-    return out
-
-
-def _section_name(section: PipeSection, names: dict, sections: dict) -> str:
-    """The file's name of ``section`` (equal sections share one name; new ones are added
-    to ``sections``, name -> section; ``names`` is id -> name)."""
-    if id(section) not in names:
-        for name, known in sections.items():
-            if known == section:
-                names[id(section)] = name
-                break
-        else:
-            names[id(section)] = f"section_{len(sections)}"
-            sections[names[id(section)]] = section
-    return names[id(section)]
-
-
-def _info_data(info: dict) -> dict:
-    out = {}
-    for k, v in info.items():
-        try:
-            out[str(k)] = _plain(v, {})
-        except TypeError:
-            warnings.warn(f"info[{k!r}] ({type(v).__name__}) is not model-file data: not saved", stacklevel=4)
-    return out
-
-
-def model_data(model: Model) -> dict:
-    """The model file's content (plain dicts and lists) for ``model``, from the builder
-    calls it recorded (ValueError if it has none: not built by
-    :class:`~pipeflex.ModelBuilder`, or a :meth:`~pipeflex.Model.free_model`)."""
-    desc = getattr(model, "_description", None)
-    if desc is None or "_recipe" not in desc:
-        raise ValueError(f"model: an element model file describes a model built by pipeflex.ModelBuilder, got a "
-                         f"{type(model).__name__} without its builder calls")
-    if model._is_free:
-        raise ValueError("model: a free_model() cannot be saved (it has no supports): save the model it came from")
-    names: dict = {}
-    sections: dict = {}
-    lists: dict = {k: [] for k in ("geometry", "supports", "hub", "springs", "masses", "loads")}
-    inlets = []
-    rayleigh = None
-    for method, args, kwargs in desc["_recipe"]:
-        if method == "add_load_function":  # code, not data
-            fn = kwargs.get("fn", args[1] if len(args) > 1 else None)
-            raise ValueError(f"model: its load function {getattr(fn, '__name__', fn)!s} (add_load_function) is a "
-                             f"Python callable, which a model file cannot hold: the model cannot be saved")
-        if method not in _PLACES:
-            raise ValueError(f"model: its builder call {method}() has no model-file key: the model cannot be saved")
-        place, kind = _PLACES[method]
-        f = getattr(ModelBuilder, method)
-        params = {**inspect.signature(ModelBuilder.add_pipe).parameters, **inspect.signature(f).parameters}
-        bound = inspect.signature(f).bind(None, *args, **kwargs).arguments
-        bound.pop("self", None)
-        bound.update(bound.pop("options", {}))  # add_line's and add_arc's add_pipe options
-        entry = {}
-        for key, v in bound.items():
-            p = params.get(key)
-            if p is not None and p.default is not inspect.Parameter.empty and _same_value(v, p.default):
-                continue  # the builder's default: left out
-            if isinstance(v, PipeSection):
-                _section_name(v, names, sections)
-            entry[key] = _time_function_data(v) if _FIELDS[method].get(key) == "time_function" else _plain(v, names)
-            if _FIELDS[method].get(key) in _FLOATS or (isinstance(entry[key], list) and key in ("start",)):
-                entry[key] = _floats(entry[key])  # as the loader reads them: the text does not depend on 0 vs 0.0
-        if place == "flow":
-            inlets.append(entry["node"])
-        elif place == "gravity":
-            continue  # the model's gravity, below
-        elif place == "rayleigh_damping":
-            rayleigh = entry  # a later call replaces an earlier one, as in the builder
-        elif kind is None:
-            lists[place].append(entry)
-        else:
-            shorthand = (GEOMETRY.get(kind) or SUPPORTS.get(kind) or SPRINGS.get(kind))[2]
-            lists[place].append({kind: entry[shorthand] if list(entry) == [shorthand] else entry})
-    data: dict = {"pipeflex_model": FORMAT_VERSION}
-    info = _info_data(model.info)
-    if info:
-        data["info"] = info
-    data["sections"] = {name: _section_data(s) for name, s in sections.items()}
-    data["geometry"] = lists["geometry"]
-    if lists["supports"]:
-        data["supports"] = lists["supports"]
-    if lists["hub"]:
-        data["hub"] = lists["hub"][0] if len(lists["hub"]) == 1 else lists["hub"]
-    for key in ("springs", "masses", "loads"):
-        if lists[key]:
-            data[key] = lists[key]
-    flow = {"mass_flow": float(model.mass_flow)}
-    if inlets:
-        flow["reservoir_inlets"] = inlets
-    data["flow"] = flow
-    if np.any(model.gravity):
-        data["gravity"] = [float(g) for g in model.gravity]
-    if rayleigh:
-        data["rayleigh_damping"] = rayleigh
-    if desc.get("_floating"):
-        data["floating"] = True
-    return data
-
-
-def _node_data(body, node: int):
-    """A body node as the file writes it: 'start', 'center', 'end' or its index."""
-    names = {0: "start", body.n_elements // 2: "center", body.n_elements: "end"}
-    return names.get(int(node), int(node))
-
-
-def multibody_data(system) -> dict:
-    """The model file's content for a :class:`~pipeflex.multibody.MultibodySystem`, from
-    the description its builder kept (ValueError for what a file cannot hold: a body not
-    made by :func:`~pipeflex.multibody.flexible_body` or with a custom basis)."""
-    from .multibody import flexible_body
-
-    desc = getattr(system, "_description", None)
-    if desc is None:
-        raise ValueError("system: it was not built by MultibodyBuilder.build: it cannot be saved")
-    b, junction_forces = desc
-    defaults = {n: p.default for n, p in inspect.signature(flexible_body).parameters.items()}
-    names: dict = {}
-    sections: dict = {}
-    bodies: dict = {}
-    made: list = []  # (flexible_body's arguments, the body's name)
-    assembly = []
-    for j, (body, r, R, f) in enumerate(zip(b["_bodies"], b["_r"], b["_R"], b["_flow"])):
-        args = body._arguments
-        if args is None:
-            raise ValueError(f"system: body {j} was not made by pipeflex.multibody.flexible_body(): it cannot be "
-                             f"saved")
-        if args.get("basis") is not None:
-            raise ValueError(f"system: body {j} has a custom basis (flexible_body(basis=...)), which a model file "
-                             f"does not hold: it cannot be saved")
-        name = next((n for a, n in made if a is args or _equal(a, args)), None)
-        if name is None:
-            name = f"body_{len(bodies)}"
-            made.append((args, name))
-            entry = {"length": float(args["length"]), "n_elements": int(args["n_elements"]),
-                     "section": _section_name(args["section"], names, sections)}
-            for key in ("internal_modes", "reduction", "curvature", "modal_damping", "fluid_lever_arm"):
-                if not _same_value(args[key], defaults[key]):
-                    entry[key] = _plain(args[key], {})
-                    if key in ("curvature", "modal_damping"):
-                        entry[key] = _floats(entry[key])
-            bodies[name] = entry
-        place = {"body": name, "position": [float(x) for x in r]}
-        if not np.array_equal(R, np.eye(3)):
-            place["rotation"] = [[float(x) for x in row] for row in R]
-        if f != 1.0:
-            place["flow_factor"] = float(f)
-        assembly.append(place)
-    placed = b["_bodies"]
-    joints = []
-    for kind, a, other, extra in b["_joints"]:
-        ends = ({"body": int(a[0]), "node": _node_data(placed[a[0]], a[1])} if other is None and kind != "hinge"
-                else {"body_a": int(a[0]), "node_a": _node_data(placed[a[0]], a[1])})
-        if kind == "hinge":
-            ends["axis"] = [float(x) for x in extra.get("given_axis", extra["axis"])]
-        if other is not None:
-            ends.update(body_b=int(other[0]), node_b=_node_data(placed[other[0]], other[1]))
-        if kind == "hinge" and extra["torque"] is not None:
-            ends["torque"] = _time_function_data(extra["torque"])
-        if kind == "roller":
-            ends["direction"] = [float(x) for x in extra.get("given_direction", extra["direction"])]
-        joints.append({"fix" if kind == "rigid" and other is None else kind: ends})
-    springs = []
-    for sp in b["_springs"]:  # the builder's dicts: kind, nodes ((body, node), ...), k, c (, anchor, k_phi, c_phi)
-        ends = [(int(j), _node_data(placed[j], n)) for j, n in sp["nodes"]]
-        entry = (dict(body=ends[0][0], node=ends[0][1]) if sp["kind"] == "ground" else
-                 dict(body_a=ends[0][0], node_a=ends[0][1], body_b=ends[1][0], node_b=ends[1][1]))
-        entry.update(_spring_values(sp))
-        springs.append({sp["kind"]: entry})
-    loads = []
-    for ld in b["_loads"]:
-        entry = {"body": int(ld.body), "node": _node_data(placed[ld.body], ld.node)}
-        for key, value in (("force", ld.force), ("moment", ld.moment)):
-            if not all(_same_value(v, 0.0) for v in value):
-                entry[key] = [_time_function_data(v) for v in value]
-        loads.append(entry)
-    data: dict = {"pipeflex_model": FORMAT_VERSION, "kind": "multibody"}
-    info = _info_data(system.info)
-    if info:
-        data["info"] = info
-    data["sections"] = {name: _section_data(s) for name, s in sections.items()}
-    data.update(bodies=bodies, assembly=assembly, joints=joints)
-    if springs:
-        data["springs"] = springs
-    if loads:
-        data["loads"] = loads
-    if np.any(b["_gravity"]):
-        data["gravity"] = [float(g) for g in b["_gravity"]]
-    data["flow"] = {"mass_flow": float(system.mass_flow)}
-    if not junction_forces:
-        data["flow"]["junction_forces"] = False
-    return data
-
-
-def _spring_values(sp: dict) -> dict:
-    """A spring's stiffness and damping keys as the file writes them (from a builder's
-    dict: k, c (, anchor, k_phi, c_phi)); zeros, the builders' defaults, left out."""
-    out = {}
-    for key, name in (("k", "stiffness"), ("c", "damping"), ("anchor", "anchor"), ("k_phi", "rotational_stiffness"),
-                      ("c_phi", "rotational_damping")):
-        v = sp.get(key)
-        if v is None or (name != "stiffness" and name != "anchor" and not np.any(v)):
-            continue
-        out[name] = _floats(_plain(v, {}))
-    return out
-
-
-def coupled_data(system) -> dict:
-    """The model file's content for a :class:`~pipeflex.CoupledSystem`: its element model,
-    its bodies and the couplings (joints, then spring-dampers)."""
-    elements = model_data(system.model)
-    bodies = multibody_data(system.bodies)
-    for part in (elements, bodies):
-        part.pop("pipeflex_model")
-        part.pop("kind", None)
-    couplings = []
-    for c in system.joints:
-        entry = {"node": int(c.node), "body": int(c.body),
-                 "body_node": _node_data(system.bodies.bodies[c.body], c.body_node)}
-        if c.axis is not None:
-            entry["axis"] = [float(x) for x in (c.given_axis or c.axis)]
-        couplings.append({c.kind: entry})
-    for sp in system._springs:  # dicts: kind, node, body, body_node, k, c (, k_phi, c_phi)
-        entry = {"node": int(sp["node"]), "body": int(sp["body"]),
-                 "body_node": _node_data(system.bodies.bodies[sp["body"]], sp["body_node"])}
-        entry.update(_spring_values(sp))
-        couplings.append({sp["kind"]: entry})
-    return {"pipeflex_model": FORMAT_VERSION, "kind": "coupled", "elements": elements, "bodies": bodies,
-            "couplings": couplings}
-
-
-def _dumps(data: dict, suffix: str) -> str:
-    if suffix == ".json":
-        return json.dumps(data, indent=2) + "\n"
-    try:
-        import yaml
-    except ImportError:
-        raise ImportError("writing a YAML model file needs PyYAML: apt install python3-yaml (or pip install pyyaml), "
-                          "or save as .json") from None
-
-    return ("# pipeflex model file (schema: docs/model_files.md)\n"
-            + yaml.safe_dump(data, sort_keys=False, default_flow_style=None, width=100))
-
-
-def _equal(a, b) -> bool:
-    """Exact equality of two builder descriptions' values (arrays bit for bit)."""
-    if isinstance(a, dict) and isinstance(b, dict):
-        return a.keys() == b.keys() and all(_equal(a[k], b[k]) for k in a)
-    if isinstance(a, (list, tuple)) and isinstance(b, (list, tuple)):
-        return len(a) == len(b) and all(_equal(x, y) for x, y in zip(a, b))
-    if isinstance(a, np.ndarray) or isinstance(b, np.ndarray):
-        return np.shape(a) == np.shape(b) and bool(np.array_equal(a, b))
-    if dataclasses.is_dataclass(a) and type(a) is type(b):
-        return all(_equal(getattr(a, f.name), getattr(b, f.name)) for f in dataclasses.fields(a))
-    return a == b
-
-
-def _difference(model: Model, other: Model) -> Optional[str]:
-    """The first part of the two models' descriptions that differs, or None."""
-    d, e = model._description, other._description
-    for key in sorted(set(d) | set(e)):
-        if key in ("_recipe", "_depth"):
-            continue
-        if not _equal(d.get(key), e.get(key)):
-            return key.lstrip("_")
-    if model.mass_flow != other.mass_flow:
-        return "mass_flow"
-    return None
-
-
-def _multibody_difference(system, other) -> Optional[str]:
-    """The first part of two multibody systems' builder descriptions that differs, or None."""
-    (a, ja), (b, jb) = system._description, other._description
-    if ja != jb:
-        return "junction_forces"
-    if len(a["_bodies"]) != len(b["_bodies"]) or not all(
-            _equal(x._arguments, y._arguments) for x, y in zip(a["_bodies"], b["_bodies"])):
-        return "bodies"
-    for key in ("_r", "_R", "_flow", "_joints", "_springs", "_loads", "_gravity"):
-        if not _equal(a[key], b[key]):
-            return key.lstrip("_")
-    return "mass_flow" if system.mass_flow != other.mass_flow else None
-
-
-def _coupled_difference(system, other) -> Optional[str]:
-    diff = _difference(system.model, other.model) or _multibody_difference(system.bodies, other.bodies)
-    if diff is None and not _equal(system.joints, other.joints):
-        diff = "couplings"
-    return diff or (None if _equal(system._springs, other._springs) else "coupling springs")
-
-
 def _data_and_check(model):
     """(file content, the function naming the first difference of a rebuilt system)."""
     if isinstance(model, Model):
-        return model_data(model), _difference
+        return model_data(model, ModelBuilder), _difference
+    from .multibody import flexible_body
     from .multibody.system import MultibodySystem
 
     if isinstance(model, MultibodySystem):
-        return multibody_data(model), _multibody_difference
+        return multibody_data(model, flexible_body), _multibody_difference
     from .coupled import CoupledSystem
 
     if isinstance(model, CoupledSystem):
-        return coupled_data(model), _coupled_difference
+        return coupled_data(model, ModelBuilder, flexible_body), _coupled_difference
     raise ValueError(f"model: a model file describes a pipeflex.Model, a pipeflex.multibody.MultibodySystem or a "
                      f"pipeflex.CoupledSystem, got a {type(model).__name__}")
 

@@ -60,8 +60,9 @@ class PipeSection:
 
     Which formulation reads what: the 3D pipe element reads every field; the
     floating-frame body (:func:`~pipeflex.multibody.flexible_body`) has no shear
-    flexibility and plug flow, and refuses ``GAy``, ``GAz``, ``kv != 1``, ``k_found`` and
-    the damping coefficients (its modes take ``modal_damping`` ratios instead); the planar
+    flexibility and plug flow, reads ``k_found`` (the foundation under its centre line as
+    placed), and refuses ``GAy``, ``GAz``, ``kv != 1`` and the damping coefficients (its
+    modes take ``modal_damping`` ratios instead); the planar
     ANCF beam reads ``EA``, ``EIz``, ``pipe_mass``, ``eta_axial``, ``eta_bending``,
     ``c_ext`` and ``k_found`` and refuses ``fluid_mass``, ``kv``, ``GAy``, ``GAz``, ``rotary_inertia``, ``eta_torsion``
     and a ``GJ`` other than its default.

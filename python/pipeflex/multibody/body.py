@@ -45,6 +45,8 @@ class FlexibleBody:
         eta0: preimposed elastic coordinates (m) [m, rad mixed].
         data: the compiled constants (``_core.FfrfBodyData``).
         mass: total mass (pipe + fluid) [kg].
+        foundation: the Winkler foundation's constants (section ``k_found`` > 0; None
+            without): ``cpp/include/pipeflex/elements/ffrf_body.hpp``, FfrfFoundation.
 
     Pickling and :func:`copy.deepcopy` rebuild the body with :func:`flexible_body` from
     the arguments it was made with (the compiled constants are not picklable).
@@ -61,6 +63,7 @@ class FlexibleBody:
     data: object
     mass: float
     _arguments: Optional[dict] = field(default=None, repr=False)
+    foundation: Optional[dict] = field(default=None, repr=False)
 
     def __reduce__(self):
         if self._arguments is None:
@@ -69,8 +72,9 @@ class FlexibleBody:
 
     def __post_init__(self):
         # the compiled body holds copies: editing these arrays would desynchronise it
-        for a in (self.nodes_s, self.basis, self.eta0):
-            a.flags.writeable = False
+        for a in (self.nodes_s, self.basis, self.eta0, *(self.foundation or {}).values()):
+            if isinstance(a, np.ndarray):
+                a.flags.writeable = False
 
     @property
     def n_nodes(self) -> int:
@@ -164,6 +168,57 @@ def _assemble(length, n_el, sec: PipeSection):
         w = le * (0.5 if i in (0, n_el) else 1.0)
         M[6 * i + 3:6 * i + 6, 6 * i + 3:6 * i + 6] += np.diag(w * J)
     return M, C, H, K, S, G, (mu_p + mu_f) * N_int, N_int
+
+
+#: The nodal coordinates of the element's translation rows N_j (j = x, y, z) among its
+#: 12: axial [u_x1, u_x2], u_y [u_y1, theta_z1, u_y2, theta_z2], u_z [u_z1, theta_y1, ...].
+_COMPONENT_DOFS = (np.array([0, 6]), np.array([1, 5, 7, 11]), np.array([2, 4, 8, 10]))
+
+
+def _component_products(ints) -> list:
+    """NN_jl = int N_j^T N_l ds (12 x 12) of one element for j, l = x, y, z, taken from its
+    integrals: N_j touches only its own coordinates (_COMPONENT_DOFS), so NN_jj is the
+    (j, j) block of int N^T N and NN_jl (j != l) the (j, l) block of
+    int N^T n~_k N, k the third axis, whose entry there is -eps_jlk."""
+    out = [[None] * 3 for _ in range(3)]
+    for j in range(3):
+        for l in range(3):
+            B = np.zeros((12, 12))
+            rows, cols = np.ix_(_COMPONENT_DOFS[j], _COMPONENT_DOFS[l])
+            if j == l:
+                B[rows, cols] = ints["NN"][rows, cols]
+            else:
+                k = 3 - j - l
+                eps = 1.0 if (j, l, k) in ((0, 1, 2), (1, 2, 0), (2, 0, 1)) else -1.0
+                B[rows, cols] = -eps * ints["NSN"][k][rows, cols]
+            out[j][l] = B
+    return out
+
+
+def _foundation(k, length, n_el, Phi, xbar, eta0) -> dict:
+    """The Winkler foundation's constants (ffrf_body.hpp, FfrfFoundation) for k [N/m^2] on
+    a body of length [m] and n_el elements (basis Phi, reference node coordinates xbar,
+    preimposed eta0), plus the energy's constants xx = k int xbar . xbar ds and
+    x0x0 = k int X0 . X0 ds [N m]."""
+    n = Phi.shape[0]
+    ints = _core.beam_integrals(length / n_el)
+    NNe = _component_products(ints)
+    z0 = xbar + Phi @ eta0  # the reference centre line's nodal coordinates
+    NN = np.zeros((n, n))
+    v = np.zeros((3, 3, n))  # NN_jl z0
+    N_int = np.zeros((n, 3))
+    for e in range(n_el):
+        s = slice(6 * e, 6 * e + 12)
+        NN[s, s] += ints["NN"]
+        N_int[s] += ints["N"]
+        for j in range(3):
+            for l in range(3):
+                v[j, l, s] += NNe[j][l] @ z0[s]
+    C = k * np.stack([Phi.T @ v[j, l] for j in range(3) for l in range(3)], axis=1)
+    return dict(kL=k * length, X=k * (N_int.T @ xbar), X0=k * (N_int.T @ z0),
+                W0=k * np.array([[xbar @ v[j, l] for l in range(3)] for j in range(3)]),
+                XPhi=k * (N_int.T @ Phi), K=k * (Phi.T @ NN @ Phi), x=k * (Phi.T @ (NN @ xbar)), C=C,
+                xx=k * float(xbar @ NN @ xbar), x0x0=k * float(z0 @ NN @ z0))
 
 
 def _end_slopes(Phi, node):
@@ -270,6 +325,11 @@ def flexible_body(*, length: float, n_elements: int, section: PipeSection, inter
         n_elements: number of elements, even (the frame sits at the centre node).
         section: :class:`~pipeflex.PipeSection`; ``fluid_mass`` > 0 for a pipe that carries flow.
             Not supported yet (refused by name): ``kv`` != 1, shear flexibility ``GAy``, ``GAz``.
+            ``k_found`` [N/m^2] > 0 puts the body on a Winkler foundation: the force
+            -k_found (r(s) - r_ref(s)) per length on its centre line, r_ref(s) the centre
+            line where :class:`MultibodyBuilder` places the body (with the preimposed shape
+            eta0), consistent through the element shape functions in every coordinate
+            (frame and elastic), with an exact tangent; it holds a free body on its own.
         internal_modes: fixed-interface modes added to the 12 boundary modes (Craig-Bampton),
             lowest frequencies first; modes of equal frequency (the two bending planes
             of a round section) get a canonical basis (:func:`canonical_modes`), so the
@@ -313,8 +373,7 @@ def flexible_body(*, length: float, n_elements: int, section: PipeSection, inter
         "GAy": "the FFRF body does not support shear flexibility yet (Euler-Bernoulli elements)",
         "GAz": "the FFRF body does not support shear flexibility yet (Euler-Bernoulli elements)",
         **{name: "the FFRF body is damped by its modes' ratios (flexible_body(..., modal_damping=zeta)), not by "
-                 "the section's coefficients" for name in ("eta_bending", "eta_torsion", "eta_axial", "c_ext")},
-        "k_found": "the FFRF body has no elastic foundation (its modes are those of the free body)"},
+                 "the section's coefficients" for name in ("eta_bending", "eta_torsion", "eta_axial", "c_ext")}},
         "flexible_body")
     internal_modes = _checks.non_negative_int("internal_modes", internal_modes)
     kappa = _checks.finite("curvature", curvature)
@@ -372,9 +431,10 @@ def flexible_body(*, length: float, n_elements: int, section: PipeSection, inter
         **(dict(mu_f=section.fluid_mass, Ubar=section.fluid_mass * (N_int.T @ Phi), Us=Phi[0:3],
                 Ue=Phi[6 * n_el:6 * n_el + 3], dUs=_end_slopes(Phi, 0), dUe=_end_slopes(Phi, 6 * n_el))
            if fluid_lever_arm == "deformed" else {}))
+    foundation = None if section.k_found == 0.0 else _foundation(section.k_found, L, n_el, Phi, xbar, eta0)
     mass = L * (section.pipe_mass + section.fluid_mass)
     arguments = dict(length=L, n_elements=n_el, section=section, internal_modes=internal_modes,
                      reduction=reduction, curvature=kappa, basis=None if basis is None else Phi,
                      modal_damping=modal_damping, fluid_lever_arm=fluid_lever_arm)
     return FlexibleBody(L, n_el, section, reduction, internal_modes if reduction == "craig_bampton" else 0,
-                        s, Phi, eta0, data, mass, arguments)
+                        s, Phi, eta0, data, mass, arguments, foundation=foundation)

@@ -21,7 +21,7 @@ import numpy as np
 from .. import _checks, _core
 from ..results import Result
 from ..time_functions import Sine, time_function
-from .body import FlexibleBody, node_index
+from .body import FlexibleBody, flexible_body, node_index
 from ..rotation import rotation_exp, rotation_log
 from .joints import JOINT_KINDS, JOINT_ROWS, Joint
 from .statics import static_failure, static_newton
@@ -116,6 +116,7 @@ class MultibodyBuilder:
         self._joints: List[tuple] = []
         self._loads: List[_Load] = []
         self._springs: List[dict] = []
+        self._distributed: List[dict] = []
         self._gravity = np.zeros(3)
 
     def add_body_between(self, body: FlexibleBody, start: Sequence[float], end: Sequence[float], *,
@@ -205,6 +206,28 @@ class MultibodyBuilder:
         f = tuple(_plain_time_function(f"force[{i}]", x) for i, x in enumerate(force))
         m = tuple(_plain_time_function(f"moment[{i}]", x) for i, x in enumerate(moment))
         self._loads.append(_Load(ref[0], ref[1], f, m))
+
+    def add_distributed_load(self, body: int, *, force_per_length: Sequence[float],
+                             time_function: Optional[TimeFunction] = None) -> None:
+        """A distributed dead load q [N/m] in global axes along the whole body, per unit of
+        its length: consistent through the body's shape functions like its weight, whose
+        term carries it (g raised by q / mu, mu = mu_p + mu_f the mass per length), so it
+        acts on the frame and the elastic coordinates, and its tangent (the turning of the
+        frame) is exact; a clamped body under it bends like under its weight with q = mu g
+        (the element models' :meth:`pipeflex.ModelBuilder.add_distributed_load`).
+
+        Args:
+            body: the body [-] (an index from :meth:`add_body`).
+            force_per_length: q (3) [N/m].
+            time_function: s(t) [-] of this load alone (a number, a table (times [s],
+                values), a :class:`~pipeflex.Sine`); the load is ``s(t) lambda(t) q``,
+                lambda the analysis' load factor; statics take the loads at their time.
+                None: s = 1.
+        """
+        j = self._ref("body", body, 0)[0]
+        q = _checks.vector3("force_per_length", force_per_length)
+        tf = None if time_function is None else _plain_time_function("time_function", time_function)
+        self._distributed.append(dict(body=j, q=q, tf=tf))
 
     def _spring_node(self, body_name: str, node_name: str, body, node) -> Tuple[int, int]:
         """(body, node) of a spring's end, the errors naming the arguments."""
@@ -348,22 +371,30 @@ class MultibodyBuilder:
                 bodies join smoothly. ``False`` is van Voorthuizen et al.'s formulation as printed.
 
         Raises:
-            ValueError: no bodies, or neither joints nor ground springs; joints whose nodes
+            ValueError: no bodies, or neither joints nor ground springs nor a foundation; joints whose nodes
                 do not coincide in the assembly configuration (inconsistent); redundant
                 joint equations; an axial spring between coinciding nodes.
         """
         mdot = _checks.finite("mass_flow", mass_flow)
         if not self._bodies:
             raise ValueError("the system has no bodies")
-        if not self._joints and not any(sp["kind"] == "ground" for sp in self._springs):
-            raise ValueError("the system has no joints and no ground springs: fix, hinge or spring a body to "
-                             "the ground")
+        if not self._joints and not any(sp["kind"] == "ground" for sp in self._springs) and \
+                not any(b.foundation is not None for b in self._bodies):
+            raise ValueError("the system has no joints and no ground springs (and no body on a foundation): fix, "
+                             "hinge or spring a body to the ground")
         for j, (body, f) in enumerate(zip(self._bodies, self._flow)):
             if f != 0.0 and mdot != 0.0 and body.section.fluid_mass <= 0.0:
                 raise ValueError(f"body {j} carries a mass flow but its fluid_mass is 0 (set flow_factor=0)")
         core = _core.MultibodySystemCore()
-        for body, f in zip(self._bodies, self._flow):
-            core.add_body(body.data, body.basis, list(body.nodes_s), body.section.fluid_mass, f)
+        distributed = [[] for _ in self._bodies]
+        for d in getattr(self, "_distributed", ()):  # (absent from descriptions pickled without it)
+            distributed[d["body"]].append(
+                (d["q"], time_function("time_function", 1.0 if d["tf"] is None else d["tf"])))
+        for j, (body, f) in enumerate(zip(self._bodies, self._flow)):
+            core.add_body(body.data, body.basis, list(body.nodes_s), body.section.fluid_mass, f,
+                          foundation=body.foundation, r_ref=self._r[j], R_ref=self._R[j],
+                          mass_per_length=body.section.pipe_mass + body.section.fluid_mass,
+                          distributed=distributed[j])
         offsets = np.cumsum([0] + [b.n_coordinates for b in self._bodies])
         eta = np.zeros(offsets[-1])
         for j, b in enumerate(self._bodies):
@@ -794,8 +825,20 @@ class MultibodySystem:
                 raise ValueError(f"{jt.name} is redundant: {self.joint_rows[k + 1] - r} of its equations repeat "
                                  "constraints already imposed by the joints before it")
 
+    def save(self, path):
+        """Write the system as a model file (``kind: multibody``), YAML (``.yaml``,
+        ``.yml``) or JSON (``.json``) by the suffix of ``path`` [-] (its folder must exist;
+        schema in docs/model_files.md): the file :func:`pipeflex.save_model` writes, from
+        the description the builder kept. Returns the path. ValueError for what a file
+        cannot hold (a body with a custom basis, springs, a system not built by
+        :meth:`MultibodyBuilder.build`)."""
+        from ..model_writer import multibody_data, write
+
+        return write(multibody_data(self, flexible_body), path)
+
     def energy(self, state: MultibodyState) -> float:
-        """Kinetic + elastic + gravitational potential energy [J] (no flow)."""
+        """Kinetic + elastic (bodies, springs, foundations) + gravitational potential
+        energy [J] (no flow; the loads' work is not in it)."""
         self.check_state(state)
         E = 0.0
         for j, b in enumerate(self.bodies):
@@ -807,6 +850,9 @@ class MultibodySystem:
             E += 0.5 * vl @ b.data.M @ vl + 0.5 * e @ b.data.K @ e
             # gravity: V = -m g.r - (R^T g).(int mu N ds) eta; the straight reference is centred
             E -= b.mass * self.gravity @ state.r[j] + (R.T @ self.gravity) @ (b.data.Ng[6:].T @ self.eta(state, j))
+            if b.foundation is not None:
+                E += _foundation_energy(b.foundation, state.r[j], R, self._state0.r[j], self._state0.R[j],
+                                        self.eta(state, j))
         return float(E + self.spring_energy(state)[0])
 
     def spring_energy(self, state: MultibodyState):
@@ -816,6 +862,17 @@ class MultibodySystem:
         self.check_state(state)
         U, P = self._core.spring_energy(state.r, state.R, state.eta, state.v)
         return float(U), float(P)
+
+
+def _foundation_energy(f: dict, r, R, r_ref, R_ref, eta) -> float:
+    """V = k/2 int (r(s) - r_ref(s))^2 ds [J] of a body's Winkler foundation (constants f,
+    FlexibleBody.foundation) at frame r [m], R and elastic coordinates eta, the reference
+    placement r_ref, R_ref (ffrf_body.hpp, FfrfFoundation)."""
+    p, Q = R.T @ (r - r_ref), R.T @ R_ref
+    Xi = f["X"] + f["XPhi"] @ eta
+    W = f["W0"] + (f["C"].T @ eta).reshape(3, 3)
+    return float(0.5 * f["kL"] * p @ p + p @ (Xi - Q @ f["X0"])
+                 + 0.5 * (f["xx"] + 2.0 * f["x"] @ eta + eta @ f["K"] @ eta) - np.sum(Q * W) + 0.5 * f["x0x0"])
 
 
 def _sparse_rows_scaled(J, factors):

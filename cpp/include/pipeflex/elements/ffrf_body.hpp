@@ -111,4 +111,35 @@ struct FfrfBodyWork {
 void ffrf_body_forces(const FfrfBodyData& d, const FfrfBodyMotion& s, double wK, double wC, double wM,
                       FfrfBodyWork& work, Eigen::Ref<VecX> residual, Eigen::Ref<MatX> tangent, bool with_tangent);
 
+// Winkler foundation of a body (section k_found [N/m^2]): the force -k_found (r(s) - r_ref(s))
+// per length on the centre line r(s) = r + R X(s), X = N (xbar + Phi eta), from its reference
+// r_ref(s) = r_ref + R_ref X0(s), X0 = N (xbar + Phi eta0) (the body's placement in the
+// assembly). Its energy V = k/2 int |r - r_ref|^2 ds gives, in body components with
+// p = R^T (r - r_ref), Q = R^T R_ref, the generalised forces
+//   frame:   R (kL p + Xi - Q X0),   R (Xi x p - ax(W Q^T)),
+//   elastic: XPhi^T p + K eta + x - sum_jl Q_jl C_jl,
+// Xi = k int X ds = X + XPhi eta, W = k int X X0^T ds = W0 + (C_jl . eta)_jl, ax(T)_i =
+// eps_ijk T_jk; the constants (k folded in, with NN_jl = int N_j^T N_l ds):
+struct FfrfFoundation {
+    double kL = 0.0;            // k L [N/m]; 0: no foundation
+    Vec3d X = Vec3d::Zero();    // k int xbar ds [N]
+    Vec3d X0 = Vec3d::Zero();   // k int X0 ds [N]
+    Mat3d W0 = Mat3d::Zero();   // k int xbar X0^T ds (through NN_jl) [N m]
+    MatX XPhi;                  // 3 x m  k int N Phi ds
+    MatX K;                     // m x m  k Phi^T NN Phi
+    VecX x;                     // m      k Phi^T NN xbar
+    MatX C;                     // m x 9  k Phi^T NN_jl (xbar + Phi eta0), column 3 j + l
+};
+
+// Throws std::invalid_argument naming the first member whose size does not fit m elastic
+// coordinates, or a negative or non-finite kL.
+void check_ffrf_foundation(const FfrfFoundation& f, Eigen::Index m);
+
+// Adds the foundation's generalised forces (n = 6 + m) to `residual` and, with_tangent,
+// wK times their derivative in [dr, dpi, deta] (spatial increments, R <- exp(dpi~) R) to
+// `tangent`: frame position r, rotation R, reference placement r_ref, R_ref [m, -].
+void ffrf_foundation_forces(const FfrfFoundation& f, const Vec3d& r, const Mat3d& R, const Vec3d& r_ref,
+                            const Mat3d& R_ref, const Eigen::Ref<const VecX>& eta, double wK,
+                            Eigen::Ref<VecX> residual, Eigen::Ref<MatX> tangent, bool with_tangent);
+
 }  // namespace pipeflex

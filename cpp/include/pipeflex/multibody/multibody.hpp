@@ -32,6 +32,15 @@ struct MbBody {
     std::vector<double> s;      // node coordinates along the body axis [m]
     double fluid_mass = 0.0;    // mu_f [kg/m]
     double flow_factor = 1.0;   // sdot = flow_factor mdot / mu_f
+    // Winkler foundation (kL = 0: none), holding the centre line at its place in the
+    // assembly: the frame's reference position r_ref [m] and rotation R_ref
+    FfrfFoundation foundation;
+    Vec3d r_ref = Vec3d::Zero();
+    Mat3d R_ref = Mat3d::Identity();
+    // distributed loads s(t) q [N/m] (global, per length, times the load factor): the
+    // weight term's consistent load with g -> s q / mass_per_length (mu_p + mu_f [kg/m])
+    double mass_per_length = 0.0;
+    std::vector<std::pair<Vec3d, TimeTable>> distributed;
 };
 
 enum class JointKind { rigid = 0, hinge = 1, spherical = 2, roller = 3 };
