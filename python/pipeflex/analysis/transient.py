@@ -49,23 +49,36 @@ CONTROLLED_RHO_INF = 0.6
 #: The order rule of ``simulate(..., rtol=)`` on element models: at rtol >= EXTRAPOLATE_BELOW
 #: the error-controlled run alone (second order); below it, Richardson extrapolation over
 #: a controlled mesh (fourth order where the error's expansion holds): a run controlled at
-#: the looser rtol_mesh = min(sqrt(MESH_FACTOR rtol), MAX_MESH_RTOL), then the same mesh
-#: with every step halved, quartered, ... (at most EXTRAPOLATION_LEVELS halvings, rho_inf
-#: = 1 unless given), until the estimated error of the two finest runs' combination meets
-#: rtol L + atol. On the limit cycle of bench_limit_cycle.py at rtol 1e-6: 4480 steps
-#: for 1.1e-7 m, where the second-order control takes 33586 (5.8e-7 m); at 1e-5 3157
-#: steps for 5.6e-7 m against 10366 for 6.2e-6 m. MESH_FACTOR: measured there so that two
-#: halvings meet rtol. The error estimate compares positions (the two finest combinations'
-#: largest difference / 3).
+#: the looser rtol_mesh = min(MESH_FACTOR rtol^MESH_EXPONENT, MAX_MESH_RTOL), then the same
+#: mesh with every step halved, quartered, ... (at most EXTRAPOLATION_LEVELS halvings,
+#: rho_inf = 1 unless given), until the estimated error of the two finest runs' combination
+#: meets rtol L + atol. On the limit cycle of bench_limit_cycle.py: 3374 steps for 4.9e-7 m
+#: at rtol 1e-6 (the second-order control takes 33586 for 5.8e-7 m), 11704 for 3.4e-9 m at
+#: 1e-8. MESH_FACTOR and MESH_EXPONENT: measured there so that two halvings meet rtol from
+#: 1e-6 to 1e-8 (the combinations' error falls about as rtol_mesh^1.5 there, not
+#: rtol_mesh^2: hence 2/3, not 1/2).
 EXTRAPOLATE_BELOW = 1e-4
-MESH_FACTOR = 20.0
+MESH_FACTOR = 80.0
+MESH_EXPONENT = 2.0 / 3.0
 MAX_MESH_RTOL = 1e-2  # coarser meshes' runs differ by more than a discretisation error (rotations)
 #: ... and its mesh's control: local error estimates summed to at most (rtol_mesh L + atol) /
 #: MESH_ERROR_ACCUMULATION (with which MESH_FACTOR was measured; rotations at the model size)
 MESH_ERROR_ACCUMULATION = 0.1
 EXTRAPOLATION_LEVELS = 4
-#: ... and Newton's tolerance there, times rtol (the combination does not cancel Newton's error)
+#: ... the error estimate of the finest combination (positions): its largest change from the
+#: combination a level coarser / 15 (a rate of 16 per halving) where that change is at most
+#: EXTRAPOLATION_SETTLED of the finest run's correction (the h^4 term small beside the h^2
+#: one: 0.01-0.06 measured on the limit cycle, where the rates were 8-22 and this estimate
+#: 0.8-2.7 of the error at rtol 1e-5 ... 1e-8), else / 3 (a rate of 4: 0.2-1.1 on a flutter growing from a flow
+#: start, whose combinations gain 1-4 per halving).
+EXTRAPOLATION_SETTLED = 0.1
+#: ... Newton's tolerance (relative to L; the combination does not cancel Newton's error):
+#: EXTRAPOLATION_NEWTON_SHARE rtol in the coarse run, and in each refined run of n steps
+#: at most EXTRAPOLATION_NEWTON_SUM rtol / n (Newton's errors grow with the steps: at rtol
+#: 1e-8 over a mesh at rtol_mesh 4.6e-4, 1e-10 left 3.0e-8 m after three halvings, 8e-12
+#: left 1.9e-9 m)
 EXTRAPOLATION_NEWTON_SHARE = 0.01
+EXTRAPOLATION_NEWTON_SUM = 10.0
 _OPTIONS = {
     "ida": {"rtol", "atol", "rebase_angle", "max_steps", "max_order", "divergence_limit", "work"},
     "generalized_alpha": {"step", "rho_inf", "newton_tol", "max_newton", "min_step", "max_steps",
@@ -507,7 +520,8 @@ def simulate(model, t_end: float, *, integrator: str = "auto", state=None, t_sta
             a run at a looser rtol, then its mesh halved, quartered, ... until the
             estimated error meets ``rtol L + atol``; ``stats["error_estimate"]`` is that
             estimate and ``metadata["extrapolated"]`` holds the halvings; ``rho_inf`` 1
-            unless given, Newton's tolerance 0.01 rtol), fourth order where the motion is
+            unless given, Newton's tolerance 0.01 rtol, in a refined run of n steps at
+            most 10 rtol / n), fourth order where the motion is
             smooth on the mesh's scale; ``step`` is then the first
             step (default (t_end - t_start) / 1000) and Newton's tolerance follows each
             step's share of the error (``newton_tol``, if given, caps it);
@@ -599,9 +613,9 @@ def simulate(model, t_end: float, *, integrator: str = "auto", state=None, t_sta
                              f"decides the error estimate), got {rtol:g}")
         atol = _checks.non_negative("atol", options.get("atol", 0.0))
         # below EXTRAPOLATE_BELOW (element models): Richardson over a controlled mesh and
-        # the mesh halved, whose error falls as the mesh's rtol squared (rho_inf = 1: fourth order)
+        # the mesh halved, whose error falls as the mesh's rtol^1.5 ... ^2 (rho_inf = 1: fourth order)
         extrapolated = rtol < EXTRAPOLATE_BELOW and not bodies
-        rtol_mesh = min(np.sqrt(MESH_FACTOR * rtol), MAX_MESH_RTOL) if extrapolated else rtol
+        rtol_mesh = min(MESH_FACTOR * rtol ** MESH_EXPONENT, MAX_MESH_RTOL) if extrapolated else rtol
         # error per unit step: the run's local error estimates add up to at most
         # (rtol L + atol) / ERROR_ACCUMULATION, its error to about rtol L + atol
         opt.error_rate = (rtol_mesh * system.length_scale + atol) / (
@@ -725,21 +739,31 @@ def simulate(model, t_end: float, *, integrator: str = "auto", state=None, t_sta
     # Richardson extrapolation over a controlled mesh (docs/user_guide.md): the coarse run's
     # steps, then each halved, quartered, ...: the combination of the two finest runs has the
     # error's h^2 term removed (rho_inf = 1: fourth order); its error is estimated by its
-    # difference from the combination one level coarser, / 3 (a rate of 4 or more per
-    # level: 16 where the expansion holds, 3.3-4 measured before it does). A level is added
-    # until the estimate meets rtol L + atol.
+    # difference from the combination one level coarser, / 15 where that difference is
+    # small beside the finest correction (EXTRAPOLATION_SETTLED: the expansion holds, a
+    # rate of 16), else / 3 (1-4 measured before it holds). A level is added until the
+    # estimate meets rtol L + atol.
     from ..errors import ConvergenceError
 
+    # the coarse run enters only the estimate (the result combines the two finest runs): no works
+    work = opt.work
+    opt.work = work and EXTRAPOLATION_LEVELS < 2
     coarse, mesh = run(system, " (coarse mesh)")
+    mesh_newton_tol = opt.newton_tol
+    opt.work = work
     opt.error_rate = 0.0
     runs, table, estimate = [coarse], [], np.inf
     try:
         for level in range(1, EXTRAPOLATION_LEVELS + 1):
             opt.steps = list(np.repeat(mesh / 2 ** level, 2 ** level))
+            opt.newton_tol = min(mesh_newton_tol, EXTRAPOLATION_NEWTON_SUM * rtol / len(opt.steps))
             runs.append(run(model._system(state), f" (mesh / {2 ** level})")[0])
             table.append(_combined(runs[-2], runs[-1], 1.0 / 3.0))
             if len(table) >= 2:
-                estimate = float(np.abs(table[-1].x - table[-2].x).max()) / 3.0
+                change = float(np.abs(table[-1].x - table[-2].x).max())
+                correction = float(np.abs(table[-1].x - runs[-1].x).max())
+                # settled: the h^4 term small beside the h^2 one, a rate of 16 per level
+                estimate = change / (15.0 if change <= EXTRAPOLATION_SETTLED * correction else 3.0)
                 if estimate <= rtol * system.length_scale + atol:
                     break
     except ConvergenceError as exc:
@@ -747,7 +771,7 @@ def simulate(model, t_end: float, *, integrator: str = "auto", state=None, t_sta
         # does not follow) or a refined mesh failed: the error-controlled run alone
         logger.info("simulate: extrapolation over the controlled mesh failed (%s); the error-controlled run at "
                     "rtol = %.3g alone", exc, rtol)
-        opt.steps = []
+        opt.steps, opt.newton_tol = [], mesh_newton_tol
         opt.error_rate = (rtol * system.length_scale + atol) / (ERROR_ACCUMULATION * (t1 - t0))
         opt.rotation_error_length = 0.0
         if "rho_inf" not in options:

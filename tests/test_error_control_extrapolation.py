@@ -1,0 +1,93 @@
+"""``pf.simulate(model, t_end, rtol=...)`` below EXTRAPOLATE_BELOW: Richardson over a
+controlled mesh, its error estimate and what the levels cost.
+
+The estimate of the finest combination's error is its change from the combination a level
+coarser, divided by 15 (a rate of 16 per halving) where that change is at most
+EXTRAPOLATION_SETTLED of the finest correction (the h^4 term small beside the h^2 one),
+else by 3. Checked against converged references: on the peer's limit cycle the estimate
+lands within 3x of the error either way and the error near the request (not far below it:
+over-delivery costs steps), on a growing flutter (where the combinations do not converge
+at 16) the rate-4 estimate stays in force and the error within 3x of the request.
+"""
+import numpy as np
+import pytest
+
+import pipeflex as pf
+from pipeflex.analysis import transient
+
+from test_error_control import T_END, _reference, _tip, tip_loaded_cantilever
+
+PEER_REFERENCE = -0.397335948070  # m, the tip at 2 s (benchmarks/bench_limit_cycle.py, Richardson)
+
+
+@pytest.fixture(scope="module")
+def peer_scene():
+    return tip_loaded_cantilever(8)
+
+
+def _spied(monkeypatch):
+    """The options of every core run of the next simulate calls: (controlled, work, newton_tol, steps)."""
+    seen = []
+    core = transient._core
+
+    class Spy:
+        TransientOptions = core.TransientOptions
+
+        @staticmethod
+        def integrate(system, flow, loads, times, opt, progress, integrator, **keywords):
+            seen.append((opt.error_rate > 0.0, opt.work, opt.newton_tol, len(opt.steps)))
+            return core.integrate(system, flow, loads, times, opt, progress, integrator, **keywords)
+
+    monkeypatch.setattr(transient, "_core", Spy)
+    return seen
+
+
+def test_rtol_1e_6_lands_near_the_request_with_a_calibrated_estimate(peer_scene):
+    """The peer's scene at rtol 1e-6: two halvings; the error between 0.1 and 3 of the
+    request (measured 0.49), the estimate within 3x of the error (measured 0.8 of it), in
+    fewer steps than the rate-4 estimate's finer mesh took (4480)."""
+    model, state = peer_scene
+    rtol = 1e-6
+    res = pf.simulate(model, 2.0, n_outputs=2, progress=False, state=state, rtol=rtol)
+    err = abs(res.x[-1, -1, 1] - PEER_REFERENCE)
+    assert 0.1 * rtol <= err <= 3.0 * rtol, err
+    assert res.metadata["extrapolated"]["halvings"] == 2
+    assert 1.0 / 3.0 <= res.stats["error_estimate"] / err <= 3.0, (res.stats["error_estimate"], err)
+    assert res.stats["error_estimate"] <= rtol * model.length_scale
+    assert res.stats["steps"] < 3800, res.stats["steps"]
+    assert np.all(np.isfinite(res.fluid_work)) and np.all(np.isfinite(res.load_work))  # the finest runs' works
+
+
+def test_the_rate_4_estimate_stays_where_the_combinations_do_not_converge(monkeypatch):
+    """The growing flutter (4 elements, 0.5 s): its combinations change by more than
+    EXTRAPOLATION_SETTLED of the corrections, so the estimate keeps the rate 4: the same run
+    as with the rate 16 never assumed; the error within 3x of the request (measured 0.74)."""
+    model, state = tip_loaded_cantilever(4)
+    reference, _ = _reference(model, state)
+    rtol = 1e-6
+    run = lambda: pf.simulate(model, T_END, n_outputs=2, progress=False, state=state, rtol=rtol)
+    res = run()
+    assert np.abs(_tip(res, model) - reference).max() <= 3.0 * rtol * model.length_scale
+    monkeypatch.setattr(transient, "EXTRAPOLATION_SETTLED", 0.0)
+    never = run()
+    assert np.array_equal(res.x, never.x) and res.stats["error_estimate"] == never.stats["error_estimate"]
+    assert res.metadata["extrapolated"]["halvings"] >= 3
+
+
+def test_the_coarse_run_skips_the_works_and_newton_follows_the_steps(peer_scene, monkeypatch):
+    """The coarse (mesh-recording) run enters only the estimate: no works integrated;
+    each refined run's Newton tolerance is EXTRAPOLATION_NEWTON_SUM rtol / its steps, at
+    most the coarse run's (EXTRAPOLATION_NEWTON_SHARE rtol); work=False given: none at all."""
+    model, state = peer_scene
+    rtol = 1e-7
+    seen = _spied(monkeypatch)
+    pf.simulate(model, 0.3, n_outputs=2, progress=False, state=state, rtol=rtol)
+    (controlled, work, tol, _), refined = seen[0], seen[1:]
+    assert controlled and not work and tol == pytest.approx(transient.EXTRAPOLATION_NEWTON_SHARE * rtol)
+    assert len(refined) >= 2 and all(not c and w for c, w, _, _ in refined)
+    for _, _, t, n in refined:
+        assert t == pytest.approx(min(tol, transient.EXTRAPOLATION_NEWTON_SUM * rtol / n))
+    assert refined[-1][2] < tol  # the finest run's steps tighten it
+    seen.clear()
+    pf.simulate(model, 0.3, n_outputs=2, progress=False, state=state, rtol=rtol, work=False)
+    assert not any(w for _, w, _, _ in seen)
