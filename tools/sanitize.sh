@@ -94,7 +94,7 @@ SUBSET=(
   tests/test_properties.py tests/test_coupled.py tests/test_sanitized_entry_points.py
   tests/test_element_interface.py tests/test_system.py tests/test_linear_csc.py
   tests/test_static_any_system.py tests/test_spring_dampers.py tests/test_user_loads.py
-  tests/test_body_springs.py tests/test_distributed_load.py tests/test_sensors.py
+  tests/test_body_springs.py tests/test_distributed_load.py tests/test_sensors.py tests/test_sensors_bodies.py
 )
 
 case "${1:-test}" in
