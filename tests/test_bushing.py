@@ -274,7 +274,7 @@ def body(length=1.0, *, EI=50.0, EA=2e4, mu=2.0, n_elements=4, **section):
                          section=pf.PipeSection(EI=EI, EA=EA, pipe_mass=mu, **section))
 
 
-def two_bodies(bushings=True):
+def two_bodies(bushings=True, gravity=None):
     """Two bodies, the first clamped at its start; a bushing (all six stiffnesses and
     dampers) between the first's end and the second's start, which coincide, and a
     translational one across a gap."""
@@ -290,6 +290,8 @@ def two_bodies(bushings=True):
         assert b.add_bushing(j0, "end", j1, "start", stiffness=K3, damping=C3, rotational_stiffness=KR3,
                              rotational_damping=CR3) == 1
         b.add_bushing(j0, "center", j1, "end", stiffness=(50.0, 0.0, 70.0), damping=(0.0, 2.0, 0.0))
+    if gravity is not None:
+        b.set_gravity(gravity)
     return b.build()
 
 
@@ -370,7 +372,7 @@ def test_body_bushing_energy_is_zero_under_a_rigid_motion_of_both_bodies():
 
 
 # -- coupled systems ----------------------------------------------------------------------
-def element_and_body(joint, *, ancf=False):
+def element_and_body(joint, *, ancf=False, gravity=None):
     """A pipe cantilever along x (clamped at x = 0, tip at x = 1 m) and a body from x = 1 m
     to 2 m, free, its start at the tip: ``joint`` "rigid" (a rigid coupling), None
     (nothing), or the keyword arguments of a bushing there."""
@@ -384,6 +386,9 @@ def element_and_body(joint, *, ancf=False):
     bb = MultibodyBuilder()
     j = bb.add_body(body(EI=30.0, EA=1e3, GJ=20.0, rotary_inertia=(1e-3, 1e-3, 1e-3)), position=(1.5, 0.0, 0.0))
     bb.add_ground_spring(j, "end", stiffness=(5.0, 8.0, 3.0), rotational_stiffness=(1.0, 2.0, 3.0))
+    if gravity is not None:
+        eb.set_gravity(gravity)
+        bb.set_gravity(gravity)
     cs = pf.CoupledSystem(eb.build(), bb.build())
     if joint == "rigid":
         cs.rigid(tip, j, "start")
@@ -481,3 +486,25 @@ def test_a_relative_rotation_of_half_a_turn_is_refused_by_name():
         residual(model, s)
     s.frames = np.array([np.eye(3), rotation_exp([0.0, 0.0, np.pi - 1e-3])])
     assert np.isfinite(residual(model, s)).all()  # just below: exact
+
+
+def test_spring_force_sensor_of_a_bushing_on_bodies_and_in_a_coupling():
+    """spring_force of a bodies' bushing and of a coupling bushing is the force on its node
+    b, -K (x_b - x_a) - C (v_b - v_a) for coincident nodes, against the recorded node
+    sensors of the same steps."""
+    from pipeflex import sensor
+
+    def check(system, spring, a, b, part=None):
+        sensors = [sensor.spring_force(spring, part=part, name="f"), sensor.node_position(a, name="xa"),
+                   sensor.node_position(b, name="xb"), sensor.node_velocity(a, name="va"),
+                   sensor.node_velocity(b, name="vb")]
+        res = pf.simulate(system, 0.02, integrator="generalized_alpha", step=1e-3, n_outputs=2, progress=False,
+                          sensors=sensors)
+        got = {k: res.sensors[k][1] for k in ("f", "xa", "xb", "va", "vb")}
+        expected = -np.array(K3) * (got["xb"] - got["xa"]) - np.array(C3) * (got["vb"] - got["va"])
+        assert np.abs(expected).max() > 1e-3
+        np.testing.assert_allclose(got["f"], expected, rtol=0, atol=1e-9 * np.abs(expected).max())
+
+    check(two_bodies(True, gravity=(0.0, -9.81, 3.0)), 1, (0, "end"), (1, "start"))
+    cs, tip = element_and_body(dict(stiffness=K3, damping=C3), gravity=(0.0, -9.81, 3.0))
+    check(cs, 0, tip, (0, "start"), part="couplings")

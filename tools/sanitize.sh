@@ -95,8 +95,7 @@ SUBSET=(
   tests/test_element_interface.py tests/test_system.py tests/test_linear_csc.py
   tests/test_static_any_system.py tests/test_spring_dampers.py tests/test_user_loads.py
   tests/test_body_springs.py tests/test_distributed_load.py tests/test_sensors.py
-  tests/test_bushing.py
-  tests/test_body_foundation.py
+  tests/test_bushing.py tests/test_body_foundation.py tests/test_sensors_bodies.py
 )
 
 case "${1:-test}" in

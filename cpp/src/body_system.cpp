@@ -48,12 +48,9 @@ class BodyRun final : public Run {
     void record(double t, Record& out) override {
         append_body_outputs(sys_, eq_.state(), drive_.mass_flow, t, ev_, out);
     }
-    // the joints' multipliers (joint_force); the element models' sensors are not the bodies'
     void sense(const SensorSpec& s, double t, double* value, double* rate) override {
-        const Eigen::VectorXd& lam = eq_.state().lam;
-        if (s.kind != SensorKind::joint_force || s.index < 0 || s.index + s.rows > lam.size())
-            Run::sense(s, t, value, rate);
-        for (int k = 0; k < s.rows; ++k) value[k] = lam[s.index + k];
+        if (s.part != SensorPart::bodies && s.kind != SensorKind::custom) Run::sense(s, t, value, rate);
+        sense_bodies(sys_, eq_.state(), s, t, value, rate);
     }
     void finish() override {
         target_ = eq_.state();

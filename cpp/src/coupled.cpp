@@ -467,8 +467,8 @@ class CoupledRun final : public Run {
     CoupledRun(const Model& model, State& state, const LoadState& load, const MultibodySystemCore& bodies,
                MbState& body_state, const std::vector<Coupling>& couplings, VecX& coupling_lam, const Drive& drive,
                System::Mode mode)
-        : bodies_(bodies), body_state_(body_state), coupling_lam_(coupling_lam), drive_(drive),
-          functions_{drive_.mass_flow, drive_.load_factor}, statics_(mode == System::Mode::statics),
+        : bodies_(bodies), body_state_(body_state), coupling_lam_(coupling_lam), couplings_(couplings),
+          drive_(drive), functions_{drive_.mass_flow, drive_.load_factor}, statics_(mode == System::Mode::statics),
           el_(model, state, load, functions_, drive_.options), mb_(bodies, body_state, functions_.mass_flow, &functions_.load_factor),
           eq_(el_, mb_, bodies, couplings) {
         VecX v1 = reduce(model, state.v), a1 = reduce(model, state.a);
@@ -500,6 +500,49 @@ class CoupledRun final : public Run {
         auto& series = out("coupling_multipliers", {static_cast<long>(lc.size())});
         series.data.insert(series.data.end(), lc.data(), lc.data() + lc.size());
     }
+    // the element part's sensors, the bodies', the couplings' multipliers
+    void sense(const SensorSpec& s, double t, double* value, double* rate) override {
+        if (s.kind == SensorKind::custom) {
+            sense_custom(s, t, SensorState{&el_.state, &mb_.state(), &eq_.coupling_multipliers()}, value);
+        } else if (s.kind == SensorKind::energy) {  // the parts' energies together
+            double parts[4];
+            sense_element(el_, s, t, value, rate);
+            sense_bodies(bodies_, mb_.state(), s, t, parts, rate);
+            for (int k = 0; k < 4; ++k) value[k] += parts[k];
+        } else if (s.part == SensorPart::couplings &&
+                   (s.kind == SensorKind::axial_spring || s.kind == SensorKind::bushing)) {
+            // a coupling spring: its stand-in nodes at the element node and the body node
+            // (CoupledEquations::spring)
+            if (s.index < 0 || s.index >= static_cast<int>(couplings_.size()) || !couplings_[s.index].spring)
+                throw std::invalid_argument("spring_force sensor: coupling " + std::to_string(s.index) +
+                                            " is not a spring");
+            const Coupling& cp = couplings_[static_cast<std::size_t>(s.index)];
+            const MbState& ms = mb_.state();
+            Vec3d pb;
+            Mat3d A;
+            MatX Jp;
+            bodies_.node(ms, cp.joint.body_b, cp.joint.node_b, pb, A, &Jp, nullptr);
+            const Vec3d pd = Jp * ms.v.segment(bodies_.offset(cp.joint.body_b), Jp.cols());
+            State ss(*cp.spring_model);
+            for (int c = 0; c < 3; ++c) {
+                ss.q[c] = el_.state.q[6 * cp.element_node + c];
+                ss.v[c] = el_.state.v[6 * cp.element_node + c];
+                ss.q[6 + c] = pb[c];
+                ss.v[6 + c] = pd[c];
+            }
+            sense_spring(*cp.spring, ss, LoadState{}, s, value);
+        } else if (s.part == SensorPart::couplings) {
+            const VecX& lc = eq_.coupling_multipliers();
+            if (s.kind != SensorKind::joint_force || s.index < 0 || s.index + s.rows > lc.size())
+                throw std::invalid_argument("a coupling's sensor is joint_force of its rows (" +
+                                            std::to_string(lc.size()) + " coupling rows)");
+            for (int k = 0; k < s.rows; ++k) value[k] = lc[s.index + k];
+        } else if (s.part == SensorPart::bodies) {
+            sense_bodies(bodies_, mb_.state(), s, t, value, rate);
+        } else {
+            sense_element(el_, s, t, value, rate);
+        }
+    }
     void finish() override {
         const int nc2 = bodies_.n_constraints();
         body_state_ = mb_.state();
@@ -519,6 +562,7 @@ class CoupledRun final : public Run {
     const MultibodySystemCore& bodies_;
     MbState& body_state_;
     VecX& coupling_lam_;
+    const std::vector<Coupling>& couplings_;
     Drive drive_;
     TimeFunctions functions_;
     bool statics_;

@@ -132,6 +132,13 @@ double MultibodySystemCore::spring_energy(const MbState& s) const {
     return U;
 }
 
+State MultibodySystemCore::spring_nodes_state(const MbState& s, int k) const {
+    const MbSpring& sp = springs_.at(static_cast<std::size_t>(k));
+    State st(*sp.model);
+    pipeflex::spring_state(*this, s, sp, st, nullptr, nullptr, nullptr);
+    return st;
+}
+
 double MultibodySystemCore::spring_damping_power(const MbState& s) const {
     double P = 0.0;
     for (const MbSpring& sp : springs_) {

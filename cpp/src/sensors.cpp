@@ -7,6 +7,8 @@
 #include "pipeflex/assembly/ground_spring.hpp"
 #include "pipeflex/assembly/pipe_element.hpp"
 #include "pipeflex/core/format.hpp"
+#include "pipeflex/core/small_matrix_eigen.hpp"
+#include "pipeflex/multibody/multibody.hpp"
 #include "pipeflex/solvers/element_equations.hpp"
 #include "pipeflex/solvers/system.hpp"
 
@@ -90,6 +92,7 @@ int SensorSpec::width() const {
         case SensorKind::axial_spring:
             return 1;
         case SensorKind::joint_force:
+        case SensorKind::custom:
             return rows;
     }
     return 0;
@@ -275,46 +278,150 @@ void sense_element(const ElementEquations& eq, const SensorSpec& s, double t, do
             return;
         }
         case SensorKind::axial_spring:
-        case SensorKind::ground_spring: {
-            const Element& el = element("spring_force");
-            const bool axial = s.kind == SensorKind::axial_spring;
-            if (axial ? dynamic_cast<const AxialSpring*>(&el) == nullptr : dynamic_cast<const GroundSpring*>(&el) == nullptr)
-                throw std::invalid_argument("spring_force sensor: element " + std::to_string(s.index) + " is not " +
-                                            (axial ? "an axial spring" : "a ground spring"));
-            std::vector<double> r(static_cast<std::size_t>(6 * el.n_nodes()), 0.0);
-            const LoadState load = eq.load_at(t);
-            ElementOutputs out;
-            out.r = r.data();
-            el.kernel(ElementInputs{st, load, nullptr}, out);
-            if (axial) {  // r = [-T e, 0, T e, 0]
-                const int a = el.nodes()[0], b = el.nodes()[1];
-                Vec3<double> dx;
-                for (int k = 0; k < 3; ++k) dx[k] = st.q[6 * b + k] - st.q[6 * a + k];
-                const double len = std::sqrt(dot(dx, dx));
-                value[0] = (r[6] * dx[0] + r[7] * dx[1] + r[8] * dx[2]) / len;
-            } else {
-                for (int k = 0; k < 3; ++k) value[k] = -r[k];  // the force on the node
-            }
+        case SensorKind::ground_spring:
+        case SensorKind::bushing:
+            sense_spring(element("spring_force"), st, eq.load_at(t), s, value);
             return;
-        }
-        case SensorKind::bushing: {
-            const Element& el = element("spring_force");
-            if (dynamic_cast<const Bushing*>(&el) == nullptr)
-                throw std::invalid_argument("spring_force sensor: element " + std::to_string(s.index) +
-                                            " is not a bushing");
-            double r[12];
-            const LoadState load = eq.load_at(t);
-            ElementOutputs out;
-            out.r = r;
-            el.kernel(ElementInputs{st, load, nullptr}, out);
-            for (int k = 0; k < 3; ++k) value[k] = -r[6 + k];  // the force on node b
+        case SensorKind::custom:
+            sense_custom(s, t, SensorState{&st, nullptr, nullptr}, value);
             return;
-        }
         case SensorKind::joint_force:
             break;
     }
     throw std::invalid_argument("sensor of kind " + std::to_string(static_cast<int>(s.kind)) +
                                 " is not available on an element model");
+}
+
+// A spring element's force at the state st: an axial spring's tension, a ground spring's
+// force on its node (s.kind says which; std::invalid_argument if the element is not one).
+void sense_spring(const Element& el, const State& st, const LoadState& load, const SensorSpec& s, double* value) {
+    const bool axial = s.kind == SensorKind::axial_spring, bushing = s.kind == SensorKind::bushing;
+    const bool is = axial     ? dynamic_cast<const AxialSpring*>(&el) != nullptr
+                    : bushing ? dynamic_cast<const Bushing*>(&el) != nullptr
+                              : dynamic_cast<const GroundSpring*>(&el) != nullptr;
+    if (!is)
+        throw std::invalid_argument("spring_force sensor: spring " + std::to_string(s.index) + " is not " +
+                                    (axial ? "an axial spring" : bushing ? "a bushing" : "a ground spring"));
+    std::vector<double> r(static_cast<std::size_t>(6 * el.n_nodes()), 0.0);
+    ElementOutputs out;
+    out.r = r.data();
+    el.kernel(ElementInputs{st, load, nullptr}, out);
+    if (axial) {  // r = [-T e, 0, T e, 0]
+        const int a = el.nodes()[0], b = el.nodes()[1];
+        Vec3<double> dx;
+        for (int k = 0; k < 3; ++k) dx[k] = st.q[6 * b + k] - st.q[6 * a + k];
+        const double len = std::sqrt(dot(dx, dx));
+        value[0] = (r[6] * dx[0] + r[7] * dx[1] + r[8] * dx[2]) / len;
+    } else if (bushing) {
+        for (int k = 0; k < 3; ++k) value[k] = -r[6 + k];  // the force on node b
+    } else {
+        for (int k = 0; k < 3; ++k) value[k] = -r[k];  // the force on the node
+    }
+}
+
+bool sense_custom(const SensorSpec& s, double t, const SensorState& state, double* value) {
+    if (s.kind != SensorKind::custom) return false;
+    if (!s.custom) throw std::invalid_argument("custom sensor without a function");
+    (*s.custom)(t, state, value);
+    return true;
+}
+
+void sense_bodies(const MultibodySystemCore& sys, const MbState& st, const SensorSpec& s, double t, double* value,
+                  double* rate) {
+    (void)t;
+    switch (s.kind) {
+        case SensorKind::node_position:
+        case SensorKind::node_velocity:
+        case SensorKind::node_acceleration:
+        case SensorKind::node_rotation:
+        case SensorKind::node_angle: {
+            Vec3d p;
+            Mat3d A;
+            MatX Jp, Ja;
+            sys.node(st, s.body, s.index, p, A, &Jp, &Ja);  // checks the body and node
+            const auto vb = st.v.segment(sys.offset(s.body), Jp.cols());
+            const auto ab = st.a.segment(sys.offset(s.body), Jp.cols());
+            if (s.kind == SensorKind::node_rotation || s.kind == SensorKind::node_angle) {
+                const Mat3d A0 = Eigen::Map<const Eigen::Matrix<double, 3, 3, Eigen::RowMajor>>(s.frame.data());
+                const Vec3<double> phi = rotation_vector(to_mat3(A * A0.transpose()));
+                if (s.kind == SensorKind::node_rotation) {
+                    for (int k = 0; k < 3; ++k) value[k] = phi[k];
+                    return;
+                }
+                const Vec3d omega = Ja * vb;  // the node's spatial angular velocity
+                value[0] = s.axis[0] * phi[0] + s.axis[1] * phi[1] + s.axis[2] * phi[2];
+                rate[0] = s.axis[0] * omega[0] + s.axis[1] * omega[1] + s.axis[2] * omega[2];
+                return;
+            }
+            // p_dot = Jp v; p_ddot = Jp a + W v (W: the map's change along the motion)
+            const Vec3d pd = Jp * vb;
+            Vec3d pdd = Vec3d::Zero();
+            if (s.kind != SensorKind::node_position) {
+                MatX W;
+                sys.node_velocity_derivative(st, s.body, s.index, W);
+                pdd = Jp * ab + W.topRows(3) * vb;
+            }
+            for (int k = 0; k < 3; ++k) {
+                if (s.kind == SensorKind::node_position) {
+                    value[k] = p[k];
+                    rate[k] = pd[k];
+                } else if (s.kind == SensorKind::node_velocity) {
+                    value[k] = pd[k];
+                    rate[k] = pdd[k];
+                } else {
+                    value[k] = pdd[k];
+                }
+            }
+            return;
+        }
+        case SensorKind::energy: {
+            // per body: (1/2) v_l^T M v_l (local velocities), (1/2) (eta - eta0)^T K (eta - eta0),
+            // -m g.r - (R^T g).(Ng_eta^T eta); the springs' elastic energy
+            double T = 0.0, U = sys.spring_energy(st), V = 0.0;
+            const Vec3d& g = sys.gravity();
+            for (int j = 0; j < sys.n_bodies(); ++j) {
+                const FfrfBodyData& d = sys.body(j).data;
+                const int o = sys.offset(j), n = static_cast<int>(d.M.rows()), m = n - 6;
+                const Mat3d& R = st.R[j];
+                VecX vl(n);
+                vl << R.transpose() * st.v.segment<3>(o), R.transpose() * st.v.segment<3>(o + 3),
+                    st.v.segment(o + 6, m);
+                T += 0.5 * vl.dot(d.M * vl);
+                const VecX e = st.eta.segment(o + 6, m) - d.eta0;
+                U += 0.5 * e.dot(d.K * e);
+                const Vec3d Ng_eta = d.Ng.bottomRows(m).transpose() * st.eta.segment(o + 6, m);
+                V -= d.M(0, 0) * g.dot(st.r[j]) + (R.transpose() * g).dot(Ng_eta);
+            }
+            value[0] = T;
+            value[1] = U;
+            value[2] = V;
+            value[3] = T + U + V;
+            return;
+        }
+        case SensorKind::axial_spring:
+        case SensorKind::ground_spring:
+        case SensorKind::bushing: {
+            if (s.index < 0 || s.index >= sys.n_springs())
+                throw std::invalid_argument("spring_force sensor: spring " + std::to_string(s.index) +
+                                            " is not one of the bodies' " + std::to_string(sys.n_springs()));
+            sense_spring(sys.spring_element(s.index), sys.spring_nodes_state(st, s.index), LoadState{}, s, value);
+            return;
+        }
+        case SensorKind::joint_force:
+            if (s.index < 0 || s.index + s.rows > st.lam.size())
+                throw std::invalid_argument("joint_force sensor: rows " + std::to_string(s.index) + ".." +
+                                            std::to_string(s.index + s.rows - 1) + " are not the joints' (" +
+                                            std::to_string(st.lam.size()) + " rows)");
+            for (int k = 0; k < s.rows; ++k) value[k] = st.lam[s.index + k];
+            return;
+        case SensorKind::custom:
+            sense_custom(s, t, SensorState{nullptr, &st, nullptr}, value);
+            return;
+        default:
+            break;
+    }
+    throw std::invalid_argument("sensor of kind " + std::to_string(static_cast<int>(s.kind)) +
+                                " is not available on floating-frame bodies");
 }
 
 }  // namespace pipeflex

@@ -550,8 +550,9 @@ def simulate(model, t_end: float, *, integrator: str = "auto", state=None, t_sta
             1.25 ms (docs/performance.md).
             The output times must be whole steps of h from t_start.
         sensors: :mod:`pipeflex.sensor` sensors and crossings, recorded at the start and
-            every accepted step in the core (``result.sensors``; element models, and the
-            joint forces of floating-frame bodies).
+            every accepted step in the core (``result.sensors``; element models,
+            floating-frame bodies and coupled systems, custom sensors of the user's
+            functions).
             A terminal crossing ends the run at the step that crosses
             (``metadata["stopped_at"]`` its time [s]); the outputs then end there. With
             Richardson extrapolation (``extrapolate`` or a small ``rtol``) the sensors are

@@ -518,6 +518,14 @@ class MultibodySystem:
         """The compiled system (read-only use)."""
         return self._core
 
+    @property
+    def spring_kinds(self) -> Tuple[str, ...]:
+        """Per spring (the index :meth:`MultibodyBuilder.add_spring` or
+        :meth:`MultibodyBuilder.add_ground_spring` returned): ``"axial"`` or ``"ground"``."""
+        if self._description is None:
+            return ()
+        return tuple(sp["kind"] for sp in self._description[0].get("_springs", ()))
+
     # -- states --------------------------------------------------------------------
     def initial_state(self) -> MultibodyState:
         """The assembly configuration (eta = eta0) at rest."""

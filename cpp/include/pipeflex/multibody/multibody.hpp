@@ -160,6 +160,11 @@ class MultibodySystemCore {
     // Elastic energy [J] of the springs and the power [W] their dashpots dissipate.
     double spring_energy(const MbState& s) const;
     double spring_damping_power(const MbState& s) const;
+    // Spring k's element and the state of its stand-in nodes at s (sensors.cpp).
+    const Element& spring_element(int k) const { return *springs_.at(static_cast<std::size_t>(k)).element; }
+    State spring_nodes_state(const MbState& s, int k) const;
+    const MbBody& body(int j) const { return bodies_.at(static_cast<std::size_t>(j)); }
+    const Vec3d& gravity() const { return gravity_; }
     void set_gravity(const Vec3d& g) { gravity_ = g; }
     void finalize();
 

@@ -14,6 +14,8 @@
 #include "pipeflex/solvers/equations.hpp"
 
 #include <array>
+#include <functional>
+#include <memory>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -22,6 +24,11 @@ namespace pipeflex {
 
 class Run;
 class ElementEquations;
+class MultibodySystemCore;
+class Element;
+struct MbState;
+struct State;
+struct LoadState;
 
 enum class SensorKind : int {
     node_position = 0,      // x (3) [m]
@@ -36,14 +43,32 @@ enum class SensorKind : int {
     ground_spring = 9,      // the force on its node (3) [N] of the element (a ground spring)
     joint_force = 10,       // a joint's multipliers (rows) [N, N m]: index its first constraint row
     bushing = 11,           // the force on its node b (3) [N] of the element (a bushing)
+    custom = 12,            // a user's function of the state (rows values): SensorSpec::custom
 };
+
+// Which part of a system a sensor reads: an element model's nodes, elements and springs;
+// the bodies' nodes, springs and joints; a coupled system's couplings (their multipliers).
+enum class SensorPart : int { elements = 0, bodies = 1, couplings = 2 };
+
+// What a custom sensor sees: the parts' states as set (nullptr: the system has no such part).
+struct SensorState {
+    const State* elements = nullptr;
+    const MbState* bodies = nullptr;
+    const Eigen::VectorXd* coupling_multipliers = nullptr;
+};
+// A custom sensor's function: its values (SensorSpec::rows) at time t [s] and the state.
+using CustomSensor = std::function<void(double t, const SensorState& state, double* value)>;
 
 struct SensorSpec {
     SensorKind kind = SensorKind::node_position;
     int index = 0;                    // node, or element (its index in the model's registry)
     double s = 0.0;                   // local coordinate along the element in [0, 1]
     std::array<double, 3> axis{};     // node_angle: the unit axis
-    int rows = 0;                     // joint_force: the joint's constraint rows
+    int rows = 0;                     // joint_force: the joint's constraint rows; custom: its values
+    SensorPart part = SensorPart::elements;
+    int body = 0;                     // part bodies, node sensors: the node's body (index: its node)
+    std::array<double, 9> frame{};    // a body node's rotation: its reference orientation A0 (row-major)
+    std::shared_ptr<const CustomSensor> custom;  // custom: the function
     int width() const;
 };
 
@@ -97,5 +122,15 @@ class SensorRecorder final : public StepObserver {
 // where the state gives it, rate (width; left NaN otherwise). std::invalid_argument for a
 // node or element out of range or of the wrong type.
 void sense_element(const ElementEquations& eq, const SensorSpec& s, double t, double* value, double* rate);
+// A sensor of floating-frame bodies at their state st, time t [s] (as sense_element): a
+// body node's kinematics (position, velocity, acceleration, rotation from its reference
+// orientation frame), the bodies' energies, a body spring's force, a joint's multipliers.
+void sense_bodies(const MultibodySystemCore& sys, const MbState& st, const SensorSpec& s, double t, double* value,
+                  double* rate);
+// A spring element's force at the state st (s.kind: axial_spring, its tension [N], or
+// ground_spring, the force on its node [N]); std::invalid_argument if el is not one.
+void sense_spring(const Element& el, const State& st, const LoadState& load, const SensorSpec& s, double* value);
+// A custom sensor (s.custom) at the state: value (s.rows); false if s is not custom.
+bool sense_custom(const SensorSpec& s, double t, const SensorState& state, double* value);
 
 }  // namespace pipeflex
