@@ -79,8 +79,9 @@ void bind_multibody(py::module_& m) {
         .def(
             "add_body",
             [](MultibodySystemCore& sys, const FfrfBodyData& d, const MatX& basis, const std::vector<double>& s,
-               double fluid_mass, double flow_factor) {
+               double fluid_mass, double flow_factor, double rate_force_zero) {
                 MbBody b;
+                b.rate_force_zero = rate_force_zero;
                 b.data = d;
                 b.basis = basis;
                 b.s = s;
@@ -88,7 +89,8 @@ void bind_multibody(py::module_& m) {
                 b.flow_factor = flow_factor;
                 return sys.add_body(std::move(b));
             },
-            py::arg("data"), py::arg("basis"), py::arg("s"), py::arg("fluid_mass"), py::arg("flow_factor"))
+            py::arg("data"), py::arg("basis"), py::arg("s"), py::arg("fluid_mass"), py::arg("flow_factor"),
+            py::arg("rate_force_zero") = 0.0)
         .def(
             "add_joint",
             [](MultibodySystemCore& sys, int kind, int body_a, int node_a, int body_b, int node_b, const Vec3d& p_ground,

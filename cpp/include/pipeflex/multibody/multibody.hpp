@@ -32,6 +32,7 @@ struct MbBody {
     std::vector<double> s;      // node coordinates along the body axis [m]
     double fluid_mass = 0.0;    // mu_f [kg/m]
     double flow_factor = 1.0;   // sdot = flow_factor mdot / mu_f
+    double rate_force_zero = 0.0;  // s0 [m] of FfrfBodyMotion (the flow path's, set by the builder)
 };
 
 enum class JointKind { rigid = 0, hinge = 1, spherical = 2, roller = 3 };
