@@ -82,8 +82,9 @@ void bind_multibody(py::module_& m) {
             [](MultibodySystemCore& sys, const FfrfBodyData& d, const MatX& basis, const std::vector<double>& s,
                double fluid_mass, double flow_factor, std::optional<py::dict> foundation, const Vec3d& r_ref,
                const Mat3d& R_ref, double mass_per_length,
-               const std::vector<std::pair<Vec3d, TimeTable>>& distributed) {
+               const std::vector<std::pair<Vec3d, TimeTable>>& distributed, double rate_force_zero) {
                 MbBody b;
+                b.rate_force_zero = rate_force_zero;
                 b.data = d;
                 b.basis = basis;
                 b.s = s;
@@ -110,11 +111,12 @@ void bind_multibody(py::module_& m) {
             py::arg("data"), py::arg("basis"), py::arg("s"), py::arg("fluid_mass"), py::arg("flow_factor"),
             py::arg("foundation") = py::none(), py::arg("r_ref") = Vec3d::Zero(),
             py::arg("R_ref") = Mat3d::Identity(), py::arg("mass_per_length") = 0.0,
-            py::arg("distributed") = std::vector<std::pair<Vec3d, TimeTable>>{},
+            py::arg("distributed") = std::vector<std::pair<Vec3d, TimeTable>>{}, py::arg("rate_force_zero") = 0.0,
             "A body: its constants, basis Phi, node coordinates s [m], mu_f [kg/m], flow factor; optionally a "
             "Winkler foundation (a dict of FfrfFoundation's constants: kL, X, X0, W0, XPhi, K, x, C) about the "
-            "reference placement r_ref [m], R_ref, and distributed loads (q (3) [N/m] global, TimeTable s(t)): "
-            "s(t) q per length on a body of mass_per_length [kg/m].")
+            "reference placement r_ref [m], R_ref, distributed loads (q (3) [N/m] global, TimeTable s(t)): "
+            "s(t) q per length on a body of mass_per_length [kg/m], and s0 [m] where the fluid acceleration's "
+            "axial force vanishes (rate_force_zero).")
         .def(
             "add_joint",
             [](MultibodySystemCore& sys, int kind, int body_a, int node_a, int body_b, int node_b, const Vec3d& p_ground,

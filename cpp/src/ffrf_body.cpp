@@ -66,6 +66,20 @@ void beam_integrals(double l, BeamIntegrals& out) {
     }
 }
 
+void beam_slope_integrals(double l, Mat12d& G0, Mat12d& G1) {
+    if (!(l > 0.0)) throw std::invalid_argument("beam_slope_integrals: element length must be > 0");
+    G0.setZero();
+    G1.setZero();
+    Eigen::Matrix<double, 3, 12> N, dN, ddN;
+    for (int g = 0; g < hermite::n_gauss; ++g) {
+        shape(l, hermite::gauss_xi[g], N, dN, ddN);
+        const double w = hermite::gauss_w[g] * l;
+        const Mat12d g0 = dN.row(1).transpose() * dN.row(1) + dN.row(2).transpose() * dN.row(2);
+        G0 += w * g0;
+        G1 += (w * l * hermite::gauss_xi[g]) * g0;
+    }
+}
+
 void beam_stiffness(double l, double EA, double GJ, double EIy, double EIz, Mat12d& out) {
     if (!(l > 0.0)) throw std::invalid_argument("beam_stiffness: element length must be > 0");
     out.setZero();
@@ -125,9 +139,57 @@ void check_ffrf_body(const FfrfBodyData& d) {
         shape("dUs", d.dUs, 3, m);
         shape("dUe", d.dUe, 3, m);
     }
+    if (d.Gs0.size() != 0 || d.Gs1.size() != 0) {
+        shape("Gs0", d.Gs0, m, m);
+        shape("Gs1", d.Gs1, m, m);
+        shape("Ua", d.Ua, 3, m);
+    }
     if (!std::isfinite(d.mu_f) || d.mu_f < 0.0)
         throw std::invalid_argument("FfrfBodyData: mu_f must be finite and >= 0, got " + std::to_string(d.mu_f));
 }
+
+namespace {
+
+// The geometric stiffness of the fluid acceleration's axial force within the body (its linear
+// elasticity has none of its own): N(s) = mu_f sddot (s - s0), the lateral slopes' energy
+// 1/2 int N |u'|^2 relative to the frame, so only the elastic rows and columns; linear in the
+// rate, so the steady flow's forces are unchanged. Called twice: for the residual (before
+// the tangent is zeroed) and for the tangent.
+void add_rate_geometric_stiffness(const FfrfBodyData& d, const FfrfBodyMotion& s, double wK,
+                                  Eigen::Ref<VecX>* residual, Eigen::Ref<MatX>* tangent) {
+    const Eigen::Index m = d.M.rows() - 6;
+    const double rate = d.mu_f * s.sddot;  // dN/ds [N/m]
+    if (rate == 0.0 || m == 0 || d.Gs0.rows() != m) return;
+    const double c1 = rate, c0 = -rate * s.rate_force_zero;  // N = c0 + c1 s; no temporaries in a time loop
+    if (residual) {
+        auto r = residual->tail(m);
+        r.noalias() += c1 * (d.Gs1 * s.eta);
+        r.noalias() -= c1 * (d.Gs1 * d.eta0);
+        r.noalias() += c0 * (d.Gs0 * s.eta);
+        r.noalias() -= c0 * (d.Gs0 * d.eta0);
+    }
+    if (tangent && wK != 0.0) {
+        tangent->block(6, 6, m, m) += (wK * c1) * d.Gs1;
+        tangent->block(6, 6, m, m) += (wK * c0) * d.Gs0;
+    }
+}
+
+// The moment of the fluid acceleration's axial load on the deformed lever arm u = N Phi eta,
+// body components: sddot (Ua eta) x e_x into L's moment rows, and its eta derivative
+// (-sddot e_x~ Ua) into the moment rows of dQe (the frame rotation's tangent then follows L).
+void add_rate_lever_moment(const FfrfBodyData& d, const FfrfBodyMotion& s, VecX& L) {
+    if (s.sddot == 0.0 || d.Ua.rows() != 3 || d.Ua.cols() != s.eta.size() || s.eta.size() == 0) return;
+    const Vec3d u = d.Ua * s.eta;
+    L.segment<3>(3) += s.sddot * u.cross(Vec3d::UnitX());
+}
+
+template <class Block>
+void add_rate_lever_tangent(const FfrfBodyData& d, const FfrfBodyMotion& s, Block&& dQe) {
+    if (s.sddot == 0.0 || d.Ua.rows() != 3 || d.Ua.cols() != s.eta.size() || s.eta.size() == 0) return;
+    dQe.middleRows(3, 3).noalias() -= s.sddot * (skew(Vec3d::UnitX()) * d.Ua);
+}
+
+}  // namespace
 
 void ffrf_body_forces(const FfrfBodyData& d, const FfrfBodyMotion& s, double wK, double wC, double wM,
                       FfrfBodyWork& work, Eigen::Ref<VecX> residual, Eigen::Ref<MatX> tangent, bool with_tangent) {
@@ -212,12 +274,14 @@ void ffrf_body_forces(const FfrfBodyData& d, const FfrfBodyMotion& s, double wK,
         dQdw.middleRows(3, 3) += Dw;
     }
 
+    add_rate_lever_moment(d, s, L);
     residual.head<3>() = R * L.head<3>();
     residual.segment<3>(3) = R * L.segment<3>(3);
     residual.tail(m) = L.tail(m);
     residual.tail(m).noalias() += d.K * (s.eta - d.eta0);
     const bool damped = d.D.size() != 0;
     if (damped) residual.tail(m).noalias() += d.D * s.eta_dot;
+    add_rate_geometric_stiffness(d, s, wK, &residual, nullptr);
     if (!with_tangent) return;
 
     tangent.setZero();
@@ -257,10 +321,12 @@ void ffrf_body_forces(const FfrfBodyData& d, const FfrfBodyMotion& s, double wK,
         dQe = sd * sd * d.HPhi + sdd * d.CPhi;
         for (int k = 0; k < 3; ++k) dQe += (2.0 * sd * w[k]) * d.GPhi[k];
         if (lever) dQe.middleRows(3, 3) += Du;
+        add_rate_lever_tangent(d, s, dQe);
         rot_rows(dQe, 6, wK);
         tangent.block(6, 6, m, m) += wK * d.K;
     }
     if (damped && wC != 0.0) tangent.block(6, 6, m, m) += wC * d.D;
+    add_rate_geometric_stiffness(d, s, wK, nullptr, &tangent);
 }
 
 }  // namespace pipeflex

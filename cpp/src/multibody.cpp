@@ -600,6 +600,7 @@ void MultibodySystemCore::evaluate(const MbState& s, double mdot, double mdot_ra
         const double f = b.fluid_mass > 0.0 ? b.flow_factor / b.fluid_mass : 0.0;
         mo.sdot = f * mdot;
         mo.sddot = f * mdot_rate;
+        mo.rate_force_zero = b.rate_force_zero;
         if (with_tangent)
             ffrf_body_forces(b.data, mo, wK, wC, wM, out.work[j], out.F.segment(o, n), out.S[tangent_block(j, j)], true);
         else

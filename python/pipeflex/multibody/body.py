@@ -221,6 +221,21 @@ def _foundation(k, length, n_el, Phi, xbar, eta0) -> dict:
                 xx=k * float(xbar @ NN @ xbar), x0x0=k * float(z0 @ NN @ z0))
 
 
+def _slope_integrals(length, n_el):
+    """(G0, G1) (6 n_nodes square) over the body: int (u_y'^2 + u_z'^2) ds [1/m] and the same
+    weighted by s [-] (s from the centre node), the geometric stiffness of an axial force
+    N(s) = N0 + N1 s being N0 G0 + N1 G1 (the fluid acceleration's, ffrf_body.hpp)."""
+    n = 6 * (n_el + 1)
+    le = length / n_el
+    g0, g1 = _core.beam_slope_integrals(le)
+    G0, G1 = np.zeros((n, n)), np.zeros((n, n))
+    for e in range(n_el):
+        s = slice(6 * e, 6 * e + 12)
+        G0[s, s] += g0
+        G1[s, s] += g1 + (-0.5 * length + e * le) * g0  # g1's s starts at the element's start node
+    return G0, G1
+
+
 def _end_slopes(Phi, node):
     """The bending slopes (0, u_y', u_z') (3 x m) per elastic coordinate at the end node
     whose rows start at ``node``: its rotations (u_y' = theta_z, u_z' = -theta_y, the
@@ -421,14 +436,18 @@ def flexible_body(*, length: float, n_elements: int, section: PipeSection, inter
 
     B = np.hstack([Psi0, Phi])
     Psi_r0 = Psi0[:, 3:]
+    G0, G1 = _slope_integrals(L, n_el)
     Mr = B.T @ M @ B
     data = _core.FfrfBodyData(
         M=Mr, K=Kr, eta0=eta0, D=_modal_damping_matrix(modal_damping, Kr, Mr[6:, 6:]),
         A=[B.T @ S[k] @ Psi_r0 for k in range(3)], Bk=[B.T @ S[k] @ Phi for k in range(3)],
         GPhi=[B.T @ G[k] @ Phi for k in range(3)], Gx=[B.T @ G[k] @ xbar for k in range(3)],
         CPhi=B.T @ C @ Phi, HPhi=B.T @ H @ Phi, Cx=B.T @ C @ xbar, Hx=B.T @ H @ xbar, Ng=B.T @ Ng,
+        # the fluid acceleration's axial force's geometric stiffness (the rate's; docs/parametric.md)
+        Gs0=Phi.T @ G0 @ Phi, Gs1=Phi.T @ G1 @ Phi, Ua=section.fluid_mass * (N_int.T @ Phi),
+        mu_f=section.fluid_mass,
         # the Coriolis forces' moment on the deformed lever arm N Phi eta (cpp/include/pipeflex/elements/ffrf_body.hpp)
-        **(dict(mu_f=section.fluid_mass, Ubar=section.fluid_mass * (N_int.T @ Phi), Us=Phi[0:3],
+        **(dict(Ubar=section.fluid_mass * (N_int.T @ Phi), Us=Phi[0:3],
                 Ue=Phi[6 * n_el:6 * n_el + 3], dUs=_end_slopes(Phi, 0), dUe=_end_slopes(Phi, 6 * n_el))
            if fluid_lever_arm == "deformed" else {}))
     foundation = None if section.k_found == 0.0 else _foundation(section.k_found, L, n_el, Phi, xbar, eta0)

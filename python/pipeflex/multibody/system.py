@@ -358,8 +358,72 @@ class MultibodyBuilder:
         ea, eb = end(a), end(b)
         return {("out", "in"): 1.0, ("in", "out"): -1.0}.get((ea, eb), 0.0)
 
+    def _rate_force_zeros(self) -> List[float]:
+        """Per body s0 [m] (its own s): where the axial force of the fluid's acceleration,
+        N' = mu_f sddot along s, vanishes (the kernel's rate geometric stiffness, ffrf_body.hpp).
+
+        The bodies that pass the flow from an outlet to the next inlet through a joint make
+        a flow path of arc length L_p; N vanishes where the path may slide axially, as in
+        docs/theory.md's table: at its outlet unless that is held (fixed, hinged or
+        spherical to the ground, or a roller along the pipe's axis); else at its inlet
+        unless that is held; with both held where int (x - c) / EA dx = 0 (mid-path for
+        one EA). Ground springs and anything the chain is joined to outside this builder
+        (a coupled system's elements) count as free."""
+        flowing = [f != 0.0 and b.section.fluid_mass > 0.0 for b, f in zip(self._bodies, self._flow)]
+
+        def ends(j):  # (inlet node, outlet node) of body j
+            last = self._bodies[j].n_elements
+            return (0, last) if self._flow[j] > 0.0 else (last, 0)
+
+        nxt, prev = {}, {}
+        for kind, a, b, extra in self._joints:
+            if b is None or a[0] == b[0] or not (flowing[a[0]] and flowing[b[0]]):
+                continue
+            for up, down in ((a, b), (b, a)):
+                if up[1] == ends(up[0])[1] and down[1] == ends(down[0])[0]:
+                    nxt[up[0]], prev[down[0]] = down[0], up[0]
+
+        def held(j, node):
+            t = self._R[j][:, 0]
+            for kind, a, b, extra in self._joints:
+                if b is None and a == (j, node) and (
+                        kind in ("rigid", "hinge", "spherical") or
+                        (kind == "roller" and abs(extra["direction"] @ t) > 1.0 - 1e-6)):
+                    return True
+            return False
+
+        zeros = [0.0] * len(self._bodies)
+        done = set()
+        for start in range(len(self._bodies)):
+            if not flowing[start] or start in done:
+                continue
+            first, seen = start, {start}  # walk up to the path's inlet (a closed loop: start anywhere)
+            while first in prev and prev[first] not in seen:
+                first = prev[first]
+                seen.add(first)
+            path = [first]
+            while path[-1] in nxt and nxt[path[-1]] not in path:
+                path.append(nxt[path[-1]])
+            done.update(path)
+            lengths = np.array([self._bodies[j].length for j in path])
+            x_in = np.concatenate([[0.0], np.cumsum(lengths)[:-1]])
+            if not held(path[-1], ends(path[-1])[1]):
+                c = float(lengths.sum())
+            elif not held(path[0], ends(path[0])[0]):
+                c = 0.0
+            else:
+                compliance = lengths / np.array([self._bodies[j].section.EA for j in path])
+                c = float((x_in + 0.5 * lengths) @ compliance / compliance.sum())
+            for j, x0, length in zip(path, x_in, lengths):
+                zeros[j] = (c - x0 - 0.5 * length) if self._flow[j] > 0.0 else (0.5 * length - (c - x0))
+        return zeros
+
     def build(self, *, mass_flow: float = 0.0, junction_forces: bool = True) -> "MultibodySystem":
         """Check the description and return the system.
+
+        Each flow-carrying body gets the point of its flow path where the axial force of
+        the fluid's acceleration vanishes (the outlet, unless it is held axially:
+        docs/parametric.md), which the body's geometric stiffness of that force needs.
 
         Args:
             mass_flow: mdot [kg/s] of the flow-carrying bodies (analyses may override it).
@@ -390,11 +454,11 @@ class MultibodyBuilder:
         for d in getattr(self, "_distributed", ()):  # (absent from descriptions pickled without it)
             distributed[d["body"]].append(
                 (d["q"], time_function("time_function", 1.0 if d["tf"] is None else d["tf"])))
-        for j, (body, f) in enumerate(zip(self._bodies, self._flow)):
+        for j, (body, f, s0) in enumerate(zip(self._bodies, self._flow, self._rate_force_zeros())):
             core.add_body(body.data, body.basis, list(body.nodes_s), body.section.fluid_mass, f,
                           foundation=body.foundation, r_ref=self._r[j], R_ref=self._R[j],
                           mass_per_length=body.section.pipe_mass + body.section.fluid_mass,
-                          distributed=distributed[j])
+                          distributed=distributed[j], rate_force_zero=s0)
         offsets = np.cumsum([0] + [b.n_coordinates for b in self._bodies])
         eta = np.zeros(offsets[-1])
         for j, b in enumerate(self._bodies):

@@ -26,6 +26,10 @@
 // the joints tie, so that it cancels across a rigid joint at every deformation (without Q_u
 // a loaded, deformed chain of bodies gains energy from the flow: a spurious flutter).
 // Likewise the centrifugal forces mu_f sdot^2 u'' add int u x u'' = [u x u']_start^end.
+// The flow's rate sddot loads the pipe axially, N(s) = mu_f sddot (s - s0), which a linearly
+// elastic body does not feel laterally: its geometric stiffness mu_f sddot (Gs1 - s0 Gs0)
+// (eta - eta0) is added to the elastic rows and the load's moment on the lever arm u,
+// sddot (Ua eta) x e_x, to the moment rows (FfrfBodyData; zero for a steady flow).
 //
 // where A_k = B^T S_k Psi_r0, B_k = B^T S_k Phi, Gx_k = B^T G_k xbar, GPhi_k = B^T G_k Phi,
 // Cx = B^T C xbar, CPhi = B^T C Phi, Hx, HPhi likewise (S_k = int N^T n~_k N (mu_p + mu_f),
@@ -57,6 +61,11 @@ struct BeamIntegrals {
 
 void beam_integrals(double l, BeamIntegrals& out);
 
+// The lateral slopes' integrals over one element of length l [m] (s from its start node):
+// G0 = int (N_y'^T N_y' + N_z'^T N_z') ds [1/m] and G1 = int s (...) ds [-]: the geometric
+// stiffness of an axial force N(s) = N0 + N1 s is N0 G0 + N1 G1 (a body's rate stiffness).
+void beam_slope_integrals(double l, Mat12d& G0, Mat12d& G1);
+
 // Linear stiffness [N/m, N, N m] of the element: EA [N], GJ [N m^2], EIy (bending in
 // the x-z plane, u_z) and EIz (x-y plane, u_y) [N m^2].
 void beam_stiffness(double l, double EA, double GJ, double EIy, double EIz, Mat12d& out);
@@ -79,6 +88,15 @@ struct FfrfBodyData {
     MatX Us, Ue;                   // 3 x m  the translation rows of Phi at the start and end node
     MatX dUs, dUe;                 // 3 x m  du/ds per eta there
     double mu_f = 0.0;             // fluid mass per length [kg/m]
+    // The geometric stiffness of the fluid acceleration's axial force N(s) = mu_f sddot (s - s0)
+    // (tension > 0; s0 the FfrfBodyMotion's rate_force_zero): mu_f sddot (Gs1 - s0 Gs0) acts on
+    // eta - eta0 (ffrf_body_forces). Both empty: left out.
+    MatX Gs0;                      // m x m  Phi^T int (lateral slopes)^T (lateral slopes) ds Phi [1/m]
+    MatX Gs1;                      // m x m  the same weighted by s [-]
+    // With them: Ua (3 x m) = int N Phi mu_f ds [kg], so that the fluid acceleration's load
+    // -mu_f sddot r' has its moment on the deformed lever arm u: int u x (mu_f sddot e_x) in
+    // the moment rows (to first order in eta; the elastic rows' share is Gs's).
+    MatX Ua;
 };
 
 // Throws std::invalid_argument naming the first member whose size does not fit
@@ -93,6 +111,9 @@ struct FfrfBodyMotion {
     VecX eta, eta_dot;             // m
     double sdot = 0.0, sddot = 0.0;  // fluid speed [m/s] and its rate [m/s^2]
     Vec3d gravity = Vec3d::Zero();   // [m/s^2]
+    // s0 [m]: where the axial force of the fluid's acceleration vanishes, in the body's s
+    // (the free outlet's s for a cantilever; set per body instance from the flow path)
+    double rate_force_zero = 0.0;
 };
 
 // Scratch space of ffrf_body_forces for a body of n coordinates: sized once, so that

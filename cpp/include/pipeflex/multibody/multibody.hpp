@@ -41,6 +41,7 @@ struct MbBody {
     // weight term's consistent load with g -> s q / mass_per_length (mu_p + mu_f [kg/m])
     double mass_per_length = 0.0;
     std::vector<std::pair<Vec3d, TimeTable>> distributed;
+    double rate_force_zero = 0.0;  // s0 [m] of FfrfBodyMotion (the flow path's, set by the builder)
 };
 
 enum class JointKind { rigid = 0, hinge = 1, spherical = 2, roller = 3 };
