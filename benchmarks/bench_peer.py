@@ -110,9 +110,12 @@ def fmt(row, key, spec):
     return "-" if row is None or row.get(key) is None else format(row[key], spec)
 
 
-def peer_cell(peer):
-    """The peer's cheapest run for a target: "not measured here", "-" (none meets it) or its solve seconds."""
-    return peer if isinstance(peer, str) else ("-" if peer is None else f"{peer['solve']:.4f} s")
+def peer_cells(peer, key, spec):
+    """The peer's cheapest run for a target as two cells (its ``key``, solve seconds): "not measured here",
+    "-" (none meets the target) or the run's values."""
+    if isinstance(peer, str):
+        return peer, ""
+    return fmt(peer, key, spec), fmt(peer, "solve", ".4f")
 
 
 def work_precision(sc, steps, rtols, repeat, targets):
@@ -127,12 +130,6 @@ def work_precision(sc, steps, rtols, repeat, targets):
         (y, stats, _), sec = median_time(lambda: sc.run(rtol=rtol), repeat)
         rows.append(dict(method="rtol", rtol=rtol, error=abs(y - sc.reference) / sc.L, steps=stats["steps"],
                          solve=sec))
-    print(f"\n[{sc.name}] reference {sc.reference:.12g} m (extrapolations differ by {sc.reference_spread:.1e} m), "
-          f"L = {sc.L:g} m")
-    print(f"{'method':>10s} {'step/rtol':>10s} {'error/L':>9s} {'steps':>7s} {'solve [s]':>10s}")
-    for r in rows:
-        print(f"{r['method']:>10s} {r.get('step', r.get('rtol')):10.1e} {r['error']:9.2e} {r['steps']:7d} "
-              f"{r['solve']:10.4f}")
     cheapest = []
     for target in targets:
         row = dict(target=target, peer=NOT_MEASURED)
@@ -142,12 +139,6 @@ def work_precision(sc, steps, rtols, repeat, targets):
         ok = [r for r in rows if r["method"] == "rtol" and r["error"] <= target]
         row["rtol"] = max(ok, key=lambda r: r["rtol"]) if ok else None
         cheapest.append(row)
-    print(f"{'target':>7s} {'fixed step: h':>14s} {'solve [s]':>10s} {'rtol: rtol':>11s} {'solve [s]':>10s} "
-          f"{'peer':>18s}")
-    for row in cheapest:
-        f, r = row["fixed step"], row["rtol"]
-        print(f"{row['target']:7.0e} {fmt(f, 'step', '.1e'):>14s} {fmt(f, 'solve', '.4f'):>10s} "
-              f"{fmt(r, 'rtol', '.0e'):>11s} {fmt(r, 'solve', '.4f'):>10s} {peer_cell(row['peer']):>18s}")
     return dict(reference=sc.reference, reference_spread=sc.reference_spread, length_scale=sc.L, runs=rows,
                 cheapest=cheapest)
 
@@ -171,12 +162,6 @@ def critical_flow(betas, meshes, repeat, targets):
             ok = [r for r in rows if r["error"] <= target]
             cheapest.append(dict(target=target, pipeflex=min(ok, key=lambda r: r["n_elements"]) if ok else None,
                                  peer=NOT_MEASURED))
-        print(f"\n[critical_flow] beta = {beta}: continuous pipe mdot_cr = {exact:.10f} kg/s")
-        print(f"{'elements':>8s} {'mdot_cr [kg/s]':>16s} {'rel. error':>10s} {'solve [s]':>10s}")
-        for r in rows:
-            print(f"{r['n_elements']:8d} {r['mass_flow']:16.10f} {r['error']:10.2e} {r['solve']:10.4f}")
-        print("cheapest mesh per target: " + ", ".join(
-            f"{c['target']:.0e}: {c['pipeflex']['n_elements'] if c['pipeflex'] else '-'}" for c in cheapest))
         out[str(beta)] = dict(beta=beta, reference=exact, runs=rows, cheapest=cheapest)
     return out
 
@@ -349,13 +334,44 @@ def peer_runs(peer, steps, meshes, result):
         for row in scene["cheapest"]:
             ok = [r for r in rows if r["error"] <= row["target"]]
             row["peer"] = min(ok, key=lambda r: r["n_elements"]) if ok else None
-    print("\npeer: cheapest run per target (step [s] or elements, relative error, solve [s])")
-    tables = [(name, result["scenes"][name]["cheapest"]) for name in ("limit_cycle", "spin_up")]
-    tables += [(f"critical_flow beta = {beta}", scene["cheapest"])
-               for beta, scene in result["scenes"]["critical_flow"].items()]
-    for name, cheapest in tables:
-        for row in cheapest:
-            print(f"  {name:26s} {row['target']:7.0e} {row['peer']}")
+
+
+def print_transient(name, scene, peer_method):
+    """One scene's table: every run of both codes (error over L, steps, solve seconds), then the cheapest run
+    of each method per target."""
+    print(f"\n[{name}] reference {scene['reference']:.12g} m (extrapolations differ by "
+          f"{scene['reference_spread']:.1e} m), L = {scene['length_scale']:g} m")
+    print(f"{'code':>8s} {'method':>18s} {'step/rtol':>10s} {'error/L':>9s} {'steps':>7s} {'solve [s]':>10s}")
+    runs = [("pipeflex", r["method"], r.get("step", r.get("rtol")), r) for r in scene["runs"]]
+    runs += [("peer", peer_method, r["step"], r) for r in scene.get("peer_runs", ())]
+    for code, method, x, r in runs:
+        print(f"{code:>8s} {method:>18s} {x:10.1e} {r['error']:9.2e} {fmt(r, 'steps', 'd'):>7s} {r['solve']:10.4f}")
+    print("cheapest run per target:")
+    print(f"{'':7s} {'pipeflex fixed step':>25s} {'pipeflex rtol':>22s} {'peer fixed step':>29s}")
+    print(f"{'target':>7s} {'h [s]':>12s} {'solve [s]':>12s} {'rtol':>10s} {'solve [s]':>11s} {'h [s]':>18s} "
+          f"{'solve [s]':>10s}")
+    for row in scene["cheapest"]:
+        f, r = row["fixed step"], row["rtol"]
+        peer_x, peer_solve = peer_cells(row["peer"], "step", ".1e")
+        print(f"{row['target']:7.0e} {fmt(f, 'step', '.1e'):>12s} {fmt(f, 'solve', '.4f'):>12s} "
+              f"{fmt(r, 'rtol', '.0e'):>10s} {fmt(r, 'solve', '.4f'):>11s} {peer_x:>18s} {peer_solve:>10s}")
+
+
+def print_critical(beta, scene):
+    """One critical-flow table per beta: each mesh's flow by both codes, then the coarsest mesh per target."""
+    print(f"\n[critical_flow] beta = {beta}: continuous pipe mdot_cr = {scene['reference']:.10f} kg/s")
+    peer = {r["n_elements"]: r for r in scene.get("peer_runs", ())}
+    print(f"{'elements':>8s} {'pipeflex mdot_cr [kg/s]':>24s} {'rel. error':>10s} {'solve [s]':>10s} "
+          f"{'peer rel. error':>16s} {'peer solve [s]':>15s}")
+    for r in scene["runs"]:
+        p = peer.get(r["n_elements"])
+        print(f"{r['n_elements']:8d} {r['mass_flow']:24.10f} {r['error']:10.2e} {r['solve']:10.4f} "
+              f"{fmt(p, 'error', '.2e') if peer else NOT_MEASURED:>16s} {fmt(p, 'solve', '.4f') if peer else '':>15s}")
+    print(f"{'target':>7s} {'pipeflex elements':>18s} {'solve [s]':>10s} {'peer elements':>18s} {'solve [s]':>10s}")
+    for c in scene["cheapest"]:
+        peer_n, peer_solve = peer_cells(c["peer"], "n_elements", "d")
+        print(f"{c['target']:7.0e} {fmt(c['pipeflex'], 'n_elements', 'd'):>18s} "
+              f"{fmt(c['pipeflex'], 'solve', '.4f'):>10s} {peer_n:>18s} {peer_solve:>10s}")
 
 
 def main():
@@ -385,6 +401,11 @@ def main():
     if peer is not None:
         peer_runs(peer, dict(limit_cycle=lc_steps, spin_up=su_steps), (2, 4, 8) if quick else (2, 4, 8, 16, 32),
                   result)
+    # one table per scene, both codes' rows (the peer's sweeps ran above)
+    print_transient("limit_cycle", result["scenes"]["limit_cycle"], "trapezoidal")
+    print_transient("spin_up", result["scenes"]["spin_up"], "gen.-alpha")
+    for beta, scene in result["scenes"]["critical_flow"].items():
+        print_critical(beta, scene)
     n_periods, bisections, ida_max = (2, 3, 20000) if quick else (10, 6, 200000)
     # the critical-flow scene's transients: the loaded 8-element cantilever (beta = 0.2) just below its flutter flow
     cf = Transient("critical_flow", lc.model, lc.state, lc.t_end, lc.quantity, None, lc.period)

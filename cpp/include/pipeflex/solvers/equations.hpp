@@ -216,6 +216,10 @@ class AlphaNewton {
     // The Newton tolerance of the next steps (position error / length_scale), in place of
     // the options' newton_tol (the error-controlled step ties it to its tolerance).
     void set_tolerance(double newton_tol);
+    // Solves the last step's iteration matrix for the right side (b; 0) (zero constraint
+    // rows) and returns the coordinates' part in b: the error filter of the step control.
+    // False if no factorisation is at hand.
+    bool filter(Eigen::VectorXd& b);
 
    private:
     struct Impl;
@@ -462,9 +466,13 @@ class GeneralizedAlpha {
     std::size_t replayed_ = 0;  // steps of opt_.steps taken
     Eigen::VectorXd v_, a_, pa_, lam_, an_, pan_, zn_, vn_, a_prev_, zero_, offset_, lam_start_;
     Eigen::VectorXd error_weights_;  // s_i / error_rate: a coordinate's error in [s]
-    // The local error of the step just converged (step hs) in tolerances error_rate hs
-    // (<= 1: accepted).
-    double local_error(double hs) const;
+    // The local error of the step just converged (step hs, ending at tn) in tolerances
+    // error_rate hs (<= 1: accepted); filtered through the iteration matrix (two residual
+    // evaluations) on a retry whose estimate did not fall with the step.
+    double local_error(double hs, double tn);
+    Eigen::VectorXd filtered_, residual_, residual_shifted_;  // local_error's work vectors
+    double raw_error_ = 0.0;                          // the last step's unfiltered estimate
+    double rejected_step_ = 0.0, rejected_error_ = 0.0;  // the last rejected try (0: none since)
 };
 
 }  // namespace pipeflex
