@@ -107,6 +107,18 @@ class CoupledSystem:
         """Spherical joint: equal positions, free relative rotation."""
         self._add("spherical", node, body, body_node)
 
+    def _ends(self, node, body, body_node):
+        """(element node, body, body node) of a spring-damper, checked, as indices."""
+        n = _checks.non_negative_int("node", node)
+        if n >= self.model.n_nodes:
+            raise ValueError(f"node must be a node of the element model, in [0, {self.model.n_nodes}), got {node}")
+        j = self.bodies.body_index(body)
+        try:
+            i = self.bodies.bodies[j].node_index(body_node)
+        except ValueError as e:
+            raise ValueError(f"body_node: {e}") from None
+        return n, j, i
+
     def add_spring(self, node: int, body: int, body_node, *, stiffness: float, damping: float = 0.0) -> int:
         """A linear axial spring-damper between element node ``node`` and node ``body_node``
         of body ``body`` (the element models' axial spring,
@@ -124,14 +136,7 @@ class CoupledSystem:
             stiffness: k [N/m] >= 0.
             damping: c [N s/m] >= 0.
         """
-        n = _checks.non_negative_int("node", node)
-        if n >= self.model.n_nodes:
-            raise ValueError(f"node must be a node of the element model, in [0, {self.model.n_nodes}), got {node}")
-        j = self.bodies.body_index(body)
-        try:
-            i = self.bodies.bodies[j].node_index(body_node)
-        except ValueError as e:
-            raise ValueError(f"body_node: {e}") from None
+        n, j, i = self._ends(node, body, body_node)
         k = _checks.non_negative("stiffness", stiffness)
         c = _checks.non_negative("damping", damping)
         p_el = np.asarray(self.model.positions[n], float)
@@ -169,14 +174,7 @@ class CoupledSystem:
         """
         from .model import ModelBuilder
 
-        n = _checks.non_negative_int("node", node)
-        if n >= self.model.n_nodes:
-            raise ValueError(f"node must be a node of the element model, in [0, {self.model.n_nodes}), got {node}")
-        j = self.bodies.body_index(body)
-        try:
-            i = self.bodies.bodies[j].node_index(body_node)
-        except ValueError as e:
-            raise ValueError(f"body_node: {e}") from None
+        n, j, i = self._ends(node, body, body_node)
         k, c, kr, cr = (ModelBuilder._non_negative3(name, v, unit) for name, v, unit in
                         (("stiffness", stiffness, "N/m"), ("damping", damping, "N s/m"),
                          ("rotational_stiffness", rotational_stiffness, "N m/rad"),
