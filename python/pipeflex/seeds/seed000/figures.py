@@ -2,8 +2,11 @@
 spin-up (Fig. 5), drawn with :mod:`pipeflex.plot` where it has a helper."""
 from __future__ import annotations
 
+from typing import Optional
+
 import numpy as np
 
+from ... import _checks
 from ...analysis import simulate
 from ...convergence import critical_flow_convergence, richardson
 from . import scenes
@@ -34,10 +37,11 @@ def convergence_figure():
     return fig
 
 
-def sprinkler_figure(*, step: float = 1e-3, t_end: float = 1.0):
+def sprinkler_figure(*, step: float = 1e-3, rtol: Optional[float] = None, t_end: float = 1.0):
     """Fig. 5: the angular velocity [rad/s] of the semicircular rotating pipe as the flow
-    spins it up, for EI = 10, 100, 1000 N m^2 and the rigid pipe (generalised-alpha, ``step``
-    [s]; the seed's line styles: dotted, dash-dotted, dashed, solid); the published final
+    spins it up, for EI = 10, 100, 1000 N m^2 and the rigid pipe (generalised-alpha with the
+    fixed ``step`` [s], or, if ``rtol`` [-] is given, with its error-controlled step instead;
+    the seed's line styles: dotted, dash-dotted, dashed, solid); the published final
     angular velocities (sec. 3.3, :data:`~pipeflex.seeds.seed000.references.SPRINKLER`) as
     open circles at ``t_end`` [s]. Left, the pipe drawn by :func:`pipeflex.plot.model`
     (hinge, flow direction); right, :func:`pipeflex.plot.time_history`."""
@@ -50,10 +54,11 @@ def sprinkler_figure(*, step: float = 1e-3, t_end: float = 1.0):
     draw_model(scenes.sprinkler(EI=10.0), ax=ax0, plane="xy")
     ax0.set_title("the pipe: hinge about $z$ at the inlet", fontsize=10)
     t, omega, labels, styles, finals = [], [], [], [], []
+    steps = dict(step=_checks.positive("step", step)) if rtol is None else dict(rtol=_checks.positive("rtol", rtol))
     for k, (label, EI, ls) in enumerate((("$EI$ = 10 N m$^2$", 10.0, ":"), ("$EI$ = 100 N m$^2$", 100.0, "-."),
                                          ("$EI$ = 1000 N m$^2$", 1000.0, "--"), ("rigid", "rigid", "-"))):
         model = scenes.sprinkler(EI=1.0, rigid=True) if EI == "rigid" else scenes.sprinkler(EI=EI)
-        r = simulate(model, t_end, integrator="generalized_alpha", step=step, n_outputs=201, progress=False)
+        r = simulate(model, t_end, integrator="generalized_alpha", n_outputs=201, progress=False, **steps)
         t.append(r.t)
         omega.append(r.omega[:, 0, 2])
         labels.append(label)

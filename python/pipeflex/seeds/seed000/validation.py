@@ -57,7 +57,9 @@ def _convergence_figures():
 
 
 def _sprinkler_figures():
-    yield "sprinkler_fig5.png", figures.sprinkler_figure()
+    # rtol 3e-3: each curve within 0.19 rad/s of a tight run (rtol 1e-5, rigid 1e-4; the
+    # fixed 1 ms step's within 0.38 rad/s), in 0.7 of the fixed step's time
+    yield "sprinkler_fig5.png", figures.sprinkler_figure(rtol=3e-3)
 
 
 def _coriolis_figures():

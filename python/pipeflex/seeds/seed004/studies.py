@@ -299,13 +299,20 @@ def critical_flow_vs_state_size(*, bodies: Sequence[int] = (1, 2, 4, 8, 16, 32),
 
 
 def curved_pipe_run(E: float, *, n_bodies: int = 8, elements_per_body: int = 20, internal_modes: int = 0,
-                    t_end: float = 4.0, step: float = 1e-3, n_outputs: int = 401, rho_inf: float = 0.8):
+                    t_end: float = 4.0, step: float = 1e-3, rtol: Optional[float] = None, n_outputs: int = 401,
+                    rho_inf: float = 0.8):
     """Seed 004, sec. 8.2: the semicircular pipe (Young's modulus ``E`` [Pa]) from rest,
-    flow 10 m/s from t = 0, to ``t_end`` [s] with ``step`` [s]. Returns (system, result,
-    base angular velocity about y [rad/s] per output)."""
+    flow 10 m/s from t = 0, to ``t_end`` [s]: generalised-alpha with the fixed ``step``
+    [s] and ``rho_inf`` [-], or, if ``rtol`` [-] is given, with its error-controlled step
+    instead (Table 1 and Figs. 9-10: rtol 0.1). Returns (system, result, base angular
+    velocity about y [rad/s] per output)."""
     s = scenes.ffrf_curved_pipe(E=E, n_bodies=n_bodies, elements_per_body=elements_per_body,
                                 internal_modes=internal_modes)
-    res = mb_simulate(s, t_end, step=step, n_outputs=n_outputs, rho_inf=rho_inf)
+    if rtol is None:
+        res = mb_simulate(s, t_end, step=step, n_outputs=n_outputs, rho_inf=rho_inf)
+    else:
+        res = simulate(s, _checks.positive("t_end", t_end), rtol=_checks.positive("rtol", rtol),
+                       n_outputs=n_outputs, progress=False)
     return s, res, res.node_angular_velocity(*s.info["base"])[:, 1]
 
 
@@ -351,31 +358,38 @@ def element_curved_pipe(E: float, *, n_elements: int = 8) -> float:
 
 
 def element_curved_run(E: float, *, n_elements: int = 8, t_end: float = 4.0, step: float = 1e-3,
-                       n_outputs: int = 401, rho_inf: float = 0.9):
+                       rtol: Optional[float] = None, n_outputs: int = 401, rho_inf: float = 0.9):
     """The run of :func:`curved_pipe_run` with seed 000's elements
-    (:func:`element_curved_model`, generalised-alpha with ``step`` [s] and ``rho_inf`` to
-    ``t_end`` [s], from rest, flow from t = 0). Returns (times [s], angular velocity about
-    the hinge axis at the base [rad/s])."""
+    (:func:`element_curved_model`, generalised-alpha to ``t_end`` [s], from rest, flow from
+    t = 0) with the fixed ``step`` [s] and ``rho_inf`` [-], or, if ``rtol`` [-] is given,
+    with its error-controlled step instead (Fig. 10: rtol 1e-2). Returns (times [s],
+    angular velocity about the hinge axis at the base [rad/s])."""
     m = element_curved_model(E, n_elements=n_elements)
-    r = simulate(m, _checks.positive("t_end", t_end), integrator="generalized_alpha",
-                 step=_checks.positive("step", step), n_outputs=n_outputs, rho_inf=rho_inf, progress=False,
-                 work=False)
+    steps = dict(step=_checks.positive("step", step), rho_inf=rho_inf) if rtol is None else \
+        dict(rtol=_checks.positive("rtol", rtol))
+    r = simulate(m, _checks.positive("t_end", t_end), integrator="generalized_alpha", n_outputs=n_outputs,
+                 progress=False, work=False, **steps)
     return r.t, r.omega[:, 0, 2]
 
 
-def printer_run(flow_speed: float, *, step: float = 2e-4, t_end: float = PRINTER_DURATION,
-                n_outputs: Optional[int] = None, junction_forces: bool = True):
+def printer_run(flow_speed: float, *, step: float = 2e-4, rtol: Optional[float] = None,
+                t_end: float = PRINTER_DURATION, n_outputs: Optional[int] = None, junction_forces: bool = True):
     """Seed 004, sec. 8.3: static equilibrium under gravity and M_A(0) = -5000 N m (with the
-    flow of ``flow_speed`` [m/s] running), then the driven motion to ``t_end`` [s] with
-    ``step`` [s]. Returns (system, result, nozzle path (n, 3) [m]).
-    ``n_outputs``: evenly spaced output times; default one per step, so that the path is
-    drawn from the computed points themselves (every 0.2 ms: a smooth curve).
+    flow of ``flow_speed`` [m/s] running), then the driven motion to ``t_end`` [s] with the
+    fixed ``step`` [s], or, if ``rtol`` [-] is given, with its error-controlled step instead
+    (Fig. 12: rtol 1e-2). Returns (system, result, nozzle path (n, 3) [m]).
+    ``n_outputs``: evenly spaced output times; default every ``step`` (one per fixed step),
+    so that the path is drawn from computed points themselves (every 0.2 ms: a smooth curve).
     ``junction_forces=False``: without the flow's kink forces (the seed's formulation)."""
     s = scenes.concrete_printer(flow_speed=flow_speed, junction_forces=junction_forces)
     st = mb_static(s, load_steps=4).state
     if n_outputs is None:
         n_outputs = int(round(_checks.positive("t_end", t_end) / _checks.positive("step", step))) + 1
-    res = mb_simulate(s, t_end, step=step, state=st, n_outputs=n_outputs, rho_inf=0.8)
+    if rtol is None:
+        res = mb_simulate(s, t_end, step=step, state=st, n_outputs=n_outputs, rho_inf=0.8)
+    else:
+        res = simulate(s, _checks.positive("t_end", t_end), state=st, rtol=_checks.positive("rtol", rtol),
+                       n_outputs=n_outputs, progress=False)
     return s, res, res.node_position(*s.info["nozzle"])
 
 
