@@ -91,3 +91,32 @@ def test_the_coarse_run_skips_the_works_and_newton_follows_the_steps(peer_scene,
     seen.clear()
     pf.simulate(model, 0.3, n_outputs=2, progress=False, state=state, rtol=rtol, work=False)
     assert not any(w for _, w, _, _ in seen)
+
+
+def test_a_replayed_mesh_ends_on_the_output_time_despite_the_sums_round_off(peer_scene, monkeypatch):
+    """A replayed mesh of many small steps late in time: t's sum gathers eps |t| per step
+    (here 1000 steps of 1 us from t = 1000 s: about 1e-10 s against a step of 1e-6 s), and
+    the step that ends on the output time still counts as ending there (it raised "the
+    steps given pass the output time" when the round-off was weighed by the step alone)."""
+    model, state = peer_scene
+    core = transient._core
+    h, n = 1e-6, 1000
+    ends = []
+
+    class Replay:
+        TransientOptions = core.TransientOptions
+
+        @staticmethod
+        def integrate(system, flow, loads, times, opt, progress, integrator, **keywords):
+            opt.steps = [h] * n
+            out = core.integrate(system, flow, loads, times, opt, progress, integrator, **keywords)
+            ends.append(list(times))
+            return out
+
+    monkeypatch.setattr(transient, "_core", Replay)
+    t0 = 1000.0
+    assert abs(sum([t0] + [h] * n) - (t0 + n * h)) > 1e-6 * h  # the sum's round-off exceeds the old bound
+    res = pf.simulate(model, t0 + n * h, t_start=t0, state=state, integrator="generalized_alpha", step=h,
+                      n_outputs=2, progress=False)
+    assert res.stats["steps"] == n
+    assert res.t[-1] == pytest.approx(t0 + n * h, rel=1e-15)

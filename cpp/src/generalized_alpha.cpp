@@ -10,6 +10,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <sstream>
 #include <stdexcept>
 
@@ -308,8 +309,11 @@ void GeneralizedAlpha::advance_to(double t_out) {
                 throw std::invalid_argument("generalised-alpha: the steps given end at t = " + fmt(t_) +
                                             " s, before the output time " + fmt(t_out) + " s");
             hs = opt_.steps[replayed_];
-            // the output time, up to the round-off of the steps' sum (far below a step)
-            if (std::abs(hs - left) <= kMeshRoundOff * hs)
+            // the output time, up to the round-off of the steps' sums (far below a step; a
+            // mesh of a million tiny steps accumulates some eps |t| per step in t)
+            const double roundoff = kMeshRoundOff * hs + 4.0 * std::numeric_limits<double>::epsilon() *
+                                                             std::abs(t_out) * static_cast<double>(replayed_ + 1);
+            if (std::abs(hs - left) <= roundoff)
                 hs = left;
             else if (hs > left)
                 throw std::invalid_argument("generalised-alpha: the steps given pass the output time " + fmt(t_out) +
