@@ -505,8 +505,9 @@ def simulate(model, t_end: float, *, integrator: str = "auto", state=None, t_sta
             (1.0), ``max_steps``; for ``generalized_alpha``: ``rtol`` [-] and ``atol``
             [m] (0): the accuracy asked for, error-controlled steps: each step's local
             error estimate (the displacement's, Zienkiewicz & Xie's (beta - 1/6) h^2
-            (a' - a); a node's rotation error counts times its longest element's
-            length, a floating frame's times the model size) is kept below
+            (a' - a); a node's rotation error counts times 4/27 of its longest
+            element's length, the most it bends a cubic Hermite element whose nodes
+            are held; a floating frame's times the model size) is kept below
             ``(rtol L + atol) h / (ERROR_ACCUMULATION (t_end - t_start))``, L the
             model's size (``length_scale``), so that the run's error, about
             :data:`ERROR_ACCUMULATION` (0.3) of its summed estimates (the stiff modes' and
