@@ -35,9 +35,9 @@ MIN_RTOL = 1e-12
 #: bounds errors that add up; the local errors of the stiff modes a flow start or a load
 #: rings do not (a mode's error stays below its small amplitude, and rho_inf damps the
 #: unresolved ones), nor do those of a motion drawn to a limit cycle. Measured (element
-#: models: rotations counted at their elements' length, rho_inf = CONTROLLED_RHO_INF):
+#: models: rotations counted at 4/27 of their elements' length, rho_inf = CONTROLLED_RHO_INF):
 #: 0.33-0.50 on the flutter limit cycle of benchmarks/bench_limit_cycle.py (rtol 1e-2 ...
-#: 1e-4; the error 0.73-1.06 of the request), 0.04-0.12 on a growing flutter (4 elements,
+#: 1e-4; the error 0.90-1.24 of the request), 0.04-0.12 on a growing flutter (4 elements,
 #: 0.5 s). The control keeps the sum below (rtol L + atol) / ERROR_ACCUMULATION.
 ERROR_ACCUMULATION = 0.3
 #: generalised-alpha with rtol, second order, element models: rho_inf unless given. The
