@@ -174,3 +174,27 @@ def moving_state(model, seed=1):
     _core.add_increment(model.core, s, 0.7 * rng.standard_normal(model.n_dofs), "v")
     _core.add_increment(model.core, s, rng.standard_normal(model.n_dofs), "a")
     return s
+
+
+def moving_body_state(system, seed=3):
+    """A turned, deformed, moving state of a system of floating-frame bodies (frames moved
+    and turned, modal coordinates and velocities random)."""
+    from pipeflex.rotation import rotation_exp
+
+    rng = np.random.default_rng(seed)
+    st = system.initial_state()
+    for j in range(len(system.bodies)):
+        st.r[j] += 0.05 * rng.standard_normal(3)
+        st.R[j] = rotation_exp(0.3 * rng.standard_normal(3)) @ st.R[j]
+        e = system.eta(st, j)
+        e += 1e-3 * rng.standard_normal(e.size)
+    st.v[:] = rng.standard_normal(st.v.size)
+    return st
+
+
+def part_of(with_part, without, state, **kw):
+    """A part's share of a system of bodies' residual and tangent: the difference of the
+    systems with and without it (the bodies' and joints' terms cancel)."""
+    F1, _, _, S1 = with_part.evaluate(state, mass_flow=0.0, **kw)
+    F0, _, _, S0 = without.evaluate(state, mass_flow=0.0, **kw)
+    return F1 - F0, (None if S1 is None else S1 - S0)

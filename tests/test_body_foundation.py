@@ -13,6 +13,8 @@ from pipeflex.multibody import MultibodyBuilder, flexible_body, static_equilibri
 from pipeflex.multibody.system import _foundation_energy
 from pipeflex.rotation import rotation_exp
 
+from helpers import part_of
+
 G = 9.81  # [m/s^2]
 
 
@@ -49,22 +51,16 @@ def systems():
     return two_bodies(300.0), two_bodies(0.0)
 
 
-def foundation_part(sys1, sys0, state, **kw):
-    F1, _, _, S1 = sys1.evaluate(state, mass_flow=0.0, **kw)
-    F0, _, _, S0 = sys0.evaluate(state, mass_flow=0.0, **kw)
-    return F1 - F0, (None if S1 is None else S1 - S0)
-
-
 def test_no_force_in_the_reference_placement(systems):
     sys1, sys0 = systems
-    F, _ = foundation_part(sys1, sys0, sys1.initial_state(), tangent=False)
+    F, _ = part_of(sys1, sys0, sys1.initial_state(), tangent=False)
     assert np.abs(F).max() <= 1e-12 * 300.0
 
 
 def test_tangent_matches_central_differences(systems):
     sys1, sys0 = systems
     st = moved(sys1)
-    F, K = foundation_part(sys1, sys0, st, wK=1.0, wC=0.0)
+    F, K = part_of(sys1, sys0, st, wK=1.0, wC=0.0)
     h = 1e-6
     D = np.empty_like(K)
     for k in range(K.shape[1]):
@@ -73,8 +69,8 @@ def test_tangent_matches_central_differences(systems):
         plus, minus = st.copy(), st.copy()
         sys1.increment(plus, dq)
         sys1.increment(minus, -dq)
-        D[:, k] = (foundation_part(sys1, sys0, plus, tangent=False)[0] -
-                   foundation_part(sys1, sys0, minus, tangent=False)[0]) / (2 * h)
+        D[:, k] = (part_of(sys1, sys0, plus, tangent=False)[0] -
+                   part_of(sys1, sys0, minus, tangent=False)[0]) / (2 * h)
     scale = np.abs(K).max()
     assert scale > 10.0 and np.abs(F).max() > 1.0  # the foundation is there, and loaded
     assert np.abs(K - D).max() <= 1e-7 * scale
@@ -85,7 +81,7 @@ def test_forces_are_the_gradient_of_the_foundation_energy(systems):
     energy is the system's (energy())."""
     sys1, sys0 = systems
     st = moved(sys1, seed=7)
-    F = foundation_part(sys1, sys0, st, tangent=False)[0]
+    F = part_of(sys1, sys0, st, tangent=False)[0]
     st0 = sys1.initial_state()
 
     def V(s):

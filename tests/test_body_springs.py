@@ -9,6 +9,8 @@ import pipeflex as pf
 from pipeflex.multibody import MultibodyBuilder, flexible_body, static_equilibrium
 from pipeflex.rotation import rotation_exp
 
+from helpers import moving_body_state, part_of
+
 G = 9.81  # [m/s^2]
 
 
@@ -33,27 +35,6 @@ def two_bodies(springs=True):
     return b.build()
 
 
-def moving_state(system, seed=3):
-    """A turned, deformed, moving state (the springs stretched, twisted, moving)."""
-    rng = np.random.default_rng(seed)
-    st = system.initial_state()
-    for j in range(len(system.bodies)):
-        st.r[j] += 0.05 * rng.standard_normal(3)
-        st.R[j] = rotation_exp(0.3 * rng.standard_normal(3)) @ st.R[j]
-        e = system.eta(st, j)
-        e += 1e-3 * rng.standard_normal(e.size)
-    st.v[:] = rng.standard_normal(st.v.size)
-    return st
-
-
-def spring_part(with_springs, without, state, **kw):
-    """The springs' share of the residual and of the tangent (the difference of the
-    systems with and without them: the bodies' and joints' terms cancel)."""
-    F1, _, _, S1 = with_springs.evaluate(state, mass_flow=0.0, **kw)
-    F0, _, _, S0 = without.evaluate(state, mass_flow=0.0, **kw)
-    return F1 - F0, (None if S1 is None else S1 - S0)
-
-
 @pytest.fixture(scope="module")
 def systems():
     return two_bodies(True), two_bodies(False)
@@ -61,8 +42,8 @@ def systems():
 
 def test_stiffness_matches_central_differences(systems):
     sys1, sys0 = systems
-    st = moving_state(sys1)
-    _, K = spring_part(sys1, sys0, st, wK=1.0, wC=0.0)
+    st = moving_body_state(sys1)
+    _, K = part_of(sys1, sys0, st, wK=1.0, wC=0.0)
     h = 1e-6
     D = np.empty_like(K)
     for k in range(K.shape[1]):
@@ -71,29 +52,29 @@ def test_stiffness_matches_central_differences(systems):
         plus, minus = st.copy(), st.copy()
         sys1.increment(plus, dq)
         sys1.increment(minus, -dq)
-        D[:, k] = (spring_part(sys1, sys0, plus, tangent=False)[0] -
-                   spring_part(sys1, sys0, minus, tangent=False)[0]) / (2 * h)
+        D[:, k] = (part_of(sys1, sys0, plus, tangent=False)[0] -
+                   part_of(sys1, sys0, minus, tangent=False)[0]) / (2 * h)
     scale = np.abs(K).max()
     assert scale > 10.0  # the springs are there
     assert np.abs(K - D).max() <= 1e-6 * scale
     # the velocity's dependence on the configuration (the dampers) is part of it
     st.v[:] = 0.0
-    K_rest = spring_part(sys1, sys0, st, wK=1.0, wC=0.0)[1]
+    K_rest = part_of(sys1, sys0, st, wK=1.0, wC=0.0)[1]
     assert np.abs(K - K_rest).max() > 1e-3 * scale
 
 
 def test_damping_matches_central_differences_in_the_velocities(systems):
     sys1, sys0 = systems
-    st = moving_state(sys1, seed=5)
-    _, C = spring_part(sys1, sys0, st, wK=0.0, wC=1.0)
+    st = moving_body_state(sys1, seed=5)
+    _, C = part_of(sys1, sys0, st, wK=0.0, wC=1.0)
     h = 1e-6
     D = np.empty_like(C)
     for k in range(C.shape[1]):
         plus, minus = st.copy(), st.copy()
         plus.v[k] += h
         minus.v[k] -= h
-        D[:, k] = (spring_part(sys1, sys0, plus, tangent=False)[0] -
-                   spring_part(sys1, sys0, minus, tangent=False)[0]) / (2 * h)
+        D[:, k] = (part_of(sys1, sys0, plus, tangent=False)[0] -
+                   part_of(sys1, sys0, minus, tangent=False)[0]) / (2 * h)
     assert np.abs(C).max() > 1.0
     assert np.abs(C - D).max() <= 1e-7 * np.abs(C).max()
 
@@ -127,8 +108,8 @@ def test_no_force_under_a_rigid_motion_of_two_bodies_moved_together():
         o = int(s1.offsets[j])
         moved.v[o:o + 3] = v0 + np.cross(w, moved.r[j])
         moved.v[o + 3:o + 6] = w
-    F_rest = spring_part(s1, s0, st, tangent=False)[0]
-    F_moved = spring_part(s1, s0, moved, tangent=False)[0]
+    F_rest = part_of(s1, s0, st, tangent=False)[0]
+    F_moved = part_of(s1, s0, moved, tangent=False)[0]
     assert np.abs(F_rest).max() > 0.1  # the deformation stretches it: a force that can turn wrongly
     U0, U1 = s1.spring_energy(st)[0], s1.spring_energy(moved)[0]
     assert U1 == pytest.approx(U0, rel=1e-10)
@@ -162,7 +143,7 @@ def test_rigid_motion_of_an_unstretched_spring_gives_no_force():
         o = int(s1.offsets[j])
         st.v[o:o + 3] = np.cross(w, st.r[j]) + 0.2
         st.v[o + 3:o + 6] = w
-    F = spring_part(s1, s0, st, tangent=False)[0]
+    F = part_of(s1, s0, st, tangent=False)[0]
     assert np.abs(F).max() <= 1e-12 * 500.0
     assert s1.spring_energy(st)[0] <= 1e-24
 
@@ -338,7 +319,7 @@ def test_springs_survive_pickles(systems):
     import pickle
 
     sys1, _ = systems
-    st = moving_state(sys1)
+    st = moving_body_state(sys1)
     again = pickle.loads(pickle.dumps(sys1))
     F1, F2 = sys1.evaluate(st, mass_flow=0.0, tangent=False)[0], again.evaluate(st, mass_flow=0.0, tangent=False)[0]
     assert np.array_equal(F1, F2)

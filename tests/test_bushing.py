@@ -12,7 +12,7 @@ from pipeflex.analysis import constrained
 from pipeflex.rotation import rotation_exp
 from pipeflex.state import as_core
 
-from helpers import residual_columns
+from helpers import moving_body_state, part_of, residual_columns
 
 L, EI, N_EL = 2.0, 40.0, 4  # cantilever length [m], bending stiffness [N m^2], elements
 SECTION = pf.PipeSection(EI=EI, EA=4e5, GJ=30.0, pipe_mass=1.5, fluid_mass=0.5, rotary_inertia=(1e-3, 1e-3, 1e-3))
@@ -295,24 +295,6 @@ def two_bodies(bushings=True, gravity=None):
     return b.build()
 
 
-def body_moving_state(system, seed=3):
-    rng = np.random.default_rng(seed)
-    st = system.initial_state()
-    for j in range(len(system.bodies)):
-        st.r[j] += 0.05 * rng.standard_normal(3)
-        st.R[j] = rotation_exp(0.3 * rng.standard_normal(3)) @ st.R[j]
-        e = system.eta(st, j)
-        e += 1e-3 * rng.standard_normal(e.size)
-    st.v[:] = rng.standard_normal(st.v.size)
-    return st
-
-
-def bushing_part(with_b, without, state, **kw):
-    F1, _, _, S1 = with_b.evaluate(state, mass_flow=0.0, **kw)
-    F0, _, _, S0 = without.evaluate(state, mass_flow=0.0, **kw)
-    return F1 - F0, (None if S1 is None else S1 - S0)
-
-
 @pytest.fixture(scope="module")
 def body_systems():
     return two_bodies(True), two_bodies(False)
@@ -320,9 +302,9 @@ def body_systems():
 
 def test_body_bushing_stiffness_and_damping_match_central_differences(body_systems):
     sys1, sys0 = body_systems
-    st = body_moving_state(sys1)
-    _, K = bushing_part(sys1, sys0, st, wK=1.0, wC=0.0)
-    _, C = bushing_part(sys1, sys0, st, wK=0.0, wC=1.0)
+    st = moving_body_state(sys1)
+    _, K = part_of(sys1, sys0, st, wK=1.0, wC=0.0)
+    _, C = part_of(sys1, sys0, st, wK=0.0, wC=1.0)
     h = 1e-6
     DK, DC = np.empty_like(K), np.empty_like(C)
     for k in range(K.shape[1]):
@@ -331,13 +313,13 @@ def test_body_bushing_stiffness_and_damping_match_central_differences(body_syste
         plus, minus = st.copy(), st.copy()
         sys1.increment(plus, dq)
         sys1.increment(minus, -dq)
-        DK[:, k] = (bushing_part(sys1, sys0, plus, tangent=False)[0] -
-                    bushing_part(sys1, sys0, minus, tangent=False)[0]) / (2 * h)
+        DK[:, k] = (part_of(sys1, sys0, plus, tangent=False)[0] -
+                    part_of(sys1, sys0, minus, tangent=False)[0]) / (2 * h)
         plus, minus = st.copy(), st.copy()
         plus.v[k] += h
         minus.v[k] -= h
-        DC[:, k] = (bushing_part(sys1, sys0, plus, tangent=False)[0] -
-                    bushing_part(sys1, sys0, minus, tangent=False)[0]) / (2 * h)
+        DC[:, k] = (part_of(sys1, sys0, plus, tangent=False)[0] -
+                    part_of(sys1, sys0, minus, tangent=False)[0]) / (2 * h)
     assert np.abs(K).max() > 100.0 and np.abs(C).max() > 1.0
     assert np.abs(K - DK).max() <= 1e-7 * np.abs(K).max()
     assert np.abs(C - DC).max() <= 1e-8 * np.abs(C).max()
