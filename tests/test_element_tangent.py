@@ -96,6 +96,27 @@ def test_fluid_forces_are_the_flow_part_of_the_residual(kind, end_terms, frames,
     assert np.array_equal(_core.pipe_fluid_forces(data, fp, fq, without, q, v), np.zeros(12))
 
 
+@pytest.mark.parametrize("kind,end_terms,frames", itertools.product(["straight", "curved"], [True, False], FRAMES))
+@pytest.mark.parametrize("mass_flow_rate,kv", [(-0.7, 1.0), (0.0, 1.0), (0.0, 0.0)])
+def test_fluid_power_is_minus_v_dot_fluid_forces(kind, end_terms, frames, mass_flow_rate, kv, rng):
+    # the transients' fluid work integrates this power: it is the forces' power, formed
+    # without the forces (its Coriolis part from the ends' velocities alone)
+    data, q0 = element(kind, shear=True, rotary=True, fluid_end_terms=end_terms)
+    data.kv = kv
+    q, v, a = state(q0, rng, "large", True)
+    fp, fq = FRAMES[frames]
+    ld = load(mass_flow=2.5, mass_flow_rate=mass_flow_rate, gravity=(0.3, -9.81, 1.0))
+    expected = -float(v @ _core.pipe_fluid_forces(data, fp, fq, ld, q, v))
+    power = _core.pipe_fluid_power(data, fp, fq, ld, q, v)
+    if kv == 0.0 and mass_flow_rate == 0.0 and not end_terms:
+        # Coriolis forces and the momentum fluxes through both ends: a gyroscopic pair, no power
+        assert abs(power) <= 1e-13 * np.abs(v).max() ** 2 * 2.5
+    else:
+        assert abs(expected) > 1.0
+    assert abs(power - expected) <= 1e-13 * np.abs(v).max() * np.abs(_core.pipe_fluid_forces(data, fp, fq, ld, q, v)).max() * 12
+    assert _core.pipe_fluid_power(data, fp, fq, load(gravity=(0.3, -9.81, 1.0)), q, v) == 0.0
+
+
 def stresses_of(data, fp, fq, q):
     """The generalised stresses (6) at q [N, N m]: pipe_predicted_stresses along no increment."""
     return _core.pipe_predicted_stresses(data, fp, fq, q, np.zeros(12))

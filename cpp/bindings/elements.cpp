@@ -116,6 +116,12 @@ void bind_elements(py::module_& m) {
         py::arg("data"), py::arg("frame_p"), py::arg("frame_q"), py::arg("load"), py::arg("q"),
         py::arg("v"), "Flow-dependent part of the element residual (12): r(flow) - r(no flow).");
     m.def(
+        "pipe_fluid_power",
+        [](const PipeElementData& d, const RowMat3& fp, const RowMat3& fq, const LoadState& load,
+           const Vec12& q, const Vec12& v) { return pipe_fluid_power(d, frames(fp, fq), load, q.data(), v.data()); },
+        py::arg("data"), py::arg("frame_p"), py::arg("frame_q"), py::arg("load"), py::arg("q"), py::arg("v"),
+        "Power [W] the fluid forces deliver to the element, -v . pipe_fluid_forces (the transients' fluid work).");
+    m.def(
         "_bench_pipe_kernels",
         [](const PipeElementData& d, const RowMat3& fp, const RowMat3& fq, const LoadState& load,
            const Vec12& q, const Vec12& v, const Vec12& a, int repeats) {

@@ -73,11 +73,10 @@ void PipeElement::add_gravity_potential(const State& s, const Vec3<double>& g, d
 }
 
 void PipeElement::add_fluid_power(const State& state, const LoadState& load, double* P) const {
-    double qe[12], ve[12], fe[12];
+    double qe[12], ve[12];
     gather(state.q, qe);
     gather(state.v, ve);
-    pipe_fluid_forces(data, frames(state), load, qe, ve, fe);
-    for (int i = 0; i < 12; ++i) *P -= ve[i] * fe[i];
+    *P += pipe_fluid_power(data, frames(state), load, qe, ve);
 }
 
 void PipeElement::add_damping_power(const State& state, double* P) const {

@@ -207,6 +207,8 @@ void apply_hub_frame(const Model& model, LoadState& load, double t);
 // Full (6 per node) generalised force of the external nodal loads at load factor 1 and
 // time t [s] (the loads' time functions and load functions at t).
 Eigen::VectorXd external_forces(const Model& model, const State& state, double t = 0.0);
+// Their power v . external_forces [W] (state.v in the nodes' coordinates, as the forces).
+double load_power(const Model& model, const State& state, double t);
 
 // Add the reduced increment dz to the coordinates (q <- q + T dz); dz has n_dofs
 // entries, full 6 per node (both checked).

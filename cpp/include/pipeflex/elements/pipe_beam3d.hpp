@@ -126,6 +126,10 @@ void pipe_tangent_ad(const PipeElementData& e, const NodeFrames& ref, const Load
 // rate and P = kv mdot^2 / fluid mass, end terms included; r(flow) - r(no flow).
 void pipe_fluid_forces(const PipeElementData& e, const NodeFrames& ref, const LoadState& load,
                        const double* q, const double* v, double* f);
+// Power -v . f [W] the fluid forces deliver to the pipe, f those of pipe_fluid_forces (not
+// formed: the power integrated at every step of a transient).
+double pipe_fluid_power(const PipeElementData& e, const NodeFrames& ref, const LoadState& load, const double* q,
+                        const double* v);
 
 // Power v . f_d [W] (>= 0) of the damping part f_d of the residual at q, v: the
 // Kelvin-Voigt forces (eta_axial, eta_torsion, eta_bending) and the external viscous

@@ -263,7 +263,7 @@ class ElementEquations final : public Equations {
     void powers(double t, double* fluid, double* loads, double* damping) const {
         *fluid = fluid_power(model, state, load_at(t));
         // state.v is B v_z, so v . f equals v_z . B^T f
-        *loads = load_factor(t) * state.v.dot(external_forces(model, state, t));
+        *loads = load_factor(t) * load_power(model, state, t);
         *damping = damped ? damping_power(model, state) : 0.0;
     }
 
