@@ -45,7 +45,7 @@ def test_rtol_1e_4_meets_the_peer_target_with_fewer_steps_and_iterations(peer_sc
 
 def test_rho_inf_given_is_kept_and_the_default_is_the_controlled_one(peer_scene):
     """No rho_inf: CONTROLLED_RHO_INF; rho_inf given: that one (a different run); bodies
-    keep the formulation's default (tests/test_error_control.py checks their accuracy)."""
+    alike (tests/test_error_control_seeds.py)."""
     model, state = peer_scene
     t_end = 0.2
     run = lambda **o: pf.simulate(model, t_end, n_outputs=2, progress=False, state=state, rtol=1e-3, **o)

@@ -40,11 +40,15 @@ MIN_RTOL = 1e-12
 #: 1e-4; the error 0.90-1.24 of the request), 0.04-0.12 on a growing flutter (4 elements,
 #: 0.5 s). The control keeps the sum below (rtol L + atol) / ERROR_ACCUMULATION.
 ERROR_ACCUMULATION = 0.3
-#: generalised-alpha with rtol, second order, element models: rho_inf unless given. The
+#: generalised-alpha with rtol, second order: rho_inf unless given. The
 #: smallest numerical damping with about one Newton correction per step (docs/performance.md,
 #: "rho_inf"): the control's steps pass over the elements' stiff modes a flow start rings,
 #: which rho_inf = 0.8 leaves ringing (two corrections a step); the slow motion's error
-#: hardly changes. Bodies keep RHO_INF.
+#: hardly changes. Bodies too: their joints' stiff modes, rung by a flow start and by a
+#: large flutter, held the step (seed 004's cantilever of 8 bodies at rtol 3e-3: 5720
+#: steps at 0.8, 1533 at 0.6, the tip's error 1.4e-3 and 6.6e-4 m; the semicircle of
+#: Table 1 at rtol 0.1: 550-1052 steps against 757-1199, final rates within 3.4e-5 of each
+#: other, relative).
 CONTROLLED_RHO_INF = 0.6
 #: The order rule of ``simulate(..., rtol=)`` on element models: at rtol >= EXTRAPOLATE_BELOW
 #: the error-controlled run alone (second order); below it, Richardson extrapolation over
@@ -64,7 +68,14 @@ MAX_MESH_RTOL = 1e-2  # coarser meshes' runs differ by more than a discretisatio
 #: ... and its mesh's control: local error estimates summed to at most (rtol_mesh L + atol) /
 #: MESH_ERROR_ACCUMULATION (with which MESH_FACTOR was measured; rotations at the model size)
 MESH_ERROR_ACCUMULATION = 0.1
-EXTRAPOLATION_LEVELS = 4
+#: ... halvings at most: added only while the estimate misses rtol L + atol. Seed 002's
+#: spin-up (benchmarks/bench_peer.py, L = 8 m) at rtol 1e-8: its mesh (rtol_mesh 3.7e-4, 186
+#: steps up to 0.4 s against the tip's 6 mm vibration of about 1 s) reaches the asymptotic
+#: range only at the third halving (the finest run's error falls 25, 1, 3.4, 3.9, 3.8 times
+#: per halving); after 4 halvings 5.5e-8 L (estimate 7.9e-7 L), after 6 3.0e-9 L (23622
+#: steps in all, 0.07 s). Newton's tolerance is not the cause: 100 times tighter, the same
+#: 5.5e-8 L.
+EXTRAPOLATION_LEVELS = 6
 #: ... the error estimate of the finest combination (positions): its largest change from the
 #: combination a level coarser / 15 (a rate of 16 per halving) where that change is at most
 #: EXTRAPOLATION_SETTLED of the finest run's correction (the h^4 term small beside the h^2
@@ -515,7 +526,7 @@ def simulate(model, t_end: float, *, integrator: str = "auto", state=None, t_sta
             (``stats["error_estimate"]`` [m] is 0.3 of the sum; on the flutter limit
             cycle of ``benchmarks/bench_limit_cycle.py`` the error is 0.7-1.1 of the
             request, on a growing flutter 0.08-0.2 of it: below, not above); ``rho_inf``
-            0.6 unless given (:data:`CONTROLLED_RHO_INF`; bodies 0.8). That
+            0.6 unless given (:data:`CONTROLLED_RHO_INF`). That
             is second order; below rtol = :data:`EXTRAPOLATE_BELOW` (1e-4) an element
             model's run is Richardson-extrapolated over a controlled mesh (the rule there:
             a run at a looser rtol, then its mesh halved, quartered, ... until the
@@ -632,7 +643,7 @@ def simulate(model, t_end: float, *, integrator: str = "auto", state=None, t_sta
             # the mesh resolves every mode, the elements' stiff ones too: rotations count at
             # the model size (the expansion in h holds only for resolved modes)
             opt.rotation_error_length = system.length_scale
-        elif "rho_inf" not in options and not bodies:
+        elif "rho_inf" not in options:
             opt.rho_inf = CONTROLLED_RHO_INF
         if "step" not in options:
             opt.step = (t1 - t0) / 1000.0

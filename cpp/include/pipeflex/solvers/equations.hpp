@@ -468,11 +468,13 @@ class GeneralizedAlpha {
     Eigen::VectorXd error_weights_;  // s_i / error_rate: a coordinate's error in [s]
     // The local error of the step just converged (step hs, ending at tn) in tolerances
     // error_rate hs (<= 1: accepted); filtered through the iteration matrix (two residual
-    // evaluations) on a retry whose estimate did not fall with the step.
+    // evaluations) on a retry whose estimate did not fall with the step, and after a step
+    // accepted so until the unfiltered estimate meets the tolerance again.
     double local_error(double hs, double tn);
     Eigen::VectorXd filtered_, residual_, residual_shifted_;  // local_error's work vectors
     double raw_error_ = 0.0;                          // the last step's unfiltered estimate
     double rejected_step_ = 0.0, rejected_error_ = 0.0;  // the last rejected try (0: none since)
+    bool ringing_ = false;  // the last accepted step passed by its filtered estimate alone
 };
 
 }  // namespace pipeflex

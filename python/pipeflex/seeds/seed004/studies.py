@@ -44,13 +44,14 @@ class Trace:
 
 
 def ffrf_cantilever_tip(*, n_bodies: int, elements_per_body: int = 20, internal_modes: int = 0,
-                        t_end: float = 2.0, step: float = 1e-3, n_outputs: int = 401,
+                        t_end: float = 2.0, step: float = 1e-3, rtol: Optional[float] = None, n_outputs: int = 401,
                         rho_inf: Optional[float] = None, until_failure: bool = False,
                         flow_speed: float = CANTILEVER_FLOW_SPEED) -> Trace:
     """Tip deflection [m] (along the 1.5 N tip force, global z) of the FFRF cantilever of
     sec. 8.1: static deflection without flow, then sdot = ``flow_speed`` [m/s] (the seed's
     15 m/s: mdot = 30 kg/s) from t = 0 on (a sudden start, as seed 000's Fig. 3), to
-    ``t_end`` [s] with ``step`` [s].
+    ``t_end`` [s] with the fixed ``step`` [s] and ``rho_inf``, or, if ``rtol`` [-] is given,
+    with its error-controlled step instead (Fig. 4: rtol 3e-3; Fig. 5 the fixed step).
 
     ``until_failure``: if the integration fails (a diverging model), return the run up to
     0.05 s before the failure, with the failure time in ``Trace.failed_at``, instead of
@@ -68,14 +69,20 @@ def ffrf_cantilever_tip(*, n_bodies: int, elements_per_body: int = 20, internal_
     w = time.perf_counter()
     st = mb_static(s, mass_flow=0.0).state
     failed_at = None
+
+    def run(t1):
+        if rtol is None:
+            return mb_simulate(s, t1, step=step, state=st, mass_flow=mdot, n_outputs=n_outputs, rho_inf=rho)
+        return simulate(s, t1, rtol=_checks.positive("rtol", rtol), state=st, mass_flow=mdot, n_outputs=n_outputs,
+                        progress=False)
+
     try:
-        res = mb_simulate(s, t_end, step=step, state=st, mass_flow=mdot, n_outputs=n_outputs, rho_inf=rho)
+        res = run(t_end)
     except ConvergenceError as e:
         if not until_failure or e.time is None or e.time - 0.05 <= step:
             raise
         failed_at = e.time
-        res = mb_simulate(s, failed_at - 0.05, step=step, state=st, mass_flow=mdot, n_outputs=n_outputs,
-                          rho_inf=rho)
+        res = run(failed_at - 0.05)
     wall = time.perf_counter() - w
     label = f"FFRF {n_bodies} bod{'ies' if n_bodies > 1 else 'y'}" + \
             (f", {internal_modes} internal modes" if internal_modes else "")
@@ -83,16 +90,18 @@ def ffrf_cantilever_tip(*, n_bodies: int, elements_per_body: int = 20, internal_
 
 
 def element_cantilever_tip(*, n_elements: int = 8, t_end: float = 2.0, step: float = 1e-3,
-                           n_outputs: int = 401) -> Trace:
+                           rtol: Optional[float] = None, n_outputs: int = 401) -> Trace:
     """The same run with seed 000's element (the seed's Spacar reference, Fig. 4 grey), to
-    ``t_end`` [s] with ``step`` [s]: tip deflection [m] along the tip force (global y in
+    ``t_end`` [s] with the fixed ``step`` [s], or, if ``rtol`` [-] is given, with its
+    error-controlled step instead: tip deflection [m] along the tip force (global y in
     that model)."""
     model, tip = limit_cycle_model(n_elements=n_elements, tip_force=CANTILEVER_TIP_FORCE,
                                    mass_flow=2.0 * CANTILEVER_FLOW_SPEED)
+    steps = dict(step=_checks.positive("step", step)) if rtol is None else dict(rtol=_checks.positive("rtol", rtol))
     w = time.perf_counter()
     st = static_equilibrium(model, mass_flow=0.0).state
-    res = simulate(model, t_end, integrator="generalized_alpha", step=step, state=st, n_outputs=n_outputs,
-                   progress=False)
+    res = simulate(model, t_end, integrator="generalized_alpha", state=st, n_outputs=n_outputs, progress=False,
+                   **steps)
     return Trace(f"seed-000 element, {n_elements} elements", res.t, res.x[:, tip, 1], time.perf_counter() - w,
                  model.n_dofs)
 
