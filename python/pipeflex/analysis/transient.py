@@ -45,7 +45,7 @@ ERROR_ACCUMULATION = 0.3
 #: "rho_inf"): the control's steps pass over the elements' stiff modes a flow start rings,
 #: which rho_inf = 0.8 leaves ringing (two corrections a step); the slow motion's error
 #: hardly changes. Bodies too: their joints' stiff modes, rung by a flow start and by a
-#: large flutter, held the step (seed 004's cantilever of 8 bodies at rtol 3e-3: 5720
+#: large flutter, held the step (a fluttering cantilever of 8 bodies at rtol 3e-3: 5720
 #: steps at 0.8, 1533 at 0.6, the tip's error 1.4e-3 and 6.6e-4 m; the semicircle of
 #: Table 1 at rtol 0.1: 550-1052 steps against 757-1199, final rates within 3.4e-5 of each
 #: other, relative).
@@ -68,8 +68,8 @@ MAX_MESH_RTOL = 1e-2  # coarser meshes' runs differ by more than a discretisatio
 #: ... and its mesh's control: local error estimates summed to at most (rtol_mesh L + atol) /
 #: MESH_ERROR_ACCUMULATION (with which MESH_FACTOR was measured; rotations at the model size)
 MESH_ERROR_ACCUMULATION = 0.1
-#: ... halvings at most: added only while the estimate misses rtol L + atol. Seed 002's
-#: spin-up (benchmarks/bench_peer.py, L = 8 m) at rtol 1e-8: its mesh (rtol_mesh 3.7e-4, 186
+#: ... halvings at most: added only while the estimate misses rtol L + atol. The rotating
+#: cantilever's spin-up (benchmarks/bench_peer.py, L = 8 m) at rtol 1e-8: its mesh (rtol_mesh 3.7e-4, 186
 #: steps up to 0.4 s against the tip's 6 mm vibration of about 1 s) reaches the asymptotic
 #: range only at the third halving (the finest run's error falls 25, 1, 3.4, 3.9, 3.8 times
 #: per halving); after 4 halvings 5.5e-8 L (estimate 7.9e-7 L), after 6 3.0e-9 L (23622
