@@ -64,6 +64,8 @@ class CoupledEquations final : public Equations {
         s << s1, s2;
     }
 
+    double motion_size() const override { return std::max(el_eq_.motion_size(), mb_eq_.motion_size()); }
+
     void set(const VecX& z, const VecX& v, const VecX& a, const VecX& lam, double t) override {
         el_eq_.set(z.head(n1_), v.head(n1_), a.head(n1_), VecX(), t);
         mb_eq_.set(z.tail(n2_), v.tail(n2_), a.tail(n2_), lam.head(nc2_), t);

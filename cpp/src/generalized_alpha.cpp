@@ -248,6 +248,8 @@ AlphaOptions checked(const AlphaOptions& o) {
     if (!(o.newton_tol > 0.0)) throw std::invalid_argument("newton_tol must be > 0");
     if (!(o.error_rate >= 0.0) || !std::isfinite(o.error_rate))
         throw std::invalid_argument("error_rate must be >= 0 and finite (0: a fixed step)");
+    if (!(o.motion_rate >= 0.0) || !std::isfinite(o.motion_rate))
+        throw std::invalid_argument("motion_rate must be >= 0 and finite");
     if (o.max_newton < 1) throw std::invalid_argument("max_newton must be >= 1");
     for (const double h : o.steps)
         if (!std::isfinite(h) || !(h > 0.0)) throw std::invalid_argument("steps must be > 0 and finite");
@@ -300,9 +302,19 @@ GeneralizedAlpha::GeneralizedAlpha(Equations& eq, const AlphaOptions& opt, doubl
     zn_.resize(n);
     vn_.resize(n);
     eq.set(zero_, v_, a_, lam_, t0);
+    measure_motion();
 }
 
 GeneralizedAlpha::~GeneralizedAlpha() = default;
+
+void GeneralizedAlpha::measure_motion() {
+    // Only once the motion outgrows the model: within it the tolerance (and every step)
+    // is the absolute one's, bit for bit. The motion at the step's start stands for the
+    // step's (a growing motion is judged a step late, on the strict side).
+    if (!(opt_.error_rate > 0.0 && opt_.motion_rate > 0.0)) return;
+    const double D = eq_.motion_size(), L = eq_.length_scale();
+    motion_factor_ = D > L && std::isfinite(D) ? 1.0 + opt_.motion_rate * (D - L) / opt_.error_rate : 1.0;
+}
 
 void GeneralizedAlpha::advance_to(double t_out) {
     // Equal steps within each output interval (a short last step would disturb the
@@ -351,7 +363,8 @@ void GeneralizedAlpha::advance_to(double t_out) {
         lam_start_ = lam_;
         if (opt_.error_rate > 0.0) {
             const double share = eq_.n_constraints() > 0 ? kConstrainedNewtonShare : kNewtonShare;
-            newton_.set_tolerance(std::min(opt_.newton_tol, share * opt_.error_rate * hs / eq_.length_scale()));
+            newton_.set_tolerance(
+                std::min(opt_.newton_tol, share * opt_.error_rate * motion_factor_ * hs / eq_.length_scale()));
         }
         AlphaNewton::Failure failure;
         // A changed step (error control): the pseudo-acceleration lags the acceleration by
@@ -395,7 +408,7 @@ void GeneralizedAlpha::advance_to(double t_out) {
             rejected_step_ = 0.0;
             // the step from the control (not a short one that reached an output time)
             if (factor >= kGrowMin) h_ = std::max(h_, hs * std::min(factor, kGrowMax));
-            const double e_m = err * opt_.error_rate * hs;
+            const double e_m = err * opt_.error_rate * motion_factor_ * hs;
             stats_.error_sum += e_m;
             stats_.error_max = std::max(stats_.error_max, e_m);
         }
@@ -415,6 +428,7 @@ void GeneralizedAlpha::advance_to(double t_out) {
         }
         eq_.set(zn_, vn_, an_, lam_, tn);
         eq_.accept(tn, hs);
+        measure_motion();  // the state set is the step's end
         // accept: re-base the frames to the step's end, carrying the pseudo-acceleration's
         // offset from the true acceleration over
         offset_ = pan_ - an_;
@@ -444,7 +458,8 @@ double GeneralizedAlpha::local_error(double hs, double tn) {
     // the third-order Taylor step through the same accelerations. The largest coordinate
     // in tolerances: a local motion (a tip) is not diluted by a large model.
     const double c = std::abs(method_.beta - 1.0 / 6.0) * hs;  // (.) hs^2 / (error_rate hs)
-    const double raw = c * (an_ - a_).cwiseProduct(error_weights_).lpNorm<Eigen::Infinity>();
+    // (in the motion's tolerances: / motion_factor_, 1 within the model)
+    const double raw = c * (an_ - a_).cwiseProduct(error_weights_).lpNorm<Eigen::Infinity>() / motion_factor_;
     raw_error_ = raw;
     // On a resolved motion the estimate falls as hs^2 with the step; on a retry after a
     // rejection where it fell less than in proportion to hs, it is not the motion's; nor
@@ -481,7 +496,7 @@ double GeneralizedAlpha::local_error(double hs, double tn) {
     eq_.evaluate(0.0, 0.0, 0.0, residual_, nullptr);
     filtered_ = residual_shifted_.head(n) - residual_.head(n);
     if (!newton_.filter(filtered_)) return raw;
-    const double err = filtered_.cwiseProduct(error_weights_).lpNorm<Eigen::Infinity>() / hs;
+    const double err = filtered_.cwiseProduct(error_weights_).lpNorm<Eigen::Infinity>() / (hs * motion_factor_);
     if (err <= 1.0) ringing_ = true;
     return err;
 }

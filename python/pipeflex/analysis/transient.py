@@ -520,7 +520,13 @@ def simulate(model, t_end: float, *, integrator: str = "auto", state=None, t_sta
             element's length, the most it bends a cubic Hermite element whose nodes
             are held; a floating frame's times the model size) is kept below
             ``(rtol L + atol) h / (ERROR_ACCUMULATION (t_end - t_start))``, L the
-            model's size (``length_scale``), so that the run's error, about
+            model's size (``length_scale``), or the motion's size D where that is larger
+            (the largest displacement of a node from its reference position, or of a
+            body's frame origin from where it started, at the step's start):
+            ``(rtol max(L, D) + atol) h / (...)``, so that a motion
+            that outgrows the model (a divergence) keeps its relative accuracy, not
+            ever shorter steps; the estimates then add up to rtol times D's mean over
+            the run, at most its largest. The run's error, about
             :data:`ERROR_ACCUMULATION` (0.3) of its summed estimates (the stiff modes' and
             a limit cycle's local errors do not add up), lands near ``rtol L + atol``
             (``stats["error_estimate"]`` [m] is 0.3 of the sum; on the flutter limit
@@ -530,7 +536,7 @@ def simulate(model, t_end: float, *, integrator: str = "auto", state=None, t_sta
             is second order; below rtol = :data:`EXTRAPOLATE_BELOW` (1e-4) an element
             model's run is Richardson-extrapolated over a controlled mesh (the rule there:
             a run at a looser rtol, then its mesh halved, quartered, ... until the
-            estimated error meets ``rtol L + atol``; ``stats["error_estimate"]`` is that
+            estimated error meets ``rtol max(L, D) + atol``; ``stats["error_estimate"]`` is that
             estimate and ``metadata["extrapolated"]`` holds the halvings; ``rho_inf`` 1
             unless given, Newton's tolerance 0.01 rtol, in a refined run of n steps at
             most 10 rtol / n), fourth order where the motion is
@@ -632,9 +638,11 @@ def simulate(model, t_end: float, *, integrator: str = "auto", state=None, t_sta
         extrapolated = rtol < EXTRAPOLATE_BELOW and not bodies
         rtol_mesh = min(MESH_FACTOR * rtol ** MESH_EXPONENT, MAX_MESH_RTOL) if extrapolated else rtol
         # error per unit step: the run's local error estimates add up to at most
-        # (rtol L + atol) / ERROR_ACCUMULATION, its error to about rtol L + atol
-        opt.error_rate = (rtol_mesh * system.length_scale + atol) / (
-            (MESH_ERROR_ACCUMULATION if extrapolated else ERROR_ACCUMULATION) * (t1 - t0))
+        # (rtol L + atol) / ERROR_ACCUMULATION, its error to about rtol L + atol; L becomes
+        # the motion's size D where that is larger (a motion that outgrows the model)
+        accumulation = (MESH_ERROR_ACCUMULATION if extrapolated else ERROR_ACCUMULATION) * (t1 - t0)
+        opt.error_rate = (rtol_mesh * system.length_scale + atol) / accumulation
+        opt.motion_rate = rtol_mesh / accumulation
         if "newton_tol" not in options:
             opt.newton_tol = CONTROLLED_NEWTON_TOL  # each step's share of the error decides
         if extrapolated:
@@ -757,13 +765,15 @@ def simulate(model, t_end: float, *, integrator: str = "auto", state=None, t_sta
     # difference from the combination one level coarser, / 15 where that difference is
     # small beside the finest correction (EXTRAPOLATION_SETTLED: the expansion holds, a
     # rate of 16), else / 3 (1-4 measured before it holds). A level is added until the
-    # estimate meets rtol L + atol.
+    # estimate meets rtol max(L, D) + atol (D the coarse run's largest node displacement:
+    # relative to a motion that outgrows the model, as the mesh's control).
     from ..errors import ConvergenceError
 
     # the coarse run enters only the estimate (the result combines the two finest runs): no works
     work = opt.work
     opt.work = work and EXTRAPOLATION_LEVELS < 2
     coarse, mesh = run(system, " (coarse mesh)")
+    target = rtol * max(system.length_scale, float(np.linalg.norm(coarse.x - model.positions, axis=-1).max())) + atol
     mesh_newton_tol = opt.newton_tol
     opt.work = work
     opt.error_rate = 0.0
@@ -779,7 +789,7 @@ def simulate(model, t_end: float, *, integrator: str = "auto", state=None, t_sta
                 correction = float(np.abs(table[-1].x - runs[-1].x).max())
                 # settled: the h^4 term small beside the h^2 one, a rate of 16 per level
                 estimate = change / (15.0 if change <= EXTRAPOLATION_SETTLED * correction else 3.0)
-                if estimate <= rtol * system.length_scale + atol:
+                if estimate <= target:
                     break
     except ConvergenceError as exc:
         # the runs differ by more than a discretisation error (a rotation the coarse mesh
@@ -788,14 +798,14 @@ def simulate(model, t_end: float, *, integrator: str = "auto", state=None, t_sta
                     "rtol = %.3g alone", exc, rtol)
         opt.steps, opt.newton_tol = [], mesh_newton_tol
         opt.error_rate = (rtol * system.length_scale + atol) / (ERROR_ACCUMULATION * (t1 - t0))
+        opt.motion_rate = rtol / (ERROR_ACCUMULATION * (t1 - t0))
         opt.rotation_error_length = 0.0
         if "rho_inf" not in options:
             opt.rho_inf = CONTROLLED_RHO_INF
         return run(model._system(state))[0]
-    if estimate > rtol * system.length_scale + atol:
+    if estimate > target:
         logger.warning("simulate: extrapolated over %d halvings of the controlled mesh, the error estimate %.3g m "
-                       "is still above rtol L + atol = %.3g m", len(runs) - 1, estimate,
-                       rtol * system.length_scale + atol)
+                       "is still above rtol max(L, D) + atol = %.3g m", len(runs) - 1, estimate, target)
     res = table[-1]
     res.stats.clear()
     res.stats.update({k: sum(r.stats[k] for r in runs) for k in COUNTERS + ("wall_time",)})

@@ -43,6 +43,13 @@ class MultibodyEquations final : public Equations {
         for (int j = 0; j < sys_.n_bodies(); ++j) s.segment<3>(sys_.offset(j) + 3).setConstant(sys_.length_scale());
     }
 
+    // the largest displacement of a frame's origin from its position at the run's start
+    double motion_size() const override {
+        double d2 = 0.0;
+        for (std::size_t j = 0; j < cur_.r.size(); ++j) d2 = std::max(d2, (cur_.r[j] - start_r_[j]).squaredNorm());
+        return std::sqrt(d2);
+    }
+
     void set(const Eigen::VectorXd& z, const Eigen::VectorXd& v, const Eigen::VectorXd& a, const Eigen::VectorXd& lam,
              double t) override {
         for (int j = 0; j < sys_.n_bodies(); ++j) {

@@ -145,6 +145,19 @@ class ElementEquations final : public Equations {
             if (slot % 6 >= 3 && span[slot / 6] > 0.0) s[k] = kHermiteReach * std::min(span[slot / 6], opt.length_scale);
         }
     }
+    // the largest node displacement from its reference position (a hub model's: in the hub's frame)
+    double motion_size() const override {
+        double d2 = 0.0;
+        for (int i = 0; i < model.n_nodes(); ++i) {
+            double s = 0.0;
+            for (int k = 0; k < 3; ++k) {
+                const double d = state.q[6 * i + k] - model.positions[i][k];
+                s += d * d;
+            }
+            d2 = std::max(d2, s);
+        }
+        return std::sqrt(d2);
+    }
     void set(const Eigen::VectorXd& z, const Eigen::VectorXd& v, const Eigen::VectorXd& a, const Eigen::VectorXd&,
              double t) override {
         set(z, v, a, t);
@@ -364,6 +377,7 @@ inline AlphaOptions alpha_options(const TransientOptions& opt) {
     a.max_newton = opt.max_newton;
     a.max_steps = opt.max_steps;
     a.error_rate = opt.error_rate;
+    a.motion_rate = opt.motion_rate;
     a.steps = opt.steps;
     return a;
 }

@@ -115,6 +115,11 @@ class Equations {
     // coordinate), the model size for rotations and slopes (an angle error e moves a
     // point at that distance by e times it).
     virtual void error_scales(Eigen::VectorXd& s) const { s = Eigen::VectorXd::Ones(n_coordinates()); }
+    // [m] The size of the motion at the state set: the largest displacement of a node (a
+    // body's frame origin) from its reference position, for the integrator's error control
+    // (AlphaOptions::motion_rate); 0 (the default): not measured, the tolerance stays at the
+    // model size. Called once per accepted step: a pass over the nodes, no residual.
+    virtual double motion_size() const { return 0.0; }
 
     // The kinematics IDA (ida.hpp) integrates, z' = N(z) v, at the state set. The defaults
     // are an element model's: its rates are chart rates (N = I).
@@ -152,6 +157,11 @@ struct AlphaOptions {
     // error_rate T (error per unit step: the global error proportional to the tolerance);
     // 0: the fixed step `step`.
     double error_rate = 0.0;
+    // [1/s] >= 0, with error_rate: a motion larger than the model (Equations::motion_size
+    // D > length_scale L, at the step's start) raises the rate to error_rate + motion_rate
+    // (D - L) (simulate: rtol / (ERROR_ACCUMULATION T), so that the tolerance is rtol D +
+    // atol: relative to the motion once it outgrows the model); 0: error_rate alone.
+    double motion_rate = 0.0;
     // [s] non-empty: the steps to take, in order, in place of step and error_rate: a mesh
     // recorded by an error-controlled run (GeneralizedAlpha::steps_taken), e.g. each step
     // halved for Richardson extrapolation over the mesh. Each output time must fall on a
@@ -475,6 +485,10 @@ class GeneralizedAlpha {
     double raw_error_ = 0.0;                          // the last step's unfiltered estimate
     double rejected_step_ = 0.0, rejected_error_ = 0.0;  // the last rejected try (0: none since)
     bool ringing_ = false;  // the last accepted step passed by its filtered estimate alone
+    // The tolerance's factor from the motion's size at the step's start: (error_rate +
+    // motion_rate (D - L)) / error_rate, exactly 1 while D <= L (a motion within the model)
+    double motion_factor_ = 1.0;
+    void measure_motion();
 };
 
 }  // namespace pipeflex

@@ -45,6 +45,8 @@ struct TransientOptions {
     int max_order = 5;          // IDA: largest BDF order (2 is A-stable)
     double step = 1e-3;         // generalised-alpha step h [s] (error_rate > 0: the first step)
     double error_rate = 0.0;    // generalised-alpha: local error per unit time [m/s] (0: fixed step)
+    double motion_rate = 0.0;   // generalised-alpha: its rise per metre of motion beyond the model [1/s]
+                                // (AlphaOptions::motion_rate)
     // generalised-alpha's error control, element models: the length [m] a node's rotation (or
     // ANCF slope) error counts at; 0: the node's longest element (ElementEquations::error_scales)
     double rotation_error_length = 0.0;
