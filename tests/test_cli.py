@@ -132,3 +132,19 @@ def test_run_reports_a_failed_analysis_with_status_1(tmp_path, capsys):
     path = pf.save_model(b.build(), tmp_path / "dry.json")
     assert main(["run", str(path), "--analysis", "critical", "--out", str(tmp_path / "out")]) == 1
     assert "pipeflex run: critical of" in capsys.readouterr().err
+
+
+def test_python_dash_m_runs_the_command(tmp_path):
+    """`python -m pipeflex` is the `pipeflex` command (a venv whose bin/ is not on PATH)."""
+    import subprocess
+    import sys
+
+    import pipeflex
+
+    done = subprocess.run([sys.executable, "-m", "pipeflex", "--version"], capture_output=True, text=True,
+                          cwd=tmp_path, timeout=120)
+    assert done.returncode == 0, done.stderr
+    assert pipeflex.__version__ in done.stdout
+    bad = subprocess.run([sys.executable, "-m", "pipeflex", "validate", "--only", "no_such_group"],
+                         capture_output=True, text=True, cwd=tmp_path, timeout=120)
+    assert bad.returncode == 2 and "no_such_group" in bad.stderr

@@ -14,7 +14,7 @@ import pipeflex
 from helpers import imported_module
 
 PACKAGE = Path(pipeflex.__file__).parent
-APPLICATION = ("pipeflex.seeds", "pipeflex.scenes", "pipeflex.cli")
+APPLICATION = ("pipeflex.seeds", "pipeflex.scenes", "pipeflex.cli", "pipeflex.__main__")
 
 
 def _modules():
