@@ -226,6 +226,9 @@ class AlphaNewton {
     // The Newton tolerance of the next steps (position error / length_scale), in place of
     // the options' newton_tol (the error-controlled step ties it to its tolerance).
     void set_tolerance(double newton_tol);
+    // Judge a step long (its next step's matrix re-evaluated) only past `extra` more
+    // iterations than the system's RefreshPolicy::long_step.
+    void lengthen_long_step(int extra);
     // Solves the last step's iteration matrix for the right side (b; 0) (zero constraint
     // rows) and returns the coordinates' part in b: the error filter of the step control.
     // False if no factorisation is at hand.
