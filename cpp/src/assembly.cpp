@@ -815,24 +815,32 @@ void assemble_geometric(const Model& model, const State& state, const Eigen::Vec
     }
 }
 
+namespace {
+// A nodal load's generalised force fl (6) at t, its time function's factor included.
+void nodal_load_at(const Model& model, const NodalLoad& l, const State& state, double t, double* fl) {
+    if (l.function) {
+        double x[3], v[3];
+        for (int i = 0; i < 3; ++i) {
+            x[i] = state.q[6 * l.node + i];
+            v[i] = state.v[6 * l.node + i];
+        }
+        function_force(model, l, state, t, x, v, fl);
+    } else {
+        load_force<double>(l, state.frames[l.node], node_vec(state.q, l.node, 3), fl);
+    }
+    const double s = l.time_function ? l.time_function->at(t) : 1.0;
+    for (int i = 0; i < 6; ++i) fl[i] *= s;
+}
+}  // namespace
+
 double load_power(const Model& model, const State& state, double t) {
     // v . f at every step of a transient: the nodal loads' forces without the vector
     if (!model.element_loads.empty()) return state.v.dot(external_forces(model, state, t));
     double P = 0.0;
     for (const auto& l : model.loads) {
         double fl[6];
-        if (l.function) {
-            double x[3], v[3];
-            for (int i = 0; i < 3; ++i) {
-                x[i] = state.q[6 * l.node + i];
-                v[i] = state.v[6 * l.node + i];
-            }
-            function_force(model, l, state, t, x, v, fl);
-        } else {
-            load_force<double>(l, state.frames[l.node], node_vec(state.q, l.node, 3), fl);
-        }
-        const double s = l.time_function ? l.time_function->at(t) : 1.0;
-        for (int i = 0; i < 6; ++i) P += s * fl[i] * state.v[6 * l.node + i];
+        nodal_load_at(model, l, state, t, fl);
+        for (int i = 0; i < 6; ++i) P += fl[i] * state.v[6 * l.node + i];
     }
     return P;
 }
@@ -842,18 +850,8 @@ Eigen::VectorXd external_forces(const Model& model, const State& state, double t
     Eigen::VectorXd f = Eigen::VectorXd::Zero(6 * model.n_nodes());
     for (const auto& l : model.loads) {
         double fl[6];
-        if (l.function) {
-            double x[3], v[3];
-            for (int i = 0; i < 3; ++i) {
-                x[i] = state.q[6 * l.node + i];
-                v[i] = state.v[6 * l.node + i];
-            }
-            function_force(model, l, state, t, x, v, fl);
-        } else {
-            load_force<double>(l, state.frames[l.node], node_vec(state.q, l.node, 3), fl);
-        }
-        const double s = l.time_function ? l.time_function->at(t) : 1.0;
-        for (int i = 0; i < 6; ++i) f[6 * l.node + i] += s * fl[i];
+        nodal_load_at(model, l, state, t, fl);
+        for (int i = 0; i < 6; ++i) f[6 * l.node + i] += fl[i];
     }
     if (model.element_loads.empty()) return f;
     // distributed loads: the kernel's residual with them as its only gravity, at rest
