@@ -6,6 +6,7 @@ import pytest
 
 import pipeflex as pf
 from pipeflex.seeds.seed002 import scenes
+from test_error_control import tip_loaded_cantilever
 
 RTOL = 1e-2
 # seed 002, Fig. 6: one ANCF element of Model 0 spun up to 10 rad/s diverges, its free node
@@ -50,17 +51,10 @@ def test_a_diverging_run_fails_where_the_fine_step_does(diverging):
 def test_a_motion_within_the_model_takes_the_steps_of_rtol_L():
     # the flutter of benchmarks/bench_limit_cycle.py (L = 1 m, the tip below 0.5 m): its
     # run at rtol 1e-2 as measured before the tolerance followed the motion
-    sec = pf.PipeSection(EI=10.0, pipe_mass=8.0, fluid_mass=2.0, EA=1e5, rotary_inertia=(1e-3, 0.0, 0.0))
-    b = pf.ModelBuilder()
-    n0 = b.add_node((0.0, 0.0, 0.0))
-    nodes = b.add_line(n0, (1.0, 0.0, 0.0), 8, sec)
-    b.clamp(n0)
-    b.add_load(nodes[-1], force=(0.0, 1.5, 0.0))
-    model = b.build(mass_flow=30.0)
-    state = pf.static_equilibrium(model, mass_flow=0.0).state
+    model, state = tip_loaded_cantilever(8)
     run = pf.simulate(model, 2.0, state=state, n_outputs=101, progress=False, integrator="generalized_alpha",
                       rtol=RTOL)
     D = np.linalg.norm(run.x - model.positions, axis=-1).max()
     assert D < model.length_scale
     assert run.stats["steps"] == 246
-    assert float(run.x[-1, nodes[-1], 1]) == pytest.approx(-0.388266326996541, rel=1e-9)
+    assert float(run.x[-1, -1, 1]) == pytest.approx(-0.388266326996541, rel=1e-9)
