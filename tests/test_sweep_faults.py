@@ -93,7 +93,7 @@ def test_an_interrupted_pool_sweep_leaves_no_thread_or_process(tmp_path):
     log = tmp_path / "log"
     log.mkdir()
     proc = run_script(f"""
-        import functools, json, multiprocessing, os, signal, threading, time
+        import functools, json, multiprocessing, os, signal, sys, threading, time, traceback
         import pipeflex as pf, sweep_functions as sf
         from pathlib import Path
         before = {{t.name for t in threading.enumerate()}}
@@ -114,8 +114,11 @@ def test_an_interrupted_pool_sweep_leaves_no_thread_or_process(tmp_path):
         while time.monotonic() < deadline and any(t.name not in before and t.name != "ctrl-c"
                                                   for t in threading.enumerate()):
             time.sleep(0.05)
-        left = [t.name + " " + repr(getattr(t, "_target", None)) for t in threading.enumerate()
-                if t.name not in before and t.name != "ctrl-c"]
+        # each left thread with where it waits, so that a failure says why
+        frames = sys._current_frames()
+        left = [t.name + " " + repr(getattr(t, "_target", None)) + " waiting in "
+                + "".join(traceback.format_stack(frames[t.ident])[-3:]) for t in threading.enumerate()
+                if t.name not in before and t.name != "ctrl-c" and t.ident in frames]
         print(json.dumps([left, [p.pid for p in multiprocessing.active_children()]]))
         """)
     out, err = proc.communicate(timeout=120)
@@ -124,6 +127,27 @@ def test_an_interrupted_pool_sweep_leaves_no_thread_or_process(tmp_path):
     assert threads == [] and children == []
     workers = [int(p.name.split("_")[1]) for p in log.iterdir()]
     assert not [pid for pid in workers if alive(pid)]
+
+
+def test_stopping_a_pool_whose_manager_failed_its_clean_up_leaves_no_feeder_thread():
+    # the manager thread normally closes the call queue; one that dies in its clean-up (seen
+    # once under load) must not leave the queue's feeder thread behind
+    proc = run_script("""
+        import concurrent.futures.process as cfp, json, threading, time
+        from pipeflex.sweeps.executors import default_pool, stop_pool
+        def fails(self):
+            raise RuntimeError("clean-up failed")
+        cfp._ExecutorManagerThread.join_executor_internals = fails
+        before = {t.name for t in threading.enumerate()}
+        pool = default_pool(2)
+        futures = [pool.submit(time.sleep, 5.0) for _ in range(6)]
+        time.sleep(0.5)
+        stop_pool(pool)
+        print(json.dumps([t.name for t in threading.enumerate() if t.name not in before]))
+        """)
+    out, err = proc.communicate(timeout=120)
+    assert proc.returncode == 0, err
+    assert json.loads(out.splitlines()[-1]) == []
 
 
 @pytest.mark.parametrize("values, shown", [([1, 1.0], "as 1 and 1.0"), ([True, 1], "as True and 1"),

@@ -41,6 +41,7 @@ def stop_pool(pool: ProcessPoolExecutor) -> None:
     its threads (the manager, the queue's feeder) joined, so that nothing is left running."""
     processes = list((getattr(pool, "_processes", None) or {}).values())
     manager = getattr(pool, "_executor_manager_thread", None)  # shutdown forgets it
+    call_queue = getattr(pool, "_call_queue", None)  # and this
     for proc in processes:
         proc.kill()
     pool.shutdown(wait=False, cancel_futures=True)
@@ -48,6 +49,12 @@ def stop_pool(pool: ProcessPoolExecutor) -> None:
     # call queue (joining its feeder thread); then it ends
     if manager is not None:
         manager.join(timeout=10.0)
+    # a manager that ended another way (an exception in its clean-up under load) leaves the
+    # queue's feeder thread waiting for items: closing the queue ends it
+    feeder = getattr(call_queue, "_thread", None)
+    if feeder is not None and feeder.is_alive():
+        call_queue.close()
+        feeder.join(timeout=5.0)
     for proc in processes:
         proc.join(timeout=1.0)
 
