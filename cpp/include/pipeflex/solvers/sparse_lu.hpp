@@ -53,7 +53,7 @@ class FixedPatternLU {
     // SparseLU cannot be copied, so a sparse copy runs its symbolic analysis again.
     FixedPatternLU(const FixedPatternLU& o)
         : dense_below_(o.dense_below_), band_first_(o.band_first_), storage_(o.storage_), n_(o.n_),
-          kl_(o.kl_), ku_(o.ku_), ld_(o.ld_), rows_(o.rows_), cols_(o.cols_), slot_(o.slot_),
+          kl_(o.kl_), ku_(o.ku_), ld_(o.ld_), inv_diag_(o.inv_diag_), uw_(o.uw_), rows_(o.rows_), cols_(o.cols_), slot_(o.slot_),
           dense_A_(o.dense_A_), dense_lu_(o.dense_lu_), band_(o.band_), pivots_(o.pivots_), A_(o.A_),
           analyses_(o.analyses_) {
         if (storage_ == Storage::sparse && analyzed()) lu_.analyzePattern(A_);
@@ -92,6 +92,7 @@ class FixedPatternLU {
             storage_ = Storage::band;
             band_.resize(static_cast<std::size_t>(ld_) * n);
             pivots_.resize(n);
+            inv_diag_.resize(n);
             return true;
         }
         storage_ = Storage::sparse;
@@ -275,8 +276,9 @@ class FixedPatternLU {
             uw_ = std::max(uw_, ju - j);
             if (jp != 0)
                 for (int c = j; c <= ju; ++c) std::swap(ab[band_index(j, c)], ab[band_index(j + jp, c)]);
-            if (km == 0) continue;
             const double inv = 1.0 / col[0];
+            inv_diag_[j] = inv;  // the solve multiplies: a division's latency per unknown in its chain
+            if (km == 0) continue;
             for (int i = 1; i <= km; ++i) col[i] *= inv;
             for (int c = j + 1; c <= ju; ++c) {
                 double* cc = ab + band_index(j, c);  // cc[i] = A(j + i, c)
@@ -302,7 +304,7 @@ class FixedPatternLU {
         }
         for (int j = n - 1; j >= 0; --j) {  // U x = y
             const double* col = ab + static_cast<std::ptrdiff_t>(j) * ld_ + kv;  // col[i] = U(j + i, j)
-            b[j] /= col[0];
+            b[j] *= inv_diag_[j];
             const double t = b[j];
             if (t == 0.0) continue;
             const int top = std::max(0, j - uw_);  // above U's width only the band's zeros
@@ -314,6 +316,7 @@ class FixedPatternLU {
     bool band_first_;
     Storage storage_ = Storage::sparse;
     int n_ = -1, kl_ = 0, ku_ = 0, ld_ = 0;
+    std::vector<double> inv_diag_;  // band: 1 / U(j, j)
     int uw_ = 0;  // band: U's upper width, ku plus the widening by row exchanges (<= kl + ku)
     std::vector<int> rows_, cols_;  // sparse: the pattern analysed, as triplets,
     std::vector<int> slot_;         // and the place of each triplet's value
