@@ -507,6 +507,6 @@ void bind_assembly(py::module_& m) {
         },
         py::arg("model"), py::arg("state"), py::arg("dz"), py::arg("which"),
         "Adds the reduced increment dz to the state's coordinates which (\"q\", \"v\" or \"a\"), in place.");
-    m.def("reduce", &reduce, py::arg("model"), py::arg("full"),
+    m.def("reduce", py::overload_cast<const Model&, const Eigen::VectorXd&>(&reduce), py::arg("model"), py::arg("full"),
           "T^T full: a vector of 6 entries per node on the reduced coordinates.");
 }

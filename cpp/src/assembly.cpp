@@ -425,23 +425,33 @@ Mat3<double> State::rotation(int node) const {
     return rotation_exp(node_vec(q, node, 3)) * frames[node];
 }
 
-int State::rebase(double max_angle) {
-    check_sizes();
+int State::rebase(double max_angle) { return rebase_frames(*this, max_angle, nullptr); }
+
+int rebase_frames(State& s, double max_angle, const NodeMotion<double>* motions) {
+    s.check_sizes();
     int count = 0;
-    for (int i = 0; i < static_cast<int>(frames.size()); ++i) {
-        const Vec3<double> phi = node_vec(q, i, 3);
-        if (kinds[i] != NodeKind::frame || std::sqrt(dot(phi, phi)) <= max_angle) continue;
+    for (int i = 0; i < static_cast<int>(s.frames.size()); ++i) {
+        const Vec3<double> phi = node_vec(s.q, i, 3);
+        if (s.kinds[i] != NodeKind::frame || std::sqrt(dot(phi, phi)) <= max_angle) continue;
         // The angular velocity and acceleration are kept; their coordinates change.
-        const NodeMotion<double> m = node_motion(phi, node_vec(v, i, 3), node_vec(a, i, 3));
-        frames[i] = m.R * frames[i];
+        const NodeMotion<double> m =
+            motions != nullptr ? motions[i] : node_motion(phi, node_vec(s.v, i, 3), node_vec(s.a, i, 3));
+        s.frames[i] = m.R * s.frames[i];
         for (int k = 0; k < 3; ++k) {  // at phi = 0: T = I and the convective part vanishes
-            q[6 * i + 3 + k] = 0.0;
-            v[6 * i + 3 + k] = m.w[k];
-            a[6 * i + 3 + k] = m.al[k];
+            s.q[6 * i + 3 + k] = 0.0;
+            s.v[6 * i + 3 + k] = m.w[k];
+            s.a[6 * i + 3 + k] = m.al[k];
         }
         ++count;
     }
     return count;
+}
+
+void node_motions(const Model& model, const State& state, std::vector<NodeMotion<double>>& motions) {
+    motions.resize(model.n_nodes());
+    for (int i = 0; i < model.n_nodes(); ++i)
+        if (model.kinds[i] == NodeKind::frame)
+            motions[i] = node_motion(node_vec(state.q, i, 3), node_vec(state.v, i, 3), node_vec(state.a, i, 3));
 }
 
 namespace {
@@ -591,12 +601,7 @@ void assemble_into(const Model& model, const State& state, const LoadState& load
     // kinematics once, shared by the node's elements.
     thread_local std::vector<NodeMotion<double>> motions;
     const bool with_motions = nw == 0 && model.uses_node_motions;
-    if (with_motions) {
-        motions.resize(model.n_nodes());
-        for (int i = 0; i < model.n_nodes(); ++i)
-            if (model.kinds[i] == NodeKind::frame)
-                motions[i] = node_motion(node_vec(state.q, i, 3), node_vec(state.v, i, 3), node_vec(state.a, i, 3));
-    }
+    if (with_motions) node_motions(model, state, motions);
     // plain pointers in the loop: each use of a thread_local costs a call (its TLS wrapper)
     const ElementInputs in{state, load, with_motions ? motions.data() : nullptr};
     ElementOutputs out;
@@ -895,18 +900,52 @@ void add_increment(const Model& model, Eigen::Ref<Eigen::VectorXd> full, const E
     }
 }
 
+void set_state_coordinates(const Model& model, const Eigen::VectorXd& base, const Eigen::VectorXd& z,
+                           const Eigen::VectorXd& vz, const Eigen::VectorXd& az, State& state) {
+    state.q = base;
+    state.v.setZero();
+    state.a.setZero();
+    const int n = model.n_dofs, full = 6 * model.n_nodes();
+    const bool sized = z.size() == n && vz.size() == n && az.size() == n && state.q.size() == full &&
+                       state.v.size() == full && state.a.size() == full;
+    if (model.full_slot.empty() || !sized) {  // general bases, or add_increment's messages
+        add_increment(model, state.q, z);
+        add_increment(model, state.v, vz);
+        add_increment(model, state.a, az);
+        return;
+    }
+    // every Newton iteration: the three vectors in one pass over the slots
+    double *q = state.q.data(), *v = state.v.data(), *a = state.a.data();
+    for (int k = 0; k < n; ++k) {
+        const int s = model.full_slot[k];
+        q[s] += z[k];
+        v[s] += vz[k];
+        a[s] += az[k];
+    }
+}
+
 Eigen::VectorXd reduce(const Model& model, const Eigen::VectorXd& full) {
-    if (full.size() != 6 * model.n_nodes())
-        throw std::invalid_argument("the vector to reduce must have 6 entries per node (" +
-                                    std::to_string(6 * model.n_nodes()) + "), got " + std::to_string(full.size()));
-    Eigen::VectorXd r = Eigen::VectorXd::Zero(model.n_dofs);
-    for (int n = 0; n < model.n_nodes(); ++n) scatter_vector(model, n, full.data() + 6 * n, &r);
+    Eigen::VectorXd r;
+    reduce(model, full, r);
     return r;
 }
 
-double fluid_power(const Model& model, const State& state, const LoadState& load) {
+void reduce(const Model& model, const Eigen::VectorXd& full, Eigen::VectorXd& out) {
+    if (full.size() != 6 * model.n_nodes())
+        throw std::invalid_argument("the vector to reduce must have 6 entries per node (" +
+                                    std::to_string(6 * model.n_nodes()) + "), got " + std::to_string(full.size()));
+    if (!model.full_slot.empty()) {  // every basis selects (re-basing, every step): a gather
+        out.resize(model.n_dofs);
+        for (int k = 0; k < model.n_dofs; ++k) out[k] = 0.0 + full[model.full_slot[k]];  // as the sum: -0 -> 0
+        return;
+    }
+    out.setZero(model.n_dofs);
+    for (int n = 0; n < model.n_nodes(); ++n) scatter_vector(model, n, full.data() + 6 * n, &out);
+}
+
+double fluid_power(const Model& model, const State& state, const LoadState& load, const NodeMotion<double>* motions) {
     double P = 0.0;
-    for (const auto& e : model.elements) e->add_fluid_power(state, load, &P);
+    for (const auto& e : model.elements) e->add_fluid_power(state, load, motions, &P);
     return P;
 }
 

@@ -779,29 +779,16 @@ void pipe_fluid_forces(const PipeElementData& e, const NodeFrames& ref, const Lo
     }
 }
 
-namespace {
-// An end's axis e_x = exp(phi) R_ref R_offset e_1 and spatial angular velocity w = T(phi)
-// phi_dot from one set of rotation coefficients, as vectors (the power needs no triad).
-void end_axis_and_rate(const V3& phi, const V3& phid, const M3& frame, const M3& offset, V3& ex, V3& w) {
-    double s, a, b;
-    rotation_coefficients(dot(phi, phi), s, a, b);
-    const V3 c = frame * offset.col(0);
-    const V3 pc = cross(phi, c), pv = cross(phi, phid);
-    ex = c + s * pc + a * cross(phi, pc);
-    w = phid + a * pv + b * cross(phi, pv);
-}
-}  // namespace
-
 double pipe_fluid_power(const PipeElementData& e, const NodeFrames& ref, const LoadState& load, const double* q,
-                        const double* v) {
+                        const double* v, const NodeMotion<double>& np, const NodeMotion<double>& nq) {
     // -(u_dot . f) of pipe_fluid_forces, u_dot = [xdot^p, w^p, xdot^q, w^q], summed in the
     // centre-line rates ad as -sum_i F_i . ad_i (the moments' power is F_1 . l0 (w^p x e^p)).
     // The Coriolis part 2 mdot sum_ij H_ij ad_i . ad_j takes only the symmetric part of
     // H = hermite::first, diag(-1, 0, 1, 0) / 2: mdot (|xdot^q|^2 - |xdot^p|^2).
     const double l0 = e.l0;
-    V3 exp_, exq, wp, wq;
-    end_axis_and_rate(vec(q + 3), vec(v + 3), ref.p, e.offset_p, exp_, wp);
-    end_axis_and_rate(vec(q + 9), vec(v + 9), ref.q, e.offset_q, exq, wq);
+    // the end axes e_x: the first columns of pipe_residual's end triads R R_ref R_offset
+    const V3 exp_ = np.R * (ref.p * e.offset_p.col(0)), exq = nq.R * (ref.q * e.offset_q.col(0));
+    const V3 &wp = np.w, &wq = nq.w;
     const V3 vp = vec(v), vq = vec(v + 6);
     const double mdot = e.flow_factor * load.mass_flow;
     const double mdd = e.flow_factor * load.mass_flow_rate;
@@ -817,6 +804,13 @@ double pipe_fluid_power(const PipeElementData& e, const NodeFrames& ref, const L
     if (!e.end_terms_p) power += mdot * dot(vp, vp) + P * dot(exp_, vp);
     if (!e.end_terms_q) power -= mdot * dot(vq, vq) + P * dot(exq, vq);
     return -power;
+}
+
+double pipe_fluid_power(const PipeElementData& e, const NodeFrames& ref, const LoadState& load, const double* q,
+                        const double* v) {
+    const V3 zero{};  // the power takes no angular acceleration
+    return pipe_fluid_power(e, ref, load, q, v, node_motion(vec(q + 3), vec(v + 3), zero),
+                            node_motion(vec(q + 9), vec(v + 9), zero));
 }
 
 double pipe_damping_power(const PipeElementData& e, const NodeFrames& ref, const double* q, const double* v) {

@@ -72,11 +72,15 @@ void PipeElement::add_gravity_potential(const State& s, const Vec3<double>& g, d
     for (int i = 0; i < 4; ++i) *V -= m * hermite::load[i] * dot(g, a[i]);
 }
 
-void PipeElement::add_fluid_power(const State& state, const LoadState& load, double* P) const {
+void PipeElement::add_fluid_power(const State& state, const LoadState& load, const NodeMotion<double>* motions,
+                                  double* P) const {
     double qe[12], ve[12];
     gather(state.q, qe);
     gather(state.v, ve);
-    *P += pipe_fluid_power(data, frames(state), load, qe, ve);
+    if (motions != nullptr)
+        *P += pipe_fluid_power(data, frames(state), load, qe, ve, motions[p()], motions[q()]);
+    else
+        *P += pipe_fluid_power(data, frames(state), load, qe, ve);
 }
 
 void PipeElement::add_damping_power(const State& state, double* P) const {

@@ -88,9 +88,11 @@ public:
     // weighted) gravity term, the kernel's gravity raised by q / line_mass().
     virtual double line_mass() const { return 0.0; }
     // Subtracts v . f_fluid [W] (the power of the flow-dependent forces on the structure)
-    // from *P, term by term; elements without flow leave it.
-    virtual void add_fluid_power(const State& state, const LoadState& load, double* P) const {
-        (void)state, (void)load, (void)P;
+    // from *P, term by term; elements without flow leave it. motions: node_motion of every
+    // frame node at the state (node_motions), or null (evaluated by the element).
+    virtual void add_fluid_power(const State& state, const LoadState& load, const NodeMotion<double>* motions,
+                                 double* P) const {
+        (void)state, (void)load, (void)motions, (void)P;
     }
     // Whether it has damping forces (structural or viscous damping, dashpots): only then
     // can add_damping_power add anything.

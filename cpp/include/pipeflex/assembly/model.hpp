@@ -127,7 +127,7 @@ struct State {
     std::vector<Mat3<double>> frames;     // reference rotation of each node
 
     explicit State(const Model& m);
-    // Re-base the rotation of every node whose |phi| exceeds max_angle [rad].
+    // Re-base the rotation of every node whose |phi| exceeds max_angle [rad] (rebase_frames).
     int rebase(double max_angle);
     // Nodal rotation matrix R = exp(phi) R_ref (ANCF node: e1 along the slope, e3 = z).
     Mat3<double> rotation(int node) const;
@@ -213,11 +213,27 @@ double load_power(const Model& model, const State& state, double t);
 // Add the reduced increment dz to the coordinates (q <- q + T dz); dz has n_dofs
 // entries, full 6 per node (both checked).
 void add_increment(const Model& model, Eigen::Ref<Eigen::VectorXd> full, const Eigen::VectorXd& dz);
+// The state at reduced coordinates z around base (6 per node), rates vz and accelerations
+// az: q = base + T z, v = T vz, a = T az (add_increment's, in one pass; sizes checked).
+void set_state_coordinates(const Model& model, const Eigen::VectorXd& base, const Eigen::VectorXd& z,
+                           const Eigen::VectorXd& vz, const Eigen::VectorXd& az, State& state);
 Eigen::VectorXd reduce(const Model& model, const Eigen::VectorXd& full);  // T^T f (full: 6 per node, checked)
+// The same into out (resized to n_dofs: no allocation once it has that size).
+void reduce(const Model& model, const Eigen::VectorXd& full, Eigen::VectorXd& out);
+
+// node_motion of every frame node at the state into motions (resized to n_nodes; the
+// entries of ANCF nodes are left as they are).
+void node_motions(const Model& model, const State& state, std::vector<NodeMotion<double>>& motions);
+// Re-base the rotation of every frame node whose |phi| exceeds max_angle [rad]: R_ref <- R,
+// phi <- 0, the angular velocity and acceleration kept (State::rebase). motions: the
+// nodes' node_motion at the state (node_motions), or null (evaluated here).
+int rebase_frames(State& state, double max_angle, const NodeMotion<double>* motions);
 
 // Power of the fluid forces on the structure [W]: -v . f_fluid summed over the elements
 // (the flow-dependent part of the pipe elements' residuals).
-double fluid_power(const Model& model, const State& state, const LoadState& load);
+// motions: the nodes' node_motion at the state (node_motions), or null.
+double fluid_power(const Model& model, const State& state, const LoadState& load,
+                   const NodeMotion<double>* motions = nullptr);
 
 // Whether an element has damping forces (Element::damped), and the power v . f_d [W]
 // (>= 0) those forces take out of the motion, summed over the elements.

@@ -25,7 +25,8 @@ public:
     void energies(const State& state, double* kinetic, double* elastic) const override;
     void add_gravity_potential(const State& state, const Vec3<double>& g, double* V) const override;
     double line_mass() const override { return data.pipe_mass + data.fluid_mass; }
-    void add_fluid_power(const State& state, const LoadState& load, double* P) const override;
+    void add_fluid_power(const State& state, const LoadState& load, const NodeMotion<double>* motions,
+                         double* P) const override;
     bool damped() const override { return data.kelvin_voigt() || data.c_ext != 0.0; }
     void add_damping_power(const State& state, double* P) const override;
     int n_stresses() const override { return 6; }

@@ -67,23 +67,45 @@ template <class S> Mat3<S> rotation_jacobian(const Vec3<S>& phi) {
     return rodrigues(phi, a, b);
 }
 
+// The coefficients' derivatives da = da/dt2, db = db/dt2 (t2 = |phi|^2) from their values s,
+// a, b at t2 (rotation_coefficients): below t2 = 1e-2 the derivatives of the same series
+// (Horner in t2), above da = (s - 2a) / (2 t2), db = (a - 3b) / (2 t2) (from da/dt = (s - 2a)/t,
+// db/dt = (a - 3b)/t). Plain arithmetic in S: no nested Dual evaluation of the coefficients.
+template <class S> void rotation_coefficient_rates(const S& t2, const S& s, const S& a, const S& b, S& da, S& db) {
+    if (value_of(t2) < 1e-2) {
+        da = -(1.0 / 24 - t2 * (1.0 / 360 - t2 * (1.0 / 13440 - t2 * (1.0 / 907200))));
+        db = -(1.0 / 120 - t2 * (1.0 / 2520 - t2 * (1.0 / 120960 - t2 * (1.0 / 9979200))));
+    } else {
+        const S h = 0.5 / t2;
+        da = (s - 2.0 * a) * h;
+        db = (a - 3.0 * b) * h;
+    }
+}
+
 // d/dt[T(phi)] phi_dot: the part of the angular velocity's rate omega_dot = T phi_ddot +
 // d/dt[T] phi_dot that does not involve phi_ddot. With T = I + a W + b W^2 (a, b functions
 // of t2 = |phi|^2, W = skew(phi)) and skew(phi_dot) phi_dot = 0:
 //     d/dt[T] phi_dot = 2 (phi . phi_dot) (a' u + b' phi x u) + b phi_dot x u,  u = phi x phi_dot,
-// with a' = da/dt2, b' = db/dt2 from one forward derivative of the coefficients (a few
-// cross products instead of T's 3 x 3 products in dual numbers: a residual evaluates it at
-// every node of every element).
-template <class S> Vec3<S> convective_angular_acceleration(const Vec3<S>& phi, const Vec3<S>& phid) {
-    using D = Dual<S, 1>;
-    D t2(dot(phi, phi)), s, a, b;
-    t2.d[0] = S(1.0);
-    rotation_coefficients(t2, s, a, b);
+// with a' = da/dt2, b' = db/dt2 (rotation_coefficient_rates; a few cross products instead of
+// T's 3 x 3 products in dual numbers: a residual evaluates it at every node of every
+// element). s, a, b: the coefficients at t2 = |phi|^2.
+template <class S>
+Vec3<S> convective_angular_acceleration(const Vec3<S>& phi, const Vec3<S>& phid, const S& t2, const S& s, const S& a,
+                                        const S& b) {
+    S da, db;
+    rotation_coefficient_rates(t2, s, a, b, da, db);
     const Vec3<S> u = cross(phi, phid), w = cross(phi, u), x = cross(phid, u);
     const S c = 2.0 * dot(phi, phid);
     Vec3<S> out;
-    for (int i = 0; i < 3; ++i) out[i] = c * (a.d[0] * u[i] + b.d[0] * w[i]) + b.v * x[i];
+    for (int i = 0; i < 3; ++i) out[i] = c * (da * u[i] + db * w[i]) + b * x[i];
     return out;
+}
+
+template <class S> Vec3<S> convective_angular_acceleration(const Vec3<S>& phi, const Vec3<S>& phid) {
+    const S t2 = dot(phi, phi);
+    S s, a, b;
+    rotation_coefficients(t2, s, a, b);
+    return convective_angular_acceleration(phi, phid, t2, s, a, b);
 }
 
 // What the elements at a node need of its rotation: R = exp(phi), T(phi), the spatial
@@ -97,8 +119,9 @@ template <class S> struct NodeMotion {
 template <class S> NodeMotion<S> node_motion(const Vec3<S>& phi, const Vec3<S>& phid, const Vec3<S>& phidd) {
     // rotation_exp and rotation_jacobian with one evaluation of the coefficients and of
     // skew(phi)^2 (the same operations, so the same bits)
+    const S t2 = dot(phi, phi);
     S s, a, b;
-    rotation_coefficients(dot(phi, phi), s, a, b);
+    rotation_coefficients(t2, s, a, b);
     const Mat3<S> W = skew(phi);
     const Mat3<S> W2 = W * W;
     NodeMotion<S> m;
@@ -112,10 +135,10 @@ template <class S> NodeMotion<S> node_motion(const Vec3<S>& phi, const Vec3<S>& 
     }
     m.w = m.T * phid;
     m.al = m.T * phidd;
-    // quadratic in phi_dot: at rest its value and first derivatives vanish, so the nested
-    // derivative is skipped there
+    // quadratic in phi_dot: at rest its value and first derivatives vanish, so it is
+    // skipped there
     if (value_of(phid[0]) != 0.0 || value_of(phid[1]) != 0.0 || value_of(phid[2]) != 0.0)
-        m.al = m.al + convective_angular_acceleration(phi, phid);
+        m.al = m.al + convective_angular_acceleration(phi, phid, t2, s, a, b);
     return m;
 }
 

@@ -130,6 +130,10 @@ void pipe_fluid_forces(const PipeElementData& e, const NodeFrames& ref, const Lo
 // formed: the power integrated at every step of a transient).
 double pipe_fluid_power(const PipeElementData& e, const NodeFrames& ref, const LoadState& load, const double* q,
                         const double* v);
+// The same with the nodes' rotation kinematics given (node_motion at each node; its
+// acceleration is not used): a transient's work evaluates them once per node.
+double pipe_fluid_power(const PipeElementData& e, const NodeFrames& ref, const LoadState& load, const double* q,
+                        const double* v, const NodeMotion<double>& np, const NodeMotion<double>& nq);
 
 // Power v . f_d [W] (>= 0) of the damping part f_d of the residual at q, v: the
 // Kelvin-Voigt forces (eta_axial, eta_torsion, eta_bending) and the external viscous

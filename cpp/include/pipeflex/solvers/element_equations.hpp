@@ -9,6 +9,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <limits>
 #include <sstream>
 #include <stdexcept>
@@ -77,12 +78,7 @@ class ElementEquations final : public Equations {
 
     // Coordinates from the reduced z, v, a; the hub-driven nodes from their motion at t.
     void set(const Eigen::VectorXd& z, const Eigen::VectorXd& v, const Eigen::VectorXd& a, double t) {
-        state.q = base_q;
-        add_increment(model, state.q, z);
-        state.v.setZero();
-        add_increment(model, state.v, v);
-        state.a.setZero();
-        add_increment(model, state.a, a);
+        set_state_coordinates(model, base_q, z, v, a, state);
         if (!statics) apply_hub(model, state, t);
         t_set = t;
     }
@@ -96,12 +92,13 @@ class ElementEquations final : public Equations {
     }
 
     // Re-base the frames (nodes with |phi| > angle); returns the new reduced velocity and
-    // acceleration and resets the base so that z = 0.
+    // acceleration (into v and a: no allocation per step) and resets the base so that z = 0.
+    // The nodes' kinematics of the step's work (accept) are taken if still those of the state.
     int rebase(double angle, Eigen::VectorXd& v, Eigen::VectorXd& a) {
-        const int k = state.rebase(angle);
+        const int k = rebase_frames(state, angle, motions_current() ? motions_.data() : nullptr);
         base_q = state.q;
-        v = reduce(model, state.v);
-        a = reduce(model, state.a);
+        reduce(model, state.v, v);
+        reduce(model, state.a, a);
         return k;
     }
 
@@ -273,8 +270,8 @@ class ElementEquations final : public Equations {
 
     // Power of the fluid forces and of the external loads on the structure [W], and the
     // power the damping forces dissipate [W] (0 without damping: no work done).
-    void powers(double t, double* fluid, double* loads, double* damping) const {
-        *fluid = fluid_power(model, state, load_at(t));
+    void powers(double t, double* fluid, double* loads, double* damping) {
+        *fluid = fluid_power(model, state, load_at(t), state_motions());
         // state.v is B v_z, so v . f equals v_z . B^T f
         *loads = load_factor(t) * load_power(model, state, t);
         *damping = damped ? damping_power(model, state) : 0.0;
@@ -305,6 +302,27 @@ class ElementEquations final : public Equations {
         last_power_t = t;
     }
 
+    // node_motion of every frame node at the state (node_motions), evaluated once per state:
+    // the step's work (accept) and the re-basing that follows take the same.
+    const NodeMotion<double>* state_motions() {
+        if (!motions_current()) {
+            node_motions(model, state, motions_);
+            motions_q_ = state.q;
+            motions_v_ = state.v;
+            motions_a_ = state.a;
+        }
+        return motions_.data();
+    }
+    // whether motions_ are those of the state (whoever changed it since)
+    bool motions_current() const {
+        auto same = [](const Eigen::VectorXd& x, const Eigen::VectorXd& y) {  // bit for bit
+            return x.size() == y.size() &&
+                   std::memcmp(x.data(), y.data(), static_cast<std::size_t>(x.size()) * sizeof(double)) == 0;
+        };
+        return !motions_.empty() && same(motions_q_, state.q) && same(motions_v_, state.v) &&
+               same(motions_a_, state.a);
+    }
+
     // fw, lw, dw: the works of the fluid and the loads and the dissipated energy at t [J]
     void record(double t, TransientOutput& out, double fw, double lw, double dw) const {
         out.t.push_back(t);
@@ -331,6 +349,11 @@ class ElementEquations final : public Equations {
         out.load_work.push_back(lw);
         out.dissipated.push_back(dw);
     }
+
+   private:
+    // state_motions(): the nodes' kinematics and the state (q, v, a) they were evaluated at
+    std::vector<NodeMotion<double>> motions_;
+    Eigen::VectorXd motions_q_, motions_v_, motions_a_;
 };
 
 // The element model's equations for statics, with the flow and options they refer to:
