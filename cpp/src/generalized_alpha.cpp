@@ -378,7 +378,8 @@ void GeneralizedAlpha::advance_to(double t_out) {
         // error in the velocity that the estimate does not see (the rigid sprinkler at rtol
         // 1e-2, its step cut from 5 to 0.3 ms and grown back: 0.15 m off, 1.6e-3 m rescaled).
         const bool rescale = opt_.error_rate > 0.0 && !taken_.empty() && hs != taken_.back();
-        const Eigen::VectorXd& pa = rescale ? Eigen::VectorXd(a_ + (hs / taken_.back()) * (pa_ - a_)) : pa_;
+        if (rescale) pa_rescaled_ = a_ + (hs / taken_.back()) * (pa_ - a_);  // a member: no allocation per step
+        const Eigen::VectorXd& pa = rescale ? pa_rescaled_ : pa_;
         if (!newton_.solve(t_, hs, zero_, v_, a_, pa, an_, pan_, zn_, vn_, lam_, stats_, failure)) {
             if (replay) throw_newton_failure(eq_, t_, hs, failure);  // a given mesh is not changed
             ++stats_.failed_steps;

@@ -477,7 +477,7 @@ class GeneralizedAlpha {
     double t_ = 0.0, h_ = 0.0, h_prev_ = 0.0;
     std::vector<double> taken_;
     std::size_t replayed_ = 0;  // steps of opt_.steps taken
-    Eigen::VectorXd v_, a_, pa_, lam_, an_, pan_, zn_, vn_, a_prev_, zero_, offset_, lam_start_;
+    Eigen::VectorXd v_, a_, pa_, lam_, an_, pan_, zn_, vn_, a_prev_, zero_, offset_, lam_start_, pa_rescaled_;
     Eigen::VectorXd error_weights_;  // s_i / error_rate: a coordinate's error in [s]
     // The local error of the step just converged (step hs, ending at tn) in tolerances
     // error_rate hs (<= 1: accepted); filtered through the iteration matrix (two residual
