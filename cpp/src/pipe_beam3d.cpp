@@ -3,31 +3,52 @@
 #include "pipeflex/elements/hermite.hpp"
 
 #include <cmath>
+#include <type_traits>
 
 namespace pipeflex {
 namespace {
 
 template <class S> Vec3<S> vec(const S* p) { return {{p[0], p[1], p[2]}}; }
 
+// fn(std::true_type) or fn(std::false_type) as flag: a run-time flag made a compile-time one.
+template <class Fn> void with_flag(bool flag, Fn&& fn) {
+    if (flag)
+        fn(std::true_type{});
+    else
+        fn(std::false_type{});
+}
+
 template <class S> void add_to(S* dst, const Vec3<S>& x) {
     for (int i = 0; i < 3; ++i) dst[i] += x[i];
+}
+
+// R_ref R_offset. The offset is the identity on a straight run: then no product (the same
+// values: the product's other terms are zeros).
+inline Mat3<double> frame_offset(const Mat3<double>& frame, const Mat3<double>& offset) {
+    static constexpr std::array<double, 9> identity{1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0};
+    return offset.c == identity ? frame : frame * offset;
 }
 
 // End triad E = exp(phi) R_ref R_offset; its columns are e_x, e_y, e_z.
 template <class S>
 Mat3<S> end_triad(const Vec3<S>& phi, const Mat3<double>& frame, const Mat3<double>& offset) {
-    return rotation_exp(phi) * promote<S>(frame * offset);
+    return rotation_exp(phi) * promote<S>(frame_offset(frame, offset));
 }
 
 // Generalised strains eps (eqs. 1-2), from the barred strains eps_bar, their gradients with
 // respect to the virtual displacements u = [dx^p, dtheta^p, dx^q, dtheta^q] (spatial
 // virtual rotations) and the Jacobian d eps/d eps_bar (add_strain_work: eps's gradients
-// are never formed).
+// are never formed). Both are kept by their nonzero parts (bar_grad_matrix and
+// strain_jacobian give them whole): the gradients' 3-blocks el (stretch, at x^q; -el at
+// x^p), tw (twist, at theta^p; -tw at theta^q) and, of the bending strain k = 2..5 at index
+// k - 2, gx (at x^q; -gx at x^p) and gr (at theta of node k % 2); the Jacobian is I plus
+// the rows j0 = J[0][2..5], j1 = J[1][2..5] and the entries +-c6 s56, +-c6 s34, +-c6 eb_1.
 template <class S> struct Strains {
     std::array<S, 6> eps;
     std::array<S, 6> bar;
-    std::array<std::array<S, 12>, 6> bar_grad;
-    std::array<std::array<S, 6>, 6> jac;
+    Vec3<S> el, tw, gx[4], gr[4];
+    std::array<S, 4> j0, j1;
+    S a56, a34, a1;
 };
 
 template <class S>
@@ -40,36 +61,23 @@ Strains<S> strains(double l0, const Vec3<S>& xp, const Vec3<S>& xq, const Mat3<S
     const Vec3<S> eyp = Ep.col(1), ezp = Ep.col(2), eyq = Eq.col(1), ezq = Eq.col(2);
 
     Strains<S> out;
-    auto& eb = out.bar;       // barred strains
-    auto& gb = out.bar_grad;  // their gradients
-    for (auto& g : gb) g.fill(S(0.0));
+    auto& eb = out.bar;  // barred strains
     eb[0] = l - l0;
-    for (int i = 0; i < 3; ++i) {
-        gb[0][i] = -el[i];
-        gb[0][6 + i] = el[i];
-    }
+    out.el = el;
     eb[1] = 0.5 * l0 * (dot(ezp, eyq) - dot(eyp, ezq));
     const Vec3<S> c1 = cross(ezp, eyq) - cross(eyp, ezq);
-    for (int i = 0; i < 3; ++i) {
-        gb[1][3 + i] = 0.5 * l0 * c1[i];
-        gb[1][9 + i] = -0.5 * l0 * c1[i];
-    }
-    // eps_bar_k = s l0 e_l . e (e a triad vector of node n = 0 for p, 1 for q)
-    auto bend = [&](int k, double s, const Vec3<S>& e, int n) {
+    for (int i = 0; i < 3; ++i) out.tw[i] = 0.5 * l0 * c1[i];
+    // eps_bar_k = s l0 e_l . e (e a triad vector of node k % 2: 0 for p, 1 for q)
+    auto bend = [&](int k, double s, const Vec3<S>& e) {
         const S ele = dot(el, e);
         eb[k] = s * l0 * ele;
-        const Vec3<S> gx = (S(s * l0) / l) * (e - ele * el);  // s l0 (I - el el^T) e / l
-        const Vec3<S> gr = (s * l0) * cross(e, el);
-        for (int i = 0; i < 3; ++i) {
-            gb[k][i] = -gx[i];
-            gb[k][6 + i] = gx[i];
-            gb[k][6 * n + 3 + i] = gr[i];
-        }
+        out.gx[k - 2] = (S(s * l0) / l) * (e - ele * el);  // s l0 (I - el el^T) e / l
+        out.gr[k - 2] = (s * l0) * cross(e, el);
     };
-    bend(2, -1.0, ezp, 0);
-    bend(3, 1.0, ezq, 1);
-    bend(4, 1.0, eyp, 0);
-    bend(5, -1.0, eyq, 1);
+    bend(2, -1.0, ezp);
+    bend(3, 1.0, ezq);
+    bend(4, 1.0, eyp);
+    bend(5, -1.0, eyq);
 
     // eps(eps_bar) of eq. 1 and the Jacobian de/deb.
     const double c30 = 1.0 / (30.0 * l0), c6 = 1.0 / (6.0 * l0), c1l = 1.0 / l0;
@@ -82,38 +90,78 @@ Strains<S> strains(double l0, const Vec3<S>& xp, const Vec3<S>& xq, const Mat3<S
     e[3] = eb[3] - c6 * eb[1] * s56;
     e[4] = eb[4] - c6 * eb[1] * s34;
     e[5] = eb[5] + c6 * eb[1] * s34;
-    auto& J = out.jac;
-    for (auto& row : J) row.fill(S(0.0));
-    for (int i = 0; i < 6; ++i) J[i][i] = S(1.0);
-    J[0][2] = c30 * (4.0 * eb[2] + eb[3]);
-    J[0][3] = c30 * (eb[2] + 4.0 * eb[3]);
-    J[0][4] = c30 * (4.0 * eb[4] + eb[5]);
-    J[0][5] = c30 * (eb[4] + 4.0 * eb[5]);
-    J[1][2] = -c1l * eb[5];
-    J[1][3] = c1l * eb[4];
-    J[1][4] = c1l * eb[3];
-    J[1][5] = -c1l * eb[2];
-    J[2][1] = c6 * s56;  J[2][4] = c6 * eb[1];  J[2][5] = c6 * eb[1];
-    J[3][1] = -c6 * s56; J[3][4] = -c6 * eb[1]; J[3][5] = -c6 * eb[1];
-    J[4][1] = -c6 * s34; J[4][2] = -c6 * eb[1]; J[4][3] = -c6 * eb[1];
-    J[5][1] = c6 * s34;  J[5][2] = c6 * eb[1];  J[5][3] = c6 * eb[1];
+    out.j0 = {c30 * (4.0 * eb[2] + eb[3]), c30 * (eb[2] + 4.0 * eb[3]), c30 * (4.0 * eb[4] + eb[5]),
+              c30 * (eb[4] + 4.0 * eb[5])};
+    out.j1 = {-c1l * eb[5], c1l * eb[4], c1l * eb[3], -c1l * eb[2]};
+    out.a56 = c6 * s56;
+    out.a34 = c6 * s34;
+    out.a1 = c6 * eb[1];
     return out;
 }
 
+// The Jacobian d eps/d eps_bar whole (6 x 6).
+template <class S> std::array<std::array<S, 6>, 6> strain_jacobian(const Strains<S>& st) {
+    std::array<std::array<S, 6>, 6> J;
+    for (auto& row : J) row.fill(S(0.0));
+    for (int i = 0; i < 6; ++i) J[i][i] = S(1.0);
+    for (int k = 0; k < 4; ++k) {
+        J[0][2 + k] = st.j0[k];
+        J[1][2 + k] = st.j1[k];
+    }
+    J[2][1] = st.a56;  J[2][4] = st.a1;  J[2][5] = st.a1;
+    J[3][1] = -st.a56; J[3][4] = -st.a1; J[3][5] = -st.a1;
+    J[4][1] = -st.a34; J[4][2] = -st.a1; J[4][3] = -st.a1;
+    J[5][1] = st.a34;  J[5][2] = st.a1;  J[5][3] = st.a1;
+    return J;
+}
+
+// The barred strains' gradients d eps_bar/du whole (6 x 12).
+template <class S> std::array<std::array<S, 12>, 6> bar_grad_matrix(const Strains<S>& st) {
+    std::array<std::array<S, 12>, 6> gb;
+    for (auto& g : gb) g.fill(S(0.0));
+    for (int i = 0; i < 3; ++i) {
+        gb[0][i] = -st.el[i];
+        gb[0][6 + i] = st.el[i];
+        gb[1][3 + i] = st.tw[i];
+        gb[1][9 + i] = -st.tw[i];
+        for (int k = 2; k < 6; ++k) {
+            gb[k][i] = -st.gx[k - 2][i];
+            gb[k][6 + i] = st.gx[k - 2][i];
+            gb[k][6 * (k % 2) + 3 + i] = st.gr[k - 2][i];
+        }
+    }
+    return gb;
+}
+
+// (d eps/d eps_bar)^T s, the terms in the order of a dense product (the same values).
+template <class S, class T> std::array<S, 6> strain_jacobian_t(const Strains<S>& st, const T* s) {
+    std::array<S, 6> sb;
+    sb[0] = S(s[0]);
+    sb[1] = s[1] + s[2] * st.a56 - s[3] * st.a56 - s[4] * st.a34 + s[5] * st.a34;
+    sb[2] = s[0] * st.j0[0] + s[1] * st.j1[0] + s[2] - s[4] * st.a1 + s[5] * st.a1;
+    sb[3] = s[0] * st.j0[1] + s[1] * st.j1[1] + s[3] - s[4] * st.a1 + s[5] * st.a1;
+    sb[4] = s[0] * st.j0[2] + s[1] * st.j1[2] + s[2] * st.a1 - s[3] * st.a1 + s[4];
+    sb[5] = s[0] * st.j0[3] + s[1] * st.j1[3] + s[2] * st.a1 - s[3] * st.a1 + s[5];
+    return sb;
+}
+
 // f += D^T s, D = d eps/du = (d eps/d eps_bar)(d eps_bar/du): as (d eps_bar/du)^T ((d eps/
-// d eps_bar)^T s), 108 products instead of the 504 of forming D.
+// d eps_bar)^T s) on the nonzero blocks, strain by strain (the order of a dense product).
 template <class S, class T> void add_strain_work(const Strains<S>& st, const T* s, S* f) {
-    // the blocks [dx^p, dtheta^p, dx^q, dtheta^q] of each barred strain's gradient that can
-    // be nonzero (strains(): stretch, twist, the bending at p and at q); the others add zeros
-    static constexpr bool live[6][4] = {{true, false, true, false}, {false, true, false, true},
-                                        {true, true, true, false},  {true, false, true, true},
-                                        {true, true, true, false},  {true, false, true, true}};
-    for (int k = 0; k < 6; ++k) {
-        S sb = S(0.0);
-        for (int i = 0; i < 6; ++i) sb += s[i] * st.jac[i][k];
-        for (int b = 0; b < 4; ++b)
-            if (live[k][b])
-                for (int j = 3 * b; j < 3 * b + 3; ++j) f[j] += sb * st.bar_grad[k][j];
+    const std::array<S, 6> sb = strain_jacobian_t(st, s);
+    for (int i = 0; i < 3; ++i) {
+        f[i] -= sb[0] * st.el[i];
+        f[6 + i] += sb[0] * st.el[i];
+        f[3 + i] += sb[1] * st.tw[i];
+        f[9 + i] -= sb[1] * st.tw[i];
+    }
+    for (int k = 2; k < 6; ++k) {
+        S* fr = f + 6 * (k % 2) + 3;
+        for (int i = 0; i < 3; ++i) {
+            f[i] -= sb[k] * st.gx[k - 2][i];
+            fr[i] += sb[k] * st.gr[k - 2][i];
+            f[6 + i] += sb[k] * st.gx[k - 2][i];
+        }
     }
 }
 
@@ -136,17 +184,30 @@ template <class S> std::array<S, 6> stresses(const PipeElementData& e, const std
 // velocities), sigma_d = C eta eps_dot with C of stresses() (one eta per strain group).
 template <class S>
 void add_kelvin_voigt(const PipeElementData& e, const Strains<S>& st, const S* ud, S* f) {
-    std::array<S, 6> bar_rate, rate;
-    for (int k = 0; k < 6; ++k) {
-        S x = S(0.0);
-        for (int j = 0; j < 12; ++j) x += st.bar_grad[k][j] * ud[j];
-        bar_rate[k] = x;
+    // eps_bar_dot = (d eps_bar/du) u_dot on the nonzero blocks, in the order of a dense product
+    auto acc = [](S& x, const Vec3<S>& g, const S* u, double sign) {
+        for (int i = 0; i < 3; ++i) x += (sign * g[i]) * u[i];
+    };
+    std::array<S, 6> br;
+    for (auto& x : br) x = S(0.0);
+    acc(br[0], st.el, ud, -1.0);
+    acc(br[0], st.el, ud + 6, 1.0);
+    acc(br[1], st.tw, ud + 3, 1.0);
+    acc(br[1], st.tw, ud + 9, -1.0);
+    for (int k = 2; k < 6; ++k) {
+        acc(br[k], st.gx[k - 2], ud, -1.0);
+        if (k % 2 == 0) acc(br[k], st.gr[k - 2], ud + 3, 1.0);
+        acc(br[k], st.gx[k - 2], ud + 6, 1.0);
+        if (k % 2 == 1) acc(br[k], st.gr[k - 2], ud + 9, 1.0);
     }
-    for (int i = 0; i < 6; ++i) {
-        S x = S(0.0);
-        for (int k = 0; k < 6; ++k) x += st.jac[i][k] * bar_rate[k];
-        rate[i] = x;
-    }
+    // eps_dot = (d eps/d eps_bar) eps_bar_dot
+    std::array<S, 6> rate;
+    rate[0] = br[0] + st.j0[0] * br[2] + st.j0[1] * br[3] + st.j0[2] * br[4] + st.j0[3] * br[5];
+    rate[1] = br[1] + st.j1[0] * br[2] + st.j1[1] * br[3] + st.j1[2] * br[4] + st.j1[3] * br[5];
+    rate[2] = st.a56 * br[1] + br[2] + st.a1 * br[4] + st.a1 * br[5];
+    rate[3] = -(st.a56 * br[1]) + br[3] - st.a1 * br[4] - st.a1 * br[5];
+    rate[4] = -(st.a34 * br[1]) - st.a1 * br[2] - st.a1 * br[3] + br[4];
+    rate[5] = st.a34 * br[1] + st.a1 * br[2] + st.a1 * br[3] + br[5];
     std::array<S, 6> s = stresses(e, rate);
     s[0] *= e.eta_axial;
     s[1] *= e.eta_torsion;
@@ -154,11 +215,69 @@ void add_kelvin_voigt(const PipeElementData& e, const Strains<S>& st, const S* u
     add_strain_work(st, s.data(), f);
 }
 
+// N values side by side: stresses() of the rows of a 6 x N matrix, C times its N columns in
+// one call (each value as in a call per column).
+template <int N> struct Pack {
+    std::array<double, N> v;
+};
+template <int N> Pack<N> operator*(double s, const Pack<N>& a) {
+    Pack<N> r;
+    for (int i = 0; i < N; ++i) r.v[i] = s * a.v[i];
+    return r;
+}
+template <int N> Pack<N> operator+(const Pack<N>& a, const Pack<N>& b) {
+    Pack<N> r;
+    for (int i = 0; i < N; ++i) r.v[i] = a.v[i] + b.v[i];
+    return r;
+}
+
 template <class S>
 std::array<S, 6> strain_deviation(const PipeElementData& e, const std::array<S, 6>& eps) {
     std::array<S, 6> de;
     for (int i = 0; i < 6; ++i) de[i] = eps[i] - e.strain0[i];
     return de;
+}
+
+// The centre line's Hermite forces F_i (i = 0..3; eqs. 12-20, unsplit) of its inertia,
+// gravity, external damping, foundation and flow on a = [x^p, l0 e^p_x, x^q, l0 e^q_x] and
+// its rates ad, add.
+template <class S>
+inline void hermite_forces(const PipeElementData& e, const LoadState& load, const Vec3<S> (&a)[4], const Vec3<S> (&ad)[4],
+                    const Vec3<S> (&add)[4], Vec3<S> (&F)[4]) {
+    const double l0 = e.l0;
+    const double mtot = e.pipe_mass + e.fluid_mass;
+    const double mdot = e.flow_factor * load.mass_flow;
+    const double mdd = e.flow_factor * load.mass_flow_rate;
+    const double P = e.fluid_mass > 0.0 ? e.kv * mdot * mdot / e.fluid_mass : 0.0;
+    Vec3<double> g;
+    for (int i = 0; i < 3; ++i) g[i] = load.gravity[i] * load.gravity_factor * mtot * l0;
+    // terms with a zero factor (no flow, a steady flow) skipped: adding zeros changes no value;
+    // the rarely present ones as compile-time flags (no tests in the unrolled sums)
+    const bool flow = mdot != 0.0, unsteady = mdd != 0.0, pressure = P != 0.0, viscous = e.c_ext != 0.0;
+    const bool found = e.k_found != 0.0;
+    auto sum = [&](auto with_viscous, auto with_found, auto with_unsteady) {
+        // by component, over i innermost (vectorised); each F_i summed in the order over j, terms
+        S Fc[3][4];
+        for (int c = 0; c < 3; ++c)
+            for (int i = 0; i < 4; ++i) Fc[c][i] = S(g[c] * -hermite::load[i]);
+        auto term = [&](const double (&m)[4][4], int j, double scale, const Vec3<S>& x) {
+            for (int c = 0; c < 3; ++c)
+                for (int i = 0; i < 4; ++i) Fc[c][i] += x[c] * (scale * m[i][j]);
+        };
+        for (int j = 0; j < 4; ++j) {
+            term(hermite::mass, j, mtot * l0, add[j]);
+            if constexpr (decltype(with_viscous)::value) term(hermite::mass, j, e.c_ext * l0, ad[j]);
+            if constexpr (decltype(with_found)::value)
+                term(hermite::mass, j, e.k_found * l0, a[j] - promote<S>(e.found0[j]));
+            if (flow) term(hermite::first, j, 2.0 * mdot, ad[j]);
+            if constexpr (decltype(with_unsteady)::value) term(hermite::first, j, mdd, a[j]);
+            if (pressure) term(hermite::second, j, P / l0, a[j]);
+        }
+        for (int i = 0; i < 4; ++i) F[i] = {{Fc[0][i], Fc[1][i], Fc[2][i]}};
+    };
+    with_flag(viscous, [&](auto v_) {
+        with_flag(found, [&](auto f_) { with_flag(unsteady, [&](auto u_) { sum(v_, f_, u_); }); });
+    });
 }
 
 }  // namespace
@@ -170,7 +289,8 @@ void pipe_residual(const PipeElementData& e, const NodeFrames& ref, const LoadSt
     const Vec3<S> xp = vec(q), xq = vec(q + 6);
     const Vec3<S> vxp = vec(v), vxq = vec(v + 6);
     // the end triads E = exp(phi) R_ref R_offset (end_triad)
-    const Mat3<S> Ep = np.R * promote<S>(ref.p * e.offset_p), Eq = nq.R * promote<S>(ref.q * e.offset_q);
+    const Mat3<S> Ep = np.R * promote<S>(frame_offset(ref.p, e.offset_p)),
+                  Eq = nq.R * promote<S>(frame_offset(ref.q, e.offset_q));
     const Mat3<S>&Tp = np.T, &Tq = nq.T;
     const Vec3<S>&wp = np.w, &wq = nq.w, &alp = np.al, &alq = nq.al;
 
@@ -199,27 +319,10 @@ void pipe_residual(const PipeElementData& e, const NodeFrames& ref, const LoadSt
     const Vec3<S> ad[4] = {vxp, l0 * cross(wp, exp_), vxq, l0 * cross(wq, exq)};
     const Vec3<S> add[4] = {promote<S>(vec(acc)), l0 * (cross(alp, exp_) + cross(wp, cross(wp, exp_))),
                             promote<S>(vec(acc + 6)), l0 * (cross(alq, exq) + cross(wq, cross(wq, exq)))};
-    const double mtot = e.pipe_mass + e.fluid_mass;
     const double mdot = e.flow_factor * load.mass_flow;
-    const double mdd = e.flow_factor * load.mass_flow_rate;
     const double P = e.fluid_mass > 0.0 ? e.kv * mdot * mdot / e.fluid_mass : 0.0;
-    Vec3<double> g;
-    for (int i = 0; i < 3; ++i) g[i] = load.gravity[i] * load.gravity_factor * mtot * l0;
     Vec3<S> F[4];
-    // terms with a zero factor (no flow, a steady flow) skipped: adding zeros changes no value
-    const bool flow = mdot != 0.0, unsteady = mdd != 0.0, pressure = P != 0.0, viscous = e.c_ext != 0.0;
-    const bool found = e.k_found != 0.0;
-    for (int i = 0; i < 4; ++i) {
-        F[i] = -hermite::load[i] * promote<S>(g);
-        for (int j = 0; j < 4; ++j) {
-            F[i] += (mtot * l0 * hermite::mass[i][j]) * add[j];
-            if (viscous) F[i] += (e.c_ext * l0 * hermite::mass[i][j]) * ad[j];
-            if (found) F[i] += (e.k_found * l0 * hermite::mass[i][j]) * (a[j] - promote<S>(e.found0[j]));
-            if (flow) F[i] += (2.0 * mdot * hermite::first[i][j]) * ad[j];
-            if (unsteady) F[i] += (mdd * hermite::first[i][j]) * a[j];
-            if (pressure) F[i] += (P / l0 * hermite::second[i][j]) * a[j];
-        }
-    }
+    hermite_forces(e, load, a, ad, add, F);
     // Remove split-off end terms of eqs. 19-20 where asked (their sum is eqs. 21-22).
     if (!e.end_terms_p) F[0] += mdot * vxp + P * exp_;
     if (!e.end_terms_q) F[2] += -(mdot * vxq + P * exq);
@@ -239,9 +342,18 @@ void pipe_residual(const PipeElementData& e, const NodeFrames& ref, const LoadSt
         }
         add_to(dst, E * ja_b + cross(w, E * jw_b));
     };
-    if (e.rotary_inertia[0] != 0.0 || e.rotary_inertia[1] != 0.0 || e.rotary_inertia[2] != 0.0) {
+    // only the polar inertia (the bending one neglected): E Jb E^T x = J_x e_x (e_x . x), the
+    // values of rotary()'s full products (their other terms are zeros)
+    auto polar = [&](const Vec3<S>& ex, const Vec3<S>& w, const Vec3<S>& al, S* dst) {
+        const double Jx = 0.5 * l0 * e.rotary_inertia[0];
+        add_to(dst, (Jx * dot(ex, al)) * ex + cross(w, (Jx * dot(ex, w)) * ex));
+    };
+    if (e.rotary_inertia[1] != 0.0 || e.rotary_inertia[2] != 0.0) {
         rotary(Ep, wp, alp, f + 3);
         rotary(Eq, wq, alq, f + 9);
+    } else if (e.rotary_inertia[0] != 0.0) {
+        polar(exp_, wp, alp, f + 3);
+        polar(exq, wq, alq, f + 9);
     }
 
     // Map virtual rotations to rotation-vector coordinates: dtheta = T dphi.
@@ -335,8 +447,33 @@ M3 operator*(double s, const M3& a) {
 void axpy(M3& y, double s, const M3& x) {
     for (int k = 0; k < 9; ++k) y.c[k] += s * x.c[k];
 }
+void add_to(M3& y, const M3& x) {
+    for (int k = 0; k < 9; ++k) y.c[k] += x.c[k];
+}
+void sub_from(M3& y, const M3& x) {
+    for (int k = 0; k < 9; ++k) y.c[k] -= x.c[k];
+}
 void add_diag(M3& y, double s) {
     for (int i = 0; i < 3; ++i) y(i, i) += s;
+}
+// m skew(a) and skew(a) m without the zeros' products (the same values as the full products)
+M3 mul_skew(const M3& m, const V3& a) {
+    M3 r;
+    for (int i = 0; i < 3; ++i) {
+        r(i, 0) = m(i, 1) * a[2] - m(i, 2) * a[1];
+        r(i, 1) = m(i, 2) * a[0] - m(i, 0) * a[2];
+        r(i, 2) = m(i, 0) * a[1] - m(i, 1) * a[0];
+    }
+    return r;
+}
+M3 skew_mul(const V3& a, const M3& m) {
+    M3 r;
+    for (int j = 0; j < 3; ++j) {
+        r(0, j) = a[1] * m(2, j) - a[2] * m(1, j);
+        r(1, j) = a[2] * m(0, j) - a[0] * m(2, j);
+        r(2, j) = a[0] * m(1, j) - a[1] * m(0, j);
+    }
+    return r;
 }
 M3 outer(const V3& a, const V3& b) {
     M3 r;
@@ -404,26 +541,18 @@ void elastic(const PipeElementData& e, const V3& xp, const V3& xq, const M3& Ep,
         for (int i = 0; i < 6; ++i) sig[i] = sig_geo[i];
     }
 
-    const auto& Jb = st.jac;
-    double sb[6];
-    for (int k = 0; k < 6; ++k) {
-        sb[k] = 0.0;
-        for (int i = 0; i < 6; ++i) sb[k] += sig[i] * Jb[i][k];
-    }
+    const auto Jb = strain_jacobian(st);
+    const std::array<double, 6> sb = strain_jacobian_t(st, sig.data());  // barred stresses
     // H = J^T C J + sum_i sigma_i d^2 eps_i / d eps_bar^2 (C from the linear stresses()).
-    double CJ[6][6], H[6][6];
-    for (int m = 0; m < 6; ++m) {
-        std::array<double, 6> u{};
-        for (int n = 0; n < 6; ++n) u[n] = Jb[n][m];
-        const std::array<double, 6> c = stresses(e, u);
-        for (int i = 0; i < 6; ++i) CJ[i][m] = c[i];
+    std::array<Pack<6>, 6> Jrows;
+    for (int n = 0; n < 6; ++n) Jrows[n].v = Jb[n];
+    const std::array<Pack<6>, 6> CJ = stresses(e, Jrows);
+    double H[6][6];
+    for (int k = 0; k < 6; ++k) {  // row by row (vectorised), each sum in the order over i
+        for (int m = 0; m < 6; ++m) H[k][m] = 0.0;
+        for (int i = 0; i < 6; ++i)
+            for (int m = 0; m < 6; ++m) H[k][m] += Jb[i][k] * CJ[i].v[m];
     }
-    for (int k = 0; k < 6; ++k)
-        for (int m = 0; m < 6; ++m) {
-            double h = 0.0;
-            for (int i = 0; i < 6; ++i) h += Jb[i][k] * CJ[i][m];
-            H[k][m] = h;
-        }
     const double c30 = 1.0 / (30.0 * l0), c6 = 1.0 / (6.0 * l0), c1l = 1.0 / l0;
     H[2][2] += 4.0 * c30 * sig[0];
     H[3][3] += 4.0 * c30 * sig[0];
@@ -442,40 +571,53 @@ void elastic(const PipeElementData& e, const V3& xp, const V3& xq, const M3& Ep,
     sym(1, 2, c6 * (sig[5] - sig[4]));
     sym(1, 3, c6 * (sig[5] - sig[4]));
 
-    const auto& gb = st.bar_grad;
-    double Hg[6][12];
-    for (int k = 0; k < 6; ++k)
-        for (int j = 0; j < 12; ++j) {
-            double h = 0.0;
-            for (int m = 0; m < 6; ++m) h += H[k][m] * gb[m][j];
-            Hg[k][j] = h;
+    // The barred strains' gradients at x^p are minus those at x^q, so D^T H D and the second
+    // derivatives are formed on the blocks b = 0 x^q, 1 theta^p, 2 theta^q (K; g9 the 9
+    // columns 6..8, 3..5, 9..11 of d eps_bar/du) and x^p's follow by sign. Row by row so
+    // that the compiler vectorises; each sum in the order of the dense product.
+    // rows padded to 10 (a zero column) for pairs of doubles
+    double g9[6][10] = {}, Hg[6][10], K9[9][10];
+    for (int i = 0; i < 3; ++i) {
+        g9[0][i] = st.el[i];
+        g9[1][3 + i] = st.tw[i];
+        g9[1][6 + i] = -st.tw[i];
+        for (int k = 2; k < 6; ++k) {
+            g9[k][i] = st.gx[k - 2][i];
+            g9[k][3 + 3 * (k % 2) + i] = st.gr[k - 2][i];
         }
-    for (int i = 0; i < 12; ++i)
-        for (int j = 0; j < 12; ++j) {
-            double h = 0.0;
-            for (int k = 0; k < 6; ++k) h += gb[k][i] * Hg[k][j];
-            df[i / 3][j / 3](i % 3, j % 3) += h;
-        }
+    }
+    for (int k = 0; k < 6; ++k) {
+        for (int j = 0; j < 10; ++j) Hg[k][j] = 0.0;
+        for (int m = 0; m < 6; ++m)
+            for (int j = 0; j < 10; ++j) Hg[k][j] += H[k][m] * g9[m][j];
+    }
+    for (int i = 0; i < 9; ++i) {
+        for (int j = 0; j < 10; ++j) K9[i][j] = 0.0;
+        for (int k = 0; k < 6; ++k)
+            for (int j = 0; j < 10; ++j) K9[i][j] += g9[k][i] * Hg[k][j];
+    }
+    M3 K[3][3];
+    for (int b = 0; b < 3; ++b)
+        for (int c = 0; c < 3; ++c)
+            for (int i = 0; i < 3; ++i)
+                for (int j = 0; j < 3; ++j) K[b][c](i, j) = K9[3 * b + i][3 * c + j];
 
-    // Second derivatives of the barred strains (blocks 0 x_p, 1 theta_p, 2 x_q, 3 theta_q).
+    // Second derivatives of the barred strains.
     const V3 d = xq - xp;
     const double l = std::sqrt(dot(d, d));
     const V3 el = (1.0 / l) * d;
     M3 P = -1.0 * outer(el, el);  // I - el el^T
     add_diag(P, 1.0);
-    axpy(df[0][0], sb[0] / l, P);
-    axpy(df[0][2], -sb[0] / l, P);
-    axpy(df[2][0], -sb[0] / l, P);
-    axpy(df[2][2], sb[0] / l, P);
+    axpy(K[0][0], sb[0] / l, P);
 
     const V3 eyp = Ep.col(1), ezp = Ep.col(2), eyq = Eq.col(1), ezq = Eq.col(2);
-    const M3 Ap = skew(eyq) * skew(ezp) - skew(ezq) * skew(eyp);
-    const M3 Aq = skew(eyp) * skew(ezq) - skew(ezp) * skew(eyq);
+    const M3 Ap = mul_skew(skew(eyq), ezp) - mul_skew(skew(ezq), eyp);
+    const M3 Aq = mul_skew(skew(eyp), ezq) - mul_skew(skew(ezp), eyq);
     const double s1 = 0.5 * l0 * sb[1];
-    axpy(df[1][1], s1, Ap);
-    axpy(df[1][3], s1, Aq);
-    axpy(df[3][1], -s1, Ap);
-    axpy(df[3][3], -s1, Aq);
+    axpy(K[1][1], s1, Ap);
+    axpy(K[1][2], s1, Aq);
+    axpy(K[2][1], -s1, Ap);
+    axpy(K[2][2], -s1, Aq);
 
     auto bend = [&](int k, double s, const V3& ev, int n) {
         const double c = sb[k] * s * l0;
@@ -484,25 +626,28 @@ void elastic(const PipeElementData& e, const V3& xp, const V3& xq, const M3& Ep,
         M3 Gxx = outer(h, el) + outer(el, h);
         axpy(Gxx, ele, P);
         Gxx = (-c / (l * l)) * Gxx;
-        const M3 Se = skew(ev);
-        const M3 Gxt = (-c / l) * (P * Se);
-        const M3 Grx = (c / l) * (Se * P);
-        const M3 Grt = c * (skew(el) * Se);
-        const int t = 1 + 2 * n;
-        axpy(df[0][0], 1.0, Gxx);
-        axpy(df[0][2], -1.0, Gxx);
-        axpy(df[0][t], -1.0, Gxt);
-        axpy(df[2][0], -1.0, Gxx);
-        axpy(df[2][2], 1.0, Gxx);
-        axpy(df[2][t], 1.0, Gxt);
-        axpy(df[t][0], -1.0, Grx);
-        axpy(df[t][2], 1.0, Grx);
-        axpy(df[t][t], 1.0, Grt);
+        const M3 Gxt = (-c / l) * mul_skew(P, ev);
+        const M3 Grx = (c / l) * skew_mul(ev, P);
+        const M3 Grt = c * mul_skew(skew(el), ev);
+        add_to(K[0][0], Gxx);
+        add_to(K[0][1 + n], Gxt);
+        add_to(K[1 + n][0], Grx);
+        add_to(K[1 + n][1 + n], Grt);
     };
     bend(2, -1.0, ezp, 0);
     bend(3, 1.0, ezq, 1);
     bend(4, 1.0, eyp, 0);
     bend(5, -1.0, eyq, 1);
+
+    // to df's blocks 0 x^p, 1 theta^p, 2 x^q, 3 theta^q
+    static constexpr int blk[3] = {2, 1, 3};
+    for (int b = 0; b < 3; ++b)
+        for (int c = 0; c < 3; ++c) {
+            add_to(df[blk[b]][blk[c]], K[b][c]);
+            if (b == 0) sub_from(df[0][blk[c]], K[b][c]);
+            if (c == 0) sub_from(df[blk[b]][0], K[b][c]);
+            if (b == 0 && c == 0) add_to(df[0][0], K[b][c]);
+        }
 }
 
 // Kelvin-Voigt forces (added to f) and their derivatives (added to df). dR/du_dot =
@@ -540,25 +685,23 @@ void kelvin_voigt(const PipeElementData& e, const V3& xp, const V3& xq, const M3
         for (int j = 0; j < 12; ++j) df[i / 3][pos[j / 3]](i % 3, j % 3) += fd[i].d[j];
     }
     // D = (d eps/d eps_bar)(d eps_bar/du) and C eta D, column by column
-    double Dm[6][12], CD[6][12];
+    std::array<Pack<12>, 6> Dm;
+    const auto Jd = strain_jacobian(st);
+    const auto gd = bar_grad_matrix(st);
     for (int i = 0; i < 6; ++i)
         for (int j = 0; j < 12; ++j) {
             double h = 0.0;
-            for (int k = 0; k < 6; ++k) h += st.jac[i][k].v * st.bar_grad[k][j].v;
-            Dm[i][j] = h;
+            for (int k = 0; k < 6; ++k) h += Jd[i][k].v * gd[k][j].v;
+            Dm[i].v[j] = h;
         }
-    for (int j = 0; j < 12; ++j) {
-        std::array<double, 6> col;
-        for (int i = 0; i < 6; ++i) col[i] = Dm[i][j];
-        const std::array<double, 6> c = stresses(e, col);
-        CD[0][j] = e.eta_axial * c[0];
-        CD[1][j] = e.eta_torsion * c[1];
-        for (int i = 2; i < 6; ++i) CD[i][j] = e.eta_bending * c[i];
-    }
+    std::array<Pack<12>, 6> CD = stresses(e, Dm);
+    CD[0] = e.eta_axial * CD[0];
+    CD[1] = e.eta_torsion * CD[1];
+    for (int i = 2; i < 6; ++i) CD[i] = e.eta_bending * CD[i];
     for (int a = 0; a < 12; ++a)
         for (int b = 0; b < 12; ++b) {
             double h = 0.0;
-            for (int i = 0; i < 6; ++i) h += Dm[i][a] * CD[i][b];
+            for (int i = 0; i < 6; ++i) h += Dm[i].v[a] * CD[i].v[b];
             df[a / 3][rate[b / 3]](a % 3, b % 3) += h;
         }
 }
@@ -605,74 +748,73 @@ void pipe_tangents(const PipeElementData& e, const NodeFrames& ref, const LoadSt
     const double mdot = e.flow_factor * load.mass_flow;
     const double mdd = e.flow_factor * load.mass_flow_rate;
     const double P = e.fluid_mass > 0.0 ? e.kv * mdot * mdot / e.fluid_mass : 0.0;
-    V3 g;
-    for (int i = 0; i < 3; ++i) g[i] = load.gravity[i] * load.gravity_factor * mtot * l0;
     V3 F[4];
+    hermite_forces(e, load, a, ad, add, F);
     const bool viscous = e.c_ext != 0.0, found = e.k_found != 0.0;
-    for (int i = 0; i < 4; ++i) {
-        F[i] = -hermite::load[i] * g;
-        for (int j = 0; j < 4; ++j) {
-            F[i] += (mtot * l0 * hermite::mass[i][j]) * add[j];
-            if (viscous) F[i] += (e.c_ext * l0 * hermite::mass[i][j]) * ad[j];
-            if (found) F[i] += (e.k_found * l0 * hermite::mass[i][j]) * (a[j] - e.found0[j]);
-            F[i] += (2.0 * mdot * hermite::first[i][j]) * ad[j];
-            F[i] += (mdd * hermite::first[i][j]) * a[j];
-            F[i] += (P / l0 * hermite::second[i][j]) * a[j];
-        }
-    }
-    M3 dF[4][n_col] = {};
-    for (int n = 0; n < 2; ++n) {
-        // d a_j, d ad_j, d add_j of the slope j = 2n+1 with respect to theta, w and al.
-        const M3 Se = skew(ex[n]), Sw = skew(w[n]);
-        const M3 Xk = -l0 * Se, Xg = -l0 * (Sw * Se), Xm = -l0 * ((skew(al[n]) + Sw * Sw) * Se);
-        const M3 Ym = -l0 * (skew(cross(w[n], ex[n])) + Sw * Se);
-        for (int i = 0; i < 4; ++i) {
-            for (int j = 2 * n; j <= 2 * n + 1; ++j) {
-                const double cm = mtot * l0 * hermite::mass[i][j];
-                const double cg = 2.0 * mdot * hermite::first[i][j];
-                // the foundation enters like the terms on a_j (its reference a0 is constant)
-                const double ck = found ? mdd * hermite::first[i][j] + P / l0 * hermite::second[i][j] +
-                                              e.k_found * l0 * hermite::mass[i][j]
-                                        : mdd * hermite::first[i][j] + P / l0 * hermite::second[i][j];
-                // the viscous force enters like the Coriolis one (both on ad_j)
-                const double cv = viscous ? cg + e.c_ext * l0 * hermite::mass[i][j] : cg;
-                if (j == 2 * n) {
-                    add_diag(dF[i][cX + 2 * n], ck);
-                    add_diag(dF[i][cVX + 2 * n], cv);
-                    add_diag(dF[i][cAX + 2 * n], cm);
-                } else {
-                    axpy(dF[i][cTH + 2 * n], ck, Xk);
-                    axpy(dF[i][cTH + 2 * n], cv, Xg);
-                    axpy(dF[i][cTH + 2 * n], cm, Xm);
-                    axpy(dF[i][cW + 2 * n], cv, Xk);
-                    axpy(dF[i][cW + 2 * n], cm, Ym);
-                    axpy(dF[i][cAL + 2 * n], cm, Xk);
-                }
-            }
-        }
-    }
-    if (!e.end_terms_p) {
-        F[0] += mdot * vxp + P * ex[0];
-        add_diag(dF[0][cVX], mdot);
-        axpy(dF[0][cTH], -P, skew(ex[0]));
-    }
-    if (!e.end_terms_q) {
-        F[2] += -(mdot * vxq + P * ex[1]);
-        add_diag(dF[2][cVX + 2], -mdot);
-        axpy(dF[2][cTH + 2], P, skew(ex[1]));
-    }
+    if (!e.end_terms_p) F[0] += mdot * vxp + P * ex[0];
+    if (!e.end_terms_q) F[2] += -(mdot * vxq + P * ex[1]);
     add_to(f, F[0]);
     add_to(f + 3, l0 * cross(ex[0], F[1]));
     add_to(f + 6, F[2]);
     add_to(f + 9, l0 * cross(ex[1], F[3]));
+    // dF_i/d(column of node n), added to df at once: as is at the positions (rows 0, 2), times
+    // l0 skew(e_x) at the slopes (rows 1, 3); diagonal blocks as their diagonals.
+    const V3 lex[2] = {l0 * ex[0], l0 * ex[1]};  // skew(lex) = l0 skew(e_x)
     for (int n = 0; n < 2; ++n) {
-        const M3 lSe = l0 * skew(ex[n]);
-        for (int c = 0; c < n_col; ++c) {
-            axpy(df[2 * n][c], 1.0, dF[2 * n][c]);
-            axpy(df[2 * n + 1][c], 1.0, lSe * dF[2 * n + 1][c]);
+        // d a_j, d ad_j, d add_j of the slope j = 2n+1 with respect to theta, w and al.
+        const M3 Se = skew(ex[n]), Sw = skew(w[n]), SwSe = mul_skew(Sw, ex[n]);
+        const M3 Xk = -l0 * Se, Xg = -l0 * SwSe, Xm = -l0 * mul_skew(skew(al[n]) + mul_skew(Sw, w[n]), ex[n]);
+        const M3 Ym = -l0 * (skew(cross(w[n], ex[n])) + SwSe);
+        for (int i = 0; i < 4; ++i) {
+            double ck[2], cv[2], cm[2];
+            for (int s = 0; s < 2; ++s) {
+                const int j = 2 * n + s;
+                cm[s] = mtot * l0 * hermite::mass[i][j];
+                const double cg = 2.0 * mdot * hermite::first[i][j];
+                // the foundation enters like the terms on a_j (its reference a0 is constant)
+                ck[s] = found ? mdd * hermite::first[i][j] + P / l0 * hermite::second[i][j] +
+                                    e.k_found * l0 * hermite::mass[i][j]
+                              : mdd * hermite::first[i][j] + P / l0 * hermite::second[i][j];
+                // the viscous force enters like the Coriolis one (both on ad_j)
+                cv[s] = viscous ? cg + e.c_ext * l0 * hermite::mass[i][j] : cg;
+            }
+            M3 th = ck[1] * Xk;
+            axpy(th, cv[1], Xg);
+            axpy(th, cm[1], Xm);
+            M3 wv = cv[1] * Xk;
+            axpy(wv, cm[1], Ym);
+            const M3 am = cm[1] * Xk;
+            double dv = cv[0];
+            // the split-off end terms removed where asked (F above)
+            if (i == 0 && n == 0 && !e.end_terms_p) {
+                dv += mdot;
+                axpy(th, -P, skew(ex[0]));
+            }
+            if (i == 2 && n == 1 && !e.end_terms_q) {
+                dv += -mdot;
+                axpy(th, P, skew(ex[1]));
+            }
+            M3* row = df[i];
+            if (i % 2 == 0) {
+                add_diag(row[cX + 2 * n], ck[0]);
+                add_diag(row[cVX + 2 * n], dv);
+                add_diag(row[cAX + 2 * n], cm[0]);
+                add_to(row[cTH + 2 * n], th);
+                add_to(row[cW + 2 * n], wv);
+                add_to(row[cAL + 2 * n], am);
+            } else {
+                const V3& L = lex[i / 2];
+                const M3 SL = skew(L);
+                axpy(row[cX + 2 * n], ck[0], SL);
+                axpy(row[cVX + 2 * n], dv, SL);
+                axpy(row[cAX + 2 * n], cm[0], SL);
+                add_to(row[cTH + 2 * n], skew_mul(L, th));
+                add_to(row[cW + 2 * n], skew_mul(L, wv));
+                add_to(row[cAL + 2 * n], skew_mul(L, am));
+            }
         }
-        axpy(df[2 * n + 1][cTH + 2 * n], 1.0, skew(F[2 * n + 1]) * lSe);
     }
+    for (int n = 0; n < 2; ++n) axpy(df[2 * n + 1][cTH + 2 * n], 1.0, mul_skew(skew(F[2 * n + 1]), lex[n]));
 
     // Rotary inertia: m = Js al + w x (Js w) with Js = E Jb E^T, d(Js x)/dtheta = Js [x] - [Js x].
     if (e.rotary_inertia[0] != 0.0 || e.rotary_inertia[1] != 0.0 || e.rotary_inertia[2] != 0.0) {
@@ -689,10 +831,10 @@ void pipe_tangents(const PipeElementData& e, const NodeFrames& ref, const LoadSt
             }
             const V3 Jw = E * jw_b, Ja = E * ja_b;
             add_to(f + 6 * n + 3, Ja + cross(w[n], Jw));
-            const M3 Js = EJ * transpose(E), Sw = skew(w[n]), SJw = skew(Jw);
+            const M3 Js = EJ * transpose(E), SJw = skew(Jw);
             const int t = 2 * n + 1;
-            axpy(df[t][cTH + 2 * n], 1.0, Js * skew(al[n]) - skew(Ja) + Sw * (Js * Sw - SJw));
-            axpy(df[t][cW + 2 * n], 1.0, Sw * Js - SJw);
+            axpy(df[t][cTH + 2 * n], 1.0, mul_skew(Js, al[n]) - skew(Ja) + skew_mul(w[n], mul_skew(Js, w[n]) - SJw));
+            axpy(df[t][cW + 2 * n], 1.0, skew_mul(w[n], Js) - SJw);
             axpy(df[t][cAL + 2 * n], 1.0, Js);
         }
     }
