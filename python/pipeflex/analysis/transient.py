@@ -56,11 +56,15 @@ CONTROLLED_RHO_INF = 0.6
 #: the looser rtol_mesh = min(MESH_FACTOR rtol^MESH_EXPONENT, MAX_MESH_RTOL), then the same
 #: mesh with every step halved, quartered, ... (at most EXTRAPOLATION_LEVELS halvings,
 #: rho_inf = 1 unless given), until the estimated error of the two finest runs' combination
-#: meets rtol L + atol. On the limit cycle of bench_limit_cycle.py: 3374 steps for 4.9e-7 m
-#: at rtol 1e-6 (the second-order control takes 33586 for 5.8e-7 m), 11704 for 3.4e-9 m at
-#: 1e-8. MESH_FACTOR and MESH_EXPONENT: measured there so that two halvings meet rtol from
-#: 1e-6 to 1e-8 (the combinations' error falls about as rtol_mesh^1.5 there, not
-#: rtol_mesh^2: hence 2/3, not 1/2).
+#: meets rtol L + atol. On the limit cycle of bench_limit_cycle.py: 3374-3395 steps for
+#: 0.8-4.9e-7 m at rtol 1e-6 (the second-order control takes 33586 for 5.8e-7 m); at 1e-8
+#: the estimate after two halvings is 0.99-1.01 of the request, as the mesh's round-off
+#: falls: 11704 steps for 3.4e-9 m, or a third halving, 25170 for 2.0e-9 m. MESH_FACTOR and
+#: MESH_EXPONENT: measured there so that two halvings meet rtol from 1e-6 to 1e-8 (the
+#: combinations' error falls about as rtol_mesh^1.5 there, not rtol_mesh^2: hence 2/3, not
+#: 1/2); a finer mesh at 1e-8 (exponent 0.79, the same mesh at 1e-6) met it by two halvings
+#: at 0.4 of the request, but the spin-up of benchmarks/bench_peer.py then took 5 times the
+#: steps.
 EXTRAPOLATE_BELOW = 1e-4
 MESH_FACTOR = 80.0
 MESH_EXPONENT = 2.0 / 3.0
@@ -72,7 +76,7 @@ MESH_ERROR_ACCUMULATION = 0.1
 #: cantilever's spin-up (benchmarks/bench_peer.py, L = 8 m) at rtol 1e-8: its mesh (rtol_mesh 3.7e-4, 186
 #: steps up to 0.4 s against the tip's 6 mm vibration of about 1 s) reaches the asymptotic
 #: range only at the third halving (the finest run's error falls 25, 1, 3.4, 3.9, 3.8 times
-#: per halving); after 4 halvings 5.5e-8 L (estimate 7.9e-7 L), after 6 3.0e-9 L (23622
+#: per halving); after 4 halvings 5.5e-8 L (estimate 7.9e-7 L), after 6 3-4e-9 L (23622
 #: steps in all, 0.07 s). Newton's tolerance is not the cause: 100 times tighter, the same
 #: 5.5e-8 L.
 EXTRAPOLATION_LEVELS = 6
@@ -556,7 +560,7 @@ def simulate(model, t_end: float, *, integrator: str = "auto", state=None, t_sta
             farther than this many model sizes from its reference position stops the run
             with :class:`~pipeflex.ConvergenceError`; ``work`` (True): integrate the work of the
             fluid forces and loads, and the energy the damping dissipates, at every step
-            (the fluid forces' and loads' power at each step end: 0.8 us of the 7.5 us
+            (the fluid forces' and loads' power at each step end: 0.4-0.6 us of the 6.3 us
             step of the 8-element cantilever of benchmarks/bench_limit_cycle.py at
             rtol 1e-4; without it ``fluid_work``, ``load_work`` and ``dissipated`` are
             NaN).
