@@ -138,12 +138,12 @@ def test_extrapolated_runs_meet_the_request_on_a_growing_flutter(cantilever, ref
 
 def test_newton_tolerance_follows_rtol(cantilever):
     """Each step's Newton tolerance is 0.3 of its share of the request (at rtol 1e-4 here
-    below 1e-6 model sizes): a looser newton_tol given is only a cap (the same run), a
+    below 1.5e-6 model sizes): a looser newton_tol given is only a cap (the same run), a
     tighter one costs iterations."""
     model, state = cantilever
     run = lambda **o: pf.simulate(model, T_END, n_outputs=2, progress=False, state=state, **o)
-    base = run(rtol=1e-4)
-    capped = run(rtol=1e-4, newton_tol=1e-5)
+    base = run(rtol=1e-4, newton_tol=1e-5)
+    capped = run(rtol=1e-4, newton_tol=1e-3)
     assert np.array_equal(base.x, capped.x) and base.stats["newton_iterations"] == capped.stats["newton_iterations"]
     tight = run(rtol=1e-4, newton_tol=1e-13)
     per_step = lambda r: r.stats["newton_iterations"] / r.stats["steps"]
@@ -219,7 +219,7 @@ def test_ida_keeps_its_own_rtol(cantilever):
 def test_a_tolerance_that_needs_a_step_below_min_step_fails_with_where(cantilever):
     model, state = cantilever
     with pytest.raises(pf.ConvergenceError, match="error control failed at t = .*min_step") as err:
-        pf.simulate(model, 0.1, n_outputs=2, progress=False, state=state, rtol=1e-4, step=0.01, min_step=5e-3)
+        pf.simulate(model, 0.1, n_outputs=2, progress=False, state=state, rtol=1e-4, step=0.02, min_step=1e-2)
     assert 0.0 <= err.value.time < 0.1 and err.value.mass_flow == pytest.approx(FLOW)
 
 

@@ -50,11 +50,11 @@ def test_a_diverging_run_fails_where_the_fine_step_does(diverging):
 
 def test_a_motion_within_the_model_takes_the_steps_of_rtol_L():
     # the flutter of benchmarks/bench_limit_cycle.py (L = 1 m, the tip below 0.5 m): its
-    # run at rtol 1e-2 as measured before the tolerance followed the motion
+    # run at rtol 1e-2, pinned (the control per step; the motion_rate leaves it bit for bit)
     model, state = tip_loaded_cantilever(8)
     run = pf.simulate(model, 2.0, state=state, n_outputs=101, progress=False, integrator="generalized_alpha",
                       rtol=RTOL)
     D = np.linalg.norm(run.x - model.positions, axis=-1).max()
     assert D < model.length_scale
-    assert run.stats["steps"] == 246
-    assert float(run.x[-1, -1, 1]) == pytest.approx(-0.388266326996541, rel=1e-9)
+    assert run.stats["steps"] == 236
+    assert float(run.x[-1, -1, 1]) == pytest.approx(-0.3896831382172444, rel=1e-9)

@@ -54,6 +54,7 @@ void bind_transient(py::module_& m) {
         .def_readwrite("step", &TransientOptions::step)
         .def_readwrite("error_rate", &TransientOptions::error_rate)
         .def_readwrite("motion_rate", &TransientOptions::motion_rate)
+        .def_readwrite("error_per_step", &TransientOptions::error_per_step)
         .def_readwrite("rotation_error_length", &TransientOptions::rotation_error_length)
         .def_readwrite("steps", &TransientOptions::steps)
         .def_readwrite("min_step", &TransientOptions::min_step)

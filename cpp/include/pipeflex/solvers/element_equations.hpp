@@ -401,6 +401,7 @@ inline AlphaOptions alpha_options(const TransientOptions& opt) {
     a.max_steps = opt.max_steps;
     a.error_rate = opt.error_rate;
     a.motion_rate = opt.motion_rate;
+    a.error_per_step = opt.error_per_step;
     a.steps = opt.steps;
     return a;
 }

@@ -162,6 +162,12 @@ struct AlphaOptions {
     // (D - L) (simulate: rtol / (ERROR_ACCUMULATION T), so that the tolerance is rtol D +
     // atol: relative to the motion once it outgrows the model); 0: error_rate alone.
     double motion_rate = 0.0;
+    // with error_rate: the control per step instead of per unit step. A step's error is held
+    // at error_rate h_mean (h_mean the mean of the steps taken so far) instead of error_rate
+    // h: the same sum error_rate T over the run, spread with the step h ~ C^(-1/3) (C the
+    // local error's coefficient) instead of C^(-1/2), which minimises the steps for a given
+    // sum of local errors (error per step).
+    bool error_per_step = false;
     // [s] non-empty: the steps to take, in order, in place of step and error_rate: a mesh
     // recorded by an error-controlled run (GeneralizedAlpha::steps_taken), e.g. each step
     // halved for Richardson extrapolation over the mesh. Each output time must fall on a
@@ -474,13 +480,13 @@ class GeneralizedAlpha {
     };
     Prediction prediction_ = Prediction::extrapolated;
     bool adaptive_prediction_;
-    double t_ = 0.0, h_ = 0.0, h_prev_ = 0.0;
+    double t_ = 0.0, h_ = 0.0, h_prev_ = 0.0, t_start_ = 0.0;
     std::vector<double> taken_;
     std::size_t replayed_ = 0;  // steps of opt_.steps taken
     Eigen::VectorXd v_, a_, pa_, lam_, an_, pan_, zn_, vn_, a_prev_, zero_, offset_, lam_start_, pa_rescaled_;
     Eigen::VectorXd error_weights_;  // s_i / error_rate: a coordinate's error in [s]
     // The local error of the step just converged (step hs, ending at tn) in tolerances
-    // error_rate hs (<= 1: accepted); filtered through the iteration matrix (two residual
+    // error_rate hs (<= 1: accepted, per unit step); filtered through the iteration matrix (two residual
     // evaluations) on a retry whose estimate did not fall with the step, and after a step
     // accepted so until the unfiltered estimate meets the tolerance again.
     double local_error(double hs, double tn);

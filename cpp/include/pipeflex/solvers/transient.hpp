@@ -47,6 +47,7 @@ struct TransientOptions {
     double error_rate = 0.0;    // generalised-alpha: local error per unit time [m/s] (0: fixed step)
     double motion_rate = 0.0;   // generalised-alpha: its rise per metre of motion beyond the model [1/s]
                                 // (AlphaOptions::motion_rate)
+    bool error_per_step = false;  // generalised-alpha: the control per step (AlphaOptions::error_per_step)
     // generalised-alpha's error control, element models: the length [m] a node's rotation (or
     // ANCF slope) error counts at; 0: the node's longest element (ElementEquations::error_scales)
     double rotation_error_length = 0.0;
