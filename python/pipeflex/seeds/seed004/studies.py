@@ -51,7 +51,7 @@ def ffrf_cantilever_tip(*, n_bodies: int, elements_per_body: int = 20, internal_
     sec. 8.1: static deflection without flow, then sdot = ``flow_speed`` [m/s] (the seed's
     15 m/s: mdot = 30 kg/s) from t = 0 on (a sudden start, as seed 000's Fig. 3), to
     ``t_end`` [s] with the fixed ``step`` [s] and ``rho_inf``, or, if ``rtol`` [-] is given,
-    with its error-controlled step instead (Fig. 4: rtol 3e-3; Fig. 5 the fixed step).
+    with its error-controlled step instead (Fig. 4: rtol 3e-3; Fig. 5: 1.5e-3).
 
     ``until_failure``: if the integration fails (a diverging model), return the run up to
     0.05 s before the failure, with the failure time in ``Trace.failed_at``, instead of

@@ -28,10 +28,13 @@ RTOL_FIG10 = 1e-2
 RTOL_PRINTER = 1e-2
 # the cantilever's tips of Fig. 4 (FFRF 2, 4, 8 bodies and seed 000's 8 elements, 2 s of
 # flutter growing to 0.4 m) by rtol 3e-3: within 0.7-3.4 mm of a 0.125 ms step's (the fixed
-# 1 ms step 0.2 mm), in 0.8 of the fixed step's time. Fig. 5 keeps the fixed step: its
-# single body diverges, and by rtol 3e-3 its trace errs by 13 mm within the axes (the
-# fixed step by 1.4 mm)
+# 1 ms step 0.2 mm), in 0.8 of the fixed step's time
 RTOL_CANTILEVER = 3e-3
+# Fig. 5's (1 body diverging; 1 and 2 bodies with 20 internal modes) by rtol 1.5e-3: within
+# 5.5, 0.22 and 0.37 mm of a 0.125 ms step's within the axes (the fixed 1 ms step 1.4, 0.11
+# and 0.20 mm), in the fixed step's time (0.225 against 0.228 s); by rtol 3e-3 the diverging
+# body's trace errs by 13 mm, by 1e-3 as the fixed step's at 1.15 of its time
+RTOL_FIG5 = 1.5e-3
 
 
 def fig7() -> List[Row]:
@@ -84,8 +87,8 @@ def _cantilever_figures():
     traces = [studies.ffrf_cantilever_tip(n_bodies=n, t_end=2.0, rtol=RTOL_CANTILEVER) for n in (2, 4, 8)]
     yield "seed004_fig4.png", studies.tip_figure(
         traces, element, "seed 004, Fig. 4: tip deflection, flow 15 m/s (1 body diverges: see docs)")
-    traces = [studies.ffrf_cantilever_tip(n_bodies=n, internal_modes=m, t_end=2.0, until_failure=True)
-              for n, m in ((1, 0), (1, 20), (2, 20))]
+    traces = [studies.ffrf_cantilever_tip(n_bodies=n, internal_modes=m, t_end=2.0, until_failure=True,
+                                          rtol=RTOL_FIG5) for n, m in ((1, 0), (1, 20), (2, 20))]
     fig5 = studies.tip_figure(traces, element, "seed 004, Fig. 5: internal modes, flow 15 m/s (1 body diverges)")
     fig5.axes[0].set_ylim(-0.6, 0.6)
     yield "seed004_fig5.png", fig5
