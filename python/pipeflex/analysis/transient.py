@@ -25,7 +25,7 @@ from ._protocol import require_system
 
 INTEGRATORS = ("auto", "ida", "generalized_alpha")
 #: generalised-alpha with rtol: Newton's tolerance unless given, a cap only (each step's
-#: tolerance is 0.3 of its share of the error, in the core)
+#: tolerance is its share of the error, in the core)
 CONTROLLED_NEWTON_TOL = 1e-6
 #: the smallest rtol of generalised-alpha's error control (its estimate differences two
 #: accelerations, whose round-off is ~1e-14 of their size)
