@@ -36,8 +36,8 @@ MIN_RTOL = 1e-12
 #: rings do not (a mode's error stays below its small amplitude, and rho_inf damps the
 #: unresolved ones), nor do those of a motion drawn to a limit cycle. Measured (element
 #: models: rotations counted at 4/27 of their elements' length, rho_inf = CONTROLLED_RHO_INF):
-#: 0.33-0.50 on the flutter limit cycle of benchmarks/bench_limit_cycle.py (rtol 1e-2 ...
-#: 1e-4; the error 0.90-1.24 of the request), 0.04-0.12 on a growing flutter (4 elements,
+#: 0.33-0.43 on the flutter limit cycle of benchmarks/bench_limit_cycle.py (rtol 1e-2 ...
+#: 1e-4; the error 0.86-1.17 of the request), 0.10-0.17 on a growing flutter (4 elements,
 #: 0.5 s). The control keeps the sum below (rtol L + atol) / ERROR_ACCUMULATION.
 ERROR_ACCUMULATION = 0.3
 #: generalised-alpha with rtol (not extrapolated): the control per step
@@ -52,9 +52,9 @@ PER_STEP_FILL = 0.6
 #: "rho_inf"): the control's steps pass over the elements' stiff modes a flow start rings,
 #: which rho_inf = 0.8 leaves ringing (two corrections a step); the slow motion's error
 #: hardly changes. Bodies too: their joints' stiff modes, rung by a flow start and by a
-#: large flutter, held the step (a fluttering cantilever of 8 bodies at rtol 3e-3: 5720
-#: steps at 0.8, 1533 at 0.6, the tip's error 1.4e-3 and 6.6e-4 m; the semicircle of
-#: Table 1 at rtol 0.1: 550-1052 steps against 757-1199, final rates within 3.4e-5 of each
+#: large flutter, held the step (a fluttering cantilever of 8 bodies at rtol 3e-3: 2417
+#: steps at 0.8, 1963 at 0.6, the tip's error 3.2e-4 and 5.4e-4 m; the semicircle of
+#: Table 1 at rtol 0.1: 650-1255 steps against 971-1737, final rates within 5.4e-5 of each
 #: other, relative).
 CONTROLLED_RHO_INF = 0.6
 #: The order rule of ``simulate(..., rtol=)`` on element models: at rtol >= EXTRAPOLATE_BELOW
@@ -556,8 +556,8 @@ def simulate(model, t_end: float, *, integrator: str = "auto", state=None, t_sta
             :data:`ERROR_ACCUMULATION` (0.3) of its summed estimates (the stiff modes' and
             a limit cycle's local errors do not add up), lands near ``rtol L + atol``
             (``stats["error_estimate"]`` [m] is 0.3 of the sum; on the flutter limit
-            cycle of ``benchmarks/bench_limit_cycle.py`` the error is 0.7-1.1 of the
-            request, on a growing flutter 0.08-0.2 of it: below, not above); ``rho_inf``
+            cycle of ``benchmarks/bench_limit_cycle.py`` the error is 0.9-1.2 of the
+            request, on a growing flutter 0.18-0.21 of it: below, not above); ``rho_inf``
             0.6 unless given (:data:`CONTROLLED_RHO_INF`). That
             is second order; below rtol = :data:`EXTRAPOLATE_BELOW` (1e-4) an element
             model's run is Richardson-extrapolated over a controlled mesh (the rule there:
