@@ -37,7 +37,7 @@ MIN_RTOL = 1e-12
 #: unresolved ones), nor do those of a motion drawn to a limit cycle. Measured (element
 #: models: rotations counted at 4/27 of their elements' length, rho_inf = CONTROLLED_RHO_INF):
 #: 0.33-0.43 on the flutter limit cycle of benchmarks/bench_limit_cycle.py (rtol 1e-2 ...
-#: 1e-4; the error 0.86-1.17 of the request), 0.10-0.17 on a growing flutter (4 elements,
+#: 1e-4; the error 0.91-1.17 of the request), 0.10-0.17 on a growing flutter (4 elements,
 #: 0.5 s). The control keeps the sum below (rtol L + atol) / ERROR_ACCUMULATION.
 ERROR_ACCUMULATION = 0.3
 #: generalised-alpha with rtol (not extrapolated): the control per step
