@@ -99,6 +99,29 @@ def test_rigid_sprinkler_steps_follow_the_spin_up_not_its_stiff_modes(rigid_spri
     assert res.stats["steps"] + res.stats["failed_steps"] < 2000, res.stats
 
 
+def test_rigid_sprinkler_meets_rtol_with_newton_converged(rigid_sprinkler):
+    """The workaround the user guide gives for a freely rotating stiff arm: with
+    newton_tol=1e-10 the tip within rtol L at rtol 1e-2 ... 1e-4 (measured 3.1e-3,
+    6.6e-4, 6.2e-5 m against a fixed 25 us run)."""
+    model, ref = rigid_sprinkler
+    L = model.length_scale
+    for rtol in (1e-2, 1e-3, 1e-4):
+        res = pf.simulate(model, 0.5, rtol=rtol, newton_tol=1e-10, n_outputs=11, progress=False)
+        err = float(np.abs(res.x[:, -1, :] - ref).max())
+        assert err <= rtol * L, (rtol, err)
+
+
+@pytest.mark.xfail(strict=True, reason="modified Newton's carried contraction on a rotating stiff arm: a step "
+                   "accepted after one correction with a matrix a few steps old leaves up to 9 times Newton's "
+                   "tolerance in the free rotation (docs/user_guide.md, rtol)")
+def test_rigid_sprinkler_meets_rtol_by_default(rigid_sprinkler):
+    """rtol alone on the rigid sprinkler at 1e-4: the tip within 3 rtol L (measured 2.3e-3 m)."""
+    model, ref = rigid_sprinkler
+    res = pf.simulate(model, 0.5, rtol=1e-4, n_outputs=11, progress=False)
+    err = float(np.abs(res.x[:, -1, :] - ref).max())
+    assert err <= 3.0 * 1e-4 * model.length_scale, err
+
+
 def test_free_vibration_without_flow_is_not_held_by_its_stiff_modes():
     """The peer's cantilever (8 elements) released from its static deflection under a
     1.5 N tip force, no flow, 0.5 s: at rtol 1e-3 and 1e-4 the tip within 3 rtol L of the
