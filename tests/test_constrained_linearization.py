@@ -137,10 +137,11 @@ def test_coupled_static_warm_start_from_another_flow():
 
 def test_a_mixing_basis_gives_garbage_that_its_noise_covers():
     """A basis that mixes a 1e20 N/m coordinate into the soft ones' columns (an orthonormal
-    basis rotated in the null space) leaves the soft eigenvalues garbage (+-20.7 and
-    +-18.2j against 0.89j and 1.49j: a spurious divergence), within their noise (~eps 1e20
-    / omega), so classify() counts no growth; the stiffness-metric basis gives the right
-    eigenvalues at round-off."""
+    basis rotated in the null space) leaves the soft eigenvalues garbage (against 0.89j and
+    1.49j: a spurious divergence, +-20.7 and +-18.2j on one CPU, 5.8 on another with AVX-512:
+    the garbage is the CPU's rounding), within their noise (~eps 1e20 / omega), so
+    classify() counts no growth; the stiffness-metric basis gives the right eigenvalues at
+    round-off."""
     import scipy.linalg as sla
     import scipy.sparse as sp
     from pipeflex.analysis.constrained import ConstrainedLinearization, null_space_basis, reduce
@@ -158,7 +159,7 @@ def test_a_mixing_basis_gives_garbage_that_its_noise_covers():
     mixed = linearization(sla.null_space(Cq.toarray()) @ Q)
     eig = pf.eigenvalues(mixed, vectors=True)
     i = int(np.argmax(eig.values.real))
-    assert 10.0 < eig.values[i].real < eig.noise[i]  # the spurious divergence, within its noise
+    assert 1.0 < eig.values[i].real < eig.noise[i]  # the spurious divergence, within its noise
     assert mixed.reduction_noise(eig.values[i], eig.vectors[:, i])[0] > 1e2  # the reduction's bound sees it too
     assert classify(eig) == "stable"
     metric = pf.eigenvalues(linearization(null_space_basis(Cq, K)))

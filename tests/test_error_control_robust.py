@@ -111,15 +111,17 @@ def test_rigid_sprinkler_meets_rtol_with_newton_converged(rigid_sprinkler):
         assert err <= rtol * L, (rtol, err)
 
 
-@pytest.mark.xfail(strict=True, reason="modified Newton's carried contraction on a rotating stiff arm: a step "
-                   "accepted after one correction with a matrix a few steps old leaves up to 9 times Newton's "
-                   "tolerance in the free rotation (docs/user_guide.md, rtol)")
 def test_rigid_sprinkler_meets_rtol_by_default(rigid_sprinkler):
-    """rtol alone on the rigid sprinkler at 1e-4: the tip within 3 rtol L (measured 2.3e-3 m)."""
+    """rtol alone on the rigid sprinkler at 1e-3 and 1e-4: the tip within 3 rtol L
+    (measured 3.4e-4 and 2.0e-4 m). Its arm turns about a free hinge with stiff modes: an
+    iteration matrix one step old barely contracts in the free rotation, and with the
+    contraction of the matrix's own step carried to the next, steps accepted after one
+    correction left up to 9 times Newton's tolerance (2.3e-3 m at 1e-4)."""
     model, ref = rigid_sprinkler
-    res = pf.simulate(model, 0.5, rtol=1e-4, n_outputs=11, progress=False)
-    err = float(np.abs(res.x[:, -1, :] - ref).max())
-    assert err <= 3.0 * 1e-4 * model.length_scale, err
+    for rtol in (1e-3, 1e-4):
+        res = pf.simulate(model, 0.5, rtol=rtol, n_outputs=11, progress=False)
+        err = float(np.abs(res.x[:, -1, :] - ref).max())
+        assert err <= 3.0 * rtol * model.length_scale, (rtol, err)
 
 
 def test_free_vibration_without_flow_is_not_held_by_its_stiff_modes():

@@ -15,25 +15,25 @@ from .references import TABLE1_FFRF, TABLE1_SPACAR
 
 # Table 1 prints 3 decimals; the FFRF column is checked within 1 %.
 TOL_TABLE1 = 1e-2
-# the FFRF runs of Table 1 and Figs. 9-10 by error control: rtol 0.1 (650-1255 steps) puts
+# the FFRF runs of Table 1 and Figs. 9-10 by error control: rtol 0.1 (643-1261 steps) puts
 # the final rates within 1.7e-4 (relative) of a fixed 1 ms step's (4000 steps) and the
 # spin-up closer to a 0.25 ms run's (0.4-1.5 rad/s apart, the 1 ms step 0.6-2.7)
-# in a quarter of the time; rtol 1e-2 (7005-8774 steps) takes 1.1 of the fixed step's
+# in a quarter of the time; rtol 1e-2 (7159-7886 steps) takes about 1.3 of the fixed step's
 RTOL_TABLE1 = 0.1
 # seed 000's elements in Fig. 10 by rtol 1e-2: final rates within 2.8e-4 of a fixed 1 ms
-# step's, in 0.4 of its time
+# step's, in about 0.35 of its time
 RTOL_FIG10 = 1e-2
 # the printer (Fig. 12) by rtol 1e-2 (its steps end at the outputs, 0.2 ms apart): the
-# nozzle shifts within 8e-7 m of the fixed 0.2 ms step's, in 0.6-0.7 of its time
+# nozzle shifts within 6e-7 m of the fixed 0.2 ms step's, in about 0.5 of its time
 RTOL_PRINTER = 1e-2
 # the cantilever's tips of Fig. 4 (FFRF 2, 4, 8 bodies and seed 000's 8 elements, 2 s of
-# flutter growing to 0.4 m) by rtol 3e-3: within 0.5-3.9 mm of a 0.125 ms step's (the fixed
-# 1 ms step 0.2 mm), in 0.9 of the fixed step's time
+# flutter growing to 0.4 m) by rtol 3e-3: within 0.6-3.9 mm of a 0.125 ms step's (the fixed
+# 1 ms step 0.2 mm), in about 0.9 of the fixed step's time
 RTOL_CANTILEVER = 3e-3
 # Fig. 5's (1 body diverging; 1 and 2 bodies with 20 internal modes) by rtol 1.5e-3: within
-# 5.5, 0.22 and 0.37 mm of a 0.125 ms step's within the axes (the fixed 1 ms step 1.4, 0.11
-# and 0.20 mm), in the fixed step's time (0.225 against 0.228 s); by rtol 3e-3 the diverging
-# body's trace errs by 13 mm, by 1e-3 as the fixed step's at 1.15 of its time
+# 4.7, 0.23 and 0.45 mm of a 0.125 ms step's within the axes (the fixed 1 ms step 1.4, 0.11
+# and 0.20 mm), in the fixed step's time (about 0.60 against 0.58 s); by rtol 3e-3 the diverging
+# body's trace errs by 11 mm, by 1e-3 3.5 mm (the fixed step 1.4) in about its time
 RTOL_FIG5 = 1.5e-3
 
 
