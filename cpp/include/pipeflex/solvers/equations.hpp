@@ -25,6 +25,7 @@
 #include <Eigen/Core>
 #include <Eigen/SparseCholesky>
 #include <Eigen/SparseCore>
+#include <limits>
 #include <string>
 #include <utility>
 #include <vector>
@@ -481,6 +482,8 @@ class GeneralizedAlpha {
     Prediction prediction_ = Prediction::extrapolated;
     bool adaptive_prediction_;
     double t_ = 0.0, h_ = 0.0, h_prev_ = 0.0, t_start_ = 0.0;
+    // [s] the step of the last Newton failure (error control), relaxed after each accepted step
+    double newton_cap_ = std::numeric_limits<double>::infinity();
     std::vector<double> taken_;
     std::size_t replayed_ = 0;  // steps of opt_.steps taken
     Eigen::VectorXd v_, a_, pa_, lam_, an_, pan_, zn_, vn_, a_prev_, zero_, offset_, lam_start_, pa_rescaled_;
