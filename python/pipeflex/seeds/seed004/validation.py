@@ -15,10 +15,10 @@ from .references import TABLE1_FFRF, TABLE1_SPACAR
 
 # Table 1 prints 3 decimals; the FFRF column is checked within 1 %.
 TOL_TABLE1 = 1e-2
-# the FFRF runs of Table 1 and Figs. 9-10 by error control: rtol 0.1 (643-1261 steps) puts
+# the FFRF runs of Table 1 and Figs. 9-10 by error control: rtol 0.1 (705-1407 steps) puts
 # the final rates within 1.7e-4 (relative) of a fixed 1 ms step's (4000 steps) and the
-# spin-up closer to a 0.25 ms run's (0.4-1.5 rad/s apart, the 1 ms step 0.6-2.7)
-# in a quarter of the time; rtol 1e-2 (7159-7886 steps) takes about 1.3 of the fixed step's
+# spin-up closer to a 0.25 ms run's (0.55-1.5 rad/s apart, the 1 ms step 0.6-2.7)
+# in a fifth of the time; rtol 1e-2 (8726-9787 steps) takes about 1.5 of the fixed step's
 RTOL_TABLE1 = 0.1
 # seed 000's elements in Fig. 10 by rtol 1e-2: final rates within 2.8e-4 of a fixed 1 ms
 # step's, in about 0.35 of its time
@@ -27,13 +27,13 @@ RTOL_FIG10 = 1e-2
 # nozzle shifts within 6e-7 m of the fixed 0.2 ms step's, in about 0.5 of its time
 RTOL_PRINTER = 1e-2
 # the cantilever's tips of Fig. 4 (FFRF 2, 4, 8 bodies and seed 000's 8 elements, 2 s of
-# flutter growing to 0.4 m) by rtol 3e-3: within 0.15-1.0 mm of a 0.125 ms step's (the fixed
-# 1 ms step 0.2 mm), in about 1.1 of the fixed step's time
+# flutter growing to 0.4 m) by rtol 3e-3: within 0.11-1.1 mm of a 0.125 ms step's (the fixed
+# 1 ms step 0.2 mm), in about 0.8 of the fixed step's time
 RTOL_CANTILEVER = 3e-3
 # Fig. 5's (1 body diverging; 1 and 2 bodies with 20 internal modes) by rtol 1.5e-3: within
-# 4.7, 0.23 and 0.45 mm of a 0.125 ms step's within the axes (the fixed 1 ms step 1.4, 0.11
-# and 0.20 mm), in the fixed step's time (about 0.60 against 0.58 s); by rtol 3e-3 the diverging
-# body's trace errs by 11 mm, by 1e-3 3.5 mm (the fixed step 1.4) in about its time
+# 7.7, 0.29 and 0.22 mm of a 0.125 ms step's within the axes (the fixed 1 ms step 1.4, 0.11
+# and 0.20 mm), in about 0.85 of the fixed step's time; by rtol 3e-3 the diverging body's
+# trace errs by 16 mm, by 1e-3 7.6 mm (the fixed step 1.4), in 0.75-0.85 of its time
 RTOL_FIG5 = 1.5e-3
 
 
