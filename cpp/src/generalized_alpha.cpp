@@ -32,9 +32,9 @@ constexpr double kSafety = 0.8, kGrowMin = 1.5, kGrowMax = 2.0, kShrinkMax = 0.2
 // (at most newton_tol) is at most this fraction of the step's error_rate h, so that Newton
 // neither over-solves nor adds noise to the accelerations the error estimate differences
 // (noise ~ |beta - 1/6| / beta of it, 0.57 at rho_inf 0.6). On the peer's scene at rtol
-// 1e-4 (rho_inf 0.6, the error per step): 1.33 Newton iterations per step at 0.3 (2153
-// steps, 8.6e-5 m), 1.17 at 1 (2093, 9.1e-5 m; 0.93 of the instructions), at 3 and 10 the
-// estimate's noise adds steps (2265, 2281); per unit step it was 1.6 at 0.1, 1.2 at 0.3 and 1.
+// 1e-4 (rho_inf 0.6, the error per step): 1.31 Newton iterations per step at 0.3 (2191
+// steps, 8.4e-5 m), 1.19 at 1 (2113, 9.1e-5 m; 0.93 of the instructions), at 3 and 10 the
+// estimate's noise adds steps (2272, 2278); per unit step it was 1.6 at 0.1, 1.2 at 0.3 and 1.
 // With the error per step the step's budget is error_rate h_mean; Newton is held to the
 // step's own h, the stricter where steps are short (h_mean instead: no change measured).
 constexpr double kNewtonShare = 1.0;
@@ -148,8 +148,8 @@ bool AlphaNewton::solve(double t, double h, const Eigen::VectorXd& z, const Eige
     // about a free hinge with stiff bending and axial modes, a matrix one step old barely
     // contracts in the free rotation, and steps accepted after one correction by the
     // carried rate left up to 9 times Newton's tolerance there, which the free rotation
-    // keeps (its tip at rtol 1e-4: 2.3e-3 m; 2.0e-4 m so). On the peer's scene about one
-    // more iteration per matrix (2635 against 2451 iterations at rtol 1e-4).
+    // keeps (its tip at rtol 1e-4: 1.9e-3 m; 2.1e-4 m so). On the peer's scene at rtol
+    // 1e-4 no cost (2509 iterations, 2581 with the rate carried).
     if (s.rate_of_fresh_matrix && s.opt.error_per_step) {
         s.contraction = std::max(s.contraction, Impl::kUnknownContraction);
         s.rate_of_fresh_matrix = false;
