@@ -159,13 +159,12 @@ bool AlphaNewton::solve(double t, double h, const Eigen::VectorXd& z, const Eige
     const bool defer = s.stale && s.fresh && s.rough;
     if (s.stale && !defer) s.fresh = false;
     s.stale = false;
-    bool refreshed = false;  // a matrix evaluated in this step
-    int refreshed_at = 0;    // ... at this iteration (0: none)
+    int refreshed_at = 0;  // the iteration that evaluated a matrix in this step (0: none)
     int it = 0;
     for (it = 1; it <= s.opt.max_newton; ++it) {
         s.eq.set(zn, vn, an, lam, tn);
-        if (it > s.policy.long_step + 1 && !refreshed) s.fresh = false;  // a long step with an old matrix
-        if (defer && it == 2 && !refreshed) s.fresh = false;
+        if (it > s.policy.long_step + 1 && refreshed_at == 0) s.fresh = false;  // a long step with an old matrix
+        if (defer && it == 2 && refreshed_at == 0) s.fresh = false;
         if (!s.fresh) {
             s.eq.evaluate(1.0, gp / bp, 1.0 / bp, s.r, &s.J);
             if (nc > 0) {
@@ -181,7 +180,7 @@ bool AlphaNewton::solve(double t, double h, const Eigen::VectorXd& z, const Eige
                 failure = {true, it - 1, s.r.norm()};
                 return false;
             }
-            s.fresh = refreshed = true;
+            s.fresh = true;
             refreshed_at = it;
             s.last_life = s.age;
             s.age = 0;
@@ -225,9 +224,9 @@ bool AlphaNewton::solve(double t, double h, const Eigen::VectorXd& z, const Eige
             if (rate > s.policy.slow_rate && (refreshed_at != it || s.last_life <= Impl::kShortLife)) s.fresh = false;
             // floored: one fast contraction must not license large corrections later
             s.contraction = rate < 0.9 ? std::max(rate / (1.0 - rate), Impl::kMinContraction) : 1e3;
-            s.rate_of_fresh_matrix = refreshed;
+            s.rate_of_fresh_matrix = refreshed_at > 0;
             // stalled at round-off near the tolerance with a matrix of this step: accept
-            if (rate >= 0.5 && refreshed && corr <= 10.0 * s.tol * L) {
+            if (rate >= 0.5 && refreshed_at > 0 && corr <= 10.0 * s.tol * L) {
                 ++s.age;
                 return true;
             }
