@@ -68,9 +68,9 @@ def limit_cycle_model(*, n_elements: int, tip_force: float = 1.5, mass_flow: flo
 
 
 #: the transient's accuracy unless ``step`` or ``rtol`` is given: the cycle's amplitude and
-#: period within 1.4e-6 ... 1.3e-5 (m, s) of a 0.125 ms step's (fixed 0.5 ms steps: 2e-6 ... 3e-6),
-#: in about 0.55-0.92 of the fixed 0.5 ms step's time (4 and 16 elements at EA 1e11 N, 8 and 2 at
-#: 1e5 N, 6 s; rtol 3e-4 took up to 0.98 of it)
+#: period within 1.3e-6 ... 1.3e-5 (m, s) of a 0.125 ms step's (fixed 0.5 ms steps: 2e-6 ... 3e-6),
+#: in about 0.6-1.0 of the fixed 0.5 ms step's CPU time (4 and 16 elements at EA 1e11 N, 8 and 2
+#: at 1e5 N, 6 s; rtol 3e-4 took up to 1.03 of it)
 LIMIT_CYCLE_RTOL = 5e-4
 
 

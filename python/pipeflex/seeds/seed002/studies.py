@@ -71,7 +71,7 @@ def spin_up(*, reference: str = "ref21", n_elements: int = 2, elastic: str = "A"
     m = scenes.spin_up_beam(reference=reference, n_elements=n_elements, elastic=elastic, omega=omega)
     # rtol: the stable runs take the outputs' 401 steps (the tip within 5.2 mm of a fine
     # step's), the diverging one's steps follow its growth to 8 km with a tolerance
-    # relative to the motion (4.2e-3 of it), fewer steps in all than fixed 2 ms ones
+    # relative to the motion (3.7e-3 of it), fewer steps in all than fixed 2 ms ones
     accuracy = dict(rtol=rtol) if step is None else dict(step=step)
     r = simulate(m, t_end, integrator="generalized_alpha", n_outputs=n_outputs, work=False, progress=False,
                  **accuracy)
